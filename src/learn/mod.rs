@@ -1,0 +1,5 @@
+//! Learning a wrench from BioTac signals: data sets, Gaussian processes, the
+//! baseline neural network, metrics and the model file.
+
+pub mod dataset;
+pub mod scale;
