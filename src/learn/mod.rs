@@ -2,4 +2,5 @@
 //! baseline neural network, metrics and the model file.
 
 pub mod dataset;
+pub mod gp;
 pub mod scale;
