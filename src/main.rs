@@ -1,1 +1,323 @@
-fn main(){}
+//! The `tactile_force` command line: parses flags, wires library calls,
+//! prints results. Errors go to stderr with exit code 1.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use tactile_force::biotac::sim::BioTacSimConfig;
+use tactile_force::learn::dataset::{electrode_columns, write_csv, Dataset};
+use tactile_force::learn::evaluate::{
+    cross_validate, train_test, EvalOptions, Evaluation, Progress, Scores,
+};
+use tactile_force::learn::gp::{GpParams, KernelKind};
+use tactile_force::learn::model::{TareSpec, WrenchGp};
+use tactile_force::learn::nn::NnParams;
+use tactile_force::sim::collect::{collect, CollectConfig};
+use tactile_force::wrench::AxisSet;
+
+#[derive(Parser)]
+#[command(
+    name = "tactile_force",
+    version,
+    about = "Feel with a BioTac fingertip: GP wrench estimation for guarded and guided moves"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate the thesis data-collection protocol and write a training CSV.
+    Collect(CollectArgs),
+    /// Train the GP wrench estimator on a CSV and write a model file.
+    Train(TrainArgs),
+    /// Cross-validate (or train/test) the GP against the baseline network.
+    Eval(EvalArgs),
+}
+
+#[derive(Args)]
+struct CollectArgs {
+    /// Output CSV (header: t,set,trial,e1..e19,pdc,pac_mean,tdc,tac,fx,fy,fz,tx,ty,tz).
+    #[arg(long)]
+    out: PathBuf,
+    /// Seed of the simulated sensor unit, pushes and noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulator and protocol parameters (YAML); default: the shipped config/biotac_sim.yaml.
+    #[arg(long)]
+    config: Option<PathBuf>,
+}
+
+/// Options shared by `train` and `eval`.
+#[derive(Args)]
+struct FitArgs {
+    /// Wrench axes to learn: any subset of fx,fy,fz,tx,ty,tz.
+    #[arg(long, default_value = "fx,fy,fz")]
+    axes: AxisSet,
+    /// Largest training set for the exact GP (a seeded random subset beyond it): time grows as n^3.
+    #[arg(long, default_value_t = 2000)]
+    max_train: usize,
+    /// GP kernel: ard (one length-scale per electrode) or iso.
+    #[arg(long, default_value = "ard")]
+    kernel: KernelKind,
+    /// Optimiser starts of the hyperparameter fit.
+    #[arg(long, default_value_t = 3)]
+    restarts: usize,
+    /// Points each start is optimised on before the best is polished on all points.
+    #[arg(long, default_value_t = 500)]
+    restart_subset: usize,
+    /// Out-of-contact rows at the start of each trial used to tare it (0: the CSV is already tared).
+    #[arg(long, default_value_t = 50)]
+    tare_samples: usize,
+    /// Seed of subsets and optimiser starts.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+#[derive(Args)]
+struct TrainArgs {
+    /// Training CSV.
+    #[arg(long)]
+    data: PathBuf,
+    /// Model file to write (JSON).
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+#[derive(Args)]
+struct EvalArgs {
+    /// Data for trial-wise k-fold cross-validation.
+    #[arg(long, conflicts_with_all = ["train", "test"], required_unless_present = "train")]
+    data: Option<PathBuf>,
+    /// Number of folds (per set, consecutive blocks of trials are held out).
+    #[arg(long, default_value_t = 5)]
+    folds: usize,
+    /// Training CSV (with --test).
+    #[arg(long, requires = "test")]
+    train: Option<PathBuf>,
+    /// Test CSV (with --train).
+    #[arg(long, requires = "train")]
+    test: Option<PathBuf>,
+    /// Skip the baseline network.
+    #[arg(long)]
+    no_nn: bool,
+    /// Print the result as one JSON object on the last line.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Collect(a) => run_collect(a),
+        Command::Train(a) => run_train(a),
+        Command::Eval(a) => run_eval(a),
+    }
+}
+
+fn run_collect(a: CollectArgs) -> Result<()> {
+    let (sensor, protocol) = match &a.config {
+        Some(p) => (BioTacSimConfig::from_file(p)?, CollectConfig::from_file(p)?),
+        None => (BioTacSimConfig::default(), CollectConfig::default()),
+    };
+    let records = collect(&protocol, &sensor, a.seed);
+    write_csv(&a.out, &records)?;
+    let noise = protocol.params().ft_noise_std;
+    println!(
+        "wrote {} rows to {} (seed {}); F/T reference noise std: force {:?} N, torque {:?} Nm",
+        records.len(),
+        a.out.display(),
+        a.seed,
+        noise.force_n,
+        noise.torque_nm
+    );
+    Ok(())
+}
+
+/// Reads a CSV's electrode features and `axes` targets and tares each trial.
+fn load_tared(path: &Path, fit: &FitArgs) -> Result<(Dataset, TareSpec)> {
+    let mut ds = Dataset::read_csv(path, &electrode_columns(), &fit.axes)?;
+    let mean_baseline = match fit.tare_samples {
+        0 => vec![0.0; ds.features.len()],
+        n => ds.tare_per_trial(n)?,
+    };
+    Ok((
+        ds,
+        TareSpec {
+            samples: fit.tare_samples,
+            mean_baseline,
+        },
+    ))
+}
+
+fn gp_params(fit: &FitArgs) -> Result<tactile_force::learn::gp::ValidGpParams> {
+    Ok(GpParams {
+        kernel: fit.kernel,
+        restarts: fit.restarts,
+        restart_subset: fit.restart_subset,
+        seed: fit.seed,
+        ..GpParams::default()
+    }
+    .validate()?)
+}
+
+fn progress_bar() -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(120));
+    bar
+}
+
+fn show(bar: &ProgressBar, p: Progress) {
+    match p {
+        Progress::Fold(f, k) => bar.println(format!("fold {f}/{k}")),
+        Progress::Gp(axis, g) => bar.set_message(format!(
+            "GP {axis}: start {}, {} likelihood evaluations, -log p(y)/n = {:.4}",
+            g.start + 1,
+            g.evaluations,
+            g.neg_lml_per_sample
+        )),
+        Progress::Nn => bar.set_message("neural network: training"),
+    }
+}
+
+fn run_train(a: TrainArgs) -> Result<()> {
+    let (mut ds, tare) = load_tared(&a.data, &a.fit)?;
+    if ds.len() > a.fit.max_train {
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(a.fit.seed);
+        let mut idx = rand::seq::index::sample(&mut rng, ds.len(), a.fit.max_train).into_vec();
+        idx.sort_unstable();
+        ds = ds.select(&idx);
+    }
+    let params = gp_params(&a.fit)?;
+    let bar = progress_bar();
+    let t0 = std::time::Instant::now();
+    let model = WrenchGp::train(&ds, tare, &params, &mut |axis, p| {
+        show(&bar, Progress::Gp(axis, p))
+    })?;
+    let fit_s = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    model
+        .save(&a.out)
+        .with_context(|| format!("saving the model to {}", a.out.display()))?;
+    for (axis, gp, info) in model.fits() {
+        let h = gp.hyper();
+        println!(
+            "{axis}: {} evaluations ({} on all points), -log p(y)/n = {:.4}, signal var {:.3}, noise var {:.2e}",
+            info.evaluations, info.full_evaluations, info.neg_lml_per_sample, h.signal_var, h.noise_var
+        );
+    }
+    println!(
+        "trained {} axes ({}) on {} samples in {:.2} s; model written to {}",
+        model.axes().len(),
+        model.axes(),
+        model.n_train(),
+        fit_s,
+        a.out.display()
+    );
+    Ok(())
+}
+
+fn run_eval(a: EvalArgs) -> Result<()> {
+    let opts = EvalOptions {
+        max_train: a.fit.max_train,
+        gp: gp_params(&a.fit)?,
+        nn: if a.no_nn {
+            None
+        } else {
+            Some(NnParams::default().validate()?)
+        },
+        seed: a.fit.seed,
+    };
+    let bar = progress_bar();
+    let mut on_progress = |p| show(&bar, p);
+    let eval = match (&a.data, &a.train, &a.test) {
+        (Some(data), _, _) => {
+            let (ds, tare) = load_tared(data, &a.fit)?;
+            cross_validate(&ds, a.folds, &tare, &opts, &mut on_progress)?
+        }
+        (None, Some(train), Some(test)) => {
+            let (train, tare) = load_tared(train, &a.fit)?;
+            let (test, _) = load_tared(test, &a.fit)?;
+            train_test(&train, &test, &tare, &opts, &mut on_progress)?
+        }
+        _ => anyhow::bail!("give --data FILE, or --train FILE and --test FILE"),
+    };
+    bar.finish_and_clear();
+    print_table(&a.fit.axes, &eval);
+    if a.json {
+        println!("{}", serde_json::to_string(&eval)?);
+    }
+    Ok(())
+}
+
+fn print_table(axes: &AxisSet, eval: &Evaluation) {
+    let cols: Vec<String> = axes
+        .axes()
+        .iter()
+        .map(|a| format!("{:>9} {:>7}", format!("{a} RMSE"), "R2"))
+        .collect();
+    println!(
+        "{:<8} {:<5} {}  {:>8} {:>7}",
+        "fold",
+        "model",
+        cols.join("  "),
+        "fit s",
+        "n_train"
+    );
+    let row = |fold: &str, model: &str, s: &Scores| {
+        let vals: Vec<String> = axes
+            .axes()
+            .iter()
+            .map(|a| format!("{:>9.4} {:>7.4}", s.rmse[a], s.r2[a]))
+            .collect();
+        println!(
+            "{fold:<8} {model:<5} {}  {:>8.2} {:>7}",
+            vals.join("  "),
+            s.fit_s,
+            s.n_train
+        );
+    };
+    if eval.folds.len() > 1 {
+        for f in &eval.folds {
+            row(&f.fold.to_string(), "GP", &f.gp);
+            if let Some(nn) = &f.nn {
+                row(&f.fold.to_string(), "NN", nn);
+            }
+        }
+    }
+    row("overall", "GP", &eval.gp);
+    if let Some(nn) = &eval.nn {
+        row("overall", "NN", nn);
+    }
+    println!("RMSE in N (forces) and Nm (torques); overall = all test rows pooled; fit s = mean per fold.");
+}

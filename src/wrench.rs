@@ -203,7 +203,10 @@ impl Wrench {
 
     /// True when every component is finite.
     pub fn is_finite(&self) -> bool {
-        self.force.iter().chain(self.torque.iter()).all(|v| v.is_finite())
+        self.force
+            .iter()
+            .chain(self.torque.iter())
+            .all(|v| v.is_finite())
     }
 }
 

@@ -1,7 +1,30 @@
 //! The training-data CSV format and data sets (samples x features).
+//!
+//! Header of a collected file (one row per BioTac frame, 100 Hz):
+//!
+//! `t,set,trial,e1..e19,pdc,pac_mean,tdc,tac,fx,fy,fz,tx,ty,tz`
+//!
+//! | column | meaning | unit |
+//! |---|---|---|
+//! | t | time since the start of the trial | s |
+//! | set | data set: 1 mainly x, 2 mainly y, 3 mainly z, 4 combined | - |
+//! | trial | trial number within the set | - |
+//! | e1..e19 | raw electrode values (not tared) | ADC counts |
+//! | pdc, pac_mean, tdc, tac | static pressure, mean of the 22 PAC samples, temperature, heat flow | ADC counts |
+//! | fx, fy, fz | reference force on the finger, BioTac frame | N |
+//! | tx, ty, tz | reference torque about the BioTac origin, BioTac frame | Nm |
+//!
+//! Readers need only the columns they use: the feature columns, the target
+//! columns of the requested axes and, optionally, `set` and `trial`. Other
+//! columns are ignored.
 
-use crate::biotac::BioTacReading;
-use crate::wrench::Wrench;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use ndarray::{Array2, Axis as NdAxis};
+
+use crate::biotac::{BioTacReading, N_ELECTRODES};
+use crate::wrench::{Axis, AxisSet, Wrench};
 
 /// One row of a collected data set: a reading and the reference wrench.
 #[derive(Debug, Clone, PartialEq)]
@@ -16,4 +39,390 @@ pub struct Record {
     pub reading: BioTacReading,
     /// Reference wrench from the F/T sensor, in the BioTac frame (N, Nm).
     pub wrench: Wrench,
+}
+
+/// Errors reading or writing data sets.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DatasetError {
+    /// The file could not be opened, read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The CSV structure is broken (e.g. a row with a different number of fields).
+    #[error("{path}: malformed CSV: {source}")]
+    Csv {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: csv::Error,
+    },
+    /// A needed column is not in the header.
+    #[error("{path}: missing column {column:?} (the header has: {header})")]
+    MissingColumn {
+        /// File path.
+        path: String,
+        /// Missing column name.
+        column: String,
+        /// The header found.
+        header: String,
+    },
+    /// A field is not a finite number.
+    #[error("{path}: line {line}, column {column:?}: {value:?} is not a finite number")]
+    BadValue {
+        /// File path.
+        path: String,
+        /// 1-based line number in the file.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// Field text.
+        value: String,
+    },
+    /// The file has a header but no rows.
+    #[error("{path}: no data rows")]
+    Empty {
+        /// File path.
+        path: String,
+    },
+    /// A trial is too short to take its tare from its first rows.
+    #[error(
+        "set {set} trial {trial} has {rows} rows, fewer than the {needed} out-of-contact rows \
+         needed for its tare"
+    )]
+    TareTooShort {
+        /// Set number.
+        set: u32,
+        /// Trial number.
+        trial: u32,
+        /// Rows in the trial.
+        rows: usize,
+        /// Rows needed.
+        needed: usize,
+    },
+}
+
+/// Names of the 19 electrode columns, `e1..e19`: the GP's features.
+pub fn electrode_columns() -> Vec<String> {
+    (1..=N_ELECTRODES).map(|i| format!("e{i}")).collect()
+}
+
+/// The full header of a collected file.
+pub fn csv_header() -> Vec<String> {
+    let mut h: Vec<String> = ["t", "set", "trial"].map(String::from).to_vec();
+    h.extend(electrode_columns());
+    h.extend(["pdc", "pac_mean", "tdc", "tac"].map(String::from));
+    h.extend(Axis::ALL.iter().map(|a| a.name().to_string()));
+    h
+}
+
+/// Writes records as CSV with the header [`csv_header`].
+pub fn write_csv(path: &Path, records: &[Record]) -> Result<(), DatasetError> {
+    let p = path.display().to_string();
+    let csv_err = |source| DatasetError::Csv {
+        path: p.clone(),
+        source,
+    };
+    let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
+    w.write_record(csv_header()).map_err(csv_err)?;
+    let mut row: Vec<String> = Vec::with_capacity(csv_header().len());
+    for r in records {
+        row.clear();
+        row.push(format!("{:.2}", r.t));
+        row.push(r.set.to_string());
+        row.push(r.trial.to_string());
+        row.extend(r.reading.electrodes.iter().map(|e| e.to_string()));
+        row.push(r.reading.pdc.to_string());
+        row.push(format!("{:.2}", r.reading.pac_mean()));
+        row.push(r.reading.tdc.to_string());
+        row.push(r.reading.tac.to_string());
+        row.extend(Axis::ALL.iter().map(|&a| format!("{:.6}", r.wrench.get(a))));
+        w.write_record(&row).map_err(csv_err)?;
+    }
+    w.flush()
+        .map_err(|source| DatasetError::Io { path: p, source })
+}
+
+/// Samples as rows: features, targets and the trial each row belongs to.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    /// Feature column names, in the column order of `x`.
+    pub features: Vec<String>,
+    /// Features, samples x features.
+    pub x: Array2<f64>,
+    /// Target axes, in the column order of `y`.
+    pub axes: AxisSet,
+    /// Targets, samples x axes (N or Nm).
+    pub y: Array2<f64>,
+    /// Set of each row (0 when the file has no `set` column).
+    pub set: Vec<u32>,
+    /// Trial of each row (0 when the file has no `trial` column).
+    pub trial: Vec<u32>,
+}
+
+impl Dataset {
+    /// Reads the named feature columns and the target columns of `axes`.
+    pub fn read_csv(
+        path: &Path,
+        features: &[String],
+        axes: &AxisSet,
+    ) -> Result<Self, DatasetError> {
+        let p = path.display().to_string();
+        let file = std::fs::File::open(path).map_err(|source| DatasetError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        let csv_err = |source| DatasetError::Csv {
+            path: p.clone(),
+            source,
+        };
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(file);
+        let header: Vec<String> = reader
+            .headers()
+            .map_err(csv_err)?
+            .iter()
+            .map(String::from)
+            .collect();
+        let find = |name: &str| header.iter().position(|h| h == name);
+        let need = |name: &str| {
+            find(name).ok_or_else(|| DatasetError::MissingColumn {
+                path: p.clone(),
+                column: name.to_string(),
+                header: header.join(","),
+            })
+        };
+        let feature_idx = features
+            .iter()
+            .map(|f| need(f))
+            .collect::<Result<Vec<_>, _>>()?;
+        let axis_idx = axes
+            .axes()
+            .iter()
+            .map(|a| need(a.name()))
+            .collect::<Result<Vec<_>, _>>()?;
+        let (set_idx, trial_idx) = (find("set"), find("trial"));
+
+        let mut xs = Vec::new();
+        let mut ys = Vec::new();
+        let (mut set, mut trial) = (Vec::new(), Vec::new());
+        for rec in reader.records() {
+            let rec = rec.map_err(csv_err)?;
+            let line = rec.position().map_or(0, |pos| pos.line());
+            let num = |i: usize| -> Result<f64, DatasetError> {
+                let text = rec.get(i).unwrap_or("");
+                text.parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| DatasetError::BadValue {
+                        path: p.clone(),
+                        line,
+                        column: header[i].clone(),
+                        value: text.to_string(),
+                    })
+            };
+            for &i in &feature_idx {
+                xs.push(num(i)?);
+            }
+            for &i in &axis_idx {
+                ys.push(num(i)?);
+            }
+            set.push(set_idx.map(num).transpose()?.unwrap_or(0.0) as u32);
+            trial.push(trial_idx.map(num).transpose()?.unwrap_or(0.0) as u32);
+        }
+        let n = set.len();
+        if n == 0 {
+            return Err(DatasetError::Empty { path: p });
+        }
+        let shape_ok = "row-major buffers sized rows x columns";
+        Ok(Dataset {
+            features: features.to_vec(),
+            x: Array2::from_shape_vec((n, features.len()), xs).expect(shape_ok),
+            axes: axes.clone(),
+            y: Array2::from_shape_vec((n, axes.len()), ys).expect(shape_ok),
+            set,
+            trial,
+        })
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.x.nrows()
+    }
+
+    /// True when there is no sample.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The (set, trial) groups in order of first appearance, with their rows.
+    pub fn trials(&self) -> Vec<((u32, u32), Vec<usize>)> {
+        let mut order: Vec<(u32, u32)> = Vec::new();
+        let mut rows: BTreeMap<(u32, u32), Vec<usize>> = BTreeMap::new();
+        for (i, key) in self
+            .set
+            .iter()
+            .copied()
+            .zip(self.trial.iter().copied())
+            .enumerate()
+        {
+            rows.entry(key)
+                .or_insert_with(|| {
+                    order.push(key);
+                    Vec::new()
+                })
+                .push(i);
+        }
+        order
+            .into_iter()
+            .map(|k| (k, rows.remove(&k).unwrap_or_default()))
+            .collect()
+    }
+
+    /// Subtracts from every feature its mean over the first `samples` rows
+    /// of the same trial (taken out of contact), as the BioTac is tared
+    /// before each trial. A file without set/trial columns is one trial.
+    /// Returns the baselines averaged over the trials.
+    pub fn tare_per_trial(&mut self, samples: usize) -> Result<Vec<f64>, DatasetError> {
+        let trials = self.trials();
+        let mut mean_base = vec![0.0; self.x.ncols()];
+        for ((set, trial), rows) in &trials {
+            let (set, trial) = (*set, *trial);
+            if rows.len() < samples || samples == 0 {
+                return Err(DatasetError::TareTooShort {
+                    set,
+                    trial,
+                    rows: rows.len(),
+                    needed: samples.max(1),
+                });
+            }
+            let base = self
+                .x
+                .select(NdAxis(0), &rows[..samples])
+                .mean_axis(NdAxis(0))
+                .expect("at least one row");
+            for &r in rows {
+                let mut row = self.x.row_mut(r);
+                row -= &base;
+            }
+            for (m, b) in mean_base.iter_mut().zip(&base) {
+                *m += b / trials.len() as f64;
+            }
+        }
+        Ok(mean_base)
+    }
+
+    /// The rows `idx`, in that order.
+    pub fn select(&self, idx: &[usize]) -> Dataset {
+        Dataset {
+            features: self.features.clone(),
+            x: self.x.select(NdAxis(0), idx),
+            axes: self.axes.clone(),
+            y: self.y.select(NdAxis(0), idx),
+            set: idx.iter().map(|&i| self.set[i]).collect(),
+            trial: idx.iter().map(|&i| self.trial[i]).collect(),
+        }
+    }
+}
+
+/// Trial-wise k-fold split as in Huhnstock (2014): within each set, the
+/// trials are cut into `k` consecutive blocks; fold `f` tests on block `f` of
+/// every set and trains on the rest (10 trials, k = 5: 8 train, 2 test).
+/// Returns (train rows, test rows) per fold; a trial is never on both sides.
+pub fn trialwise_folds(ds: &Dataset, k: usize) -> Vec<(Vec<usize>, Vec<usize>)> {
+    let trials = ds.trials();
+    let mut by_set: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+    for (t, ((set, _), _)) in trials.iter().enumerate() {
+        by_set.entry(*set).or_default().push(t);
+    }
+    (0..k)
+        .map(|f| {
+            let (mut train, mut test) = (Vec::new(), Vec::new());
+            for set_trials in by_set.values() {
+                let m = set_trials.len();
+                for (j, &t) in set_trials.iter().enumerate() {
+                    let side = if j * k / m.max(1) == f {
+                        &mut test
+                    } else {
+                        &mut train
+                    };
+                    side.extend_from_slice(&trials[t].1);
+                }
+            }
+            (train, test)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn write(text: &str) -> tempfile::NamedTempFile {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        f.write_all(text.as_bytes()).unwrap();
+        f
+    }
+
+    #[test]
+    fn reads_only_the_needed_columns_and_names_a_missing_one() {
+        let f = write("t,set,trial,e1,junk,fz,fx\n0,1,1,10,x,0.5,0.1\n0.01,1,2,12,y,0.7,0.2\n");
+        let axes: AxisSet = "fx,fz".parse().unwrap();
+        let ds = Dataset::read_csv(f.path(), &["e1".into()], &axes).unwrap();
+        assert_eq!(ds.x.column(0).to_vec(), vec![10.0, 12.0]);
+        assert_eq!(ds.y.row(1).to_vec(), vec![0.2, 0.7]);
+        assert_eq!(ds.trial, vec![1, 2]);
+        let err = Dataset::read_csv(f.path(), &["e2".into()], &axes).unwrap_err();
+        assert!(err.to_string().contains("missing column \"e2\""), "{err}");
+        let err = Dataset::read_csv(f.path(), &["junk".into()], &axes).unwrap_err();
+        assert!(err.to_string().contains("line 2, column \"junk\""), "{err}");
+    }
+
+    #[test]
+    fn folds_never_mix_a_trial_and_cover_every_row_once() {
+        let mut text = String::from("set,trial,e1,fz\n");
+        for set in 1..=4 {
+            for trial in 1..=10 {
+                for s in 0..3 {
+                    text += &format!("{set},{trial},{s},0\n");
+                }
+            }
+        }
+        let f = write(&text);
+        let ds = Dataset::read_csv(f.path(), &["e1".into()], &"fz".parse().unwrap()).unwrap();
+        let folds = trialwise_folds(&ds, 5);
+        let mut tested = vec![0; ds.len()];
+        for (train, test) in &folds {
+            let key = |i: &usize| (ds.set[*i], ds.trial[*i]);
+            let train_trials: std::collections::BTreeSet<_> = train.iter().map(key).collect();
+            let test_trials: std::collections::BTreeSet<_> = test.iter().map(key).collect();
+            assert!(train_trials.is_disjoint(&test_trials));
+            assert_eq!((train_trials.len(), test_trials.len()), (32, 8));
+            test.iter().for_each(|&i| tested[i] += 1);
+        }
+        assert!(tested.iter().all(|&c| c == 1));
+    }
+
+    #[test]
+    fn tare_subtracts_each_trials_own_baseline() {
+        let f = write(
+            "set,trial,e1,fz\n1,1,100,0\n1,1,102,0\n1,1,90,1\n1,2,50,0\n1,2,50,0\n1,2,40,1\n",
+        );
+        let mut ds = Dataset::read_csv(f.path(), &["e1".into()], &"fz".parse().unwrap()).unwrap();
+        ds.tare_per_trial(2).unwrap();
+        assert_eq!(
+            ds.x.column(0).to_vec(),
+            vec![-1.0, 1.0, -11.0, 0.0, 0.0, -10.0]
+        );
+        assert!(matches!(
+            ds.tare_per_trial(4),
+            Err(DatasetError::TareTooShort { needed: 4, .. })
+        ));
+    }
 }

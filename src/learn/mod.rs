@@ -2,5 +2,9 @@
 //! baseline neural network, metrics and the model file.
 
 pub mod dataset;
+pub mod evaluate;
 pub mod gp;
+pub mod metrics;
+pub mod model;
+pub mod nn;
 pub mod scale;

@@ -19,7 +19,9 @@ impl Standardizer {
     /// Fits means and standard deviations of the columns of `x` (rows = samples).
     pub fn fit(x: ArrayView2<f64>) -> Self {
         let n = x.nrows().max(1) as f64;
-        let mean = x.mean_axis(Axis(0)).unwrap_or_else(|| Array1::zeros(x.ncols()));
+        let mean = x
+            .mean_axis(Axis(0))
+            .unwrap_or_else(|| Array1::zeros(x.ncols()));
         let scale = x
             .axis_iter(Axis(1))
             .zip(mean.iter())

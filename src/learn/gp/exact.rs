@@ -320,7 +320,11 @@ impl ExactGp {
         }
         let s2 = self.hyper.signal_var;
         for (k, row) in ws.k.iter_mut().zip(self.xs.chunks_exact(d)) {
-            let d2: f64 = row.iter().zip(&ws.scaled).map(|(a, b)| (a - b) * (a - b)).sum();
+            let d2: f64 = row
+                .iter()
+                .zip(&ws.scaled)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum();
             *k = s2 * (-0.5 * d2).exp();
         }
         let mean = dot(&ws.k, &self.alpha);
@@ -367,7 +371,10 @@ impl ExactGp {
         for chunk in zs.chunks(BLOCK * d) {
             let mut kt = se_cross(&self.xs, chunk, d, s2); // n x b
             for c in 0..kt.ncols() {
-                means.push(dot(kt.col(c).try_as_col_major().unwrap().as_slice(), &self.alpha));
+                means.push(dot(
+                    kt.col(c).try_as_col_major().unwrap().as_slice(),
+                    &self.alpha,
+                ));
             }
             if let Some(l) = &l {
                 faer::linalg::triangular_solve::solve_lower_triangular_in_place(

@@ -79,7 +79,11 @@ impl GpParams {
             return bad("restarts", self.restarts.to_string(), "at least 1");
         }
         if self.restart_subset < 10 {
-            return bad("restart_subset", self.restart_subset.to_string(), "at least 10");
+            return bad(
+                "restart_subset",
+                self.restart_subset.to_string(),
+                "at least 10",
+            );
         }
         if self.max_iters == 0 {
             return bad("max_iters", self.max_iters.to_string(), "at least 1");
@@ -155,15 +159,23 @@ struct Objective<'a> {
     y: &'a [f64],
     kind: KernelKind,
     bounds: &'a Bounds,
-    cache: RefCell<Option<(Vec<f64>, f64, Vec<f64>)>>,
+    /// Last evaluation: argmin asks for the cost and the gradient separately.
+    cache: RefCell<Option<Evaluation>>,
     on_eval: &'a dyn Fn(f64),
+}
+
+/// Log-parameters with the cost and gradient there.
+struct Evaluation {
+    theta: Vec<f64>,
+    cost: f64,
+    grad: Vec<f64>,
 }
 
 impl Objective<'_> {
     fn eval(&self, theta: &[f64]) -> Result<(f64, Vec<f64>), argmin::core::Error> {
-        if let Some((t, f, g)) = self.cache.borrow().as_ref() {
-            if t.as_slice() == theta {
-                return Ok((*f, g.clone()));
+        if let Some(e) = self.cache.borrow().as_ref() {
+            if e.theta == theta {
+                return Ok((e.cost, e.grad.clone()));
             }
         }
         let tc = self.bounds.clamp(theta);
@@ -174,7 +186,11 @@ impl Objective<'_> {
             *gi += t - c;
         }
         (self.on_eval)(f);
-        *self.cache.borrow_mut() = Some((theta.to_vec(), f, g.clone()));
+        *self.cache.borrow_mut() = Some(Evaluation {
+            theta: theta.to_vec(),
+            cost: f,
+            grad: g.clone(),
+        });
         Ok((f, g))
     }
 }
@@ -258,7 +274,11 @@ pub fn fit_gp(
     // Rank the starts on a random subset.
     let (sub_x, sub_y) = if n > p.restart_subset {
         let idx = sample(&mut rng, n, p.restart_subset).into_vec();
-        let sx = idx.iter().flat_map(|&i| &x[i * d..(i + 1) * d]).copied().collect();
+        let sx = idx
+            .iter()
+            .flat_map(|&i| &x[i * d..(i + 1) * d])
+            .copied()
+            .collect();
         let sy = idx.iter().map(|&i| y[i]).collect();
         (sx, sy)
     } else {
@@ -355,7 +375,11 @@ mod tests {
                 .map(|r| (gp.predict_one(r, &mut ws, false).0 - f(r)).powi(2))
                 .sum::<f64>()
                 / 200.0;
-            assert!(mse.sqrt() < noise, "{kernel:?}: RMSE {} vs noise {noise}", mse.sqrt());
+            assert!(
+                mse.sqrt() < noise,
+                "{kernel:?}: RMSE {} vs noise {noise}",
+                mse.sqrt()
+            );
             // The learned noise is close to the true one.
             let sn = gp.hyper().noise_var.sqrt();
             assert!((sn - noise).abs() < 0.3 * noise, "{kernel:?}: noise {sn}");
@@ -375,7 +399,10 @@ mod tests {
         };
         assert!(matches!(
             bad.validate(),
-            Err(GpError::InvalidParam { name: "restarts", .. })
+            Err(GpError::InvalidParam {
+                name: "restarts",
+                ..
+            })
         ));
         let bad = GpParams {
             min_noise_var: f64::NAN,
@@ -383,7 +410,10 @@ mod tests {
         };
         assert!(matches!(
             bad.validate(),
-            Err(GpError::InvalidParam { name: "min_noise_var", .. })
+            Err(GpError::InvalidParam {
+                name: "min_noise_var",
+                ..
+            })
         ));
     }
 }

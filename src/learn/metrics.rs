@@ -1,0 +1,130 @@
+//! Regression metrics: root-mean-squared error and coefficient of
+//! determination, for one output or per column.
+//!
+//! NaN in either argument propagates to the result.
+
+use ndarray::{Array1, ArrayView1, ArrayView2, Axis};
+
+/// Root-mean-squared error `√(1/N Σ (y_i − ŷ_i)²)`; NaN when empty.
+///
+/// # Panics
+/// If `y` and `yhat` differ in length.
+pub fn rmse(y: ArrayView1<f64>, yhat: ArrayView1<f64>) -> f64 {
+    assert_eq!(y.len(), yhat.len(), "rmse: lengths differ");
+    (ss_res(y, yhat) / y.len() as f64).sqrt()
+}
+
+/// Coefficient of determination `R² = 1 − SS_res / SS_tot` with
+/// `SS_res = Σ (y_i − ŷ_i)²` and `SS_tot = Σ (y_i − ȳ)²`.
+///
+/// 1 is a perfect fit, 0 is no better than predicting the mean, and it is
+/// negative for worse predictions. When `y` is constant (all values equal, so
+/// `SS_tot = 0`) R² is undefined; we return 1 if the prediction is exact
+/// (`SS_res = 0`) and 0 otherwise, the convention of scikit-learn's
+/// `r2_score`, so that averages over outputs stay finite. NaN when empty.
+///
+/// # Panics
+/// If `y` and `yhat` differ in length.
+pub fn r2(y: ArrayView1<f64>, yhat: ArrayView1<f64>) -> f64 {
+    assert_eq!(y.len(), yhat.len(), "r2: lengths differ");
+    let Some(&first) = y.first() else {
+        return f64::NAN;
+    };
+    let res = ss_res(y, yhat);
+    if y.iter().all(|&v| v == first) {
+        return if res == 0.0 { 1.0 } else { 0.0 };
+    }
+    let mean = y.sum() / y.len() as f64;
+    let tot: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+    1.0 - res / tot
+}
+
+/// [`rmse`] of every column of `y` against the same column of `yhat`.
+///
+/// # Panics
+/// If the shapes differ.
+pub fn rmse_columns(y: ArrayView2<f64>, yhat: ArrayView2<f64>) -> Array1<f64> {
+    per_column(y, yhat, rmse)
+}
+
+/// [`r2`] of every column of `y` against the same column of `yhat`.
+///
+/// # Panics
+/// If the shapes differ.
+pub fn r2_columns(y: ArrayView2<f64>, yhat: ArrayView2<f64>) -> Array1<f64> {
+    per_column(y, yhat, r2)
+}
+
+/// Applies a metric column by column.
+fn per_column(
+    y: ArrayView2<f64>,
+    yhat: ArrayView2<f64>,
+    metric: fn(ArrayView1<f64>, ArrayView1<f64>) -> f64,
+) -> Array1<f64> {
+    assert_eq!(y.dim(), yhat.dim(), "metric: shapes differ");
+    y.axis_iter(Axis(1))
+        .zip(yhat.axis_iter(Axis(1)))
+        .map(|(a, b)| metric(a, b))
+        .collect()
+}
+
+/// Residual sum of squares `Σ (y_i − ŷ_i)²`.
+fn ss_res(y: ArrayView1<f64>, yhat: ArrayView1<f64>) -> f64 {
+    y.iter().zip(yhat).map(|(a, b)| (a - b).powi(2)).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::{array, Array1};
+
+    #[test]
+    fn rmse_by_hand() {
+        // Residuals 1, −2, 2: SS_res = 9, N = 3, RMSE = √3.
+        let y = array![1.0, 2.0, 3.0];
+        let yhat = array![0.0, 4.0, 1.0];
+        assert!((rmse(y.view(), yhat.view()) - 3f64.sqrt()).abs() < 1e-15);
+        assert_eq!(rmse(y.view(), y.view()), 0.0);
+        assert!(rmse(Array1::zeros(0).view(), Array1::zeros(0).view()).is_nan());
+    }
+
+    #[test]
+    fn r2_by_hand() {
+        // ȳ = 2.5, SS_tot = 2.25 + 0.25 + 0.25 + 2.25 = 5; residuals 0.5, −0.5, 0, 0.5:
+        // SS_res = 0.75, R² = 1 − 0.75 / 5 = 0.85.
+        let y = array![1.0, 2.0, 3.0, 4.0];
+        let yhat = array![0.5, 2.5, 3.0, 3.5];
+        assert!((r2(y.view(), yhat.view()) - 0.85).abs() < 1e-15);
+        assert_eq!(r2(y.view(), y.view()), 1.0);
+        // Predicting the mean gives 0; predicting the reversed series, SS_res = 20: R² = −3.
+        assert_eq!(r2(y.view(), Array1::from_elem(4, 2.5).view()), 0.0);
+        assert!((r2(y.view(), array![4.0, 3.0, 2.0, 1.0].view()) + 3.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn r2_of_a_constant_target_is_one_if_exact_else_zero() {
+        let y = array![0.1, 0.1, 0.1];
+        assert_eq!(r2(y.view(), y.view()), 1.0);
+        assert_eq!(r2(y.view(), array![0.1, 0.2, 0.1].view()), 0.0);
+        assert!(r2(Array1::zeros(0).view(), Array1::zeros(0).view()).is_nan());
+    }
+
+    #[test]
+    fn column_helpers_apply_the_metric_per_column() {
+        let y = array![[1.0, 1.0], [2.0, 2.0], [3.0, 3.0], [4.0, 4.0]];
+        let yhat = array![[0.5, 1.0], [2.5, 2.0], [3.0, 3.0], [3.5, 4.0]];
+        // Column 0: SS_res = 0.75, RMSE = √(0.75 / 4); column 1 is exact.
+        let e = rmse_columns(y.view(), yhat.view());
+        assert!((e[0] - (0.75f64 / 4.0).sqrt()).abs() < 1e-15);
+        assert_eq!(e[1], 0.0);
+        let r = r2_columns(y.view(), yhat.view());
+        assert!((r[0] - 0.85).abs() < 1e-15);
+        assert_eq!(r[1], 1.0);
+    }
+
+    #[test]
+    #[should_panic(expected = "lengths differ")]
+    fn mismatched_lengths_panic() {
+        rmse(array![1.0, 2.0].view(), array![1.0].view());
+    }
+}

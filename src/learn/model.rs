@@ -1,0 +1,491 @@
+//! The wrench estimator: one exact GP per axis on standardised, tared
+//! electrode features, and its versioned model file.
+//!
+//! The model file is JSON: `format`, `version`, the feature names, the axes,
+//! the input standardisation, how the data was tared, and per axis the target
+//! standardisation, hyperparameters and training data. The Cholesky factor is
+//! recomputed on load, which also re-checks the file's numbers.
+
+use std::path::Path;
+
+use ndarray::{Array2, ArrayView2};
+use serde::{Deserialize, Serialize};
+
+use super::dataset::Dataset;
+use super::gp::exact::ExactGpData;
+use super::gp::fit::FitProgress;
+use super::gp::{fit_gp, ExactGp, FitInfo, GpError, GpWorkspace, ValidGpParams};
+use super::scale::Standardizer;
+use crate::wrench::{Axis, AxisSet};
+
+/// The `format` field of every model file.
+pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
+/// The model-file version this build writes and reads.
+pub const MODEL_VERSION: u32 = 1;
+
+/// Errors saving, loading or using a model.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModelError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// Not JSON: truncated or corrupt.
+    #[error("{path}: not a model file (truncated or corrupt JSON: {source})")]
+    Corrupt {
+        /// File path.
+        path: String,
+        /// Parser error, with line and column.
+        source: serde_json::Error,
+    },
+    /// JSON, but not a tactile_force wrench model.
+    #[error("{path}: format is {found:?}, expected {MODEL_FORMAT:?}")]
+    WrongFormat {
+        /// File path.
+        path: String,
+        /// The `format` field found.
+        found: String,
+    },
+    /// A model-file version this build cannot read.
+    #[error("{path}: model file version {found}, this build reads version {MODEL_VERSION}")]
+    UnsupportedVersion {
+        /// File path.
+        path: String,
+        /// Version found.
+        found: u64,
+    },
+    /// The right format and version, but fields missing or of the wrong type.
+    #[error("{path}: invalid model file: {source}")]
+    Schema {
+        /// File path.
+        path: String,
+        /// Parser error naming the field.
+        source: serde_json::Error,
+    },
+    /// Parts of the file disagree (feature counts, axes, sizes).
+    #[error("{path}: inconsistent model file: {what}")]
+    Inconsistent {
+        /// File path.
+        path: String,
+        /// What disagrees, with the numbers.
+        what: String,
+    },
+    /// Features given to the model do not match the ones it was trained on.
+    #[error("model expects {expected} features, got {found}")]
+    FeatureCount {
+        /// Features the model uses.
+        expected: usize,
+        /// Features given.
+        found: usize,
+    },
+    /// Training or rebuilding a GP failed.
+    #[error(transparent)]
+    Gp(#[from] GpError),
+}
+
+/// How the training features were tared.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TareSpec {
+    /// Out-of-contact samples at the start of each trial that gave its baseline.
+    pub samples: usize,
+    /// Baseline of each feature, averaged over the training trials (counts).
+    pub mean_baseline: Vec<f64>,
+}
+
+/// Estimate of one wrench component: mean and 1-sigma of the latent force.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Estimate {
+    /// Posterior mean (N or Nm).
+    pub mean: f64,
+    /// Posterior standard deviation of the mean (N or Nm).
+    pub std: f64,
+}
+
+/// One output axis: its GP and target standardisation.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisGp {
+    axis: Axis,
+    target_mean: f64,
+    target_scale: f64,
+    fit: FitInfo,
+    gp: ExactGp,
+}
+
+/// A trained wrench estimator.
+#[derive(Debug, Clone, Serialize)]
+pub struct WrenchGp {
+    format: String,
+    version: u32,
+    features: Vec<String>,
+    axes: AxisSet,
+    tare: TareSpec,
+    input: Standardizer,
+    n_train: usize,
+    outputs: Vec<AxisGp>,
+}
+
+/// The model file as parsed, before its parts are checked against each other.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelFileV1 {
+    format: String,
+    version: u32,
+    features: Vec<String>,
+    axes: AxisSet,
+    tare: TareSpec,
+    input: Standardizer,
+    n_train: usize,
+    outputs: Vec<AxisGpFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisGpFile {
+    axis: Axis,
+    target_mean: f64,
+    target_scale: f64,
+    fit: FitInfo,
+    gp: ExactGpData,
+}
+
+/// Scratch for [`WrenchGp::predict_one`], allocated once per estimator.
+#[derive(Debug, Clone)]
+pub struct EstimatorWorkspace {
+    z: Vec<f64>,
+    gp: GpWorkspace,
+}
+
+impl WrenchGp {
+    /// Trains one GP per axis of `data` (features already tared).
+    /// `progress` is told the axis and the fit's progress after every evaluation.
+    pub fn train(
+        data: &Dataset,
+        tare: TareSpec,
+        params: &ValidGpParams,
+        progress: &mut dyn FnMut(Axis, FitProgress),
+    ) -> Result<Self, ModelError> {
+        let input = Standardizer::fit(data.x.view());
+        let z = input.transform(data.x.view());
+        let d = data.features.len();
+        let x: Vec<f64> = z.iter().copied().collect();
+        let targets = Standardizer::fit(data.y.view());
+        let mut outputs = Vec::with_capacity(data.axes.len());
+        for (j, &axis) in data.axes.axes().iter().enumerate() {
+            let (m, s) = (targets.mean[j], targets.scale[j]);
+            let y: Vec<f64> = data.y.column(j).iter().map(|v| (v - m) / s).collect();
+            let (gp, fit) = fit_gp(&x, d, &y, params, &mut |p| progress(axis, p))?;
+            outputs.push(AxisGp {
+                axis,
+                target_mean: m,
+                target_scale: s,
+                fit,
+                gp,
+            });
+        }
+        Ok(WrenchGp {
+            format: MODEL_FORMAT.into(),
+            version: MODEL_VERSION,
+            features: data.features.clone(),
+            axes: data.axes.clone(),
+            tare,
+            input,
+            n_train: data.len(),
+            outputs,
+        })
+    }
+
+    /// Feature names, in input order.
+    pub fn features(&self) -> &[String] {
+        &self.features
+    }
+
+    /// Estimated axes, in output order.
+    pub fn axes(&self) -> &AxisSet {
+        &self.axes
+    }
+
+    /// How the training data was tared.
+    pub fn tare(&self) -> &TareSpec {
+        &self.tare
+    }
+
+    /// Training-set size.
+    pub fn n_train(&self) -> usize {
+        self.n_train
+    }
+
+    /// Per axis: the fitted GP and what its fit did.
+    pub fn fits(&self) -> impl Iterator<Item = (Axis, &ExactGp, &FitInfo)> {
+        self.outputs.iter().map(|o| (o.axis, &o.gp, &o.fit))
+    }
+
+    /// Scratch for [`WrenchGp::predict_one`].
+    pub fn workspace(&self) -> EstimatorWorkspace {
+        EstimatorWorkspace {
+            z: vec![0.0; self.features.len()],
+            gp: GpWorkspace::new(self.n_train, self.features.len()),
+        }
+    }
+
+    /// Estimates every axis from one row of tared features, without
+    /// allocating. `with_std = false` skips the O(n^2) variance (std = 0).
+    pub fn predict_one(
+        &self,
+        features: &[f64],
+        ws: &mut EstimatorWorkspace,
+        with_std: bool,
+        out: &mut [Estimate],
+    ) -> Result<(), ModelError> {
+        if features.len() != self.features.len() {
+            return Err(ModelError::FeatureCount {
+                expected: self.features.len(),
+                found: features.len(),
+            });
+        }
+        self.input
+            .transform_into(ndarray::ArrayView1::from(features), &mut ws.z);
+        for (o, e) in self.outputs.iter().zip(out.iter_mut()) {
+            let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
+            e.mean = m * o.target_scale + o.target_mean;
+            e.std = v.sqrt() * o.target_scale;
+        }
+        Ok(())
+    }
+
+    /// Means and standard deviations (samples x axes) for rows of tared features.
+    pub fn predict(
+        &self,
+        x: ArrayView2<f64>,
+        with_std: bool,
+    ) -> Result<(Array2<f64>, Array2<f64>), ModelError> {
+        if x.ncols() != self.features.len() {
+            return Err(ModelError::FeatureCount {
+                expected: self.features.len(),
+                found: x.ncols(),
+            });
+        }
+        let z: Vec<f64> = self.input.transform(x).iter().copied().collect();
+        let (n, k) = (x.nrows(), self.outputs.len());
+        let mut mean = Array2::zeros((n, k));
+        let mut std = Array2::zeros((n, k));
+        for (j, o) in self.outputs.iter().enumerate() {
+            let (m, v) = o.gp.predict(&z, with_std);
+            for i in 0..n {
+                mean[[i, j]] = m[i] * o.target_scale + o.target_mean;
+                std[[i, j]] = v[i].sqrt() * o.target_scale;
+            }
+        }
+        Ok((mean, std))
+    }
+
+    /// Writes the model file.
+    pub fn save(&self, path: &Path) -> Result<(), ModelError> {
+        let io = |source| ModelError::Io {
+            path: path.display().to_string(),
+            source,
+        };
+        let json = serde_json::to_vec(self).map_err(|e| io(e.into()))?;
+        std::fs::write(path, json).map_err(io)
+    }
+
+    /// Reads and validates a model file.
+    pub fn load(path: &Path) -> Result<Self, ModelError> {
+        let p = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        let value: serde_json::Value =
+            serde_json::from_slice(&bytes).map_err(|source| ModelError::Corrupt {
+                path: p.clone(),
+                source,
+            })?;
+        let format = value.get("format").and_then(|f| f.as_str()).unwrap_or("");
+        if format != MODEL_FORMAT {
+            return Err(ModelError::WrongFormat {
+                path: p,
+                found: format.into(),
+            });
+        }
+        let version = value.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
+        if version != u64::from(MODEL_VERSION) {
+            return Err(ModelError::UnsupportedVersion {
+                path: p,
+                found: version,
+            });
+        }
+        let file: ModelFileV1 =
+            serde_json::from_value(value).map_err(|source| ModelError::Schema {
+                path: p.clone(),
+                source,
+            })?;
+        Self::from_file(file, &p)
+    }
+
+    fn from_file(file: ModelFileV1, path: &str) -> Result<Self, ModelError> {
+        let bad = |what: String| {
+            Err(ModelError::Inconsistent {
+                path: path.into(),
+                what,
+            })
+        };
+        let d = file.features.len();
+        if file.input.dim() != d
+            || file.input.scale.len() != d
+            || file.tare.mean_baseline.len() != d
+        {
+            return bad(format!(
+                "{d} features, but {} input means, {} input scales and {} tare baselines",
+                file.input.dim(),
+                file.input.scale.len(),
+                file.tare.mean_baseline.len()
+            ));
+        }
+        let axes: Vec<Axis> = file.outputs.iter().map(|o| o.axis).collect();
+        if axes != file.axes.axes() {
+            return bad(format!("axes {} but outputs for {axes:?}", file.axes));
+        }
+        let mut outputs = Vec::with_capacity(file.outputs.len());
+        for o in file.outputs {
+            if o.gp.dim != d || o.gp.y.len() != file.n_train || o.gp.x.len() != d * file.n_train {
+                return bad(format!(
+                    "axis {}: GP of dimension {} with {} targets and {} inputs, \
+                     expected dimension {d} and n_train = {}",
+                    o.axis,
+                    o.gp.dim,
+                    o.gp.y.len(),
+                    o.gp.x.len(),
+                    file.n_train
+                ));
+            }
+            if !(o.target_scale > 0.0 && o.target_scale.is_finite() && o.target_mean.is_finite()) {
+                return bad(format!(
+                    "axis {}: target scale {} / mean {}",
+                    o.axis, o.target_scale, o.target_mean
+                ));
+            }
+            outputs.push(AxisGp {
+                axis: o.axis,
+                target_mean: o.target_mean,
+                target_scale: o.target_scale,
+                fit: o.fit,
+                gp: ExactGp::try_from(o.gp)?,
+            });
+        }
+        Ok(WrenchGp {
+            format: file.format,
+            version: file.version,
+            features: file.features,
+            axes: file.axes,
+            tare: file.tare,
+            input: file.input,
+            n_train: file.n_train,
+            outputs,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learn::gp::GpParams;
+    use ndarray::Array2;
+
+    fn small_model() -> WrenchGp {
+        let n = 40;
+        let x = Array2::from_shape_fn((n, 3), |(i, j)| ((i * 7 + j * 3) % 11) as f64 - 5.0);
+        let y = Array2::from_shape_fn((n, 2), |(i, j)| x[[i, 0]] * (j as f64 + 1.0) + x[[i, 1]]);
+        let data = Dataset {
+            features: vec!["e1".into(), "e2".into(), "e3".into()],
+            x,
+            axes: "fx,fz".parse().unwrap(),
+            y,
+            set: vec![1; n],
+            trial: vec![1; n],
+        };
+        let tare = TareSpec {
+            samples: 5,
+            mean_baseline: vec![1.0, 2.0, 3.0],
+        };
+        let params = GpParams {
+            restarts: 1,
+            ..GpParams::default()
+        }
+        .validate()
+        .unwrap();
+        WrenchGp::train(&data, tare, &params, &mut |_, _| {}).unwrap()
+    }
+
+    fn load_text(text: &str) -> Result<WrenchGp, ModelError> {
+        let f = tempfile::NamedTempFile::new().unwrap();
+        std::fs::write(f.path(), text).unwrap();
+        WrenchGp::load(f.path())
+    }
+
+    #[test]
+    fn saved_model_loads_and_predicts_the_same() {
+        let model = small_model();
+        let f = tempfile::NamedTempFile::new().unwrap();
+        model.save(f.path()).unwrap();
+        let back = WrenchGp::load(f.path()).unwrap();
+        let (mut a, mut b) = ([Estimate::default(); 2], [Estimate::default(); 2]);
+        let x = [0.5, -1.0, 2.0];
+        model
+            .predict_one(&x, &mut model.workspace(), true, &mut a)
+            .unwrap();
+        back.predict_one(&x, &mut back.workspace(), true, &mut b)
+            .unwrap();
+        assert_eq!(a, b);
+        assert!(a.iter().all(|e| e.mean.is_finite() && e.std > 0.0));
+        assert_eq!(back.tare().mean_baseline, vec![1.0, 2.0, 3.0]);
+        let err = model.predict_one(&x[..2], &mut model.workspace(), true, &mut a);
+        assert!(matches!(
+            err,
+            Err(ModelError::FeatureCount {
+                expected: 3,
+                found: 2
+            })
+        ));
+    }
+
+    #[test]
+    fn broken_model_files_give_clear_errors() {
+        let json = serde_json::to_string(&small_model()).unwrap();
+        let err = load_text(&json[..json.len() / 2]).unwrap_err();
+        assert!(matches!(err, ModelError::Corrupt { .. }), "{err}");
+        assert!(err.to_string().contains("truncated or corrupt"));
+
+        let err = load_text("{\"format\": \"something else\"}").unwrap_err();
+        assert!(matches!(err, ModelError::WrongFormat { .. }), "{err}");
+
+        let v2 = json.replace("\"version\":1", "\"version\":2");
+        let err = load_text(&v2).unwrap_err();
+        assert!(
+            matches!(err, ModelError::UnsupportedVersion { found: 2, .. }),
+            "{err}"
+        );
+
+        let four = json.replace("[\"e1\",\"e2\",\"e3\"]", "[\"e1\",\"e2\",\"e3\",\"e4\"]");
+        let err = load_text(&four).unwrap_err();
+        assert!(matches!(err, ModelError::Inconsistent { .. }), "{err}");
+        assert!(err.to_string().contains("4 features"), "{err}");
+
+        let missing = json.replace("\"n_train\":40,", "");
+        let err = load_text(&missing).unwrap_err();
+        assert!(err.to_string().contains("n_train"), "{err}");
+
+        let nan_hyper = json.replacen("\"signal_var\":", "\"signal_var\":-", 1);
+        let err = load_text(&nan_hyper).unwrap_err();
+        assert!(
+            matches!(err, ModelError::Gp(GpError::InvalidHyper { .. })),
+            "{err}"
+        );
+    }
+}
