@@ -3,4 +3,5 @@
 
 pub mod biotac;
 pub mod learn;
+pub mod sim;
 pub mod wrench;

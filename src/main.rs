@@ -12,7 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::learn::dataset::{electrode_columns, write_csv, Dataset};
 use tactile_force::learn::evaluate::{
-    cross_validate, train_test, EvalOptions, Evaluation, Progress, Scores,
+    cross_validate, score_model, train_test, EvalOptions, Evaluation, Progress, Scores,
 };
 use tactile_force::learn::gp::{GpParams, KernelKind};
 use tactile_force::learn::model::{TareSpec, WrenchGp};
@@ -63,8 +63,8 @@ struct FitArgs {
     /// Largest training set for the exact GP (a seeded random subset beyond it): time grows as n^3.
     #[arg(long, default_value_t = 2000)]
     max_train: usize,
-    /// GP kernel: ard (one length-scale per electrode) or iso.
-    #[arg(long, default_value = "ard")]
+    /// GP kernel: iso (one length-scale) or ard (one length-scale per electrode).
+    #[arg(long, default_value = "iso")]
     kernel: KernelKind,
     /// Optimiser starts of the hyperparameter fit.
     #[arg(long, default_value_t = 3)]
@@ -72,6 +72,9 @@ struct FitArgs {
     /// Points each start is optimised on before the best is polished on all points.
     #[arg(long, default_value_t = 500)]
     restart_subset: usize,
+    /// L-BFGS iterations of the polish on all points (0: keep the subset's hyperparameters).
+    #[arg(long, default_value_t = 0)]
+    polish_iters: u64,
     /// Out-of-contact rows at the start of each trial used to tare it (0: the CSV is already tared).
     #[arg(long, default_value_t = 50)]
     tare_samples: usize,
@@ -95,17 +98,20 @@ struct TrainArgs {
 #[derive(Args)]
 struct EvalArgs {
     /// Data for trial-wise k-fold cross-validation.
-    #[arg(long, conflicts_with_all = ["train", "test"], required_unless_present = "train")]
+    #[arg(long, conflicts_with_all = ["train", "test", "model"], required_unless_present_any = ["train", "model"])]
     data: Option<PathBuf>,
     /// Number of folds (per set, consecutive blocks of trials are held out).
     #[arg(long, default_value_t = 5)]
     folds: usize,
     /// Training CSV (with --test).
-    #[arg(long, requires = "test")]
+    #[arg(long, requires = "test", conflicts_with = "model")]
     train: Option<PathBuf>,
-    /// Test CSV (with --train).
-    #[arg(long, requires = "train")]
+    /// Test CSV (with --train or --model).
+    #[arg(long)]
     test: Option<PathBuf>,
+    /// A trained model file to score on --test (no training; GP only).
+    #[arg(long, requires = "test")]
+    model: Option<PathBuf>,
     /// Skip the baseline network.
     #[arg(long)]
     no_nn: bool,
@@ -180,6 +186,7 @@ fn gp_params(fit: &FitArgs) -> Result<tactile_force::learn::gp::ValidGpParams> {
         kernel: fit.kernel,
         restarts: fit.restarts,
         restart_subset: fit.restart_subset,
+        polish_iters: fit.polish_iters,
         seed: fit.seed,
         ..GpParams::default()
     }
@@ -248,6 +255,9 @@ fn run_train(a: TrainArgs) -> Result<()> {
 }
 
 fn run_eval(a: EvalArgs) -> Result<()> {
+    if let (Some(model), Some(test)) = (&a.model, &a.test) {
+        return run_score(model, test, a.json);
+    }
     let opts = EvalOptions {
         max_train: a.fit.max_train,
         gp: gp_params(&a.fit)?,
@@ -270,11 +280,32 @@ fn run_eval(a: EvalArgs) -> Result<()> {
             let (test, _) = load_tared(test, &a.fit)?;
             train_test(&train, &test, &tare, &opts, &mut on_progress)?
         }
-        _ => anyhow::bail!("give --data FILE, or --train FILE and --test FILE"),
+        _ => {
+            anyhow::bail!("give --data FILE, --train FILE --test FILE, or --model FILE --test FILE")
+        }
     };
     bar.finish_and_clear();
     print_table(&a.fit.axes, &eval);
     if a.json {
+        println!("{}", serde_json::to_string(&eval)?);
+    }
+    Ok(())
+}
+
+fn run_score(model: &Path, test: &Path, json: bool) -> Result<()> {
+    let model = WrenchGp::load(model)?;
+    let mut ds = Dataset::read_csv(test, model.features(), model.axes())?;
+    if model.tare().samples > 0 {
+        ds.tare_per_trial(model.tare().samples)?;
+    }
+    let gp = score_model(&model, &ds)?;
+    let eval = Evaluation {
+        folds: Vec::new(),
+        gp,
+        nn: None,
+    };
+    print_table(model.axes(), &eval);
+    if json {
         println!("{}", serde_json::to_string(&eval)?);
     }
     Ok(())

@@ -1,5 +1,10 @@
 //! The BioTac fingertip: reading type, tare, and a simulator (forward model).
 
+pub mod geometry;
 pub mod reading;
+pub mod sim;
+pub mod tare;
 
 pub use reading::{BioTacReading, ADC_MAX, FRAME_PERIOD_S, N_ELECTRODES, N_PAC};
+pub use sim::{BioTacSim, BioTacSimConfig, Contact};
+pub use tare::{Tare, TareError};

@@ -145,7 +145,7 @@ fn fit_and_predict(
     test: &Dataset,
     tare: &TareSpec,
     opts: &EvalOptions,
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<FoldPredictions, EvalError> {
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let train = if train.len() > opts.max_train {
@@ -186,7 +186,7 @@ pub fn cross_validate(
     folds: usize,
     tare: &TareSpec,
     opts: &EvalOptions,
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Evaluation, EvalError> {
     let mut per_set: BTreeMap<u32, usize> = BTreeMap::new();
     for ((set, _), _) in data.trials() {
@@ -242,13 +242,34 @@ pub fn cross_validate(
     })
 }
 
+/// Scores a trained model on `test` (tared, with the model's features and axes).
+pub fn score_model(model: &WrenchGp, test: &Dataset) -> Result<Scores, EvalError> {
+    if test.features != model.features() || &test.axes != model.axes() {
+        return Err(EvalError::Mismatch(format!(
+            "model has features {:?} / axes {}, test data {:?} / {}",
+            model.features(),
+            model.axes(),
+            test.features,
+            test.axes
+        )));
+    }
+    let (pred, _) = model.predict(test.x.view(), false)?;
+    Ok(scores(
+        &test.axes,
+        test.y.view(),
+        pred.view(),
+        0.0,
+        model.n_train(),
+    ))
+}
+
 /// Trains on `train` and scores on `test` (both already tared).
 pub fn train_test(
     train: &Dataset,
     test: &Dataset,
     tare: &TareSpec,
     opts: &EvalOptions,
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Evaluation, EvalError> {
     if train.features != test.features || train.axes != test.axes {
         return Err(EvalError::Mismatch(format!(

@@ -9,7 +9,9 @@
 use std::path::Path;
 
 use ndarray::{Array2, ArrayView2};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
 
 use super::dataset::Dataset;
 use super::gp::exact::ExactGpData;
@@ -163,32 +165,44 @@ pub struct EstimatorWorkspace {
 }
 
 impl WrenchGp {
-    /// Trains one GP per axis of `data` (features already tared).
-    /// `progress` is told the axis and the fit's progress after every evaluation.
+    /// Trains one GP per axis of `data` (features already tared), the axes
+    /// in parallel. `progress` is told the axis and the fit's progress after
+    /// every evaluation.
     pub fn train(
         data: &Dataset,
         tare: TareSpec,
         params: &ValidGpParams,
-        progress: &mut dyn FnMut(Axis, FitProgress),
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
         let input = Standardizer::fit(data.x.view());
         let z = input.transform(data.x.view());
         let d = data.features.len();
         let x: Vec<f64> = z.iter().copied().collect();
         let targets = Standardizer::fit(data.y.view());
-        let mut outputs = Vec::with_capacity(data.axes.len());
-        for (j, &axis) in data.axes.axes().iter().enumerate() {
-            let (m, s) = (targets.mean[j], targets.scale[j]);
-            let y: Vec<f64> = data.y.column(j).iter().map(|v| (v - m) / s).collect();
-            let (gp, fit) = fit_gp(&x, d, &y, params, &mut |p| progress(axis, p))?;
-            outputs.push(AxisGp {
-                axis,
-                target_mean: m,
-                target_scale: s,
-                fit,
-                gp,
-            });
-        }
+        let progress = Mutex::new(progress);
+        let outputs = data
+            .axes
+            .axes()
+            .par_iter()
+            .enumerate()
+            .map(|(j, &axis)| {
+                let (m, s) = (targets.mean[j], targets.scale[j]);
+                let y: Vec<f64> = data.y.column(j).iter().map(|v| (v - m) / s).collect();
+                let mut report = |p| {
+                    if let Ok(mut f) = progress.lock() {
+                        f(axis, p)
+                    }
+                };
+                let (gp, fit) = fit_gp(&x, d, &y, params, &mut report)?;
+                Ok(AxisGp {
+                    axis,
+                    target_mean: m,
+                    target_scale: s,
+                    fit,
+                    gp,
+                })
+            })
+            .collect::<Result<Vec<_>, GpError>>()?;
         Ok(WrenchGp {
             format: MODEL_FORMAT.into(),
             version: MODEL_VERSION,

@@ -9,6 +9,7 @@
 
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, MatRef, Par, Side};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::kernel::{scale_rows, se_cross, se_gram, SeHyper};
@@ -107,27 +108,35 @@ pub fn neg_lml_and_grad(
     let mut alpha = Mat::from_fn(n, 1, |i, _| y[i]);
     faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
     let alpha = alpha.col(0);
-
     let data_fit: f64 = y.iter().zip(alpha.iter()).map(|(a, b)| a * b).sum();
     let log_det: f64 = (0..n).map(|i| l[(i, i)].ln()).sum();
     let nll = 0.5 * data_fit + log_det + 0.5 * n as f64 * (2.0 * std::f64::consts::PI).ln();
 
-    // W = alpha alpha^T - K^-1, M = W o K_f (elementwise). Reuse K^-1's storage.
+    // W = alpha alpha^T - K^-1 and M = W o K_f (elementwise), column by
+    // column in K^-1's storage; per column: (W_jj, sum_i M_ij).
     let mut m = llt.inverse();
-    let mut trace_w = 0.0;
-    let mut sum_m = 0.0;
-    for j in 0..n {
-        for i in 0..n {
-            let w = alpha[i] * alpha[j] - m[(i, j)];
-            if i == j {
-                trace_w += w;
+    let alpha: Vec<f64> = alpha.iter().copied().collect();
+    let col_stats: Vec<(f64, f64)> = m
+        .par_col_iter_mut()
+        .enumerate()
+        .map(|(j, col)| {
+            let kf_col = kf.col(j);
+            let (mut w_jj, mut sum) = (0.0, 0.0);
+            for (i, (v, k)) in col.iter_mut().zip(kf_col.iter()).enumerate() {
+                let w = alpha[i] * alpha[j] - *v;
+                if i == j {
+                    w_jj = w;
+                }
+                *v = w * k;
+                sum += *v;
             }
-            let v = w * kf[(i, j)];
-            sum_m += v;
-            m[(i, j)] = v;
-        }
-    }
+            (w_jj, sum)
+        })
+        .collect();
     drop(kf);
+    let trace_w: f64 = col_stats.iter().map(|c| c.0).sum();
+    let sum_m: f64 = col_stats.iter().map(|c| c.1).sum();
+    // M is symmetric, so its row sums are its column sums.
     // 1/2 sum_ij M_ij (a_i - a_j)^2 = sum_i r_i a_i^2 - a^T M a per scaled input a.
     let xs_m = MatRef::from_row_major_slice(&xs, n, d);
     let mut mx = Mat::<f64>::zeros(n, d);
@@ -139,13 +148,12 @@ pub fn neg_lml_and_grad(
         1.0,
         Par::rayon(0),
     );
-    let row_sums: Vec<f64> = (0..n).map(|i| m.row(i).iter().sum()).collect();
     let mut dl = vec![0.0; d];
     for (c, g) in dl.iter_mut().enumerate() {
         *g = (0..n)
             .map(|i| {
                 let a = xs_m[(i, c)];
-                row_sums[i] * a * a - a * mx[(i, c)]
+                col_stats[i].1 * a * a - a * mx[(i, c)]
             })
             .sum::<f64>();
     }
@@ -176,8 +184,8 @@ pub struct ExactGp {
     xs: Vec<f64>,
     /// K^-1 y.
     alpha: Vec<f64>,
-    /// Rows of the Cholesky factor L, packed: row i holds L[i, 0..=i].
-    l_rows: Vec<f64>,
+    /// Columns of the Cholesky factor L, packed: column j holds L[j..n, j].
+    l_cols: Vec<f64>,
     /// Jitter that the factorisation needed.
     jitter: f64,
 }
@@ -264,9 +272,10 @@ impl ExactGp {
         let mut alpha = Mat::from_fn(n, 1, |i, _| y[i]);
         faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
         let l = llt.L();
-        let mut l_rows = Vec::with_capacity(n * (n + 1) / 2);
-        for i in 0..n {
-            l_rows.extend((0..=i).map(|j| l[(i, j)]));
+        let mut l_cols = Vec::with_capacity(n * (n + 1) / 2);
+        for j in 0..n {
+            let col = l.col(j);
+            l_cols.extend(col.iter().skip(j));
         }
         let gp = ExactGp {
             hyper,
@@ -275,7 +284,7 @@ impl ExactGp {
             y: y.to_vec(),
             xs,
             alpha: alpha.col(0).iter().copied().collect(),
-            l_rows,
+            l_cols,
             jitter,
         };
         if gp.alpha.iter().any(|a| !a.is_finite()) {
@@ -331,13 +340,18 @@ impl ExactGp {
         if !with_var {
             return (mean, 0.0);
         }
-        // Forward substitution L v = k in place: v_i = (k_i - L[i, ..i] v[..i]) / L_ii.
+        // Forward substitution L v = k in place, column by column:
+        // v_j = k_j / L_jj, then k[j+1..] -= v_j L[j+1.., j].
+        let n = ws.k.len();
         let mut start = 0;
-        for i in 0..ws.k.len() {
-            let row = &self.l_rows[start..start + i + 1];
-            let s = dot(&row[..i], &ws.k[..i]);
-            ws.k[i] = (ws.k[i] - s) / row[i];
-            start += i + 1;
+        for j in 0..n {
+            let col = &self.l_cols[start..start + n - j];
+            let vj = ws.k[j] / col[0];
+            ws.k[j] = vj;
+            for (k, l) in ws.k[j + 1..].iter_mut().zip(&col[1..]) {
+                *k -= vj * l;
+            }
+            start += n - j;
         }
         let var = (s2 - dot(&ws.k, &ws.k)).max(0.0);
         (mean, if var.is_finite() { var } else { s2 })
@@ -358,11 +372,11 @@ impl ExactGp {
         let l = with_var.then(|| {
             let mut l = Mat::<f64>::zeros(n, n);
             let mut start = 0;
-            for i in 0..n {
-                for j in 0..=i {
-                    l[(i, j)] = self.l_rows[start + j];
+            for j in 0..n {
+                for (i, v) in self.l_cols[start..start + n - j].iter().enumerate() {
+                    l[(j + i, j)] = *v;
                 }
-                start += i + 1;
+                start += n - j;
             }
             l
         });

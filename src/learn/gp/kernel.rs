@@ -16,9 +16,9 @@ use serde::{Deserialize, Serialize};
 #[serde(rename_all = "lowercase")]
 pub enum KernelKind {
     /// One length-scale for all inputs.
+    #[default]
     Isotropic,
     /// One length-scale per input (automatic relevance determination).
-    #[default]
     Ard,
 }
 
@@ -105,47 +105,60 @@ pub fn scale_rows(x: &[f64], lengthscales: &[f64]) -> Vec<f64> {
     out
 }
 
+/// Squared row norms of a row-major matrix with `d` columns.
+fn row_sq_norms(a: &[f64], d: usize) -> Vec<f64> {
+    a.chunks_exact(d)
+        .map(|r| r.iter().map(|v| v * v).sum())
+        .collect()
+}
+
+/// `a b^T` for row-major `a` (na x d) and `b` (nb x d), column-major na x nb.
+fn inner_products(a: &[f64], b: &[f64], d: usize) -> Mat<f64> {
+    let (na, nb) = (a.len() / d, b.len() / d);
+    let mut g = Mat::<f64>::zeros(na, nb);
+    faer::linalg::matmul::matmul(
+        g.as_mut(),
+        faer::Accum::Replace,
+        MatRef::from_row_major_slice(a, na, d),
+        MatRef::from_row_major_slice(b, nb, d).transpose(),
+        1.0,
+        Par::rayon(0),
+    );
+    g
+}
+
 /// Cross-covariance `K[i, j] = k(a_i, b_j)` between scaled rows `a` (na x d)
 /// and `b` (nb x d), column-major na x nb.
 ///
 /// Squared distances come from one matrix product,
 /// `|a - b|^2 = |a|^2 + |b|^2 - 2 a.b`, clamped at zero against round-off.
 pub fn se_cross(a: &[f64], b: &[f64], d: usize, signal_var: f64) -> Mat<f64> {
-    let (na, nb) = (a.len() / d, b.len() / d);
-    let am = MatRef::from_row_major_slice(a, na, d);
-    let bm = MatRef::from_row_major_slice(b, nb, d);
-    let mut k = Mat::<f64>::zeros(na, nb);
-    faer::linalg::matmul::matmul(
-        k.as_mut(),
-        faer::Accum::Replace,
-        am,
-        bm.transpose(),
-        1.0,
-        Par::rayon(0),
-    );
-    let norm = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-    let qa: Vec<f64> = a.chunks_exact(d).map(norm).collect();
-    let qb: Vec<f64> = b.chunks_exact(d).map(norm).collect();
+    let (qa, qb) = (row_sq_norms(a, d), row_sq_norms(b, d));
+    let mut k = inner_products(a, b, d);
     k.par_col_iter_mut().enumerate().for_each(|(j, col)| {
-        for (i, v) in col.iter_mut().enumerate() {
-            let d2 = (qa[i] + qb[j] - 2.0 * *v).max(0.0);
-            *v = signal_var * (-0.5 * d2).exp();
+        for (v, q) in col.iter_mut().zip(&qa) {
+            *v = signal_var * (-0.5 * (q + qb[j] - 2.0 * *v).max(0.0)).exp();
         }
     });
     k
 }
 
-/// Gram matrix `K_f[i, j] = k(x_i, x_j)` of scaled rows, exactly symmetric
-/// with `s2` on the diagonal.
+/// Gram matrix `K_f[i, j] = k(x_i, x_j)` of scaled rows: exactly symmetric,
+/// with `s2` on the diagonal. The kernel is evaluated on the lower triangle
+/// only and mirrored, which halves the exponentials.
 pub fn se_gram(xs: &[f64], d: usize, signal_var: f64) -> Mat<f64> {
-    let mut k = se_cross(xs, xs, d, signal_var);
+    let q = row_sq_norms(xs, d);
+    let mut k = inner_products(xs, xs, d);
     let n = k.nrows();
+    k.par_col_iter_mut().enumerate().for_each(|(j, col)| {
+        for (i, v) in col.iter_mut().enumerate().skip(j) {
+            *v = signal_var * (-0.5 * (q[i] + q[j] - 2.0 * *v).max(0.0)).exp();
+        }
+    });
     for j in 0..n {
         k[(j, j)] = signal_var;
         for i in 0..j {
-            let v = 0.5 * (k[(i, j)] + k[(j, i)]);
-            k[(i, j)] = v;
-            k[(j, i)] = v;
+            k[(i, j)] = k[(j, i)];
         }
     }
     k

@@ -1,0 +1,867 @@
+//! BioTac forward model: a contact on the skin -> one [`BioTacReading`].
+//!
+//! Frames and signs: the BioTac core frame (+x towards the tip, -z is the pad),
+//! positions in mm, forces in N. [`Contact::force`] is the force the object
+//! applies to the finger, so pressing into the pad pushes the finger towards +z.
+//!
+//! The model, per electrode `i` with skin point `s_i` (the electrode projected
+//! onto the capsule) and a contact at skin point `c` with outward normal `n`:
+//!
+//! ```text
+//! Fn  = max(0, -F.n)                      normal (compressive) force, N
+//! Ft  = F - (F.n) n                       tangential force, N
+//! u_i = Fn exp(-|s_i-c|^2 / 2 wp^2)                        pressure footprint
+//!     + k_s Ft.(s_i-c)/ws exp(-|s_i-c|^2 / 2 ws^2)         skin shift
+//! dZ_i = g_i Zc tanh(u_i / uc)                  u_i >= 0: compression, bottoms out
+//!      = -r Z0_i tanh(g_i Zc |u_i| / (uc r Z0_i)) u_i < 0: skin lifts off
+//! E0_i = a_i (1 - exp(c_i (TDC + b_i))) + d_i   thermal baseline
+//! Z0_i = 10 kOhm (4095 / E0_i - 1)              baseline impedance
+//! E_i  = 4095 / (1 + (Z0_i + dZ_i) / 10 kOhm) + noise
+//! ```
+//!
+//! Facts (docs/ARCHITECTURE.md, "Reference facts / BioTac"): the value law
+//! `E = 4095 / (1 + Z / 10 kOhm)` (compression raises Z, so values drop), the
+//! thermal baseline formula and its coefficient ranges, PDC rising with force
+//! and saturating, tangential force sliding the skin so side electrodes
+//! respond. The footprint and shift kernels are modelling choices: the shift
+//! term is the first-order change of a footprint that slides along `Ft`, so
+//! electrodes ahead of the shift see more compression and those behind less.
+//! All parameters are in `config/biotac_sim.yaml`.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+use super::geometry::{SurfacePoint, ELECTRODES};
+use super::{BioTacReading, ADC_MAX, N_ELECTRODES, N_PAC};
+use crate::wrench::Wrench;
+
+/// The simulator configuration shipped with the crate (sensor and protocol).
+pub const DEFAULT_CONFIG_YAML: &str = include_str!("../../config/biotac_sim.yaml");
+
+/// Series resistance of the electrode readout (kOhm): `E = 4095 / (1 + Z / 10 kOhm)`.
+/// Architecture page, "Reference facts / BioTac".
+const READOUT_KOHM: f64 = 10.0;
+
+/// Why a simulator configuration is not usable.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read simulator configuration {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The YAML does not parse, or a key is missing, unknown or of the wrong type.
+    #[error("simulator configuration: {0}")]
+    Yaml(#[from] serde_yaml_ng::Error),
+    /// A number is out of its range or not finite.
+    #[error("simulator configuration: {key} = {value}: expected {expected}")]
+    Value {
+        /// Dotted key, e.g. `sensor.electrodes.noise_counts`.
+        key: String,
+        /// The value found.
+        value: f64,
+        /// What the value must be.
+        expected: String,
+    },
+    /// A `[low, high]` range with low > high.
+    #[error("simulator configuration: {key} = [{low}, {high}]: expected low <= high")]
+    Range {
+        /// Dotted key.
+        key: String,
+        /// The low end found.
+        low: f64,
+        /// The high end found.
+        high: f64,
+    },
+    /// A list that must not be empty is empty.
+    #[error("simulator configuration: {key} is empty")]
+    Empty {
+        /// Dotted key.
+        key: String,
+    },
+}
+
+/// Checks `low <= value <= high` and finiteness; names `key` on failure.
+pub(crate) fn check_value(key: &str, value: f64, low: f64, high: f64) -> Result<(), ConfigError> {
+    if value.is_finite() && value >= low && value <= high {
+        Ok(())
+    } else {
+        Err(ConfigError::Value {
+            key: key.to_string(),
+            value,
+            expected: format!("a finite number in [{low}, {high}]"),
+        })
+    }
+}
+
+/// Checks a `[low, high]` range: both ends within `[min, max]`, low <= high.
+pub(crate) fn check_range(key: &str, r: [f64; 2], min: f64, max: f64) -> Result<(), ConfigError> {
+    check_value(&format!("{key}[0]"), r[0], min, max)?;
+    check_value(&format!("{key}[1]"), r[1], min, max)?;
+    if r[0] > r[1] {
+        return Err(ConfigError::Range {
+            key: key.to_string(),
+            low: r[0],
+            high: r[1],
+        });
+    }
+    Ok(())
+}
+
+/// A uniform draw from the range `[low, high]` (a point range gives its value).
+pub(crate) fn uniform(rng: &mut impl Rng, r: [f64; 2]) -> f64 {
+    r[0] + (r[1] - r[0]) * rng.random::<f64>()
+}
+
+/// A zero-mean normal draw with standard deviation `std`.
+pub(crate) fn gaussian(rng: &mut impl Rng, std: f64) -> f64 {
+    std * rng.sample::<f64, _>(StandardNormal)
+}
+
+/// Thermal baseline coefficient ranges, drawn per electrode (architecture page).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalRanges {
+    /// `a`: amplitude of the thermal rise (counts), range.
+    pub a_counts: [f64; 2],
+    /// `b`: temperature offset (TDC counts), range.
+    pub b_counts: [f64; 2],
+    /// `c`: thermal rate (1 / TDC count, negative), range.
+    pub c_per_count: [f64; 2],
+    /// `d`: baseline at TDC = -b (counts), range.
+    pub d_counts: [f64; 2],
+}
+
+/// Electrode model parameters (`sensor.electrodes`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ElectrodeParams {
+    /// Std of the electrode ADC noise (counts).
+    pub noise_counts: f64,
+    /// Thermal baseline coefficient ranges.
+    pub thermal: ThermalRanges,
+    /// Relative spread of the per-electrode impedance gain (gain in 1 +- spread).
+    pub gain_spread: f64,
+    /// Std of the Gaussian pressure footprint on the skin (mm).
+    pub pressure_width_mm: f64,
+    /// Std of the region the skin slides over under tangential force (mm).
+    pub shear_width_mm: f64,
+    /// Compression (N-equivalent) per N of tangential force one shear width ahead.
+    pub shear_gain: f64,
+    /// Largest impedance rise when the skin bottoms out on the core (kOhm).
+    pub compression_max_kohm: f64,
+    /// Compression at which the rise reaches tanh(1) of its maximum (N).
+    pub compression_sat_n: f64,
+    /// Largest fraction of the baseline impedance lost when the skin lifts off.
+    pub release_max_fraction: f64,
+}
+
+/// Static pressure parameters (`sensor.pdc`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PdcParams {
+    /// Out-of-contact PDC, drawn per unit (counts), range.
+    pub baseline_counts: [f64; 2],
+    /// Largest rise with normal force (counts).
+    pub rise_max_counts: f64,
+    /// Normal force at which the rise reaches 63 % (N).
+    pub sat_n: f64,
+    /// Std of the noise (counts).
+    pub noise_counts: f64,
+}
+
+/// Dynamic pressure parameters (`sensor.pac`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PacParams {
+    /// Out-of-contact PAC, drawn per unit (counts), range.
+    pub baseline_counts: [f64; 2],
+    /// Response to the rate of change of normal force (counts per N/s).
+    pub rate_gain_counts_per_n_per_s: f64,
+    /// Std of the noise (counts).
+    pub noise_counts: f64,
+}
+
+/// Heat-flow parameters (`sensor.tac`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TacParams {
+    /// Baseline, drawn per unit (counts), range.
+    pub baseline_counts: [f64; 2],
+    /// Std of the noise (counts).
+    pub noise_counts: f64,
+}
+
+/// Temperature parameters (`sensor.tdc`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TdcParams {
+    /// TDC at power-up, drawn per unit (counts), range.
+    pub initial_counts: [f64; 2],
+    /// Std of the noise (counts).
+    pub noise_counts: f64,
+}
+
+/// The forward-model parameters as written in the `sensor:` section.
+/// Validate them with [`SensorParams::validate`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorParams {
+    /// Electrode model.
+    pub electrodes: ElectrodeParams,
+    /// Static pressure.
+    pub pdc: PdcParams,
+    /// Dynamic pressure.
+    pub pac: PacParams,
+    /// Heat flow.
+    pub tac: TacParams,
+    /// Temperature.
+    pub tdc: TdcParams,
+}
+
+/// The shape of the simulator file as the sensor model reads it: the
+/// `protocol:` section belongs to [`crate::sim::collect::CollectConfig`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SensorFile {
+    sensor: SensorParams,
+    #[serde(default, rename = "protocol")]
+    _protocol: serde::de::IgnoredAny,
+}
+
+const ADC: f64 = ADC_MAX as f64;
+
+impl SensorParams {
+    /// Checks every value (finite, in range) and returns the checked config.
+    pub fn validate(self) -> Result<BioTacSimConfig, ConfigError> {
+        let (e, t) = (&self.electrodes, &self.electrodes.thermal);
+        let (pdc, pac, tac, tdc) = (&self.pdc, &self.pac, &self.tac, &self.tdc);
+        // Key, value, allowed [min, max].
+        #[rustfmt::skip]
+        let values = [
+            ("sensor.electrodes.noise_counts", e.noise_counts, 0.0, 100.0),
+            ("sensor.electrodes.gain_spread", e.gain_spread, 0.0, 0.9),
+            ("sensor.electrodes.pressure_width_mm", e.pressure_width_mm, 0.1, 50.0),
+            ("sensor.electrodes.shear_width_mm", e.shear_width_mm, 0.1, 50.0),
+            ("sensor.electrodes.shear_gain", e.shear_gain, 0.0, 100.0),
+            ("sensor.electrodes.compression_max_kohm", e.compression_max_kohm, 0.0, 1e4),
+            ("sensor.electrodes.compression_sat_n", e.compression_sat_n, 1e-3, 1e3),
+            ("sensor.electrodes.release_max_fraction", e.release_max_fraction, 1e-3, 0.99),
+            ("sensor.pdc.rise_max_counts", pdc.rise_max_counts, 0.0, ADC),
+            ("sensor.pdc.sat_n", pdc.sat_n, 1e-3, 1e3),
+            ("sensor.pdc.noise_counts", pdc.noise_counts, 0.0, 100.0),
+            ("sensor.pac.rate_gain_counts_per_n_per_s", pac.rate_gain_counts_per_n_per_s, -1e3, 1e3),
+            ("sensor.pac.noise_counts", pac.noise_counts, 0.0, 100.0),
+            ("sensor.tac.noise_counts", tac.noise_counts, 0.0, 100.0),
+            ("sensor.tdc.noise_counts", tdc.noise_counts, 0.0, 100.0),
+        ];
+        for (key, value, min, max) in values {
+            check_value(key, value, min, max)?;
+        }
+        // Key, [low, high], allowed [min, max] for both ends.
+        #[rustfmt::skip]
+        let ranges = [
+            ("sensor.electrodes.thermal.a_counts", t.a_counts, 0.0, ADC),
+            ("sensor.electrodes.thermal.b_counts", t.b_counts, -1e5, 1e5),
+            ("sensor.electrodes.thermal.c_per_count", t.c_per_count, -1.0, 0.0),
+            ("sensor.electrodes.thermal.d_counts", t.d_counts, 1.0, ADC - 1.0),
+            ("sensor.pdc.baseline_counts", pdc.baseline_counts, 0.0, ADC),
+            ("sensor.pac.baseline_counts", pac.baseline_counts, 0.0, ADC),
+            ("sensor.tac.baseline_counts", tac.baseline_counts, 0.0, ADC),
+            ("sensor.tdc.initial_counts", tdc.initial_counts, 0.0, ADC),
+        ];
+        for (key, range, min, max) in ranges {
+            check_range(key, range, min, max)?;
+        }
+        Ok(BioTacSimConfig { params: self })
+    }
+}
+
+/// Checked forward-model parameters; build with [`BioTacSimConfig::from_yaml_str`],
+/// [`BioTacSimConfig::from_file`] or `Default` (the shipped `config/biotac_sim.yaml`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BioTacSimConfig {
+    params: SensorParams,
+}
+
+impl BioTacSimConfig {
+    /// Parses the `sensor:` section of a simulator YAML file and validates it.
+    pub fn from_yaml_str(yaml: &str) -> Result<Self, ConfigError> {
+        let file: SensorFile = serde_yaml_ng::from_str(yaml)?;
+        file.sensor.validate()
+    }
+
+    /// Reads and validates a simulator YAML file.
+    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
+        let yaml = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_yaml_str(&yaml)
+    }
+
+    /// The validated parameters.
+    pub fn params(&self) -> &SensorParams {
+        &self.params
+    }
+}
+
+impl Default for BioTacSimConfig {
+    /// The shipped `config/biotac_sim.yaml`.
+    fn default() -> Self {
+        // The embedded file is checked by the unit tests, so this cannot fail
+        // at run time unless the shipped file is broken.
+        Self::from_yaml_str(DEFAULT_CONFIG_YAML)
+            .expect("config/biotac_sim.yaml shipped with the crate is valid")
+    }
+}
+
+/// A contact between an object and the skin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// Contact point along the axis (mm, core frame); clamped to the tip.
+    pub x_mm: f64,
+    /// Contact point angle about +x (rad): 0 = pad midline (-z), + towards +y.
+    pub angle_rad: f64,
+    /// Force the object applies to the finger (N, core frame); pressing into
+    /// the pad is +z.
+    pub force: Vector3<f64>,
+}
+
+impl Contact {
+    /// The contact point on the skin capsule and its outward normal.
+    pub fn surface(&self) -> SurfacePoint {
+        SurfacePoint::at(self.x_mm, self.angle_rad)
+    }
+
+    /// Compressive normal force `max(0, -F.n)` (N).
+    pub fn normal_force(&self) -> f64 {
+        (-self.force.dot(&self.surface().normal)).max(0.0)
+    }
+
+    /// The wrench on the finger about the core-frame origin: force (N) and
+    /// torque `r x F` (Nm) with `r` the contact point in metres. This is what
+    /// an ideal F/T reference reports, expressed in the BioTac frame.
+    pub fn wrench(&self) -> Wrench {
+        let r_m = self.surface().point_mm * 1e-3;
+        Wrench::new(self.force, r_m.cross(&self.force))
+    }
+}
+
+/// Thermal baseline coefficients of one electrode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThermalCoeffs {
+    /// Amplitude (counts).
+    pub a: f64,
+    /// Temperature offset (TDC counts).
+    pub b: f64,
+    /// Rate (1 / TDC count).
+    pub c: f64,
+    /// Offset (counts).
+    pub d: f64,
+}
+
+impl ThermalCoeffs {
+    /// Out-of-contact electrode value at temperature `tdc` (counts):
+    /// `E0 = a (1 - exp(c (TDC + b))) + d` (architecture page).
+    pub fn baseline(&self, tdc: f64) -> f64 {
+        self.a * (1.0 - (self.c * (tdc + self.b)).exp()) + self.d
+    }
+}
+
+/// Per-electrode constants fixed for a simulated unit.
+#[derive(Debug, Clone, Copy)]
+struct ElectrodeUnit {
+    thermal: ThermalCoeffs,
+    gain: f64,
+    skin_point_mm: Vector3<f64>,
+}
+
+/// A simulated BioTac unit: per-unit baselines drawn from the config with
+/// `unit_seed`, its own noise stream, a temperature and a frame clock.
+#[derive(Debug, Clone)]
+pub struct BioTacSim {
+    params: SensorParams,
+    electrodes: [ElectrodeUnit; N_ELECTRODES],
+    pdc_baseline: f64,
+    pac_baseline: f64,
+    tac_baseline: f64,
+    tdc: f64,
+    last_normal_n: f64,
+    last_rate_n_per_s: f64,
+    seq: u16,
+    stamp_s: f64,
+    rng: ChaCha8Rng,
+}
+
+impl BioTacSim {
+    /// A unit with baselines drawn from `config` using `unit_seed`; the same
+    /// seed gives the same unit and the same noise sequence.
+    pub fn new(config: &BioTacSimConfig, unit_seed: u64) -> Self {
+        let p = config.params.clone();
+        let mut rng = ChaCha8Rng::seed_from_u64(unit_seed);
+        let t = &p.electrodes.thermal;
+        let spread = p.electrodes.gain_spread;
+        let electrodes = ELECTRODES.map(|e| {
+            let thermal = ThermalCoeffs {
+                a: uniform(&mut rng, t.a_counts),
+                b: uniform(&mut rng, t.b_counts),
+                c: uniform(&mut rng, t.c_per_count),
+                d: uniform(&mut rng, t.d_counts),
+            };
+            let skin_point_mm = SurfacePoint::project(&e.position()).point_mm;
+            ElectrodeUnit {
+                thermal,
+                gain: uniform(&mut rng, [1.0 - spread, 1.0 + spread]),
+                skin_point_mm,
+            }
+        });
+        BioTacSim {
+            pdc_baseline: uniform(&mut rng, p.pdc.baseline_counts),
+            pac_baseline: uniform(&mut rng, p.pac.baseline_counts),
+            tac_baseline: uniform(&mut rng, p.tac.baseline_counts),
+            tdc: uniform(&mut rng, p.tdc.initial_counts),
+            electrodes,
+            params: p,
+            last_normal_n: 0.0,
+            last_rate_n_per_s: 0.0,
+            seq: 0,
+            stamp_s: 0.0,
+            rng,
+        }
+    }
+
+    /// Current temperature (TDC counts, noise-free).
+    pub fn temperature(&self) -> f64 {
+        self.tdc
+    }
+
+    /// Sets the temperature (TDC counts); electrode baselines follow the
+    /// thermal formula.
+    pub fn set_temperature(&mut self, tdc_counts: f64) {
+        self.tdc = tdc_counts;
+    }
+
+    /// Thermal coefficients of E1..E19 of this unit.
+    pub fn thermal(&self) -> [ThermalCoeffs; N_ELECTRODES] {
+        self.electrodes.map(|e| e.thermal)
+    }
+
+    /// Noise-free out-of-contact electrode values at the current temperature
+    /// (counts), kept inside the ADC range.
+    pub fn electrode_baselines(&self) -> [f64; N_ELECTRODES] {
+        self.electrodes.map(|e| self.baseline(&e))
+    }
+
+    fn baseline(&self, e: &ElectrodeUnit) -> f64 {
+        // Keep the baseline strictly inside the ADC range so Z0 is finite and positive.
+        e.thermal.baseline(self.tdc).clamp(1.0, ADC - 1.0)
+    }
+
+    /// Noise-free electrode values (counts) for `contact` at the current
+    /// temperature, before rounding and clamping.
+    pub fn electrode_values(&self, contact: Option<&Contact>) -> [f64; N_ELECTRODES] {
+        let ep = &self.params.electrodes;
+        let load = contact.map(|c| {
+            let s = c.surface();
+            let f_dot_n = c.force.dot(&s.normal);
+            (
+                s.point_mm,
+                (-f_dot_n).max(0.0),
+                c.force - s.normal * f_dot_n,
+            )
+        });
+        let slope = ep.compression_max_kohm / ep.compression_sat_n;
+        self.electrodes.map(|e| {
+            let e0 = self.baseline(&e);
+            let z0 = READOUT_KOHM * (ADC / e0 - 1.0);
+            let Some((c, normal_n, tangential_n)) = load else {
+                return e0;
+            };
+            let d = e.skin_point_mm - c;
+            let d2 = d.norm_squared();
+            let wp = ep.pressure_width_mm;
+            let ws = ep.shear_width_mm;
+            let u = normal_n * (-d2 / (2.0 * wp * wp)).exp()
+                + ep.shear_gain * tangential_n.dot(&d) / ws * (-d2 / (2.0 * ws * ws)).exp();
+            let dz = if u >= 0.0 {
+                e.gain * ep.compression_max_kohm * (u / ep.compression_sat_n).tanh()
+            } else {
+                // Same slope at u = 0, but the impedance can only fall by a
+                // fraction of its baseline (the skin lifts off, fluid fills in).
+                let floor = ep.release_max_fraction * z0;
+                -floor * (e.gain * slope * -u / floor).tanh()
+            };
+            ADC / (1.0 + (z0 + dz) / READOUT_KOHM)
+        })
+    }
+
+    /// Samples one frame for `contact` (None = out of contact), advancing the
+    /// frame clock by `dt_s` seconds (the frame period, 0.01 s at 100 Hz).
+    pub fn step(&mut self, contact: Option<&Contact>, dt_s: f64) -> BioTacReading {
+        let values = self.electrode_values(contact);
+        let p = &self.params;
+        let mut electrodes = [0u16; N_ELECTRODES];
+        for (out, v) in electrodes.iter_mut().zip(values) {
+            *out = to_counts(v + gaussian(&mut self.rng, p.electrodes.noise_counts));
+        }
+
+        let normal_n = contact.map_or(0.0, Contact::normal_force);
+        let pdc_rise = p.pdc.rise_max_counts * (1.0 - (-normal_n / p.pdc.sat_n).exp());
+        let pdc =
+            to_counts(self.pdc_baseline + pdc_rise + gaussian(&mut self.rng, p.pdc.noise_counts));
+
+        // PAC sees the rate of change of the fluid pressure: ramp the rate
+        // linearly over the 22 samples from the previous frame's to this one's.
+        let rate = if dt_s > 0.0 {
+            (normal_n - self.last_normal_n) / dt_s
+        } else {
+            0.0
+        };
+        let mut pac = [0u16; N_PAC];
+        for (k, out) in pac.iter_mut().enumerate() {
+            let frac = (k + 1) as f64 / N_PAC as f64;
+            let r = self.last_rate_n_per_s + (rate - self.last_rate_n_per_s) * frac;
+            let v = self.pac_baseline
+                + p.pac.rate_gain_counts_per_n_per_s * r
+                + gaussian(&mut self.rng, p.pac.noise_counts);
+            *out = to_counts(v);
+        }
+        self.last_normal_n = normal_n;
+        self.last_rate_n_per_s = rate;
+
+        let tdc = to_counts(self.tdc + gaussian(&mut self.rng, p.tdc.noise_counts));
+        let tac = to_counts(self.tac_baseline + gaussian(&mut self.rng, p.tac.noise_counts));
+
+        let reading = BioTacReading {
+            seq: self.seq,
+            stamp_s: self.stamp_s,
+            electrodes,
+            pdc,
+            pac,
+            tdc,
+            tac,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        self.stamp_s += dt_s;
+        reading
+    }
+}
+
+/// Rounds to an ADC count and clamps to 0..=4095 (NaN -> 0).
+fn to_counts(v: f64) -> u16 {
+    v.round().clamp(0.0, ADC) as u16
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::biotac::FRAME_PERIOD_S;
+
+    fn pad_contact(force: Vector3<f64>) -> Contact {
+        Contact {
+            x_mm: -4.0,
+            angle_rad: 0.0,
+            force,
+        }
+    }
+
+    fn noise_free() -> BioTacSimConfig {
+        let mut p = BioTacSimConfig::default().params;
+        p.electrodes.noise_counts = 0.0;
+        p.pdc.noise_counts = 0.0;
+        p.pac.noise_counts = 0.0;
+        p.tac.noise_counts = 0.0;
+        p.tdc.noise_counts = 0.0;
+        p.validate().expect("valid")
+    }
+
+    /// Index of the electrode at the y-mirrored position (E1 <-> E11, E8 <-> E9, ...).
+    fn mirror(i: usize) -> usize {
+        let [x, y, z] = ELECTRODES[i].position_mm;
+        ELECTRODES
+            .iter()
+            .position(|e| e.position_mm == [x, -y, z])
+            .expect("every electrode has a mirror image")
+    }
+
+    #[test]
+    fn shipped_config_is_valid_and_default_loads_it() {
+        let c = BioTacSimConfig::from_yaml_str(DEFAULT_CONFIG_YAML).expect("valid");
+        assert_eq!(c, BioTacSimConfig::default());
+        assert_eq!(c.params().electrodes.noise_counts, 2.0);
+    }
+
+    #[test]
+    fn contact_wrench_is_r_cross_f_in_metres() {
+        let c = pad_contact(Vector3::new(1.0, 2.0, 10.0));
+        let w = c.wrench();
+        assert_eq!(w.force, c.force);
+        // r = (-4, 0, -7) mm.
+        let expected = Vector3::new(
+            0.0 * 10.0 - (-0.007) * 2.0,
+            -0.007 - (-0.004) * 10.0,
+            -0.004 * 2.0,
+        );
+        assert!((w.torque - expected).norm() < 1e-15, "{:?}", w.torque);
+        assert!((c.normal_force() - 10.0).abs() < 1e-12);
+        // A force pulling the skin away is not compressive.
+        assert_eq!(
+            pad_contact(Vector3::new(0.0, 0.0, -3.0)).normal_force(),
+            0.0
+        );
+    }
+
+    #[test]
+    fn electrodes_drop_monotonically_under_normal_force_and_stay_in_range() {
+        let sim = BioTacSim::new(&noise_free(), 7);
+        let base = sim.electrode_baselines();
+        let mut last = base;
+        let e17 = 16;
+        for k in 1..=60 {
+            let f = 0.5 * k as f64;
+            let v = sim.electrode_values(Some(&pad_contact(Vector3::new(0.0, 0.0, f))));
+            for i in 0..N_ELECTRODES {
+                assert!(v[i] < last[i], "E{} did not drop at {f} N", i + 1);
+                assert!(v[i] > 0.0 && v[i] < ADC);
+            }
+            last = v;
+        }
+        // Under the contact (E17 at x = -2.8 mm): a large drop, not saturated at 11 N.
+        let at = |f: f64| sim.electrode_values(Some(&pad_contact(Vector3::new(0.0, 0.0, f))))[e17];
+        let per_n_low = at(0.0) - at(1.0);
+        let per_n_11 = at(10.5) - at(11.5);
+        let per_n_30 = at(29.5) - at(30.5);
+        assert!(per_n_low > 150.0, "{per_n_low} counts/N at 0.5 N");
+        assert!(per_n_11 > 20.0, "{per_n_11} counts/N at 11 N: saturated");
+        assert!(
+            per_n_30 < per_n_11 / 2.0,
+            "no saturation: {per_n_30} counts/N at 30 N"
+        );
+        // Far electrode (E6 at x = -13.4 mm on the flank) changes little.
+        let drop6 = base[5] - last[5];
+        let drop17 = base[e17] - last[e17];
+        assert!(drop6 < 0.2 * drop17, "E6 {drop6} vs E17 {drop17}");
+    }
+
+    #[test]
+    fn readings_are_rounded_counts_within_the_adc_range_even_at_huge_forces() {
+        let mut sim = BioTacSim::new(&BioTacSimConfig::default(), 3);
+        for f in [0.0, 5.0, 50.0, 1e4] {
+            let c = pad_contact(Vector3::new(f, -f, f));
+            let r = sim.step(Some(&c), FRAME_PERIOD_S);
+            assert!(r
+                .electrodes
+                .iter()
+                .chain(r.pac.iter())
+                .all(|&v| v <= ADC_MAX));
+            assert!(r.pdc <= ADC_MAX && r.tdc <= ADC_MAX && r.tac <= ADC_MAX);
+        }
+    }
+
+    #[test]
+    fn x_and_y_tangential_forces_give_distinct_patterns() {
+        let sim = BioTacSim::new(&noise_free(), 11);
+        let base = sim.electrode_baselines();
+        let delta = |f: Vector3<f64>| {
+            let v = sim.electrode_values(Some(&pad_contact(f)));
+            std::array::from_fn::<f64, N_ELECTRODES, _>(|i| v[i] - base[i])
+        };
+        let z = Vector3::new(0.0, 0.0, 5.0);
+        let px = delta(z + Vector3::new(3.0, 0.0, 0.0));
+        let nx = delta(z - Vector3::new(3.0, 0.0, 0.0));
+        let py = delta(z + Vector3::new(0.0, 3.0, 0.0));
+        let ny = delta(z - Vector3::new(0.0, 3.0, 0.0));
+        let dist = |a: &[f64; N_ELECTRODES], b: &[f64; N_ELECTRODES]| {
+            a.iter()
+                .zip(b)
+                .map(|(p, q)| (p - q).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        for (name, a, b) in [
+            ("+x/-x", &px, &nx),
+            ("+y/-y", &py, &ny),
+            ("+x/+y", &px, &py),
+        ] {
+            assert!(
+                dist(a, b) > 300.0,
+                "{name}: patterns differ by only {}",
+                dist(a, b)
+            );
+        }
+        // +x pushes the skin towards the tip: E17 (ahead of x = -4) compresses
+        // more than under -x, E18 (behind) less.
+        assert!(px[16] < nx[16] && px[17] > nx[17]);
+        // +y compresses the +y flank (E12, index 11) and releases the -y flank (E2).
+        assert!(py[11] < py[1] - 100.0);
+    }
+
+    #[test]
+    fn y_mirror_symmetry_is_exact_for_a_symmetric_unit() {
+        let mut p = noise_free().params;
+        let t = &mut p.electrodes.thermal;
+        t.a_counts = [500.0; 2];
+        t.b_counts = [-900.0; 2];
+        t.c_per_count = [-0.002; 2];
+        t.d_counts = [2800.0; 2];
+        p.electrodes.gain_spread = 0.0;
+        let sim = BioTacSim::new(&p.validate().expect("valid"), 1);
+        let f = Vector3::new(1.0, 2.5, 6.0);
+        let a = sim.electrode_values(Some(&pad_contact(f)));
+        let b = sim.electrode_values(Some(&pad_contact(Vector3::new(f.x, -f.y, f.z))));
+        for i in 0..N_ELECTRODES {
+            assert!((a[i] - b[mirror(i)]).abs() < 1e-9, "E{}", i + 1);
+        }
+        assert!((a[1] - a[11]).abs() > 100.0, "Fy must break the y symmetry");
+    }
+
+    #[test]
+    fn pdc_rises_with_normal_force_and_saturates() {
+        let mut sim = BioTacSim::new(&noise_free(), 5);
+        let mut pdc = |f: f64| {
+            let r = sim.step(
+                Some(&pad_contact(Vector3::new(0.0, 0.0, f))),
+                FRAME_PERIOD_S,
+            );
+            f64::from(r.pdc)
+        };
+        let levels: Vec<f64> = [0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0].map(&mut pdc).to_vec();
+        assert!(levels.windows(2).all(|w| w[1] > w[0]), "{levels:?}");
+        let first = levels[1] - levels[0];
+        let late = levels[6] - levels[5];
+        assert!(first > 200.0 && late < 0.1 * first, "{levels:?}");
+        let rise_max = BioTacSimConfig::default().params.pdc.rise_max_counts;
+        assert!(levels[6] - levels[0] <= rise_max + 1.0);
+    }
+
+    #[test]
+    fn pac_responds_to_the_rate_of_change_of_force() {
+        let mut sim = BioTacSim::new(&noise_free(), 5);
+        let rest = sim.step(None, FRAME_PERIOD_S).pac_mean();
+        let _ = sim.step(
+            Some(&pad_contact(Vector3::new(0.0, 0.0, 0.05))),
+            FRAME_PERIOD_S,
+        );
+        let rising = sim.step(
+            Some(&pad_contact(Vector3::new(0.0, 0.0, 0.10))),
+            FRAME_PERIOD_S,
+        );
+        // 5 N/s at 15 counts per N/s.
+        assert!(
+            (rising.pac_mean() - rest - 75.0).abs() < 1.0,
+            "{}",
+            rising.pac_mean() - rest
+        );
+        for _ in 0..2 {
+            let _ = sim.step(
+                Some(&pad_contact(Vector3::new(0.0, 0.0, 0.10))),
+                FRAME_PERIOD_S,
+            );
+        }
+        let held = sim.step(
+            Some(&pad_contact(Vector3::new(0.0, 0.0, 0.10))),
+            FRAME_PERIOD_S,
+        );
+        assert!((held.pac_mean() - rest).abs() < 1.0);
+    }
+
+    #[test]
+    fn thermal_drift_moves_baselines_by_the_formula() {
+        let mut sim = BioTacSim::new(&noise_free(), 9);
+        let coeffs = sim.thermal();
+        for tdc in [1500.0, 1800.0, 2300.0] {
+            sim.set_temperature(tdc);
+            let r = sim.step(None, FRAME_PERIOD_S);
+            for (i, k) in coeffs.iter().enumerate() {
+                let e0 = k.a * (1.0 - (k.c * (tdc + k.b)).exp()) + k.d;
+                assert!(
+                    (f64::from(r.electrodes[i]) - e0).abs() <= 0.5,
+                    "E{} at {tdc}",
+                    i + 1
+                );
+            }
+            assert_eq!(r.tdc, tdc as u16);
+        }
+        // Coefficients come from the configured ranges.
+        let t = &BioTacSimConfig::default().params.electrodes.thermal;
+        let inside = |v: f64, r: [f64; 2]| v >= r[0] && v <= r[1];
+        assert!(coeffs.iter().all(|k| inside(k.a, t.a_counts)
+            && inside(k.b, t.b_counts)
+            && inside(k.c, t.c_per_count)
+            && inside(k.d, t.d_counts)));
+    }
+
+    #[test]
+    fn same_unit_seed_same_readings_other_seed_other_unit() {
+        let c = BioTacSimConfig::default();
+        let contact = pad_contact(Vector3::new(1.0, 0.0, 3.0));
+        let run = |seed| {
+            let mut sim = BioTacSim::new(&c, seed);
+            (0..20)
+                .map(|_| sim.step(Some(&contact), FRAME_PERIOD_S))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(run(1), run(1));
+        assert_ne!(run(1)[0].electrodes, run(2)[0].electrodes);
+        let r = run(1);
+        assert_eq!(r[19].seq, 19);
+        assert!((r[19].stamp_s - 0.19).abs() < 1e-12);
+    }
+
+    fn error_of(yaml: &str) -> String {
+        BioTacSimConfig::from_yaml_str(yaml)
+            .expect_err("must be rejected")
+            .to_string()
+    }
+
+    #[test]
+    fn config_errors_name_the_key() {
+        let missing = DEFAULT_CONFIG_YAML.replace("    shear_gain: 1.0\n", "");
+        let e = error_of(&missing);
+        assert!(
+            e.contains("sensor.electrodes: missing field `shear_gain`"),
+            "{e}"
+        );
+        let unknown = DEFAULT_CONFIG_YAML.replace(
+            "    shear_gain: 1.0\n",
+            "    shear_gain: 1.0\n    shear_gian: 1.0\n",
+        );
+        let e = error_of(&unknown);
+        assert!(
+            e.contains("sensor.electrodes: unknown field `shear_gian`"),
+            "{e}"
+        );
+        let negative = DEFAULT_CONFIG_YAML.replace(
+            "    noise_counts: 3.0\n  pac:",
+            "    noise_counts: -3.0\n  pac:",
+        );
+        let e = error_of(&negative);
+        assert!(e.contains("sensor.pdc.noise_counts = -3"), "{e}");
+        let nan = DEFAULT_CONFIG_YAML.replace("pressure_width_mm: 4.0", "pressure_width_mm: .nan");
+        let e = error_of(&nan);
+        assert!(
+            e.contains("sensor.electrodes.pressure_width_mm = NaN"),
+            "{e}"
+        );
+        let reversed = DEFAULT_CONFIG_YAML.replace("[-1232.0, -680.0]", "[-680.0, -1232.0]");
+        let e = error_of(&reversed);
+        assert!(
+            e.contains("sensor.electrodes.thermal.b_counts = [-680, -1232]"),
+            "{e}"
+        );
+        let e = BioTacSimConfig::from_file(Path::new("/nonexistent/biotac_sim.yaml"))
+            .expect_err("missing file");
+        assert!(e.to_string().contains("/nonexistent/biotac_sim.yaml"));
+    }
+}

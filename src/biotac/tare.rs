@@ -1,0 +1,124 @@
+//! Tare: the out-of-contact baseline of one BioTac, subtracted from readings.
+//!
+//! Electrode baselines differ between units and drift with temperature
+//! (docs/ARCHITECTURE.md, "Reference facts / BioTac"), so the tare is taken
+//! with the finger out of contact, at the start of every trial in the thesis
+//! protocol, and stored with the model.
+
+use serde::{Deserialize, Serialize};
+
+use super::{BioTacReading, N_ELECTRODES};
+
+/// Why a tare could not be taken.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum TareError {
+    /// No readings were given.
+    #[error("cannot tare from zero readings: give readings taken out of contact")]
+    Empty,
+}
+
+/// Mean out-of-contact electrode values and PDC (ADC counts).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Tare {
+    /// Mean of E1..E19 out of contact (counts).
+    electrodes: [f64; N_ELECTRODES],
+    /// Mean PDC out of contact (counts).
+    pdc: f64,
+}
+
+impl Tare {
+    /// The mean of `readings`, which must be taken out of contact.
+    pub fn from_readings(readings: &[BioTacReading]) -> Result<Tare, TareError> {
+        if readings.is_empty() {
+            return Err(TareError::Empty);
+        }
+        let n = readings.len() as f64;
+        let mut electrodes = [0.0; N_ELECTRODES];
+        let mut pdc = 0.0;
+        for r in readings {
+            for (sum, &v) in electrodes.iter_mut().zip(&r.electrodes) {
+                *sum += f64::from(v);
+            }
+            pdc += f64::from(r.pdc);
+        }
+        Ok(Tare {
+            electrodes: electrodes.map(|s| s / n),
+            pdc: pdc / n,
+        })
+    }
+
+    /// Baseline electrode values E1..E19 (counts).
+    pub fn electrodes(&self) -> &[f64; N_ELECTRODES] {
+        &self.electrodes
+    }
+
+    /// Baseline PDC (counts).
+    pub fn pdc(&self) -> f64 {
+        self.pdc
+    }
+
+    /// Electrode values minus the baseline (counts): compression gives
+    /// negative values, ~0 out of contact.
+    pub fn tared(&self, r: &BioTacReading) -> [f64; N_ELECTRODES] {
+        std::array::from_fn(|i| f64::from(r.electrodes[i]) - self.electrodes[i])
+    }
+
+    /// PDC minus the baseline (counts): positive in contact.
+    pub fn tared_pdc(&self, r: &BioTacReading) -> f64 {
+        f64::from(r.pdc) - self.pdc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::biotac::sim::{BioTacSim, BioTacSimConfig, Contact};
+    use crate::biotac::FRAME_PERIOD_S;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn empty_input_is_an_error() {
+        assert_eq!(Tare::from_readings(&[]), Err(TareError::Empty));
+    }
+
+    #[test]
+    fn tare_removes_the_baseline_within_noise_and_contact_goes_negative() {
+        let config = BioTacSimConfig::default();
+        let mut sim = BioTacSim::new(&config, 21);
+        let rest: Vec<_> = (0..50).map(|_| sim.step(None, FRAME_PERIOD_S)).collect();
+        let tare = Tare::from_readings(&rest).expect("non-empty");
+        let noise = config.params().electrodes.noise_counts;
+        // Mean of 50 samples: the baseline is off by noise / sqrt(50); single
+        // readings stay within 5 sigma.
+        for (b, e0) in tare.electrodes().iter().zip(sim.electrode_baselines()) {
+            assert!(
+                (b - e0).abs() < 5.0 * noise / 50f64.sqrt() + 0.5,
+                "{b} vs {e0}"
+            );
+        }
+        for _ in 0..200 {
+            let r = sim.step(None, FRAME_PERIOD_S);
+            assert!(tare.tared(&r).iter().all(|v| v.abs() < 5.0 * noise + 1.0));
+            assert!(tare.tared_pdc(&r).abs() < 5.0 * config.params().pdc.noise_counts + 1.0);
+        }
+        let press = Contact {
+            x_mm: -4.0,
+            angle_rad: 0.0,
+            force: Vector3::new(0.0, 0.0, 3.0),
+        };
+        let r = sim.step(Some(&press), FRAME_PERIOD_S);
+        assert!(tare.tared(&r)[16] < -300.0, "E17 under a 3 N press");
+        assert!(tare.tared_pdc(&r) > 300.0);
+    }
+
+    #[test]
+    fn tare_round_trips_through_json() {
+        let mut sim = BioTacSim::new(&BioTacSimConfig::default(), 2);
+        let rest: Vec<_> = (0..10).map(|_| sim.step(None, FRAME_PERIOD_S)).collect();
+        let tare = Tare::from_readings(&rest).expect("non-empty");
+        let json = serde_json::to_string(&tare).expect("serialises");
+        let back: Tare = serde_json::from_str(&json).expect("deserialises");
+        assert_eq!(back, tare);
+    }
+}

@@ -1,0 +1,639 @@
+//! The thesis data-collection protocol (Huhnstock 2014, section 3.2).
+//!
+//! Four sets of trials: pushes mainly in x, mainly in y, mainly in z, and
+//! combined (the force rotates in the x-y plane while z varies); 10 trials of
+//! ~20 s per set at 100 Hz; the BioTac and the F/T reference are recorded
+//! together. Here a plate presses on the pad of a simulated BioTac
+//! ([`crate::biotac::sim`]) and the reference is the true contact wrench plus
+//! Gaussian noise.
+//!
+//! Frames and signs: BioTac core frame (+x tip, -z pad); forces are those the
+//! plate applies to the finger, so pressing into the pad is +z.
+//!
+//! A trial: `tare_samples` out of contact (for the tare), then `pushes`
+//! raised-cosine pulses separated by rests of at least `min_rest_s`, ending
+//! out of contact. Within a push of duration `D` started at `t0`,
+//!
+//! ```text
+//! w(t)  = (1 - cos(2 pi (t - t0) / D)) / 2      in [0, 1]
+//! Fn(t) = N w(t)                                 normal, into the skin
+//! Ft(t) = T w(t)^2 (cos th(t) t1 + sin th(t) t2) tangential, th(t) = th0 + omega (t - t0)
+//! ```
+//!
+//! with `N >= T / max_traction_ratio`, so `|Ft| / Fn = (T / N) w <= max_traction_ratio`
+//! at every instant: the plate sticks (friction coefficient ~1).
+
+use std::path::Path;
+
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::biotac::geometry::SKIN_RADIUS_MM;
+use crate::biotac::sim::{
+    check_range, check_value, gaussian, uniform, BioTacSim, BioTacSimConfig, ConfigError, Contact,
+    DEFAULT_CONFIG_YAML,
+};
+use crate::learn::dataset::Record;
+use crate::wrench::Wrench;
+
+/// One set of trials (`protocol.sets.<name>`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SetSpec {
+    /// Pushes per trial.
+    pub pushes: u32,
+    /// Duration of one push (s), range.
+    pub push_duration_s: [f64; 2],
+    /// Peak normal force of a push (N), range; raised to
+    /// tangential peak / `max_traction_ratio` when lower.
+    pub normal_peak_n: [f64; 2],
+    /// Peak tangential force of a push (N), range.
+    pub tangential_peak_n: [f64; 2],
+    /// Base tangential directions (deg, 0 = +x, 90 = +y on the pad), used in
+    /// turn from a random start.
+    pub directions_deg: Vec<f64>,
+    /// Uniform jitter added to each push's base direction (+- deg).
+    pub direction_jitter_deg: f64,
+    /// Rotation rate of the direction during a push (deg/s), range; random sign.
+    pub rotation_deg_per_s: [f64; 2],
+}
+
+impl SetSpec {
+    /// Largest normal force a push of this set can reach (N).
+    pub fn max_normal_n(&self, max_traction_ratio: f64) -> f64 {
+        self.normal_peak_n[1].max(self.tangential_peak_n[1] / max_traction_ratio)
+    }
+}
+
+/// The four sets, in set-number order 1..=4 (`protocol.sets`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SetSpecs {
+    /// Set 1: pushes mainly in x.
+    pub x: SetSpec,
+    /// Set 2: pushes mainly in y.
+    pub y: SetSpec,
+    /// Set 3: pushes mainly in z.
+    pub z: SetSpec,
+    /// Set 4: force rotating in the x-y plane with varying z.
+    pub combined: SetSpec,
+}
+
+impl SetSpecs {
+    /// `(set number, key, spec)` for sets 1..=4.
+    pub fn numbered(&self) -> [(u32, &'static str, &SetSpec); 4] {
+        [
+            (1, "x", &self.x),
+            (2, "y", &self.y),
+            (3, "z", &self.z),
+            (4, "combined", &self.combined),
+        ]
+    }
+}
+
+/// Standard deviation of the F/T reference noise per axis (`protocol.ft_noise_std`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FtNoiseStd {
+    /// Forces fx, fy, fz (N).
+    pub force_n: [f64; 3],
+    /// Torques tx, ty, tz (Nm).
+    pub torque_nm: [f64; 3],
+}
+
+/// The protocol parameters as written in the `protocol:` section.
+/// Validate them with [`ProtocolParams::validate`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProtocolParams {
+    /// Trials per set.
+    pub trials_per_set: u32,
+    /// Length of one trial (s).
+    pub trial_duration_s: f64,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Samples out of contact at the start of every trial, for the tare.
+    pub tare_samples: u32,
+    /// Shortest rest out of contact after the tare, between pushes and at the end (s).
+    pub min_rest_s: f64,
+    /// Largest |tangential| / normal force applied (below the friction coefficient).
+    pub max_traction_ratio: f64,
+    /// Contact position along the axis, drawn per trial (mm), range.
+    pub contact_x_mm: [f64; 2],
+    /// Contact angle about +x, drawn per trial (deg, 0 = pad midline), range.
+    pub contact_angle_deg: [f64; 2],
+    /// TDC rise per trial (counts).
+    pub tdc_drift_per_trial_counts: f64,
+    /// Std of the F/T reference noise per axis.
+    pub ft_noise_std: FtNoiseStd,
+    /// The four sets.
+    pub sets: SetSpecs,
+}
+
+/// The shape of the simulator file as the protocol reads it: the `sensor:`
+/// section belongs to [`BioTacSimConfig`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProtocolFile {
+    #[serde(default, rename = "sensor")]
+    _sensor: serde::de::IgnoredAny,
+    protocol: ProtocolParams,
+}
+
+impl ProtocolParams {
+    /// Checks every value (finite, in range, pushes fit the trial) and
+    /// returns the checked config.
+    pub fn validate(self) -> Result<CollectConfig, ConfigError> {
+        let (f, t) = (&self.ft_noise_std.force_n, &self.ft_noise_std.torque_nm);
+        let samples = self.trial_duration_s * self.rate_hz;
+        // Key, value, allowed [min, max]; the order matters where a bound uses
+        // an earlier value.
+        #[rustfmt::skip]
+        let values = [
+            ("protocol.trials_per_set", f64::from(self.trials_per_set), 1.0, 1e4),
+            ("protocol.trial_duration_s", self.trial_duration_s, 0.01, 3600.0),
+            ("protocol.rate_hz", self.rate_hz, 1.0, 1e4),
+            ("protocol.tare_samples", f64::from(self.tare_samples), 1.0, samples - 1.0),
+            ("protocol.min_rest_s", self.min_rest_s, 0.0, self.trial_duration_s),
+            ("protocol.max_traction_ratio", self.max_traction_ratio, 1e-3, 2.0),
+            ("protocol.tdc_drift_per_trial_counts", self.tdc_drift_per_trial_counts, -100.0, 100.0),
+            ("protocol.ft_noise_std.force_n[0]", f[0], 0.0, 100.0),
+            ("protocol.ft_noise_std.force_n[1]", f[1], 0.0, 100.0),
+            ("protocol.ft_noise_std.force_n[2]", f[2], 0.0, 100.0),
+            ("protocol.ft_noise_std.torque_nm[0]", t[0], 0.0, 10.0),
+            ("protocol.ft_noise_std.torque_nm[1]", t[1], 0.0, 10.0),
+            ("protocol.ft_noise_std.torque_nm[2]", t[2], 0.0, 10.0),
+        ];
+        for (key, value, min, max) in values {
+            check_value(key, value, min, max)?;
+        }
+        // Key, [low, high], allowed [min, max] for both ends.
+        #[rustfmt::skip]
+        let ranges = [
+            ("protocol.contact_x_mm", self.contact_x_mm, -30.0, SKIN_RADIUS_MM),
+            ("protocol.contact_angle_deg", self.contact_angle_deg, -90.0, 90.0),
+        ];
+        for (key, range, min, max) in ranges {
+            check_range(key, range, min, max)?;
+        }
+        let tare_s = f64::from(self.tare_samples) / self.rate_hz;
+        for (_, name, s) in self.sets.numbered() {
+            let key = |field: &str| format!("protocol.sets.{name}.{field}");
+            check_value(&key("pushes"), f64::from(s.pushes), 1.0, 1e3)?;
+            check_range(&key("push_duration_s"), s.push_duration_s, 1e-2, 3600.0)?;
+            check_range(&key("normal_peak_n"), s.normal_peak_n, 0.0, 1e3)?;
+            check_range(&key("tangential_peak_n"), s.tangential_peak_n, 0.0, 1e3)?;
+            check_value(
+                &key("direction_jitter_deg"),
+                s.direction_jitter_deg,
+                0.0,
+                180.0,
+            )?;
+            check_range(
+                &key("rotation_deg_per_s"),
+                s.rotation_deg_per_s,
+                0.0,
+                3600.0,
+            )?;
+            if s.directions_deg.is_empty() {
+                return Err(ConfigError::Empty {
+                    key: key("directions_deg"),
+                });
+            }
+            for (i, &d) in s.directions_deg.iter().enumerate() {
+                check_value(&key(&format!("directions_deg[{i}]")), d, -360.0, 360.0)?;
+            }
+            // The longest pushes and the rests must fit after the tare window.
+            let pushes = f64::from(s.pushes);
+            let room = self.trial_duration_s - tare_s - (pushes + 1.0) * self.min_rest_s;
+            if s.push_duration_s[1] * pushes > room {
+                return Err(ConfigError::Value {
+                    key: key("push_duration_s[1]"),
+                    value: s.push_duration_s[1],
+                    expected: format!(
+                        "at most {:.3} s, so that {} pushes and {} rests of protocol.min_rest_s \
+                         fit in protocol.trial_duration_s after the tare",
+                        room / pushes,
+                        s.pushes,
+                        s.pushes + 1
+                    ),
+                });
+            }
+        }
+        Ok(CollectConfig { params: self })
+    }
+}
+
+/// Checked protocol parameters; build with [`CollectConfig::from_yaml_str`],
+/// [`CollectConfig::from_file`] or `Default` (the shipped `config/biotac_sim.yaml`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CollectConfig {
+    params: ProtocolParams,
+}
+
+impl CollectConfig {
+    /// Parses the `protocol:` section of a simulator YAML file and validates it.
+    pub fn from_yaml_str(yaml: &str) -> Result<Self, ConfigError> {
+        let file: ProtocolFile = serde_yaml_ng::from_str(yaml)?;
+        file.protocol.validate()
+    }
+
+    /// Reads and validates a simulator YAML file.
+    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
+        let yaml = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_yaml_str(&yaml)
+    }
+
+    /// The validated parameters.
+    pub fn params(&self) -> &ProtocolParams {
+        &self.params
+    }
+
+    /// Samples per trial: `round(trial_duration_s * rate_hz)`.
+    pub fn samples_per_trial(&self) -> usize {
+        (self.params.trial_duration_s * self.params.rate_hz).round() as usize
+    }
+
+    /// Standard deviation of the F/T reference noise per axis (N, Nm): the
+    /// noise floor of any estimate checked against the reference.
+    pub fn ft_noise_std(&self) -> Wrench {
+        Wrench::new(
+            Vector3::from(self.params.ft_noise_std.force_n),
+            Vector3::from(self.params.ft_noise_std.torque_nm),
+        )
+    }
+}
+
+impl Default for CollectConfig {
+    /// The shipped `config/biotac_sim.yaml`.
+    fn default() -> Self {
+        // Checked by the unit tests; fails only if the shipped file is broken.
+        Self::from_yaml_str(DEFAULT_CONFIG_YAML)
+            .expect("config/biotac_sim.yaml shipped with the crate is valid")
+    }
+}
+
+/// One push of a trial.
+#[derive(Debug, Clone, Copy)]
+struct Push {
+    start_s: f64,
+    duration_s: f64,
+    normal_peak_n: f64,
+    tangential_peak_n: f64,
+    direction_rad: f64,
+    rotation_rad_per_s: f64,
+}
+
+/// Where and when the plate touches the finger during one trial.
+#[derive(Debug, Clone)]
+struct TrialPlan {
+    x_mm: f64,
+    angle_rad: f64,
+    pushes: Vec<Push>,
+}
+
+impl TrialPlan {
+    fn sample(p: &ProtocolParams, set: &SetSpec, rng: &mut impl Rng) -> Self {
+        let x_mm = uniform(rng, p.contact_x_mm);
+        let angle_rad = uniform(rng, p.contact_angle_deg).to_radians();
+        let n = set.pushes as usize;
+        let durations: Vec<f64> = (0..n).map(|_| uniform(rng, set.push_duration_s)).collect();
+        // n + 1 rests (after the tare, between pushes, at the end) share the slack.
+        let tare_s = f64::from(p.tare_samples) / p.rate_hz;
+        let slack = (p.trial_duration_s
+            - tare_s
+            - durations.iter().sum::<f64>()
+            - (n + 1) as f64 * p.min_rest_s)
+            .max(0.0);
+        let weights: Vec<f64> = (0..=n).map(|_| rng.random::<f64>() + 1e-3).collect();
+        let total: f64 = weights.iter().sum();
+        let first_direction = rng.random_range(0..set.directions_deg.len());
+        let mut t = tare_s;
+        let pushes = durations
+            .iter()
+            .enumerate()
+            .map(|(k, &duration_s)| {
+                t += p.min_rest_s + slack * weights[k] / total;
+                let start_s = t;
+                t += duration_s;
+                let tangential_peak_n = uniform(rng, set.tangential_peak_n);
+                let normal_peak_n =
+                    uniform(rng, set.normal_peak_n).max(tangential_peak_n / p.max_traction_ratio);
+                let base = set.directions_deg[(first_direction + k) % set.directions_deg.len()];
+                let jitter = set.direction_jitter_deg * (2.0 * rng.random::<f64>() - 1.0);
+                let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
+                Push {
+                    start_s,
+                    duration_s,
+                    normal_peak_n,
+                    tangential_peak_n,
+                    direction_rad: (base + jitter).to_radians(),
+                    rotation_rad_per_s: sign * uniform(rng, set.rotation_deg_per_s).to_radians(),
+                }
+            })
+            .collect();
+        TrialPlan {
+            x_mm,
+            angle_rad,
+            pushes,
+        }
+    }
+
+    /// The contact at `t` seconds into the trial, None between pushes.
+    fn contact_at(&self, t: f64) -> Option<Contact> {
+        let push = self
+            .pushes
+            .iter()
+            .find(|p| t > p.start_s && t < p.start_s + p.duration_s)?;
+        let tau = t - push.start_s;
+        let w = 0.5 * (1.0 - (std::f64::consts::TAU * tau / push.duration_s).cos());
+        let mut contact = Contact {
+            x_mm: self.x_mm,
+            angle_rad: self.angle_rad,
+            force: Vector3::zeros(),
+        };
+        let surface = contact.surface();
+        let (t1, t2) = surface.tangents();
+        let (s, c) = (push.direction_rad + push.rotation_rad_per_s * tau).sin_cos();
+        contact.force = -surface.normal * (push.normal_peak_n * w)
+            + (t1 * c + t2 * s) * (push.tangential_peak_n * w * w);
+        Some(contact)
+    }
+}
+
+/// Runs the protocol on one simulated BioTac unit: sets 1..=4, trials
+/// 1..=`trials_per_set`, `samples_per_trial` rows each, in that order.
+///
+/// Each record holds the time since the trial start, the reading, and the
+/// F/T reference: the true contact wrench ([`Contact::wrench`], about the
+/// BioTac origin, in the BioTac frame) plus per-axis Gaussian noise of
+/// [`CollectConfig::ft_noise_std`]. The temperature rises by
+/// `tdc_drift_per_trial_counts` per trial, linearly within a trial. Everything
+/// is determined by `seed`.
+pub fn collect(config: &CollectConfig, sim_config: &BioTacSimConfig, seed: u64) -> Vec<Record> {
+    let p = &config.params;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut sim = BioTacSim::new(sim_config, rng.random());
+    let tdc0 = sim.temperature();
+    let dt = 1.0 / p.rate_hz;
+    let n = config.samples_per_trial();
+    let noise = config.ft_noise_std();
+    let mut records = Vec::with_capacity(4 * p.trials_per_set as usize * n);
+    let mut trial_index = 0.0;
+    for (set, _, spec) in p.sets.numbered() {
+        for trial in 1..=p.trials_per_set {
+            let plan = TrialPlan::sample(p, spec, &mut rng);
+            for k in 0..n {
+                let t = k as f64 * dt;
+                let progress = trial_index + t / p.trial_duration_s;
+                sim.set_temperature(tdc0 + p.tdc_drift_per_trial_counts * progress);
+                let contact = plan.contact_at(t);
+                let reading = sim.step(contact.as_ref(), dt);
+                let truth = contact.map(|c| c.wrench()).unwrap_or_default();
+                let wrench = Wrench::new(
+                    truth.force + noise.force.map(|s| gaussian(&mut rng, s)),
+                    truth.torque + noise.torque.map(|s| gaussian(&mut rng, s)),
+                );
+                records.push(Record {
+                    t,
+                    set,
+                    trial,
+                    reading,
+                    wrench,
+                });
+            }
+            trial_index += 1.0;
+        }
+    }
+    records
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::biotac::Tare;
+    use crate::wrench::Axis;
+
+    fn noise_free_reference() -> CollectConfig {
+        let mut p = CollectConfig::default().params;
+        p.ft_noise_std = FtNoiseStd {
+            force_n: [0.0; 3],
+            torque_nm: [0.0; 3],
+        };
+        p.validate().expect("valid")
+    }
+
+    fn trial(records: &[Record], set: u32, trial: u32) -> Vec<&Record> {
+        records
+            .iter()
+            .filter(|r| r.set == set && r.trial == trial)
+            .collect()
+    }
+
+    #[test]
+    fn shipped_protocol_is_the_thesis_protocol() {
+        let c = CollectConfig::default();
+        let p = c.params();
+        assert_eq!(p.trials_per_set, 10);
+        assert_eq!(c.samples_per_trial(), 2000);
+        assert_eq!(p.tare_samples, 50);
+        assert_eq!(c.ft_noise_std().get(Axis::Fz), 0.02);
+        assert_eq!(
+            c,
+            CollectConfig::from_yaml_str(DEFAULT_CONFIG_YAML).expect("valid")
+        );
+    }
+
+    #[test]
+    fn collect_is_4_sets_of_10_trials_of_2000_rows_and_deterministic() {
+        let (c, s) = (CollectConfig::default(), BioTacSimConfig::default());
+        let a = collect(&c, &s, 42);
+        assert_eq!(a.len(), 4 * 10 * 2000);
+        for set in 1..=4 {
+            for t in 1..=10 {
+                let rows = trial(&a, set, t);
+                assert_eq!(rows.len(), 2000, "set {set} trial {t}");
+                assert_eq!(rows[0].t, 0.0);
+                assert!((rows[1999].t - 19.99).abs() < 1e-9);
+            }
+        }
+        assert!(a == collect(&c, &s, 42), "same seed, same records");
+        let b = collect(&c, &s, 43);
+        assert!(a[0].reading != b[0].reading && a[500].wrench != b[500].wrench);
+    }
+
+    #[test]
+    fn each_set_pushes_mainly_along_its_axis_within_the_configured_bounds() {
+        let c = CollectConfig::default();
+        let p = c.params();
+        let records = collect(&c, &BioTacSimConfig::default(), 7);
+        let slack = 5.0 * 0.02;
+        // The contact angle tilts the normal by at most 4 deg into y.
+        let tilt = p.contact_angle_deg[1].to_radians().sin();
+        for (set, name, spec) in p.sets.numbered() {
+            let max = |axis: Axis| {
+                records
+                    .iter()
+                    .filter(|r| r.set == set)
+                    .map(|r| r.wrench.get(axis).abs())
+                    .fold(0.0, f64::max)
+            };
+            let (fx, fy, fz) = (max(Axis::Fx), max(Axis::Fy), max(Axis::Fz));
+            let normal = spec.max_normal_n(p.max_traction_ratio);
+            let tangential = spec.tangential_peak_n[1];
+            assert!(fz <= normal + slack, "{name}: fz {fz} > {normal}");
+            assert!(fx <= tangential + slack, "{name}: fx {fx}");
+            assert!(fy <= tangential + tilt * normal + slack, "{name}: fy {fy}");
+            match name {
+                "x" => assert!(fx > 0.8 * tangential && fx > 2.0 * fy, "x: {fx} {fy}"),
+                "y" => assert!(fy > 0.8 * tangential && fy > 2.0 * fx, "y: {fx} {fy}"),
+                "z" => assert!(fz > 0.85 * normal && fz > 4.0 * fx.max(fy), "z: {fz}"),
+                _ => assert!(fx > 0.8 * tangential && fy > 0.8 * tangential && fz > 0.85 * normal),
+            }
+        }
+        // Thesis table 3.1: up to ~11 N in z, ~6-7 N in x/y.
+        let fz = records.iter().map(|r| r.wrench.force.z).fold(0.0, f64::max);
+        assert!(fz > 10.0 && fz < 11.2, "max fz {fz}");
+    }
+
+    #[test]
+    fn trials_start_with_tare_samples_and_end_out_of_contact() {
+        let c = noise_free_reference();
+        let config = BioTacSimConfig::default();
+        let records = collect(&c, &config, 3);
+        let tare_n = c.params().tare_samples as usize;
+        let noise = config.params().electrodes.noise_counts;
+        for set in 1..=4 {
+            for t in 1..=10 {
+                let rows = trial(&records, set, t);
+                let idle = |r: &&Record| r.wrench == Wrench::default();
+                assert!(
+                    rows[..tare_n].iter().all(idle),
+                    "set {set} trial {t} starts in contact"
+                );
+                assert!(
+                    idle(&rows[rows.len() - 1]),
+                    "set {set} trial {t} ends in contact"
+                );
+                assert!(rows.iter().any(|r| r.wrench.force.z > 2.0));
+                // The tare from the idle start removes the baseline of the idle end.
+                let start: Vec<_> = rows[..tare_n].iter().map(|r| r.reading.clone()).collect();
+                let tare = Tare::from_readings(&start).expect("non-empty");
+                let end = tare.tared(&rows[rows.len() - 1].reading);
+                assert!(end.iter().all(|v| v.abs() < 5.0 * noise + 3.0), "{end:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn reference_torque_is_r_cross_f_for_a_point_on_the_pad() {
+        let c = noise_free_reference();
+        let p = c.params();
+        let records = collect(&c, &BioTacSimConfig::default(), 5);
+        let mut checked = 0;
+        for r in records.iter().filter(|r| r.wrench.force.norm() > 0.5) {
+            let (f, tau) = (r.wrench.force, r.wrench.torque * 1e3); // torque in N mm
+            assert!(
+                tau.dot(&f).abs() < 1e-9 * f.norm_squared(),
+                "torque not normal to force"
+            );
+            // The line of action r0 + l F must cross the pad where the plate touched it.
+            let r0 = f.cross(&tau) / f.norm_squared();
+            let a = f.y * f.y + f.z * f.z;
+            let b = 2.0 * (r0.y * f.y + r0.z * f.z);
+            let cc = r0.y * r0.y + r0.z * r0.z - SKIN_RADIUS_MM * SKIN_RADIUS_MM;
+            let disc = (b * b - 4.0 * a * cc).max(0.0).sqrt();
+            let hit = [(-b - disc) / (2.0 * a), (-b + disc) / (2.0 * a)]
+                .map(|l| r0 + f * l)
+                .into_iter()
+                .fold(Vector3::new(0.0, 0.0, f64::INFINITY), |m, q| {
+                    if q.z < m.z {
+                        q
+                    } else {
+                        m
+                    }
+                });
+            let angle = hit.y.atan2(-hit.z).to_degrees();
+            assert!(
+                hit.x > p.contact_x_mm[0] - 1e-6 && hit.x < p.contact_x_mm[1] + 1e-6,
+                "{hit:?}"
+            );
+            assert!(angle.abs() <= p.contact_angle_deg[1] + 1e-6, "{angle}");
+            checked += 1;
+        }
+        assert!(checked > 40_000, "{checked} rows in contact");
+    }
+
+    #[test]
+    fn pushes_respect_the_friction_cone_and_fit_the_trial() {
+        let c = CollectConfig::default();
+        let p = c.params();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        for (_, _, spec) in p.sets.numbered() {
+            for _ in 0..50 {
+                let plan = TrialPlan::sample(p, spec, &mut rng);
+                let last = plan.pushes.last().expect("pushes >= 1");
+                assert!(last.start_s + last.duration_s <= p.trial_duration_s - p.min_rest_s + 1e-9);
+                assert!(plan.pushes[0].start_s >= 0.5 + p.min_rest_s - 1e-9);
+                for k in 0..2000 {
+                    let Some(contact) = plan.contact_at(k as f64 * 0.01) else {
+                        continue;
+                    };
+                    let n = contact.surface().normal;
+                    let normal = contact.normal_force();
+                    let tangential = (contact.force + n * normal).norm();
+                    assert!(tangential <= p.max_traction_ratio * normal + 1e-9);
+                }
+            }
+        }
+    }
+
+    fn error_of(yaml: &str) -> String {
+        CollectConfig::from_yaml_str(yaml)
+            .expect_err("must be rejected")
+            .to_string()
+    }
+
+    #[test]
+    fn config_errors_name_the_key() {
+        let missing = DEFAULT_CONFIG_YAML.replace("  tare_samples: 50\n", "");
+        let e = error_of(&missing);
+        assert!(e.contains("protocol: missing field `tare_samples`"), "{e}");
+        let unknown =
+            DEFAULT_CONFIG_YAML.replace("      pushes: 2\n", "      pushes: 2\n      pulls: 1\n");
+        let e = error_of(&unknown);
+        assert!(e.contains("protocol.sets.x: unknown field `pulls`"), "{e}");
+        let negative = DEFAULT_CONFIG_YAML.replace("[0.02, 0.02, 0.02]", "[0.02, -0.02, 0.02]");
+        let e = error_of(&negative);
+        assert!(
+            e.contains("protocol.ft_noise_std.force_n[1] = -0.02"),
+            "{e}"
+        );
+        let nan = DEFAULT_CONFIG_YAML.replace("trial_duration_s: 20.0", "trial_duration_s: .nan");
+        assert!(
+            error_of(&nan).contains("protocol.trial_duration_s = NaN"),
+            "{}",
+            error_of(&nan)
+        );
+        let long = DEFAULT_CONFIG_YAML.replace("[6.0, 8.0]", "[6.0, 9.5]");
+        let e = error_of(&long);
+        assert!(
+            e.contains("protocol.sets.combined.push_duration_s[1] = 9.5: expected at most 9.000 s"),
+            "{e}"
+        );
+        let none = DEFAULT_CONFIG_YAML.replace("[90.0, 270.0]", "[]");
+        assert!(error_of(&none).contains("protocol.sets.y.directions_deg is empty"));
+        // The sensor section is not the protocol's business, but it must be well-formed YAML.
+        let only_protocol =
+            &DEFAULT_CONFIG_YAML[DEFAULT_CONFIG_YAML.find("protocol:").expect("section")..];
+        assert_eq!(
+            CollectConfig::from_yaml_str(only_protocol).expect("valid"),
+            CollectConfig::default()
+        );
+    }
+}
