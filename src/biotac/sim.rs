@@ -287,6 +287,14 @@ impl SensorParams {
     }
 }
 
+/// The text of a simulator YAML file.
+pub(crate) fn read_config(path: &Path) -> Result<String, ConfigError> {
+    std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 /// Checked forward-model parameters; build with [`BioTacSimConfig::from_yaml_str`],
 /// [`BioTacSimConfig::from_file`] or `Default` (the shipped `config/biotac_sim.yaml`).
 #[derive(Debug, Clone, PartialEq)]
@@ -303,11 +311,7 @@ impl BioTacSimConfig {
 
     /// Reads and validates a simulator YAML file.
     pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
-        let yaml = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::from_yaml_str(&yaml)
+        Self::from_yaml_str(&read_config(path)?)
     }
 
     /// The validated parameters.

@@ -174,9 +174,24 @@ impl WrenchGp {
         params: &ValidGpParams,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
+        // Check before standardising: one infinity would spoil every row.
+        let d = data.features.len();
+        for (name, m) in [("features", &data.x), ("targets", &data.y)] {
+            if let Some(i) = m.iter().position(|v| !v.is_finite()) {
+                let cols = m.ncols();
+                return Err(GpError::NonFinite {
+                    row: i / cols,
+                    column: if name == "features" {
+                        i % cols
+                    } else {
+                        d + i % cols
+                    },
+                }
+                .into());
+            }
+        }
         let input = Standardizer::fit(data.x.view());
         let z = input.transform(data.x.view());
-        let d = data.features.len();
         let x: Vec<f64> = z.iter().copied().collect();
         let targets = Standardizer::fit(data.y.view());
         let progress = Mutex::new(progress);
@@ -265,6 +280,8 @@ impl WrenchGp {
         }
         self.input
             .transform_into(ndarray::ArrayView1::from(features), &mut ws.z);
+        // Sequential on purpose: a thread pool would halve the latency of the
+        // variance but allocates now and then (tests/predict_no_alloc.rs).
         for (o, e) in self.outputs.iter().zip(out.iter_mut()) {
             let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
             e.mean = m * o.target_scale + o.target_mean;

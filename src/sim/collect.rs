@@ -32,8 +32,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::biotac::geometry::SKIN_RADIUS_MM;
 use crate::biotac::sim::{
-    check_range, check_value, gaussian, uniform, BioTacSim, BioTacSimConfig, ConfigError, Contact,
-    DEFAULT_CONFIG_YAML,
+    check_range, check_value, gaussian, read_config, uniform, BioTacSim, BioTacSimConfig,
+    ConfigError, Contact, DEFAULT_CONFIG_YAML,
 };
 use crate::learn::dataset::Record;
 use crate::wrench::Wrench;
@@ -242,11 +242,7 @@ impl CollectConfig {
 
     /// Reads and validates a simulator YAML file.
     pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
-        let yaml = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::from_yaml_str(&yaml)
+        Self::from_yaml_str(&read_config(path)?)
     }
 
     /// The validated parameters.

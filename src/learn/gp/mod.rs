@@ -39,7 +39,7 @@ pub enum GpError {
     NonFinite {
         /// Row (sample) index.
         row: usize,
-        /// Column index (`dim` means the target).
+        /// Column index: features first, then targets.
         column: usize,
     },
     /// Hyperparameters that are not finite and positive, or of the wrong length.

@@ -1,0 +1,73 @@
+//! The single-sample prediction path allocates nothing per call (counted by a
+//! global allocator; this binary holds one test so nothing else allocates).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use ndarray::Array2;
+use tactile_force::learn::dataset::Dataset;
+use tactile_force::learn::gp::GpParams;
+use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn predict_one_allocates_nothing_after_warm_up() {
+    let n = 80;
+    let x = Array2::from_shape_fn((n, 4), |(i, j)| ((i * 31 + j * 17) % 23) as f64);
+    let y = Array2::from_shape_fn((n, 3), |(i, j)| x[[i, j]] - 0.5 * x[[i, 3]]);
+    let data = Dataset {
+        features: (1..=4).map(|i| format!("e{i}")).collect(),
+        x,
+        axes: "fx,fy,fz".parse().unwrap(),
+        y,
+        set: vec![1; n],
+        trial: vec![1; n],
+    };
+    let tare = TareSpec {
+        samples: 0,
+        mean_baseline: vec![0.0; 4],
+    };
+    let params = GpParams {
+        restarts: 1,
+        ..GpParams::default()
+    }
+    .validate()
+    .unwrap();
+    let model = WrenchGp::train(&data, tare, &params, &mut |_, _| {}).unwrap();
+    let mut ws = model.workspace();
+    let mut out = [Estimate::default(); 3];
+    let input = [3.0, 5.0, 7.0, 11.0];
+    for with_std in [true, false] {
+        // Warm-up: the thread pool and its thread-locals start on first use.
+        for _ in 0..50 {
+            model
+                .predict_one(&input, &mut ws, with_std, &mut out)
+                .unwrap();
+        }
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        for _ in 0..100 {
+            model
+                .predict_one(&input, &mut ws, with_std, &mut out)
+                .unwrap();
+        }
+        let allocated = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        assert_eq!(allocated, 0, "with_std = {with_std}");
+        assert!(out.iter().all(|e| e.mean.is_finite()));
+    }
+}
