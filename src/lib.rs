@@ -1,4 +1,44 @@
-//! tactile_force: feel with a BioTac fingertip.
+//! tactile_force: feel with a SynTouch BioTac fingertip.
+//!
+//! A Gaussian process turns the BioTac's 19 tared electrode values into a
+//! contact wrench with an uncertainty (Huhnstock 2014). The modules follow the
+//! data flow:
+//!
+//! - [`biotac`]: the reading type, tare, and a physically motivated simulator;
+//! - [`sim`]: the thesis data-collection protocol on that simulator;
+//! - [`learn`]: data sets, the exact GP, the baseline network, evaluation and
+//!   the model file;
+//! - [`wrench`]: wrenches and the axes a scene needs.
+//!
+//! Train a one-axis estimator and query it for one reading:
+//!
+//! ```
+//! use ndarray::Array2;
+//! use tactile_force::learn::dataset::Dataset;
+//! use tactile_force::learn::gp::GpParams;
+//! use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
+//!
+//! // 50 samples of 2 tared electrode values; fz grows as e1 drops.
+//! let x = Array2::from_shape_fn((50, 2), |(i, j)| -(i as f64) * (j as f64 + 1.0));
+//! let y = x.column(0).mapv(|e| -0.01 * e).insert_axis(ndarray::Axis(1));
+//! let data = Dataset {
+//!     features: vec!["e1".into(), "e2".into()],
+//!     x,
+//!     axes: "fz".parse()?,
+//!     y,
+//!     set: vec![1; 50],
+//!     trial: vec![1; 50],
+//! };
+//! let tare = TareSpec { samples: 0, mean_baseline: vec![0.0; 2] };
+//! let params = GpParams::default().validate()?;
+//! let model = WrenchGp::train(&data, tare, &params, &mut |_, _| {})?;
+//!
+//! let mut ws = model.workspace();
+//! let mut fz = [Estimate::default()];
+//! model.predict_one(&[-20.0, -40.0], &mut ws, true, &mut fz)?;
+//! assert!((fz[0].mean - 0.2).abs() < 0.01 && fz[0].std < 0.05);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![deny(missing_docs)]
 
 pub mod biotac;

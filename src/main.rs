@@ -69,7 +69,7 @@ struct FitArgs {
     /// Optimiser starts of the hyperparameter fit.
     #[arg(long, default_value_t = 3)]
     restarts: usize,
-    /// Points each start is optimised on before the best is polished on all points.
+    /// Size of the random training subset each optimiser start runs on.
     #[arg(long, default_value_t = 500)]
     restart_subset: usize,
     /// L-BFGS iterations of the polish on all points (0: keep the subset's hyperparameters).

@@ -175,6 +175,21 @@ fn a_corrupt_or_foreign_model_file_is_refused_clearly() {
 }
 
 #[test]
+fn too_few_folds_or_trials_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = collect(dir.path(), "5");
+    let d = data.to_str().unwrap();
+    for (folds, expected) in [
+        ("1", "at least 2 folds, got 1"),
+        ("6", "6 folds need at least 6 trials per set; set 1 has 5"),
+    ] {
+        let o = run(&["eval", "--data", d, "--folds", folds, "--no-nn"]);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(text(&o).1.contains(expected), "{:?}", text(&o));
+    }
+}
+
+#[test]
 fn every_subcommand_has_help() {
     for sub in ["collect", "train", "eval"] {
         let o = run(&[sub, "--help"]);

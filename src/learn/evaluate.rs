@@ -32,6 +32,9 @@ pub enum EvalError {
     /// Train and test files have different features or axes.
     #[error("train and test data differ: {0}")]
     Mismatch(String),
+    /// Fewer than two folds.
+    #[error("cross-validation needs at least 2 folds, got {0}")]
+    Folds(usize),
     /// Too few trials for the requested folds.
     #[error("{folds} folds need at least {folds} trials per set; set {set} has {trials}")]
     TooFewTrials {
@@ -188,6 +191,9 @@ pub fn cross_validate(
     opts: &EvalOptions,
     progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Evaluation, EvalError> {
+    if folds < 2 {
+        return Err(EvalError::Folds(folds));
+    }
     let mut per_set: BTreeMap<u32, usize> = BTreeMap::new();
     for ((set, _), _) in data.trials() {
         *per_set.entry(set).or_default() += 1;

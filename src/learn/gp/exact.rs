@@ -269,6 +269,14 @@ impl ExactGp {
         let xs = scale_rows(x, &hyper.lengthscales);
         let kf = se_gram(&xs, dim, hyper.signal_var);
         let (llt, jitter) = cholesky_with_jitter(&kf, &hyper)?;
+        if jitter > 0.0 {
+            tracing::warn!(
+                n,
+                jitter,
+                noise_var = hyper.noise_var,
+                "kernel matrix needed jitter to factorise: duplicated or degenerate inputs?"
+            );
+        }
         let mut alpha = Mat::from_fn(n, 1, |i, _| y[i]);
         faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
         let l = llt.L();

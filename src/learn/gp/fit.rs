@@ -118,7 +118,8 @@ pub struct FitInfo {
     pub evaluations: usize,
     /// Of which on the full training set.
     pub full_evaluations: usize,
-    /// Final negative log marginal likelihood per sample.
+    /// Final negative log marginal likelihood per sample, on the points it was
+    /// optimised on (the subset, or all points after a polish).
     pub neg_lml_per_sample: f64,
 }
 
@@ -323,7 +324,10 @@ pub fn fit_gp(
                 best = Some((theta, cost))
             }
             Ok(_) => {}
-            Err(e) => last_error = Some(e),
+            Err(e) => {
+                tracing::warn!(start = s, "hyperparameter start failed: {e}");
+                last_error = Some(e)
+            }
         }
     }
     let (mut theta, mut cost) = match (best, last_error) {
@@ -335,9 +339,11 @@ pub fn fit_gp(
     if n > p.restart_subset && p.polish_iters > 0 {
         current_start.set(p.restarts);
         // Keep the subset optimum if the polish fails (e.g. a singular K on all points).
-        if let Ok((t, c)) = minimise(objective(x, y), theta.clone(), p.polish_iters) {
-            theta = t;
-            cost = c;
+        match minimise(objective(x, y), theta.clone(), p.polish_iters) {
+            Ok((t, c)) => (theta, cost) = (t, c),
+            Err(e) => {
+                tracing::warn!("polish on all points failed, keeping the subset optimum: {e}")
+            }
         }
     }
     let full_evaluations = evaluations.get() - before_full;
