@@ -109,53 +109,51 @@ pub struct Estimate {
     pub std: f64,
 }
 
-/// One output axis: its GP and target standardisation.
+/// One output axis: its GP (fitted, or as stored) and target standardisation.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct AxisGp {
+struct AxisModel<G> {
     axis: Axis,
     target_mean: f64,
     target_scale: f64,
     fit: FitInfo,
-    gp: ExactGp,
+    gp: G,
+}
+
+/// The model file; `G` is [`ExactGp`] once checked, [`ExactGpData`] as parsed.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelFile<G> {
+    format: String,
+    version: u32,
+    features: Vec<String>,
+    axes: AxisSet,
+    tare: TareSpec,
+    input: Standardizer,
+    n_train: usize,
+    outputs: Vec<AxisModel<G>>,
+}
+
+impl<G> ModelFile<G> {
+    /// The same file with other outputs.
+    fn with_outputs<H>(self, outputs: Vec<AxisModel<H>>) -> ModelFile<H> {
+        ModelFile {
+            format: self.format,
+            version: self.version,
+            features: self.features,
+            axes: self.axes,
+            tare: self.tare,
+            input: self.input,
+            n_train: self.n_train,
+            outputs,
+        }
+    }
 }
 
 /// A trained wrench estimator.
 #[derive(Debug, Clone, Serialize)]
-pub struct WrenchGp {
-    format: String,
-    version: u32,
-    features: Vec<String>,
-    axes: AxisSet,
-    tare: TareSpec,
-    input: Standardizer,
-    n_train: usize,
-    outputs: Vec<AxisGp>,
-}
-
-/// The model file as parsed, before its parts are checked against each other.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ModelFileV1 {
-    format: String,
-    version: u32,
-    features: Vec<String>,
-    axes: AxisSet,
-    tare: TareSpec,
-    input: Standardizer,
-    n_train: usize,
-    outputs: Vec<AxisGpFile>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct AxisGpFile {
-    axis: Axis,
-    target_mean: f64,
-    target_scale: f64,
-    fit: FitInfo,
-    gp: ExactGpData,
-}
+#[serde(transparent)]
+pub struct WrenchGp(ModelFile<ExactGp>);
 
 /// Scratch for [`WrenchGp::predict_one`], allocated once per estimator.
 #[derive(Debug, Clone)]
@@ -209,7 +207,7 @@ impl WrenchGp {
                     }
                 };
                 let (gp, fit) = fit_gp(&x, d, &y, params, &mut report)?;
-                Ok(AxisGp {
+                Ok(AxisModel {
                     axis,
                     target_mean: m,
                     target_scale: s,
@@ -218,7 +216,7 @@ impl WrenchGp {
                 })
             })
             .collect::<Result<Vec<_>, GpError>>()?;
-        Ok(WrenchGp {
+        Ok(WrenchGp(ModelFile {
             format: MODEL_FORMAT.into(),
             version: MODEL_VERSION,
             features: data.features.clone(),
@@ -227,39 +225,39 @@ impl WrenchGp {
             input,
             n_train: data.len(),
             outputs,
-        })
+        }))
     }
 
     /// Feature names, in input order.
     pub fn features(&self) -> &[String] {
-        &self.features
+        &self.0.features
     }
 
     /// Estimated axes, in output order.
     pub fn axes(&self) -> &AxisSet {
-        &self.axes
+        &self.0.axes
     }
 
     /// How the training data was tared.
     pub fn tare(&self) -> &TareSpec {
-        &self.tare
+        &self.0.tare
     }
 
     /// Training-set size.
     pub fn n_train(&self) -> usize {
-        self.n_train
+        self.0.n_train
     }
 
     /// Per axis: the fitted GP and what its fit did.
     pub fn fits(&self) -> impl Iterator<Item = (Axis, &ExactGp, &FitInfo)> {
-        self.outputs.iter().map(|o| (o.axis, &o.gp, &o.fit))
+        self.0.outputs.iter().map(|o| (o.axis, &o.gp, &o.fit))
     }
 
     /// Scratch for [`WrenchGp::predict_one`].
     pub fn workspace(&self) -> EstimatorWorkspace {
         EstimatorWorkspace {
-            z: vec![0.0; self.features.len()],
-            gp: GpWorkspace::new(self.n_train, self.features.len()),
+            z: vec![0.0; self.0.features.len()],
+            gp: GpWorkspace::new(self.0.n_train, self.0.features.len()),
         }
     }
 
@@ -272,17 +270,18 @@ impl WrenchGp {
         with_std: bool,
         out: &mut [Estimate],
     ) -> Result<(), ModelError> {
-        if features.len() != self.features.len() {
+        if features.len() != self.0.features.len() {
             return Err(ModelError::FeatureCount {
-                expected: self.features.len(),
+                expected: self.0.features.len(),
                 found: features.len(),
             });
         }
-        self.input
+        self.0
+            .input
             .transform_into(ndarray::ArrayView1::from(features), &mut ws.z);
         // Sequential on purpose: a thread pool would halve the latency of the
         // variance but allocates now and then (tests/predict_no_alloc.rs).
-        for (o, e) in self.outputs.iter().zip(out.iter_mut()) {
+        for (o, e) in self.0.outputs.iter().zip(out.iter_mut()) {
             let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
             e.mean = m * o.target_scale + o.target_mean;
             e.std = v.sqrt() * o.target_scale;
@@ -296,17 +295,17 @@ impl WrenchGp {
         x: ArrayView2<f64>,
         with_std: bool,
     ) -> Result<(Array2<f64>, Array2<f64>), ModelError> {
-        if x.ncols() != self.features.len() {
+        if x.ncols() != self.0.features.len() {
             return Err(ModelError::FeatureCount {
-                expected: self.features.len(),
+                expected: self.0.features.len(),
                 found: x.ncols(),
             });
         }
-        let z: Vec<f64> = self.input.transform(x).iter().copied().collect();
-        let (n, k) = (x.nrows(), self.outputs.len());
+        let z: Vec<f64> = self.0.input.transform(x).iter().copied().collect();
+        let (n, k) = (x.nrows(), self.0.outputs.len());
         let mut mean = Array2::zeros((n, k));
         let mut std = Array2::zeros((n, k));
-        for (j, o) in self.outputs.iter().enumerate() {
+        for (j, o) in self.0.outputs.iter().enumerate() {
             let (m, v) = o.gp.predict(&z, with_std);
             for i in 0..n {
                 mean[[i, j]] = m[i] * o.target_scale + o.target_mean;
@@ -352,7 +351,7 @@ impl WrenchGp {
                 found: version,
             });
         }
-        let file: ModelFileV1 =
+        let file: ModelFile<ExactGpData> =
             serde_json::from_value(value).map_err(|source| ModelError::Schema {
                 path: p.clone(),
                 source,
@@ -360,7 +359,7 @@ impl WrenchGp {
         Self::from_file(file, &p)
     }
 
-    fn from_file(file: ModelFileV1, path: &str) -> Result<Self, ModelError> {
+    fn from_file(mut file: ModelFile<ExactGpData>, path: &str) -> Result<Self, ModelError> {
         let bad = |what: String| {
             Err(ModelError::Inconsistent {
                 path: path.into(),
@@ -384,7 +383,7 @@ impl WrenchGp {
             return bad(format!("axes {} but outputs for {axes:?}", file.axes));
         }
         let mut outputs = Vec::with_capacity(file.outputs.len());
-        for o in file.outputs {
+        for o in std::mem::take(&mut file.outputs) {
             if o.gp.dim != d || o.gp.y.len() != file.n_train || o.gp.x.len() != d * file.n_train {
                 return bad(format!(
                     "axis {}: GP of dimension {} with {} targets and {} inputs, \
@@ -402,7 +401,7 @@ impl WrenchGp {
                     o.axis, o.target_scale, o.target_mean
                 ));
             }
-            outputs.push(AxisGp {
+            outputs.push(AxisModel {
                 axis: o.axis,
                 target_mean: o.target_mean,
                 target_scale: o.target_scale,
@@ -410,16 +409,7 @@ impl WrenchGp {
                 gp: ExactGp::try_from(o.gp)?,
             });
         }
-        Ok(WrenchGp {
-            format: file.format,
-            version: file.version,
-            features: file.features,
-            axes: file.axes,
-            tare: file.tare,
-            input: file.input,
-            n_train: file.n_train,
-            outputs,
-        })
+        Ok(WrenchGp(file.with_outputs(outputs)))
     }
 }
 
