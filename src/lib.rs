@@ -8,6 +8,8 @@
 //! - [`sim`]: the thesis data-collection protocol on that simulator;
 //! - [`learn`]: data sets, the exact GP, the baseline network, evaluation and
 //!   the model file;
+//! - [`kinematics`]: the PA10-7C chain, Jacobian and damped least-squares inverse;
+//! - [`params`]: ROS 2 parameter files, shared with the embedded runtime;
 //! - [`wrench`]: wrenches and the axes a scene needs.
 //!
 //! Train a one-axis estimator and query it for one reading:
@@ -42,6 +44,8 @@
 #![deny(missing_docs)]
 
 pub mod biotac;
+pub mod kinematics;
 pub mod learn;
+pub mod params;
 pub mod sim;
 pub mod wrench;
