@@ -44,8 +44,12 @@
 #![deny(missing_docs)]
 
 pub mod biotac;
+pub mod control;
 pub mod kinematics;
 pub mod learn;
+pub mod nodes;
 pub mod params;
+pub mod report;
+pub mod runtime;
 pub mod sim;
 pub mod wrench;

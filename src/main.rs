@@ -218,12 +218,10 @@ fn show(bar: &ProgressBar, p: Progress) {
 
 fn run_train(a: TrainArgs) -> Result<()> {
     let (mut ds, tare) = load_tared(&a.data, &a.fit)?;
-    if ds.len() > a.fit.max_train {
+    {
         use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(a.fit.seed);
-        let mut idx = rand::seq::index::sample(&mut rng, ds.len(), a.fit.max_train).into_vec();
-        idx.sort_unstable();
-        ds = ds.select(&idx);
+        ds = ds.random_rows(a.fit.max_train, &mut rng);
     }
     let params = gp_params(&a.fit)?;
     let bar = progress_bar();

@@ -16,7 +16,7 @@ pub const ADC_MAX: u16 = 4095;
 pub const FRAME_PERIOD_S: f64 = 0.01;
 
 /// One BioTac frame in raw ADC counts.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BioTacReading {
     /// Frame sequence number from the source (wraps at `u16::MAX`).
     pub seq: u16,

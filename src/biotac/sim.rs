@@ -445,6 +445,12 @@ impl BioTacSim {
         }
     }
 
+    /// Restarts the noise stream from `seed`, keeping the unit: the same
+    /// sensor in another run.
+    pub fn reseed_noise(&mut self, seed: u64) {
+        self.rng = ChaCha8Rng::seed_from_u64(seed);
+    }
+
     /// Current temperature (TDC counts, noise-free).
     pub fn temperature(&self) -> f64 {
         self.tdc

@@ -250,6 +250,37 @@ impl Dataset {
         })
     }
 
+    /// The electrode features and `axes` targets of collected records, as
+    /// [`Dataset::read_csv`] reads them back from [`write_csv`]'s file.
+    pub fn from_records(records: &[Record], axes: &AxisSet) -> Self {
+        let n = records.len();
+        let x = Array2::from_shape_fn((n, N_ELECTRODES), |(i, j)| {
+            f64::from(records[i].reading.electrodes[j])
+        });
+        let y = Array2::from_shape_fn((n, axes.len()), |(i, j)| {
+            records[i].wrench.get(axes.axes()[j])
+        });
+        Dataset {
+            features: electrode_columns(),
+            x,
+            axes: axes.clone(),
+            y,
+            set: records.iter().map(|r| r.set).collect(),
+            trial: records.iter().map(|r| r.trial).collect(),
+        }
+    }
+
+    /// At most `n` rows, drawn at random without replacement and kept in
+    /// their original order; all rows when there are not more than `n`.
+    pub fn random_rows(&self, n: usize, rng: &mut impl rand::Rng) -> Dataset {
+        if self.len() <= n {
+            return self.clone();
+        }
+        let mut idx = rand::seq::index::sample(rng, self.len(), n).into_vec();
+        idx.sort_unstable();
+        self.select(&idx)
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.x.nrows()
@@ -382,6 +413,20 @@ mod tests {
         assert!(err.to_string().contains("missing column \"e2\""), "{err}");
         let err = Dataset::read_csv(f.path(), &["junk".into()], &axes).unwrap_err();
         assert!(err.to_string().contains("line 2, column \"junk\""), "{err}");
+    }
+
+    #[test]
+    fn records_in_memory_equal_records_read_back_from_csv() {
+        use crate::biotac::sim::BioTacSimConfig;
+        use crate::sim::collect::{collect, CollectConfig};
+        let records = &collect(&CollectConfig::default(), &BioTacSimConfig::default(), 3)[..300];
+        let f = tempfile::NamedTempFile::new().unwrap();
+        write_csv(f.path(), records).unwrap();
+        let axes = AxisSet::forces();
+        let read = Dataset::read_csv(f.path(), &electrode_columns(), &axes).unwrap();
+        let mem = Dataset::from_records(records, &axes);
+        assert_eq!((mem.x, mem.set, mem.trial), (read.x, read.set, read.trial));
+        assert_eq!(mem.y, read.y, "floats round-trip exactly");
     }
 
     #[test]

@@ -6,7 +6,6 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use ndarray::{Array2, ArrayView2};
-use rand::seq::index::sample;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -151,13 +150,7 @@ fn fit_and_predict(
     progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<FoldPredictions, EvalError> {
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    let train = if train.len() > opts.max_train {
-        let mut idx = sample(&mut rng, train.len(), opts.max_train).into_vec();
-        idx.sort_unstable();
-        train.select(&idx)
-    } else {
-        train.clone()
-    };
+    let train = train.random_rows(opts.max_train, &mut rng);
     let t0 = Instant::now();
     let gp = WrenchGp::train(&train, tare.clone(), &opts.gp, &mut |a, p| {
         progress(Progress::Gp(a, p))

@@ -2,6 +2,7 @@
 //! baseline neural network, metrics and the model file.
 
 pub mod dataset;
+pub mod default_model;
 pub mod evaluate;
 pub mod gp;
 pub mod metrics;

@@ -362,6 +362,12 @@ impl TrialPlan {
     }
 }
 
+/// The seed of the simulated BioTac unit that `collect(.., seed)` records:
+/// a model trained on those data fits `BioTacSim::new(config, unit_seed(seed))`.
+pub fn unit_seed(seed: u64) -> u64 {
+    ChaCha8Rng::seed_from_u64(seed).random()
+}
+
 /// Runs the protocol on one simulated BioTac unit: sets 1..=4, trials
 /// 1..=`trials_per_set`, `samples_per_trial` rows each, in that order.
 ///
@@ -374,6 +380,7 @@ impl TrialPlan {
 pub fn collect(config: &CollectConfig, sim_config: &BioTacSimConfig, seed: u64) -> Vec<Record> {
     let p = &config.params;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    // The first draw of the stream is the unit: see `unit_seed`.
     let mut sim = BioTacSim::new(sim_config, rng.random());
     let tdc0 = sim.temperature();
     let dt = 1.0 / p.rate_hz;
@@ -443,6 +450,15 @@ mod tests {
             c,
             CollectConfig::from_yaml_str(DEFAULT_CONFIG_YAML).expect("valid")
         );
+    }
+
+    #[test]
+    fn unit_seed_names_the_unit_collect_records() {
+        let (c, s) = (CollectConfig::default(), BioTacSimConfig::default());
+        let first = collect(&c, &s, 5)[0].reading;
+        let mut unit = BioTacSim::new(&s, unit_seed(5));
+        // Same unit and noise stream: the first out-of-contact frame matches.
+        assert_eq!(unit.step(None, 0.01).electrodes, first.electrodes);
     }
 
     #[test]

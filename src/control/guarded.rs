@@ -1,0 +1,313 @@
+//! The guarded move: approach along a direction at a set speed until contact,
+//! then regulate the force to the target and hold it; retract and stop above
+//! the force limit; stop with a timeout when nothing is touched within the
+//! approach distance.
+//!
+//! ```text
+//!  Approach --F >= contact or PDC rise--> Regulate <--band--> Hold
+//!     |  \--travelled > max distance--> Stopped(timeout)
+//!     \------ F > limit (any phase) ---> Retract --retracted--> Stopped(force_limit)
+//! ```
+//!
+//! Sign convention: the task works on the pressing force (the force along
+//! minus the approach direction) and returns a speed along the approach
+//! direction (positive = towards the object).
+
+use nalgebra::Vector3;
+use serde::Deserialize;
+
+use super::pd::{PdAxis, PdParams};
+use super::{Phase, StopReason};
+use crate::params::ParamsError;
+use crate::sim::contact::{invalid, non_negative, positive};
+
+/// Guarded-move settings (`force_controller.guarded` in the scene files).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GuardedParams {
+    /// Approach direction in the BioTac frame (normalised on validation);
+    /// the pad faces -z.
+    pub direction: [f64; 3],
+    /// Approach speed (m/s).
+    pub approach_speed_mps: f64,
+    /// Force to hold (N).
+    pub target_force_n: f64,
+    /// Estimated force that means contact (N).
+    pub contact_force_n: f64,
+    /// PDC rise above its tare that means contact (counts).
+    pub contact_pdc_counts: f64,
+    /// Estimated force above which the move retracts and stops (N).
+    pub force_limit_n: f64,
+    /// Approach distance after which the move stops with a timeout (m).
+    pub max_distance_m: f64,
+    /// Retract speed (m/s).
+    pub retract_speed_mps: f64,
+    /// Distance to retract after the force limit (m).
+    pub retract_distance_m: f64,
+    /// Force band around the target that counts as settled (N).
+    pub settle_band_n: f64,
+    /// Time inside the band before the phase is Hold (s).
+    pub settle_time_s: f64,
+}
+
+impl GuardedParams {
+    /// Checks the values and normalises the direction.
+    pub fn validate(mut self) -> Result<Self, ParamsError> {
+        let d = Vector3::from(self.direction);
+        let n = d.norm();
+        if !(n.is_finite() && n > 0.0) {
+            return Err(invalid("guarded.direction", n, "a finite non-zero vector"));
+        }
+        self.direction = (d / n).into();
+        positive("guarded.approach_speed_mps", self.approach_speed_mps)?;
+        positive("guarded.contact_force_n", self.contact_force_n)?;
+        positive("guarded.contact_pdc_counts", self.contact_pdc_counts)?;
+        if !(self.target_force_n > self.contact_force_n) {
+            return Err(invalid(
+                "guarded.target_force_n",
+                self.target_force_n,
+                "above guarded.contact_force_n",
+            ));
+        }
+        if !(self.force_limit_n > self.target_force_n) {
+            return Err(invalid(
+                "guarded.force_limit_n",
+                self.force_limit_n,
+                "above guarded.target_force_n",
+            ));
+        }
+        positive("guarded.max_distance_m", self.max_distance_m)?;
+        positive("guarded.retract_speed_mps", self.retract_speed_mps)?;
+        non_negative("guarded.retract_distance_m", self.retract_distance_m)?;
+        positive("guarded.settle_band_n", self.settle_band_n)?;
+        non_negative("guarded.settle_time_s", self.settle_time_s)?;
+        Ok(self)
+    }
+}
+
+/// What the guarded move sees each cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuardedInput {
+    /// Estimated pressing force (N).
+    pub force_n: f64,
+    /// PDC rise above its tare (counts).
+    pub pdc_rise: f64,
+    /// Distance travelled along the approach direction since the start (m).
+    pub travelled_m: f64,
+    /// Time since the previous cycle (s).
+    pub dt: f64,
+}
+
+/// The guarded-move state machine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuardedMove {
+    p: GuardedParams,
+    pd: PdAxis,
+    phase: Phase,
+    reason: Option<StopReason>,
+    in_band_s: f64,
+    retract_from_m: f64,
+}
+
+impl GuardedMove {
+    /// A move with checked parameters, its PD law for a contact of effective
+    /// stiffness `stiffness` (N/m) at control period `period_s`.
+    pub fn new(p: GuardedParams, pd: &PdParams, stiffness: f64, period_s: f64) -> Self {
+        GuardedMove {
+            pd: PdAxis::new(pd, stiffness, period_s, 0.0),
+            p,
+            phase: Phase::Approach,
+            reason: None,
+            in_band_s: 0.0,
+            retract_from_m: 0.0,
+        }
+    }
+
+    /// Unit approach direction in the BioTac frame.
+    pub fn direction(&self) -> Vector3<f64> {
+        Vector3::from(self.p.direction)
+    }
+
+    /// Current phase.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Why the move stopped, if it stopped on its own.
+    pub fn reason(&self) -> Option<StopReason> {
+        self.reason
+    }
+
+    /// The force being held (N).
+    pub fn target_force_n(&self) -> f64 {
+        self.p.target_force_n
+    }
+
+    /// The PD law (for its gain).
+    pub fn pd(&self) -> &PdAxis {
+        &self.pd
+    }
+
+    /// Forgets the force history after a pause in the estimates.
+    pub fn pause(&mut self) {
+        self.pd.reset();
+        self.in_band_s = 0.0;
+    }
+
+    /// One cycle: the speed along the approach direction (m/s).
+    pub fn step(&mut self, i: &GuardedInput) -> f64 {
+        let p = self.p;
+        let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
+        let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
+        if active && i.force_n > p.force_limit_n {
+            self.phase = Phase::Retract;
+            self.reason = Some(StopReason::ForceLimit);
+            self.retract_from_m = i.travelled_m;
+        }
+        match self.phase {
+            Phase::Approach => {
+                if i.force_n >= p.contact_force_n || i.pdc_rise >= p.contact_pdc_counts {
+                    self.phase = Phase::Regulate;
+                    return self.regulate(u, i);
+                }
+                if i.travelled_m >= p.max_distance_m {
+                    self.phase = Phase::Stopped;
+                    self.reason = Some(StopReason::Timeout);
+                    return 0.0;
+                }
+                p.approach_speed_mps
+            }
+            Phase::Regulate | Phase::Hold => self.regulate(u, i),
+            Phase::Retract => {
+                if i.travelled_m <= self.retract_from_m - p.retract_distance_m {
+                    self.phase = Phase::Stopped;
+                    return 0.0;
+                }
+                -p.retract_speed_mps
+            }
+            Phase::Stopped | Phase::Follow => 0.0,
+        }
+    }
+
+    fn regulate(&mut self, u: f64, i: &GuardedInput) -> f64 {
+        if (i.force_n - self.p.target_force_n).abs() <= self.p.settle_band_n {
+            self.in_band_s += i.dt;
+        } else {
+            self.in_band_s = 0.0;
+        }
+        self.phase = if self.in_band_s >= self.p.settle_time_s {
+            Phase::Hold
+        } else {
+            Phase::Regulate
+        };
+        // Never towards the object faster than the approach.
+        u.min(self.p.approach_speed_mps)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub(crate) fn params() -> GuardedParams {
+        GuardedParams {
+            direction: [0.0, 0.0, -2.0],
+            approach_speed_mps: 0.01,
+            target_force_n: 1.0,
+            contact_force_n: 0.15,
+            contact_pdc_counts: 30.0,
+            force_limit_n: 3.0,
+            max_distance_m: 0.05,
+            retract_speed_mps: 0.01,
+            retract_distance_m: 0.005,
+            settle_band_n: 0.05,
+            settle_time_s: 0.1,
+        }
+        .validate()
+        .unwrap()
+    }
+
+    fn pd() -> PdParams {
+        PdParams {
+            gain_ratio: 0.4,
+            derivative_time_s: 0.0,
+            derivative_filter_s: 0.02,
+            max_speed_mps: 0.05,
+        }
+    }
+
+    fn input(force_n: f64, travelled_m: f64) -> GuardedInput {
+        GuardedInput {
+            force_n,
+            pdc_rise: 0.0,
+            travelled_m,
+            dt: 0.01,
+        }
+    }
+
+    #[test]
+    fn approach_contact_regulate_hold_on_a_spring() {
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+        assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
+        // Object 5 mm away, stiffness 1000 N/m, ideal velocity tracking.
+        let mut x = 0.0;
+        let mut phases = vec![];
+        for _ in 0..300 {
+            let f = (1000.0 * (x - 0.005)).max(0.0);
+            let v = g.step(&input(f, x));
+            assert!(v <= 0.01 + 1e-12, "never faster than the approach");
+            x += v * 0.01;
+            if phases.last() != Some(&g.phase()) {
+                phases.push(g.phase());
+            }
+        }
+        assert_eq!(phases, [Phase::Approach, Phase::Regulate, Phase::Hold]);
+        assert!((1000.0 * (x - 0.005) - 1.0).abs() < 0.01);
+        assert_eq!(g.reason(), None);
+    }
+
+    #[test]
+    fn pdc_alone_detects_contact() {
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+        g.step(&GuardedInput {
+            pdc_rise: 40.0,
+            ..input(0.0, 0.001)
+        });
+        assert_eq!(g.phase(), Phase::Regulate);
+    }
+
+    #[test]
+    fn timeout_stops_at_the_distance() {
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+        assert_eq!(g.step(&input(0.0, 0.049)), 0.01);
+        assert_eq!(g.step(&input(0.0, 0.05)), 0.0);
+        assert_eq!((g.phase(), g.reason()), (Phase::Stopped, Some(StopReason::Timeout)));
+        assert_eq!(g.step(&input(0.0, 0.05)), 0.0, "stays stopped");
+    }
+
+    #[test]
+    fn over_force_retracts_in_the_same_cycle_then_stops() {
+        for start in [Phase::Approach, Phase::Regulate] {
+            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+            if start == Phase::Regulate {
+                g.step(&input(0.5, 0.010));
+            }
+            let v = g.step(&input(3.5, 0.012));
+            assert_eq!((v, g.phase()), (-0.01, Phase::Retract), "from {start:?}");
+            assert_eq!(g.step(&input(0.0, 0.008)), -0.01);
+            assert_eq!(g.step(&input(0.0, 0.007)), 0.0);
+            assert_eq!((g.phase(), g.reason()), (Phase::Stopped, Some(StopReason::ForceLimit)));
+        }
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let mut p = params();
+        p.force_limit_n = 0.5;
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("guarded.force_limit_n"), "{e}");
+        p = params();
+        p.direction = [0.0; 3];
+        assert!(p.validate().unwrap_err().to_string().contains("direction"));
+    }
+}

@@ -1,0 +1,154 @@
+//! The guided move (joystick): keep a set force against a person's fingertip
+//! along each controlled axis (1 N along z, 0 N along x and y by default), so
+//! that the arm follows the finger's pushes. A deadband (0.2 N in the thesis)
+//! ignores small forces. Above the force limit the arm stops.
+//!
+//! Per axis the PD law gives `u` ("raise the force"); the BioTac moves by
+//! `v = -u`: along -z to press harder on a finger under the pad, along +x to
+//! give way to a finger pushing the skin towards +x.
+
+use nalgebra::Vector3;
+use serde::Deserialize;
+
+use super::pd::{PdAxis, PdParams};
+use super::{Phase, StopReason};
+use crate::params::ParamsError;
+use crate::sim::contact::{invalid, non_negative};
+
+/// Guided-move settings (`force_controller.guided` in the scene files).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GuidedParams {
+    /// Force to hold along x, y, z of the BioTac frame (N).
+    pub target_force_n: [f64; 3],
+    /// Deadband on the force error (N).
+    pub deadband_n: f64,
+    /// Force magnitude above which the arm stops (N).
+    pub force_limit_n: f64,
+}
+
+impl GuidedParams {
+    /// Checks the values.
+    pub fn validate(self) -> Result<Self, ParamsError> {
+        let t = Vector3::from(self.target_force_n);
+        if !t.iter().all(|v| v.is_finite()) {
+            return Err(invalid("guided.target_force_n", t.norm(), "finite values"));
+        }
+        non_negative("guided.deadband_n", self.deadband_n)?;
+        if !(self.force_limit_n > t.norm()) {
+            return Err(invalid(
+                "guided.force_limit_n",
+                self.force_limit_n,
+                "above the target force's magnitude",
+            ));
+        }
+        Ok(self)
+    }
+}
+
+/// The guided-move controller.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuidedMove {
+    p: GuidedParams,
+    pd: [Option<PdAxis>; 3],
+    phase: Phase,
+}
+
+impl GuidedMove {
+    /// A guided move controlling the axes with `Some(stiffness)` (N/m,
+    /// effective contact stiffness along x, y, z) at control period `period_s`.
+    pub fn new(p: GuidedParams, pd: &PdParams, stiffness: [Option<f64>; 3], period_s: f64) -> Self {
+        GuidedMove {
+            pd: stiffness.map(|k| k.map(|k| PdAxis::new(pd, k, period_s, p.deadband_n))),
+            p,
+            phase: Phase::Follow,
+        }
+    }
+
+    /// Current phase: Follow, or Stopped after the force limit.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Why the move stopped, if it did.
+    pub fn reason(&self) -> Option<StopReason> {
+        (self.phase == Phase::Stopped).then_some(StopReason::ForceLimit)
+    }
+
+    /// Target force of each controlled axis (N), None for the others.
+    pub fn targets(&self) -> [Option<f64>; 3] {
+        let mut t = [None; 3];
+        for (i, pd) in self.pd.iter().enumerate() {
+            t[i] = pd.as_ref().map(|_| self.p.target_force_n[i]);
+        }
+        t
+    }
+
+    /// Proportional gain of each controlled axis (m/s per N).
+    pub fn gains(&self) -> [Option<f64>; 3] {
+        self.pd.each_ref().map(|p| p.as_ref().map(PdAxis::gain))
+    }
+
+    /// Forgets the force history after a pause in the estimates.
+    pub fn pause(&mut self) {
+        self.pd.iter_mut().flatten().for_each(PdAxis::reset);
+    }
+
+    /// One cycle: estimated force (N, BioTac frame) -> BioTac velocity (m/s,
+    /// BioTac frame).
+    pub fn step(&mut self, force: &Vector3<f64>, dt: f64) -> Vector3<f64> {
+        if force.norm() > self.p.force_limit_n {
+            self.phase = Phase::Stopped;
+        }
+        let mut v = Vector3::zeros();
+        for (i, pd) in self.pd.iter_mut().enumerate() {
+            if let Some(pd) = pd {
+                v[i] = -pd.step(self.p.target_force_n[i], force[i], dt);
+            }
+        }
+        if self.phase == Phase::Stopped {
+            return Vector3::zeros();
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn guided() -> GuidedMove {
+        let p = GuidedParams {
+            target_force_n: [0.0, 0.0, 1.0],
+            deadband_n: 0.2,
+            force_limit_n: 5.0,
+        }
+        .validate()
+        .unwrap();
+        let pd = PdParams {
+            gain_ratio: 0.4,
+            derivative_time_s: 0.0,
+            derivative_filter_s: 0.02,
+            max_speed_mps: 0.1,
+        };
+        GuidedMove::new(p, &pd, [Some(500.0), Some(500.0), Some(300.0)], 0.01)
+    }
+
+    #[test]
+    fn gives_way_to_pushes_and_presses_when_too_light() {
+        let mut g = guided();
+        let v = g.step(&Vector3::new(0.5, -0.5, 1.0), 0.01);
+        assert!(v.x > 0.0 && v.y < 0.0 && v.z == 0.0, "{v}");
+        let v = g.step(&Vector3::new(0.1, 0.0, 0.5), 0.01);
+        assert!(v.x == 0.0 && v.z < 0.0, "deadband on x, press on z: {v}");
+        assert_eq!(g.targets(), [Some(0.0), Some(0.0), Some(1.0)]);
+    }
+
+    #[test]
+    fn force_limit_stops_for_good() {
+        let mut g = guided();
+        assert_eq!(g.step(&Vector3::new(0.0, 0.0, 6.0), 0.01), Vector3::zeros());
+        assert_eq!(g.step(&Vector3::new(0.0, 0.0, 0.0), 0.01), Vector3::zeros());
+        assert_eq!((g.phase(), g.reason()), (Phase::Stopped, Some(StopReason::ForceLimit)));
+    }
+}

@@ -1,0 +1,67 @@
+//! Force control: the PD law, the guarded and guided tasks, and the safety
+//! checks. Everything here is in the BioTac (tool) frame and in SI units;
+//! [`crate::nodes::controller`] turns the result into joint velocities.
+
+pub mod guarded;
+pub mod guided;
+pub mod pd;
+pub mod safety;
+
+pub use guarded::{GuardedMove, GuardedParams};
+pub use guided::{GuidedMove, GuidedParams};
+pub use pd::{PdAxis, PdParams};
+pub use safety::{Halt, Watchdog};
+
+use serde::Serialize;
+
+/// Where a task is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Phase {
+    /// Moving towards the object at the approach speed.
+    Approach,
+    /// In contact, regulating the force.
+    Regulate,
+    /// In contact, the force settled within its band.
+    Hold,
+    /// Moving away after the force limit.
+    Retract,
+    /// Following a person's finger (guided move).
+    Follow,
+    /// Finished: no motion any more.
+    Stopped,
+}
+
+impl Phase {
+    /// Lower-case name, as in the JSON and CSV output.
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Approach => "approach",
+            Phase::Regulate => "regulate",
+            Phase::Hold => "hold",
+            Phase::Retract => "retract",
+            Phase::Follow => "follow",
+            Phase::Stopped => "stopped",
+        }
+    }
+}
+
+/// Why a task stopped on its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// Nothing touched within the approach distance.
+    Timeout,
+    /// The force passed the limit.
+    ForceLimit,
+}
+
+impl StopReason {
+    /// Lower-case name, as in the JSON output.
+    pub fn name(self) -> &'static str {
+        match self {
+            StopReason::Timeout => "timeout",
+            StopReason::ForceLimit => "force_limit",
+        }
+    }
+}

@@ -1,0 +1,199 @@
+//! The PD force law of one axis, on (desired - estimated) force:
+//!
+//! `u = K dz(F_d - F - T_d dF_f/dt)`, clamped to `+-v_max`,
+//!
+//! where `F_f` is the force through a first-order low-pass (time constant
+//! `tau_f`), `T_d` the derivative time and `dz` a deadband that subtracts its
+//! width (continuous, zero inside). `u > 0` means "move so that the force
+//! rises". The derivative term acts on the measured force only, so a step of
+//! the set point gives no kick, and it predicts the force `T_d` ahead: with a
+//! loop delay of a few periods this brakes the approach before the force
+//! overshoots.
+//!
+//! Gain. For a velocity-controlled arm against a contact of stiffness `k`
+//! sampled with period `T`, `e[k+1] = (1 - a) e[k]` with `a = K k T`: stable
+//! for `0 < a < 2`, no ringing for `a <= 1`, and with one period of delay
+//! stable only for `a < 1` (architecture page, "Force control facts"). So
+//! `K = a / (k T)` with the gain ratio `a` a parameter (default 0.4, margin
+//! for the command latency and the arm's lag) and `k` the effective stiffness:
+//! the BioTac skin at the target force in series with the object
+//! ([`crate::sim::contact::series_stiffness`]).
+
+use serde::Deserialize;
+
+use crate::params::ParamsError;
+use crate::sim::contact::{invalid, non_negative, positive};
+
+/// PD settings (`force_controller.pd` in the scene files).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PdParams {
+    /// Gain ratio `a = K k T`, in (0, 1).
+    pub gain_ratio: f64,
+    /// Derivative time `T_d` (s).
+    pub derivative_time_s: f64,
+    /// Time constant of the force low-pass feeding the derivative (s).
+    pub derivative_filter_s: f64,
+    /// Largest speed the law commands (m/s).
+    pub max_speed_mps: f64,
+}
+
+impl PdParams {
+    /// Checks the values.
+    pub fn validate(&self) -> Result<(), ParamsError> {
+        if !(self.gain_ratio > 0.0 && self.gain_ratio < 1.0) {
+            return Err(invalid("pd.gain_ratio", self.gain_ratio, "0 < a < 1"));
+        }
+        non_negative("pd.derivative_time_s", self.derivative_time_s)?;
+        non_negative("pd.derivative_filter_s", self.derivative_filter_s)?;
+        positive("pd.max_speed_mps", self.max_speed_mps)
+    }
+}
+
+/// The PD law of one axis, with its filter state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PdAxis {
+    gain: f64,
+    derivative_time_s: f64,
+    filter_s: f64,
+    deadband_n: f64,
+    max_speed: f64,
+    filtered: Option<f64>,
+    rate: f64,
+}
+
+impl PdAxis {
+    /// The law for a contact of effective stiffness `stiffness` (N/m) at
+    /// control period `period_s`, with a deadband (N).
+    pub fn new(p: &PdParams, stiffness: f64, period_s: f64, deadband_n: f64) -> Self {
+        PdAxis {
+            gain: p.gain_ratio / (stiffness * period_s),
+            derivative_time_s: p.derivative_time_s,
+            filter_s: p.derivative_filter_s,
+            deadband_n,
+            max_speed: p.max_speed_mps,
+            filtered: None,
+            rate: 0.0,
+        }
+    }
+
+    /// Proportional gain K (m/s per N).
+    pub fn gain(&self) -> f64 {
+        self.gain
+    }
+
+    /// Filtered rate of change of the force (N/s).
+    pub fn force_rate(&self) -> f64 {
+        self.rate
+    }
+
+    /// Feeds the force `force` measured `dt` after the previous one and
+    /// returns the speed (m/s) that moves the force towards `target`.
+    pub fn step(&mut self, target: f64, force: f64, dt: f64) -> f64 {
+        let filtered = match self.filtered {
+            Some(prev) if dt > 0.0 => {
+                let f = prev + (force - prev) * dt / (self.filter_s + dt);
+                self.rate = (f - prev) / dt;
+                f
+            }
+            Some(prev) => prev,
+            None => force,
+        };
+        self.filtered = Some(filtered);
+        let e = target - force - self.derivative_time_s * self.rate;
+        let e = e.signum() * (e.abs() - self.deadband_n).max(0.0);
+        (self.gain * e).clamp(-self.max_speed, self.max_speed)
+    }
+
+    /// Forgets the filter state (after a pause in the estimates).
+    pub fn reset(&mut self) {
+        self.filtered = None;
+        self.rate = 0.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> PdParams {
+        PdParams {
+            gain_ratio: 0.5,
+            derivative_time_s: 0.0,
+            derivative_filter_s: 0.02,
+            max_speed_mps: 1.0,
+        }
+    }
+
+    /// Closes the loop on an ideal spring: F = k x, x += u T.
+    fn settle(p: &PdParams, k: f64, delay: usize) -> Vec<f64> {
+        let t = 0.01;
+        let mut pd = PdAxis::new(p, k, t, 0.0);
+        let (mut x, mut queue) = (0.0, vec![0.0; delay]);
+        let mut forces = Vec::new();
+        for _ in 0..200 {
+            let f = k * x;
+            forces.push(f);
+            queue.push(pd.step(1.0, f, t));
+            x += queue.remove(0) * t;
+        }
+        forces
+    }
+
+    #[test]
+    fn the_gain_ratio_sets_the_contraction_per_period() {
+        // Without delay the error shrinks by (1 - a) per period, for any stiffness.
+        for k in [1e2, 1e3, 1e5] {
+            let f = settle(&params(), k, 0);
+            let (e1, e2) = (1.0 - f[5], 1.0 - f[6]);
+            assert!((e2 / e1 - 0.5).abs() < 1e-9, "k {k}: {e1} {e2}");
+            assert!(f.iter().all(|&v| v <= 1.0 + 1e-12), "no overshoot");
+        }
+    }
+
+    #[test]
+    fn stability_bound_with_one_period_of_delay() {
+        // a < 1 converges with one period of delay; a = 1.2 diverges.
+        let ok = settle(&params(), 1e3, 1);
+        assert!((ok[199] - 1.0).abs() < 1e-6);
+        let mut high = params();
+        high.gain_ratio = 0.999;
+        let mut pd = PdAxis::new(&high, 1e3, 0.01, 0.0);
+        pd.gain *= 1.2;
+        let (mut x, mut queue, mut last) = (0.0, vec![0.0], 0.0);
+        for _ in 0..400 {
+            last = 1e3 * x;
+            queue.push(pd.step(1.0, last, 0.01));
+            x += queue.remove(0) * 0.01;
+        }
+        assert!((last - 1.0).abs() > 0.5, "a = 1.2 with a delay rings up: {last}");
+    }
+
+    #[test]
+    fn deadband_and_clamp() {
+        let mut p = params();
+        p.max_speed_mps = 0.01;
+        let mut pd = PdAxis::new(&p, 1e3, 0.01, 0.2);
+        assert_eq!(pd.step(1.0, 0.85, 0.01), 0.0, "inside the deadband");
+        let u = pd.step(1.0, 0.7, 0.01);
+        assert!((u - 0.1 * pd.gain()).abs() < 1e-12, "width subtracted: {u}");
+        assert_eq!(pd.step(10.0, 0.0, 0.01), 0.01, "clamped");
+        assert_eq!(pd.step(-10.0, 0.0, 0.01), -0.01, "clamped");
+    }
+
+    #[test]
+    fn the_derivative_brakes_a_rising_force() {
+        let mut p = params();
+        p.derivative_time_s = 0.05;
+        let mut pd = PdAxis::new(&p, 1e3, 0.01, 0.0);
+        let mut plain = PdAxis::new(&params(), 1e3, 0.01, 0.0);
+        let (mut u, mut v) = (0.0, 0.0);
+        for k in 0..10 {
+            let f = 0.05 * k as f64;
+            u = pd.step(1.0, f, 0.01);
+            v = plain.step(1.0, f, 0.01);
+        }
+        assert!(pd.force_rate() > 0.0 && u < v, "{u} {v}");
+        assert!(PdParams { gain_ratio: 1.5, ..params() }.validate().is_err());
+    }
+}

@@ -1,0 +1,26 @@
+//! Transport-free node logic (architecture page, "the one design rule"): each
+//! node is a plain struct with step methods; the lockstep runtime
+//! ([`crate::runtime`]) and the ROS 2 adapter only move messages between them.
+//!
+//! - [`estimator::EstimatorNode`]: BioTac readings -> wrench estimates (GP);
+//! - [`controller::ForceController`]: estimates and joint states -> joint velocities;
+//! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac.
+
+pub mod controller;
+pub mod estimator;
+pub mod sim_robot;
+
+pub use controller::{ControlOutput, ControllerParams, ForceController};
+pub use estimator::{EstimatorNode, WrenchEstimate};
+pub use sim_robot::{SimRobot, SimRobotParams, SimSample};
+
+use crate::kinematics::JointVector;
+
+/// Joint positions at a time (the `joint_states` topic).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointState {
+    /// Time of the measurement (s).
+    pub stamp_s: f64,
+    /// Joint positions (rad).
+    pub q: JointVector,
+}

@@ -1,0 +1,304 @@
+//! The simulated robot node: the arm plant, the object (fixed) or the
+//! person's finger (moving on its path), the contact between them and the
+//! BioTac pad, the F/T sensor and the BioTac simulator. Physics runs at
+//! `physics_rate_hz` (1 kHz); sensing at the control period (100 Hz).
+//!
+//! Geometry: the body's surface is a plane facing the pad (its normal is +z
+//! of the BioTac frame at the start), `object_gap_mm` below the pad point.
+//! The pad point is the skin point at `contact_x_mm` on the pad midline.
+//! The F/T sensor reports the wrench on the finger in the BioTac frame about
+//! its origin, averaged over the physics steps of a period, each with
+//! Gaussian noise.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Isometry3, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Deserialize;
+
+use super::JointState;
+use crate::biotac::geometry::SurfacePoint;
+use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
+use crate::biotac::BioTacReading;
+use crate::kinematics::{JointVector, Robot, N_JOINTS};
+use crate::params::ParamsError;
+use crate::sim::arm::ArmPlant;
+use crate::sim::collect::unit_seed;
+use crate::sim::contact::{invalid, non_negative, positive, BodyParams, PlaneContact, SkinParams};
+use crate::sim::finger::{FingerPath, FingerState, Segment};
+use crate::wrench::Wrench;
+
+/// The `sim_robot` parameters (world file + scene file).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimRobotParams {
+    /// Sensing and control period (s).
+    pub control_period_s: f64,
+    /// The BioTac skin law.
+    pub skin: SkinParams,
+    /// Objects the arm may touch, by name.
+    pub objects: BTreeMap<String, BodyParams>,
+    /// The object of this run (for the guided move: the person's fingertip).
+    pub object: String,
+    /// Physics rate (Hz); a multiple of the control rate.
+    pub physics_rate_hz: f64,
+    /// Delay before a joint velocity command acts (s).
+    pub command_latency_s: f64,
+    /// Time constant of the joints' velocity tracking (s).
+    pub velocity_lag_s: f64,
+    /// Joint positions at the start (deg).
+    pub start_joints_deg: Vec<f64>,
+    /// Where the pad touches, along the BioTac axis (mm).
+    pub contact_x_mm: f64,
+    /// Distance from the pad to the body's surface at the start (mm).
+    pub object_gap_mm: f64,
+    /// The body moves along this path (the guided move's finger); absent: fixed.
+    pub finger_path: Option<Vec<Segment>>,
+    /// F/T noise per physics step, forces (N, std).
+    pub ft_noise_n: f64,
+    /// F/T noise per physics step, torques (Nm, std).
+    pub ft_noise_nm: f64,
+    /// The simulated BioTac is the unit that `collect --seed N` records.
+    pub sensor_unit_seed: u64,
+    /// Length of a run (s).
+    pub duration_s: f64,
+}
+
+/// What the simulated robot publishes each control period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimSample {
+    /// Simulated time (s).
+    pub t: f64,
+    /// The BioTac frame.
+    pub reading: BioTacReading,
+    /// Joint positions.
+    pub joints: JointState,
+    /// F/T measurement: wrench on the finger, BioTac frame (N, Nm).
+    pub ft: Wrench,
+    /// BioTac position relative to the start, in the start BioTac frame (m).
+    pub offset: Vector3<f64>,
+    /// BioTac velocity over the last period, start BioTac frame (m/s).
+    pub velocity: Vector3<f64>,
+    /// The finger, when the body moves.
+    pub finger: Option<FingerState>,
+}
+
+/// The simulated robot node.
+#[derive(Debug, Clone)]
+pub struct SimRobot {
+    robot: Robot,
+    arm: ArmPlant,
+    contact: PlaneContact,
+    biotac: BioTacSim,
+    path: Option<FingerPath>,
+    contact_x_mm: f64,
+    pad_tool: Vector3<f64>,
+    start: Isometry3<f64>,
+    plane0: Vector3<f64>,
+    normal: Vector3<f64>,
+    dt: f64,
+    steps_per_period: usize,
+    period_s: f64,
+    ft_noise: (f64, f64),
+    rng: ChaCha8Rng,
+    steps: u64,
+    t: f64,
+    force_sum: Vector3<f64>,
+    noise_sum: Wrench,
+    steps_in_period: usize,
+    last_force: Vector3<f64>,
+    last_offset: Vector3<f64>,
+    duration_s: f64,
+}
+
+impl SimRobot {
+    /// Checks the parameters and builds the world at rest; `seed` drives
+    /// every noise (F/T and BioTac), the BioTac unit is `sensor_unit_seed`'s.
+    pub fn new(
+        p: SimRobotParams,
+        robot: Robot,
+        sensor: &BioTacSimConfig,
+        seed: u64,
+    ) -> Result<Self, ParamsError> {
+        positive("control_period_s", p.control_period_s)?;
+        positive("physics_rate_hz", p.physics_rate_hz)?;
+        non_negative("command_latency_s", p.command_latency_s)?;
+        non_negative("velocity_lag_s", p.velocity_lag_s)?;
+        non_negative("ft_noise_n", p.ft_noise_n)?;
+        non_negative("ft_noise_nm", p.ft_noise_nm)?;
+        positive("duration_s", p.duration_s)?;
+        p.skin.validate("skin")?;
+        let ratio = p.control_period_s * p.physics_rate_hz;
+        if (ratio - ratio.round()).abs() > 1e-9 || ratio < 1.0 {
+            return Err(invalid(
+                "physics_rate_hz",
+                p.physics_rate_hz,
+                "a whole multiple of the control rate",
+            ));
+        }
+        if p.start_joints_deg.len() != N_JOINTS {
+            return Err(ParamsError::Invalid {
+                key: "start_joints_deg".into(),
+                value: format!("{:?}", p.start_joints_deg),
+                expected: format!("{N_JOINTS} values"),
+            });
+        }
+        let q0 = JointVector::from_iterator(p.start_joints_deg.iter().map(|d| d.to_radians()));
+        if (0..N_JOINTS).any(|i| !(q0[i] > robot.limits.min[i] && q0[i] < robot.limits.max[i])) {
+            return Err(ParamsError::Invalid {
+                key: "start_joints_deg".into(),
+                value: format!("{:?}", p.start_joints_deg),
+                expected: "values inside the joint ranges".into(),
+            });
+        }
+        let body = *p.objects.get(&p.object).ok_or_else(|| ParamsError::Invalid {
+            key: "object".into(),
+            value: p.object.clone(),
+            expected: format!("one of {:?}", p.objects.keys().collect::<Vec<_>>()),
+        })?;
+        body.validate(&format!("objects.{}", p.object))?;
+        let path = p.finger_path.as_deref().map(FingerPath::new).transpose()?;
+        if let Some(path) = &path {
+            if path.duration_s() > p.duration_s {
+                return Err(invalid(
+                    "duration_s",
+                    p.duration_s,
+                    &format!("at least the finger path's {:.2} s", path.duration_s()),
+                ));
+            }
+        }
+        if !p.contact_x_mm.is_finite() || !p.object_gap_mm.is_finite() {
+            return Err(invalid("contact_x_mm/object_gap_mm", f64::NAN, "finite values"));
+        }
+
+        let start = robot.chain.forward(&q0);
+        let pad_tool = SurfacePoint::at(p.contact_x_mm, 0.0).point_mm * 1e-3;
+        let normal = start.rotation * Vector3::z();
+        let plane0 = start * nalgebra::Point3::from(pad_tool) - normal * p.object_gap_mm * 1e-3;
+        let mut biotac = BioTacSim::new(sensor, unit_seed(p.sensor_unit_seed));
+        biotac.reseed_noise(seed);
+        let steps = ratio.round() as usize;
+        Ok(SimRobot {
+            arm: ArmPlant::new(q0, &robot.limits, p.command_latency_s, p.velocity_lag_s),
+            robot,
+            contact: PlaneContact::new(p.skin, body),
+            biotac,
+            path,
+            contact_x_mm: p.contact_x_mm,
+            pad_tool,
+            start,
+            plane0: plane0.coords,
+            normal,
+            dt: 1.0 / p.physics_rate_hz,
+            steps_per_period: steps,
+            period_s: p.control_period_s,
+            ft_noise: (p.ft_noise_n, p.ft_noise_nm),
+            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_f00d),
+            steps: 0,
+            t: 0.0,
+            force_sum: Vector3::zeros(),
+            noise_sum: Wrench::default(),
+            steps_in_period: 0,
+            last_force: Vector3::zeros(),
+            last_offset: Vector3::zeros(),
+            duration_s: p.duration_s,
+        })
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// Length of the run (s).
+    pub fn duration_s(&self) -> f64 {
+        self.duration_s
+    }
+
+    /// The control period (s).
+    pub fn period_s(&self) -> f64 {
+        self.period_s
+    }
+
+    /// The contact body.
+    pub fn body(&self) -> &BodyParams {
+        self.contact.body()
+    }
+
+    /// Sends a joint velocity command now.
+    pub fn command(&mut self, qdot: JointVector) {
+        self.arm.command(self.t, qdot);
+    }
+
+    /// Runs the physics for one control period.
+    pub fn advance(&mut self) {
+        for _ in 0..self.steps_per_period {
+            self.arm.step(self.t, self.dt);
+            // Counted, not summed, so the clock does not drift.
+            self.steps += 1;
+            self.t = self.steps as f64 * self.dt;
+            let pose = self.robot.chain.forward(self.arm.q());
+            let pad = (pose * nalgebra::Point3::from(self.pad_tool)).coords;
+            let plane = match &self.path {
+                Some(path) => self.plane0 + self.start.rotation * path.at(self.t).offset,
+                None => self.plane0,
+            };
+            let f_world = self.contact.step(&pad, &plane, &self.normal, self.dt);
+            self.last_force = pose.rotation.inverse() * f_world;
+            self.force_sum += self.last_force;
+            let (sf, st) = self.ft_noise;
+            self.noise_sum.force += Vector3::from_fn(|_, _| gaussian(&mut self.rng, sf));
+            self.noise_sum.torque += Vector3::from_fn(|_, _| gaussian(&mut self.rng, st));
+            self.steps_in_period += 1;
+        }
+    }
+
+    /// Samples the sensors at the current time: the BioTac sees the force of
+    /// the last physics step; the F/T sensor the period's average.
+    pub fn sample(&mut self) -> SimSample {
+        let contact = (self.last_force != Vector3::zeros()).then_some(Contact {
+            x_mm: self.contact_x_mm,
+            angle_rad: 0.0,
+            force: self.last_force,
+        });
+        let mut reading = self.biotac.step(contact.as_ref(), self.period_s);
+        reading.stamp_s = self.t;
+        let n = self.steps_in_period.max(1) as f64;
+        let mean_force = if self.steps_in_period == 0 {
+            self.last_force
+        } else {
+            self.force_sum / n
+        };
+        let truth = Contact {
+            x_mm: self.contact_x_mm,
+            angle_rad: 0.0,
+            force: mean_force,
+        }
+        .wrench();
+        let ft = Wrench::new(
+            truth.force + self.noise_sum.force / n,
+            truth.torque + self.noise_sum.torque / n,
+        );
+        self.force_sum = Vector3::zeros();
+        self.noise_sum = Wrench::default();
+        self.steps_in_period = 0;
+        let pose = self.robot.chain.forward(self.arm.q());
+        let offset = self.start.rotation.inverse()
+            * (pose.translation.vector - self.start.translation.vector);
+        let velocity = (offset - self.last_offset) / self.period_s;
+        self.last_offset = offset;
+        SimSample {
+            t: self.t,
+            reading,
+            joints: JointState {
+                stamp_s: self.t,
+                q: *self.arm.q(),
+            },
+            ft,
+            offset,
+            velocity,
+            finger: self.path.as_ref().map(|p| p.at(self.t)),
+        }
+    }
+}

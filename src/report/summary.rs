@@ -1,0 +1,178 @@
+//! The figures of a run, all from the force the F/T sensor measured (not the
+//! estimate), in the BioTac frame.
+//!
+//! - Contact: the first period whose measured force along the controlled
+//!   normal axis reaches [`CONTACT_N`].
+//! - Guarded move: peak force, overshoot above the target, settle time (from
+//!   contact until the force stays within [`SETTLE_BAND_N`] of the target),
+//!   steady-state error (|mean - target| over the last [`STEADY_WINDOW_S`]),
+//!   RMS error from contact on, and the largest speed across the approach
+//!   direction.
+//! - Guided move: RMS error per controlled axis from contact on, and the
+//!   largest speed along an axis the finger is not moving along, also as a
+//!   ratio of the finger's peak speed in that segment.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::TraceRow;
+use crate::nodes::controller::TaskKind;
+use crate::wrench::Axis;
+
+/// Measured force that counts as contact (N): 8 sigma of the F/T noise
+/// averaged over a period (0.02 N / sqrt(10)).
+pub const CONTACT_N: f64 = 0.05;
+/// Band around the target that counts as settled (N).
+pub const SETTLE_BAND_N: f64 = 0.05;
+/// Window at the end of a run for the steady-state error (s).
+pub const STEADY_WINDOW_S: f64 = 1.0;
+/// Window at the end of a run for the speed at rest (s).
+pub const REST_WINDOW_S: f64 = 0.5;
+
+/// What the summary needs besides the rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunInfo {
+    /// The task.
+    pub task: TaskKind,
+    /// The body touched.
+    pub object: String,
+    /// Approach speed of a guarded move (m/s).
+    pub approach_speed_mps: Option<f64>,
+}
+
+/// The figures of one run (the `--json` line of `demo`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    /// "guarded" or "guided".
+    pub task: &'static str,
+    /// The body touched.
+    pub object: String,
+    /// Approach speed (m/s); null for the guided move.
+    pub approach_speed_mps: Option<f64>,
+    /// Time of the first measured contact (s); null if none.
+    pub contact_time_s: Option<f64>,
+    /// Largest measured force along the controlled normal axis (N).
+    pub peak_force_n: f64,
+    /// Peak force above the target (N), 0 when below.
+    pub overshoot_n: f64,
+    /// |mean - target| of the normal force over the last second (N).
+    pub steady_state_error_n: Option<f64>,
+    /// From contact until the normal force stays within the band (s).
+    pub settle_time_s: Option<f64>,
+    /// RMS force error from contact on, worst controlled axis (N).
+    pub rms_force_error_n: Option<f64>,
+    /// RMS force error from contact on, per controlled axis (N).
+    pub rms_force_error_by_axis_n: BTreeMap<&'static str, f64>,
+    /// Largest speed along an axis not commanded (m/s).
+    pub max_off_axis_speed_mps: f64,
+    /// Guided: that speed over the finger's peak speed; guarded: over the
+    /// approach speed.
+    pub max_off_axis_ratio: Option<f64>,
+    /// Largest speed over the last half second (m/s): 0 when the arm rests.
+    pub rest_speed_mps: f64,
+    /// Periods the safety checks held the arm.
+    pub halted_periods: usize,
+    /// True when the task stopped on the force limit.
+    pub aborted: bool,
+    /// Why the task stopped ("timeout", "force_limit"), null when it did not.
+    pub reason: Option<&'static str>,
+    /// Phase at the end of the run.
+    pub final_phase: &'static str,
+    /// Simulated time covered (s).
+    pub duration_s: f64,
+}
+
+const FORCE_AXES: [Axis; 3] = [Axis::Fx, Axis::Fy, Axis::Fz];
+
+/// Computes the summary of a run.
+pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
+    let last = rows.last();
+    let end_t = last.map_or(0.0, |r| r.t);
+    let targets = last.map_or([None; 3], |r| r.targets);
+    // The normal axis: z when controlled, else the first controlled axis.
+    let normal = if targets[2].is_some() {
+        2
+    } else {
+        targets.iter().position(Option::is_some).unwrap_or(2)
+    };
+    let target = targets[normal].unwrap_or(0.0);
+    let sign = if target < 0.0 { -1.0 } else { 1.0 };
+    let pressing = |r: &TraceRow| sign * r.measured[normal];
+    let contact = rows.iter().position(|r| pressing(r) >= CONTACT_N);
+    let after = contact.map_or(&rows[rows.len()..], |i| &rows[i..]);
+    let peak_force_n = rows.iter().map(pressing).fold(0.0, f64::max);
+
+    let mut by_axis = BTreeMap::new();
+    for (i, t) in targets.iter().enumerate() {
+        if let (Some(t), false) = (t, after.is_empty()) {
+            let ms = after.iter().map(|r| (t - r.measured[i]).powi(2)).sum::<f64>()
+                / after.len() as f64;
+            by_axis.insert(FORCE_AXES[i].name(), ms.sqrt());
+        }
+    }
+    let rms = by_axis.values().copied().reduce(f64::max);
+
+    let window = |w: f64| rows.iter().filter(move |r| r.t > end_t - w);
+    let steady: Vec<f64> = window(STEADY_WINDOW_S).map(pressing).collect();
+    let steady_state_error_n = (contact.is_some() && !steady.is_empty())
+        .then(|| (steady.iter().sum::<f64>() / steady.len() as f64 - target.abs()).abs());
+    let settle_time_s = contact.and_then(|c| {
+        let outside = rows
+            .iter()
+            .rposition(|r| (pressing(r) - target.abs()).abs() > SETTLE_BAND_N)?;
+        // The rows before contact are outside the band, so this is found;
+        // settled only if the band was entered before the end.
+        (outside + 1 < rows.len()).then(|| rows[outside + 1].t - rows[c].t)
+    });
+    let (off_speed, off_ratio) = match info.task {
+        TaskKind::Guarded => {
+            let d = nalgebra::Vector3::ith(normal, 1.0);
+            let s = rows
+                .iter()
+                .map(|r| (r.velocity - d * r.velocity.dot(&d)).norm())
+                .fold(0.0, f64::max);
+            (s, info.approach_speed_mps.map(|v| s / v))
+        }
+        TaskKind::Guided => {
+            let (mut s, mut ratio) = (0.0f64, 0.0f64);
+            for r in rows.iter().filter(|r| r.phase != crate::control::Phase::Stopped) {
+                let Some(f) = r.finger.filter(|f| f.peak_speed_mps > 0.0) else {
+                    continue;
+                };
+                for i in (0..3).filter(|&i| !f.pushed[i]) {
+                    s = s.max(r.velocity[i].abs());
+                    ratio = ratio.max(r.velocity[i].abs() / f.peak_speed_mps);
+                }
+            }
+            (s, Some(ratio))
+        }
+    };
+    let rest_speed_mps = window(REST_WINDOW_S)
+        .map(|r| r.velocity.norm())
+        .fold(0.0, f64::max);
+    let reason = last.and_then(|r| r.reason);
+    Summary {
+        task: match info.task {
+            TaskKind::Guarded => "guarded",
+            TaskKind::Guided => "guided",
+        },
+        object: info.object.clone(),
+        approach_speed_mps: info.approach_speed_mps,
+        contact_time_s: contact.map(|i| rows[i].t),
+        peak_force_n,
+        overshoot_n: (peak_force_n - target.abs()).max(0.0),
+        steady_state_error_n,
+        settle_time_s,
+        rms_force_error_n: rms,
+        rms_force_error_by_axis_n: by_axis,
+        max_off_axis_speed_mps: off_speed,
+        max_off_axis_ratio: off_ratio,
+        rest_speed_mps,
+        halted_periods: rows.iter().filter(|r| r.halted).count(),
+        aborted: reason == Some(crate::control::StopReason::ForceLimit),
+        reason: reason.map(|r| r.name()),
+        final_phase: last.map_or("none", |r| r.phase.name()),
+        duration_s: end_t,
+    }
+}

@@ -1,0 +1,129 @@
+//! Scenes: the parameter files that configure one run, layered as ROS 2
+//! does with several `--params-file`s (later files override earlier ones):
+//! the robot (`config/pa10.yaml`), the world (`config/world.yaml`: skin law,
+//! objects, arm plant, sensors), then the task's scene
+//! (`config/guarded_move.yaml` or `config/guided_move.yaml`, or a user's
+//! file). The shipped files are embedded, so the demo runs from anywhere.
+
+use std::path::Path;
+
+use crate::biotac::BioTacSimConfig;
+use crate::kinematics::robot::PA10_YAML;
+use crate::learn::model::WrenchGp;
+use crate::nodes::controller::TaskKind;
+use crate::nodes::estimator::EstimatorError;
+use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
+use crate::params::{layered_node_params, ParamsError};
+use crate::runtime::Nodes;
+
+/// The shipped world file.
+pub const WORLD_YAML: &str = include_str!("../../config/world.yaml");
+/// The shipped guarded-move scene.
+pub const GUARDED_YAML: &str = include_str!("../../config/guarded_move.yaml");
+/// The shipped guided-move scene.
+pub const GUIDED_YAML: &str = include_str!("../../config/guided_move.yaml");
+
+/// Errors building a run from a scene.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// A parameter is missing, unknown or out of range.
+    #[error(transparent)]
+    Params(#[from] ParamsError),
+    /// The model cannot serve the estimator or the task.
+    #[error(transparent)]
+    Estimator(#[from] EstimatorError),
+    /// The model lacks an axis the task controls.
+    #[error("the model estimates {model}; the scene's task controls {task}")]
+    Axes {
+        /// The model's axes.
+        model: String,
+        /// The task's axes.
+        task: String,
+    },
+}
+
+/// The parameter texts of one run, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    layers: Vec<String>,
+}
+
+impl Scene {
+    /// The shipped scene of a task.
+    pub fn builtin(task: TaskKind) -> Self {
+        let scene = match task {
+            TaskKind::Guarded => GUARDED_YAML,
+            TaskKind::Guided => GUIDED_YAML,
+        };
+        Scene {
+            layers: vec![PA10_YAML.into(), WORLD_YAML.into(), scene.into()],
+        }
+    }
+
+    /// The shipped robot and world with the scene file at `path`.
+    pub fn from_file(path: &Path) -> Result<Self, ParamsError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(Scene {
+            layers: vec![PA10_YAML.into(), WORLD_YAML.into(), text],
+        })
+    }
+
+    /// Adds a layer on top (a YAML parameter text).
+    pub fn with_layer(mut self, yaml: String) -> Self {
+        self.layers.push(yaml);
+        self
+    }
+
+    /// Sets the object for every node (as the launch argument `object` does).
+    pub fn with_object(self, name: &str) -> Self {
+        // Quoted as a YAML string whatever the name holds.
+        let quoted = serde_json::to_string(name).unwrap_or_default();
+        self.with_layer(format!("/**:\n  ros__parameters:\n    object: {quoted}\n"))
+    }
+
+    /// The controller's parameters.
+    pub fn controller_params(&self) -> Result<ControllerParams, ParamsError> {
+        layered_node_params(&self.texts(), "force_controller")
+    }
+
+    /// The simulated robot's parameters.
+    pub fn sim_params(&self) -> Result<SimRobotParams, ParamsError> {
+        layered_node_params(&self.texts(), "sim_robot")
+    }
+
+    fn texts(&self) -> Vec<&str> {
+        self.layers.iter().map(String::as_str).collect()
+    }
+
+    /// Builds the nodes of a run with `model`; `seed` drives the noise.
+    pub fn build(
+        &self,
+        model: WrenchGp,
+        sensor: &BioTacSimConfig,
+        seed: u64,
+    ) -> Result<Nodes, SceneError> {
+        let controller = ForceController::new(self.controller_params()?)?;
+        let missing = controller
+            .axes()
+            .axes()
+            .iter()
+            .any(|a| !model.axes().axes().contains(a));
+        if missing {
+            return Err(SceneError::Axes {
+                model: model.axes().to_string(),
+                task: controller.axes().to_string(),
+            });
+        }
+        let sim = SimRobot::new(self.sim_params()?, controller.robot().clone(), sensor, seed)?;
+        let estimator = EstimatorNode::new(model, true)?;
+        Ok(Nodes {
+            sim,
+            estimator,
+            controller,
+        })
+    }
+}

@@ -1,0 +1,119 @@
+//! The simulated arm: a velocity-controlled joint servo. A command takes
+//! effect after a latency, then each joint tracks it with a first-order lag
+//! `tau dqdot/dt = qdot_cmd - qdot`. The hardware stops are the joint ranges.
+
+use std::collections::VecDeque;
+
+use crate::kinematics::{JointLimits, JointVector};
+
+/// The arm plant.
+#[derive(Debug, Clone)]
+pub struct ArmPlant {
+    q: JointVector,
+    qdot: JointVector,
+    active: JointVector,
+    pending: VecDeque<(f64, JointVector)>,
+    latency_s: f64,
+    lag_s: f64,
+    min: JointVector,
+    max: JointVector,
+}
+
+impl ArmPlant {
+    /// An arm at rest at `q0`, with its command latency and velocity lag (s).
+    pub fn new(q0: JointVector, limits: &JointLimits, latency_s: f64, lag_s: f64) -> Self {
+        ArmPlant {
+            q: q0,
+            qdot: JointVector::zeros(),
+            active: JointVector::zeros(),
+            // A few control periods of commands in flight at most.
+            pending: VecDeque::with_capacity(64),
+            latency_s,
+            lag_s,
+            min: limits.min,
+            max: limits.max,
+        }
+    }
+
+    /// Joint positions (rad).
+    pub fn q(&self) -> &JointVector {
+        &self.q
+    }
+
+    /// Joint velocities (rad/s).
+    pub fn qdot(&self) -> &JointVector {
+        &self.qdot
+    }
+
+    /// Sends a velocity command at time `now`; it takes effect at `now + latency`.
+    pub fn command(&mut self, now: f64, qdot: JointVector) {
+        self.pending.push_back((now + self.latency_s, qdot));
+    }
+
+    /// Advances from `now` by `dt`.
+    pub fn step(&mut self, now: f64, dt: f64) {
+        while let Some(&(at, cmd)) = self.pending.front() {
+            if at > now + 1e-12 {
+                break;
+            }
+            self.active = cmd;
+            self.pending.pop_front();
+        }
+        let alpha = if self.lag_s > 0.0 {
+            1.0 - (-dt / self.lag_s).exp()
+        } else {
+            1.0
+        };
+        self.qdot += (self.active - self.qdot) * alpha;
+        self.q += self.qdot * dt;
+        for i in 0..self.q.len() {
+            if self.q[i] <= self.min[i] || self.q[i] >= self.max[i] {
+                self.q[i] = self.q[i].clamp(self.min[i], self.max[i]);
+                self.qdot[i] = 0.0;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::Robot;
+
+    #[test]
+    fn a_command_acts_after_the_latency_then_with_the_lag() {
+        let robot = Robot::pa10();
+        let mut arm = ArmPlant::new(JointVector::zeros(), &robot.limits, 0.01, 0.02);
+        let cmd = JointVector::repeat(0.1);
+        arm.command(0.0, cmd);
+        let dt = 1e-3;
+        for k in 0..10 {
+            arm.step(k as f64 * dt, dt);
+        }
+        assert_eq!(*arm.qdot(), JointVector::zeros(), "nothing before 10 ms");
+        for k in 10..30 {
+            arm.step(k as f64 * dt, dt);
+        }
+        // After one lag time constant the speed is 1 - 1/e of the command.
+        let frac = arm.qdot()[0] / 0.1;
+        assert!((frac - (1.0 - (-1.0f64).exp())).abs() < 1e-9, "{frac}");
+        for k in 30..300 {
+            arm.step(k as f64 * dt, dt);
+        }
+        assert!((arm.qdot()[3] - 0.1).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_hardware_stops_hold() {
+        let robot = Robot::pa10();
+        let mut q0 = JointVector::zeros();
+        q0[1] = robot.limits.max[1] - 1e-3;
+        let mut arm = ArmPlant::new(q0, &robot.limits, 0.0, 0.0);
+        arm.command(0.0, JointVector::repeat(1.0));
+        for k in 0..100 {
+            arm.step(k as f64 * 1e-3, 1e-3);
+        }
+        assert_eq!(arm.q()[1], robot.limits.max[1]);
+        assert_eq!(arm.qdot()[1], 0.0);
+    }
+}
