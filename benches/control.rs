@@ -1,1 +1,213 @@
-fn main() {}
+//! Cost of one control period of the closed loop (`runtime::run`), and of its
+//! parts, against the 10 ms control period:
+//!
+//! - `estimator`: `EstimatorNode::on_reading` on an in-contact reading (the
+//!   guarded move holding 1 N), after the tare, for the 1-axis fz model (what
+//!   the guarded scene needs) and the default 3-axis model (the guided
+//!   scene), with and without the standard deviation;
+//! - `tick`: `ForceController::tick` alone (watchdog, task, forward
+//!   kinematics, Jacobian, damped least squares), repeated at the time of a
+//!   tick that commanded motion: the guarded move holding, the guided move
+//!   following a push;
+//! - `period`: sample, estimate, tick, command and one period of physics
+//!   (10 steps), stepping the shipped scenes on from that tick (and back to
+//!   it when a run reaches the scene's duration).
+//!
+//! After the criterion groups, a plain loop per item prints its median and
+//! p99 and their share of the control period, which criterion does not report.
+//! Setup trains both models (a few seconds each).
+//!
+//! Run with `cargo bench --bench control`.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::Vector3;
+use tactile_force::biotac::sim::BioTacSimConfig;
+use tactile_force::biotac::BioTacReading;
+use tactile_force::control::Phase;
+use tactile_force::learn::default_model;
+use tactile_force::learn::model::WrenchGp;
+use tactile_force::nodes::controller::TaskKind;
+use tactile_force::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
+use tactile_force::runtime::{Nodes, Scene};
+
+/// Noise seed of the simulated runs.
+const SEED: u64 = 1;
+/// Calls per item in the plain latency loop.
+const LATENCY_CALLS: usize = 2000;
+
+/// A shipped scene run up to a period that commanded motion in the state
+/// to measure.
+struct Run {
+    /// Name of the state, for the benchmark ids.
+    name: &'static str,
+    nodes: Nodes,
+    /// Time of that period's tick (s).
+    t: f64,
+    /// The BioTac readings up to that period: the tare first, in contact last.
+    readings: Vec<BioTacReading>,
+    /// Simulator and controller after that period, to restart from.
+    restart: (SimRobot, ForceController),
+}
+
+impl Run {
+    /// Runs `task`'s scene with `model` until `ready` holds for a period
+    /// whose command moves the arm.
+    fn new(
+        name: &'static str,
+        task: TaskKind,
+        model: WrenchGp,
+        ready: fn(&SimSample, &ControlOutput) -> bool,
+    ) -> Self {
+        let mut nodes = Scene::builtin(task)
+            .build(model, &BioTacSimConfig::default(), SEED)
+            .expect("shipped scene");
+        let mut readings = Vec::new();
+        loop {
+            let p = nodes.step_period(&mut |_, _| {}).expect("19 electrodes");
+            let (s, out) = (p.sample, p.output);
+            readings.push(s.reading);
+            if ready(&s, &out) && out.velocity != Vector3::zeros() {
+                let restart = (nodes.sim.clone(), nodes.controller.clone());
+                return Run {
+                    name,
+                    nodes,
+                    t: s.t,
+                    readings,
+                    restart,
+                };
+            }
+            assert!(s.t < nodes.sim.duration_s(), "{name}: never reached");
+        }
+    }
+
+    /// One period; at the scene's duration, the run restarts first.
+    fn step(&mut self) -> ControlOutput {
+        if self.nodes.sim.time() >= self.nodes.sim.duration_s() {
+            self.nodes.sim = self.restart.0.clone();
+            self.nodes.controller = self.restart.1.clone();
+        }
+        self.nodes
+            .step_period(&mut |_, _| {})
+            .expect("19 electrodes")
+            .output
+    }
+}
+
+/// An estimator for `model`, tared on the first of `readings`.
+fn tared(model: WrenchGp, with_std: bool, readings: &[BioTacReading]) -> EstimatorNode {
+    let mut e = EstimatorNode::new(model, with_std).expect("electrode model");
+    for r in &readings[..e.tare_samples()] {
+        e.on_reading(r).expect("tare reading");
+    }
+    assert!(e.is_tared());
+    e
+}
+
+/// A benchmark: its name and the call it times.
+type Item<'a> = (String, Box<dyn FnMut() + 'a>);
+
+/// `f` as an item; its result goes through `black_box`.
+fn item<'a, R>(name: impl Into<String>, mut f: impl FnMut() -> R + 'a) -> Item<'a> {
+    (
+        name.into(),
+        Box::new(move || {
+            black_box(f());
+        }),
+    )
+}
+
+/// Benchmarks `items` as the criterion group `group`, then times
+/// `LATENCY_CALLS` plain calls of each; returns a line per item with the
+/// median and p99, also as shares of `period_s`.
+fn measure(c: &mut Criterion, group: &str, period_s: f64, mut items: Vec<Item>) -> Vec<String> {
+    let mut g = c.benchmark_group(group);
+    for (name, f) in &mut items {
+        g.bench_function(name.as_str(), |b| b.iter(&mut *f));
+    }
+    g.finish();
+    items
+        .into_iter()
+        .map(|(name, mut f)| {
+            let mut lat: Vec<f64> = (0..LATENCY_CALLS)
+                .map(|_| {
+                    let t0 = Instant::now();
+                    f();
+                    t0.elapsed().as_secs_f64()
+                })
+                .collect();
+            lat.sort_by(f64::total_cmp);
+            let at = |q: f64| {
+                let s = lat[(lat.len() as f64 * q) as usize];
+                format!("{:8.1} us ({:5.2}%)", s * 1e6, 100.0 * s / period_s)
+            };
+            format!(
+                "{:<28} median {}   p99 {}",
+                format!("{group}/{name}"),
+                at(0.5),
+                at(0.99)
+            )
+        })
+        .collect()
+}
+
+fn benches(c: &mut Criterion) {
+    let forces = default_model::train().expect("default model");
+    let fz = default_model::train_axes(&"fz".parse().expect("axis")).expect("fz model");
+    let mut guarded = Run::new("guarded_hold", TaskKind::Guarded, fz.clone(), |_, out| {
+        out.phase == Phase::Hold
+    });
+    let mut guided = Run::new("guided_follow", TaskKind::Guided, forces.clone(), |s, _| {
+        s.finger.is_some_and(|f| f.velocity != Vector3::zeros())
+    });
+    let period_s = guarded.nodes.sim.period_s();
+    let mut summary = Vec::new();
+
+    let readings = &guarded.readings;
+    let contact = readings.last().expect("a reading");
+    let mut estimators = Vec::new();
+    for (axes, model) in [("fz", &fz), ("fxyz", &forces)] {
+        for (what, with_std) in [("mean_std", true), ("mean_only", false)] {
+            let mut e = tared(model.clone(), with_std, readings);
+            estimators.push(item(format!("{axes}_{what}"), move || {
+                e.on_reading(contact).expect("estimate")
+            }));
+        }
+    }
+    summary.extend(measure(c, "estimator", period_s, estimators));
+
+    let ticks = [&guarded, &guided].map(|run| {
+        let (mut controller, t) = (run.nodes.controller.clone(), run.t);
+        assert_ne!(
+            controller.tick(t).velocity,
+            Vector3::zeros(),
+            "{}",
+            run.name
+        );
+        item(run.name, move || controller.tick(t))
+    });
+    summary.extend(measure(c, "tick", period_s, ticks.into()));
+
+    let periods = [&mut guarded, &mut guided].map(|run| item(run.name, move || run.step()));
+    summary.extend(measure(c, "period", period_s, periods.into()));
+
+    println!(
+        "\n{LATENCY_CALLS} plain calls each; share of the {:.0} ms control period:",
+        period_s * 1e3
+    );
+    for line in summary {
+        println!("{line}");
+    }
+}
+
+criterion_group! {
+    name = control;
+    config = Criterion::default()
+        .sample_size(30)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3));
+    targets = benches
+}
+criterion_main!(control);

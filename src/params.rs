@@ -159,7 +159,9 @@ ctrl:
     #[test]
     fn a_missing_key_is_named() {
         let yaml = "ctrl:\n  ros__parameters:\n    rate_hz: 100.0\n";
-        let err = node_params::<Section>(yaml, "ctrl").unwrap_err().to_string();
+        let err = node_params::<Section>(yaml, "ctrl")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("gains"), "{err}");
     }
 }

@@ -11,6 +11,15 @@ fn run(args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
+/// Runs with the default-model cache in `cache`.
+fn run_cached(args: &[&str], cache: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tactile_force"))
+        .args(args)
+        .env("TACTILE_FORCE_CACHE", cache)
+        .output()
+        .expect("the binary runs")
+}
+
 fn text(o: &Output) -> (String, String) {
     (
         String::from_utf8_lossy(&o.stdout).into_owned(),
@@ -191,9 +200,118 @@ fn too_few_folds_or_trials_are_refused() {
 
 #[test]
 fn every_subcommand_has_help() {
-    for sub in ["collect", "train", "eval"] {
+    for sub in ["collect", "train", "eval", "demo"] {
         let o = run(&[sub, "--help"]);
         assert!(o.status.success());
         assert!(text(&o).0.contains("Usage: tactile_force"), "{sub}");
     }
+}
+
+#[test]
+fn demo_trains_the_default_model_once_then_reuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, png) = (dir.path().join("run.csv"), dir.path().join("run.png"));
+    let args = [
+        "demo",
+        "guarded",
+        "--json",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        png.to_str().unwrap(),
+    ];
+    let first = run_cached(&args, dir.path());
+    let (out, err) = text(&first);
+    assert!(first.status.success(), "{err}");
+    assert!(err.contains("training the default model"), "{err}");
+    assert!(err.contains("cached at"), "{err}");
+    let j = last_json(&out);
+    for key in [
+        "task",
+        "object",
+        "approach_speed_mps",
+        "contact_time_s",
+        "peak_force_n",
+        "overshoot_n",
+        "steady_state_error_n",
+        "settle_time_s",
+        "rms_force_error_n",
+        "max_off_axis_speed_mps",
+        "aborted",
+        "reason",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key} in {j}");
+    }
+    assert_eq!(
+        (j["task"].as_str(), j["object"].as_str()),
+        (Some("guarded"), Some("wooden_box"))
+    );
+    assert!(j["overshoot_n"].as_f64().unwrap() <= 0.1, "{j}");
+    let header = std::fs::read_to_string(&csv).unwrap();
+    assert!(header.starts_with(tactile_force::report::trace::CSV_HEADER));
+    assert!(header.lines().count() > 700);
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+
+    let second = run_cached(&args, dir.path());
+    let (out2, err2) = text(&second);
+    assert!(!err2.contains("training"), "{err2}");
+    assert!(err2.contains("default model: "), "{err2}");
+    assert_eq!(last_json(&out2), j, "same seed, same run");
+}
+
+#[test]
+fn demo_refuses_bad_requests_before_any_training() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run_cached(&["demo", "guarded", "--object", "teapot"], dir.path());
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.contains("teapot") && err.contains("stuffed_animal"),
+        "{err}"
+    );
+    let o = run_cached(&["demo", "guided", "--speed", "0.02"], dir.path());
+    assert!(text(&o).1.contains("guarded move"), "{:?}", text(&o));
+    let o = run_cached(
+        &["demo", "guarded", "--scene", "/nonexistent.yaml"],
+        dir.path(),
+    );
+    assert!(text(&o).1.contains("/nonexistent.yaml"), "{:?}", text(&o));
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        0,
+        "nothing trained"
+    );
+}
+
+#[test]
+fn demo_speed_sweep_finds_the_fastest_approach_within_the_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run_cached(
+        &[
+            "demo",
+            "guarded",
+            "--sweep-speed",
+            "--objects",
+            "wooden_box",
+            "--speeds-mm-s",
+            "10,80",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("wooden_box: fastest approach within 0.1 N overshoot: 10.0 mm/s"),
+        "{out}"
+    );
+    let j = last_json(&out);
+    let sweep = j["sweep"].as_array().unwrap();
+    assert_eq!(sweep.len(), 2);
+    assert!(sweep[0]["overshoot_n"].as_f64().unwrap() <= 0.1);
+    assert!(sweep[1]["overshoot_n"].as_f64().unwrap() > 0.1);
+    assert_eq!(
+        j["fastest_within_bound_mps"]["wooden_box"].as_f64(),
+        Some(0.01)
+    );
 }

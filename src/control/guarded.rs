@@ -62,14 +62,14 @@ impl GuardedParams {
         positive("guarded.approach_speed_mps", self.approach_speed_mps)?;
         positive("guarded.contact_force_n", self.contact_force_n)?;
         positive("guarded.contact_pdc_counts", self.contact_pdc_counts)?;
-        if !(self.target_force_n > self.contact_force_n) {
+        if self.target_force_n.is_nan() || self.target_force_n <= self.contact_force_n {
             return Err(invalid(
                 "guarded.target_force_n",
                 self.target_force_n,
                 "above guarded.contact_force_n",
             ));
         }
-        if !(self.force_limit_n > self.target_force_n) {
+        if self.force_limit_n.is_nan() || self.force_limit_n <= self.target_force_n {
             return Err(invalid(
                 "guarded.force_limit_n",
                 self.force_limit_n,
@@ -250,7 +250,7 @@ mod tests {
         let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
         assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
         // Object 5 mm away, stiffness 1000 N/m, ideal velocity tracking.
-        let mut x = 0.0;
+        let mut x: f64 = 0.0;
         let mut phases = vec![];
         for _ in 0..300 {
             let f = (1000.0 * (x - 0.005)).max(0.0);
@@ -281,7 +281,10 @@ mod tests {
         let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
         assert_eq!(g.step(&input(0.0, 0.049)), 0.01);
         assert_eq!(g.step(&input(0.0, 0.05)), 0.0);
-        assert_eq!((g.phase(), g.reason()), (Phase::Stopped, Some(StopReason::Timeout)));
+        assert_eq!(
+            (g.phase(), g.reason()),
+            (Phase::Stopped, Some(StopReason::Timeout))
+        );
         assert_eq!(g.step(&input(0.0, 0.05)), 0.0, "stays stopped");
     }
 
@@ -296,7 +299,10 @@ mod tests {
             assert_eq!((v, g.phase()), (-0.01, Phase::Retract), "from {start:?}");
             assert_eq!(g.step(&input(0.0, 0.008)), -0.01);
             assert_eq!(g.step(&input(0.0, 0.007)), 0.0);
-            assert_eq!((g.phase(), g.reason()), (Phase::Stopped, Some(StopReason::ForceLimit)));
+            assert_eq!(
+                (g.phase(), g.reason()),
+                (Phase::Stopped, Some(StopReason::ForceLimit))
+            );
         }
     }
 

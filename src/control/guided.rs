@@ -35,7 +35,7 @@ impl GuidedParams {
             return Err(invalid("guided.target_force_n", t.norm(), "finite values"));
         }
         non_negative("guided.deadband_n", self.deadband_n)?;
-        if !(self.force_limit_n > t.norm()) {
+        if self.force_limit_n.is_nan() || self.force_limit_n <= t.norm() {
             return Err(invalid(
                 "guided.force_limit_n",
                 self.force_limit_n,
@@ -149,6 +149,9 @@ mod tests {
         let mut g = guided();
         assert_eq!(g.step(&Vector3::new(0.0, 0.0, 6.0), 0.01), Vector3::zeros());
         assert_eq!(g.step(&Vector3::new(0.0, 0.0, 0.0), 0.01), Vector3::zeros());
-        assert_eq!((g.phase(), g.reason()), (Phase::Stopped, Some(StopReason::ForceLimit)));
+        assert_eq!(
+            (g.phase(), g.reason()),
+            (Phase::Stopped, Some(StopReason::ForceLimit))
+        );
     }
 }

@@ -166,7 +166,10 @@ mod tests {
             queue.push(pd.step(1.0, last, 0.01));
             x += queue.remove(0) * 0.01;
         }
-        assert!((last - 1.0).abs() > 0.5, "a = 1.2 with a delay rings up: {last}");
+        assert!(
+            (last - 1.0).abs() > 0.5,
+            "a = 1.2 with a delay rings up: {last}"
+        );
     }
 
     #[test]
@@ -194,6 +197,11 @@ mod tests {
             v = plain.step(1.0, f, 0.01);
         }
         assert!(pd.force_rate() > 0.0 && u < v, "{u} {v}");
-        assert!(PdParams { gain_ratio: 1.5, ..params() }.validate().is_err());
+        assert!(PdParams {
+            gain_ratio: 1.5,
+            ..params()
+        }
+        .validate()
+        .is_err());
     }
 }

@@ -71,7 +71,10 @@ mod tests {
         assert!(w.check("estimate", 1.03, Some(1.0)).is_ok());
         let err = w.check("estimate", 1.0301, Some(1.0)).unwrap_err();
         assert!(matches!(err, Halt::Stale { .. }), "{err}");
-        assert_eq!(w.check("estimate", 1.0, None), Err(Halt::Missing("estimate")));
+        assert_eq!(
+            w.check("estimate", 1.0, None),
+            Err(Halt::Missing("estimate"))
+        );
         assert!(w.check("estimate", f64::NAN, Some(1.0)).is_err());
     }
 }

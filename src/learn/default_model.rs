@@ -34,8 +34,12 @@ pub const TARE_SAMPLES: usize = 50;
 pub fn cache_path() -> Option<PathBuf> {
     let dir = std::env::var_os("TACTILE_FORCE_CACHE")
         .map(PathBuf::from)
-        .or_else(|| std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("tactile_force")))
-        .or_else(|| std::env::var_os("HOME").map(|d| PathBuf::from(d).join(".cache/tactile_force")))?;
+        .or_else(|| {
+            std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("tactile_force"))
+        })
+        .or_else(|| {
+            std::env::var_os("HOME").map(|d| PathBuf::from(d).join(".cache/tactile_force"))
+        })?;
     let mut h = std::collections::hash_map::DefaultHasher::new();
     (
         env!("CARGO_PKG_VERSION"),
@@ -60,11 +64,16 @@ pub enum DefaultModelError {
     Model(#[from] ModelError),
 }
 
-/// Trains the default model (a few seconds on 2 cores).
+/// Trains the default model: the three forces (a few seconds on 2 cores).
 pub fn train() -> Result<WrenchGp, DefaultModelError> {
+    train_axes(&AxisSet::forces())
+}
+
+/// Trains the default recipe for other axes (a scene that needs fewer).
+pub fn train_axes(axes: &AxisSet) -> Result<WrenchGp, DefaultModelError> {
     let sensor = BioTacSimConfig::default();
     let records = collect(&CollectConfig::default(), &sensor, DATA_SEED);
-    let mut data = Dataset::from_records(&records, &AxisSet::forces());
+    let mut data = Dataset::from_records(&records, axes);
     let mean_baseline = data.tare_per_trial(TARE_SAMPLES)?;
     let data = data.random_rows(MAX_TRAIN, &mut ChaCha8Rng::seed_from_u64(DATA_SEED));
     let tare = TareSpec {

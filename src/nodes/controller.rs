@@ -106,11 +106,14 @@ impl ForceController {
         positive("stale_periods", p.stale_periods)?;
         p.skin.validate("skin")?;
         p.pd.validate()?;
-        let body = p.objects.get(&p.object).ok_or_else(|| ParamsError::Invalid {
-            key: "object".into(),
-            value: p.object.clone(),
-            expected: format!("one of {:?}", p.objects.keys().collect::<Vec<_>>()),
-        })?;
+        let body = p
+            .objects
+            .get(&p.object)
+            .ok_or_else(|| ParamsError::Invalid {
+                key: "object".into(),
+                value: p.object.clone(),
+                expected: format!("one of {:?}", p.objects.keys().collect::<Vec<_>>()),
+            })?;
         body.validate(&format!("objects.{}", p.object))?;
         let robot = p.robot.validate()?;
         let missing = |what: &str| ParamsError::Invalid {
@@ -127,8 +130,8 @@ impl ForceController {
             TaskKind::Guided => {
                 let g = p.guided.ok_or_else(|| missing("guided"))?.validate()?;
                 let normal = series_stiffness(&p.skin, body, g.target_force_n[2]);
-                let shear = 1.0
-                    / (1.0 / p.skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m);
+                let shear =
+                    1.0 / (1.0 / p.skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m);
                 let on = |axis| p.axes.axes().contains(&axis);
                 let k = [
                     on(Axis::Fx).then_some(shear),
@@ -239,8 +242,7 @@ impl ForceController {
                 let input = GuardedInput {
                     force_n: -d_tool.dot(&est.mean.force),
                     pdc_rise: est.pdc_rise,
-                    travelled_m: (pose.translation.vector - start.translation.vector)
-                        .dot(&d_world),
+                    travelled_m: (pose.translation.vector - start.translation.vector).dot(&d_world),
                     dt,
                 };
                 d_world * g.step(&input)
@@ -258,7 +260,12 @@ impl ForceController {
         Ok((motion.qdot, velocity))
     }
 
-    fn output(&self, qdot: JointVector, velocity: Vector3<f64>, halt: Option<Halt>) -> ControlOutput {
+    fn output(
+        &self,
+        qdot: JointVector,
+        velocity: Vector3<f64>,
+        halt: Option<Halt>,
+    ) -> ControlOutput {
         let (phase, reason, targets) = match &self.task {
             Task::Guarded(g) => {
                 let d = g.direction();

@@ -152,11 +152,14 @@ impl SimRobot {
                 expected: "values inside the joint ranges".into(),
             });
         }
-        let body = *p.objects.get(&p.object).ok_or_else(|| ParamsError::Invalid {
-            key: "object".into(),
-            value: p.object.clone(),
-            expected: format!("one of {:?}", p.objects.keys().collect::<Vec<_>>()),
-        })?;
+        let body = *p
+            .objects
+            .get(&p.object)
+            .ok_or_else(|| ParamsError::Invalid {
+                key: "object".into(),
+                value: p.object.clone(),
+                expected: format!("one of {:?}", p.objects.keys().collect::<Vec<_>>()),
+            })?;
         body.validate(&format!("objects.{}", p.object))?;
         let path = p.finger_path.as_deref().map(FingerPath::new).transpose()?;
         if let Some(path) = &path {
@@ -169,7 +172,11 @@ impl SimRobot {
             }
         }
         if !p.contact_x_mm.is_finite() || !p.object_gap_mm.is_finite() {
-            return Err(invalid("contact_x_mm/object_gap_mm", f64::NAN, "finite values"));
+            return Err(invalid(
+                "contact_x_mm/object_gap_mm",
+                f64::NAN,
+                "finite values",
+            ));
         }
 
         let start = robot.chain.forward(&q0);

@@ -106,7 +106,10 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
     let mut by_axis = BTreeMap::new();
     for (i, t) in targets.iter().enumerate() {
         if let (Some(t), false) = (t, after.is_empty()) {
-            let ms = after.iter().map(|r| (t - r.measured[i]).powi(2)).sum::<f64>()
+            let ms = after
+                .iter()
+                .map(|r| (t - r.measured[i]).powi(2))
+                .sum::<f64>()
                 / after.len() as f64;
             by_axis.insert(FORCE_AXES[i].name(), ms.sqrt());
         }
@@ -136,7 +139,10 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         }
         TaskKind::Guided => {
             let (mut s, mut ratio) = (0.0f64, 0.0f64);
-            for r in rows.iter().filter(|r| r.phase != crate::control::Phase::Stopped) {
+            for r in rows
+                .iter()
+                .filter(|r| r.phase != crate::control::Phase::Stopped)
+            {
                 let Some(f) = r.finger.filter(|f| f.peak_speed_mps > 0.0) else {
                     continue;
                 };
@@ -174,5 +180,88 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         reason: reason.map(|r| r.name()),
         final_phase: last.map_or("none", |r| r.phase.name()),
         duration_s: end_t,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::Phase;
+    use nalgebra::Vector3;
+
+    fn row(t: f64, fz: f64, vx: f64) -> TraceRow {
+        TraceRow {
+            t,
+            phase: Phase::Regulate,
+            reason: None,
+            halted: false,
+            estimate: None,
+            pdc_rise: None,
+            measured: Vector3::new(0.0, 0.0, fz),
+            targets: [None, None, Some(1.0)],
+            offset: Vector3::zeros(),
+            velocity: Vector3::new(vx, 0.0, -0.01),
+            commanded: Vector3::zeros(),
+            finger: None,
+        }
+    }
+
+    #[test]
+    fn guarded_figures_of_a_known_force_profile() {
+        // 0 N until 1 s, then 1.2 N for 0.1 s, then 1.02 N: contact 1.0 s,
+        // peak 1.2 N, settled from 1.1 s, steady error 0.02 N.
+        let rows: Vec<TraceRow> = (0..300)
+            .map(|k| {
+                let t = k as f64 * 0.01;
+                let fz = if t < 1.0 - 1e-9 {
+                    0.0
+                } else if t < 1.1 - 1e-9 {
+                    1.2
+                } else {
+                    1.02
+                };
+                row(t, fz, if k == 5 { 0.002 } else { 0.0 })
+            })
+            .collect();
+        let info = RunInfo {
+            task: TaskKind::Guarded,
+            object: "box".into(),
+            approach_speed_mps: Some(0.01),
+        };
+        let s = summarize(&info, &rows);
+        assert_eq!(s.contact_time_s, Some(1.0));
+        assert!((s.peak_force_n - 1.2).abs() < 1e-12 && (s.overshoot_n - 0.2).abs() < 1e-12);
+        assert!((s.settle_time_s.unwrap() - 0.1).abs() < 1e-9, "{s:?}");
+        assert!((s.steady_state_error_n.unwrap() - 0.02).abs() < 1e-9);
+        // RMS over 200 rows from contact: 10 at 0.2 N, 190 at 0.02 N.
+        let rms = ((10.0 * 0.04 + 190.0 * 0.0004) / 200.0f64).sqrt();
+        assert!((s.rms_force_error_n.unwrap() - rms).abs() < 1e-12);
+        assert!((s.max_off_axis_speed_mps - 0.002).abs() < 1e-12);
+        assert!((s.max_off_axis_ratio.unwrap() - 0.2).abs() < 1e-12);
+        assert_eq!(
+            (s.aborted, s.reason, s.final_phase),
+            (false, None, "regulate")
+        );
+    }
+
+    #[test]
+    fn no_contact_leaves_the_contact_figures_empty() {
+        let rows: Vec<TraceRow> = (0..10).map(|k| row(k as f64 * 0.01, 0.0, 0.0)).collect();
+        let info = RunInfo {
+            task: TaskKind::Guarded,
+            object: "air".into(),
+            approach_speed_mps: Some(0.01),
+        };
+        let s = summarize(&info, &rows);
+        assert_eq!(
+            (
+                s.contact_time_s,
+                s.settle_time_s,
+                s.steady_state_error_n,
+                s.rms_force_error_n
+            ),
+            (None, None, None, None)
+        );
+        assert_eq!(s.overshoot_n, 0.0);
     }
 }

@@ -9,11 +9,13 @@ use std::time::{Duration, Instant};
 
 use crate::control::Phase;
 use crate::nodes::estimator::EstimatorError;
-use crate::nodes::{EstimatorNode, ForceController, SimRobot};
+use crate::nodes::{
+    ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample, WrenchEstimate,
+};
 use crate::report::TraceRow;
 
 /// Time a run goes on after its task stopped (s), to show the arm at rest.
-const AFTER_STOP_S: f64 = 0.5;
+const AFTER_STOP_S: f64 = 1.0;
 
 /// How the loop keeps time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,6 +37,68 @@ pub struct Nodes {
     pub controller: ForceController,
 }
 
+/// A change made to an estimate between the estimator and the controller,
+/// for fault-injection tests: sees the time (s) and the estimate, if any.
+pub type Tamper<'a> = &'a mut dyn FnMut(f64, &mut Option<WrenchEstimate>);
+
+/// What one control period saw and did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Period {
+    /// The robot's sensors at the start of the period.
+    pub sample: SimSample,
+    /// The estimator's output for that reading (before any tampering).
+    pub estimate: Option<WrenchEstimate>,
+    /// The controller's command.
+    pub output: ControlOutput,
+}
+
+impl Period {
+    /// The period as a trace row.
+    pub fn row(&self) -> TraceRow {
+        let (s, out) = (&self.sample, &self.output);
+        TraceRow {
+            t: s.t,
+            phase: out.phase,
+            reason: out.reason,
+            halted: out.halt.is_some(),
+            estimate: self.estimate.map(|e| (e.mean.force, e.std.force)),
+            pdc_rise: self.estimate.map(|e| e.pdc_rise),
+            measured: s.ft.force,
+            targets: out.targets,
+            offset: s.offset,
+            velocity: s.velocity,
+            commanded: out.velocity,
+            finger: s.finger,
+        }
+    }
+}
+
+impl Nodes {
+    /// One control period: sample the robot, estimate, control, command,
+    /// then run the physics for a period. `tamper` may alter or drop the
+    /// estimate on its way to the controller.
+    pub fn step_period(&mut self, tamper: Tamper) -> Result<Period, EstimatorError> {
+        let sample = self.sim.sample();
+        let estimate = self.estimator.on_reading(&sample.reading)?;
+        let mut delivered = estimate;
+        tamper(sample.t, &mut delivered);
+        if let Some(e) = delivered {
+            // A rejected estimate is counted by the controller, whose
+            // watchdog then stops the arm.
+            let _ = self.controller.on_estimate(e);
+        }
+        let _ = self.controller.on_joint_state(sample.joints);
+        let output = self.controller.tick(sample.t);
+        self.sim.command(output.qdot);
+        self.sim.advance();
+        Ok(Period {
+            sample,
+            estimate,
+            output,
+        })
+    }
+}
+
 /// Runs until the robot's duration, or shortly after the task stopped;
 /// `on_row` sees every period as it happens.
 pub fn run(
@@ -48,39 +112,15 @@ pub fn run(
     let wall_start = Instant::now();
     let mut stopped_at = None;
     for _ in 0..=periods {
-        let s = nodes.sim.sample();
-        let estimate = nodes.estimator.on_reading(&s.reading)?;
-        if let Some(e) = estimate {
-            // A rejected estimate is counted by the controller, whose
-            // watchdog then stops the arm.
-            let _ = nodes.controller.on_estimate(e);
-        }
-        let _ = nodes.controller.on_joint_state(s.joints);
-        let out = nodes.controller.tick(s.t);
-        nodes.sim.command(out.qdot);
-        let row = TraceRow {
-            t: s.t,
-            phase: out.phase,
-            reason: out.reason,
-            halted: out.halt.is_some(),
-            estimate: estimate.map(|e| (e.mean.force, e.std.force)),
-            pdc_rise: estimate.map(|e| e.pdc_rise),
-            measured: s.ft.force,
-            targets: out.targets,
-            offset: s.offset,
-            velocity: s.velocity,
-            commanded: out.velocity,
-            finger: s.finger,
-        };
+        let row = nodes.step_period(&mut |_, _| {})?.row();
         on_row(&row);
         rows.push(row);
-        if out.phase == Phase::Stopped {
-            let at = *stopped_at.get_or_insert(s.t);
-            if s.t - at >= AFTER_STOP_S {
+        if row.phase == Phase::Stopped {
+            let at = *stopped_at.get_or_insert(row.t);
+            if row.t - at >= AFTER_STOP_S {
                 break;
             }
         }
-        nodes.sim.advance();
         if pacing == Pacing::Realtime {
             let due = wall_start + Duration::from_secs_f64(nodes.sim.time());
             std::thread::sleep(due.saturating_duration_since(Instant::now()));

@@ -85,6 +85,13 @@ impl Scene {
         self.with_layer(format!("/**:\n  ros__parameters:\n    object: {quoted}\n"))
     }
 
+    /// Sets the guarded move's approach speed (m/s).
+    pub fn with_approach_speed(self, mps: f64) -> Self {
+        self.with_layer(format!(
+            "force_controller:\n  ros__parameters:\n    guarded:\n      approach_speed_mps: {mps:?}\n"
+        ))
+    }
+
     /// The controller's parameters.
     pub fn controller_params(&self) -> Result<ControllerParams, ParamsError> {
         layered_node_params(&self.texts(), "force_controller")
@@ -125,5 +132,53 @@ impl Scene {
             estimator,
             controller,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_scenes_parse_and_the_object_can_be_chosen() {
+        for task in [TaskKind::Guarded, TaskKind::Guided] {
+            let s = Scene::builtin(task);
+            assert_eq!(s.controller_params().unwrap().task, task);
+            s.sim_params().unwrap();
+        }
+        let guided = Scene::builtin(TaskKind::Guided);
+        assert_eq!(guided.sim_params().unwrap().object, "fingertip");
+        assert!(guided.sim_params().unwrap().finger_path.is_some());
+        let s = Scene::builtin(TaskKind::Guarded).with_object("carton_box");
+        assert_eq!(s.controller_params().unwrap().object, "carton_box");
+        assert_eq!(s.sim_params().unwrap().object, "carton_box");
+        let s = s.with_approach_speed(0.025);
+        assert_eq!(
+            s.controller_params()
+                .unwrap()
+                .guarded
+                .unwrap()
+                .approach_speed_mps,
+            0.025
+        );
+    }
+
+    #[test]
+    fn unknown_objects_and_keys_are_named() {
+        let s = Scene::builtin(TaskKind::Guarded).with_object("teapot");
+        let e = ForceController::new(s.controller_params().unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("teapot") && e.contains("wooden_box"), "{e}");
+        let s = Scene::builtin(TaskKind::Guarded)
+            .with_layer("sim_robot:\n  ros__parameters:\n    gap_mm: 3.0\n".into());
+        let e = s.sim_params().unwrap_err().to_string();
+        assert!(e.contains("gap_mm"), "{e}");
+        let s = Scene::builtin(TaskKind::Guarded)
+            .with_layer("force_controller:\n  ros__parameters:\n    task: guided\n".into());
+        let e = ForceController::new(s.controller_params().unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("guided"), "a guided task needs its section: {e}");
     }
 }

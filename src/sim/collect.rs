@@ -534,7 +534,7 @@ mod tests {
                 );
                 assert!(rows.iter().any(|r| r.wrench.force.z > 2.0));
                 // The tare from the idle start removes the baseline of the idle end.
-                let start: Vec<_> = rows[..tare_n].iter().map(|r| r.reading.clone()).collect();
+                let start: Vec<_> = rows[..tare_n].iter().map(|r| r.reading).collect();
                 let tare = Tare::from_readings(&start).expect("non-empty");
                 let end = tare.tared(&rows[rows.len() - 1].reading);
                 assert!(end.iter().all(|v| v.abs() < 5.0 * noise + 3.0), "{end:?}");

@@ -160,8 +160,8 @@ impl PlaneContact {
         let anchor = plane + *self.anchor.get_or_insert(pad - plane);
         let slip = pad - anchor;
         let slip_t = slip - normal * slip.dot(normal);
-        let k_t = 1.0
-            / (1.0 / self.skin.shear_stiffness_n_per_m + 1.0 / self.body.stiffness_n_per_m);
+        let k_t =
+            1.0 / (1.0 / self.skin.shear_stiffness_n_per_m + 1.0 / self.body.stiffness_n_per_m);
         let mut ft = -slip_t * k_t;
         let limit = self.body.friction * fn_;
         let norm = ft.norm();
@@ -176,7 +176,10 @@ impl PlaneContact {
     /// Implicit-Euler step of the body deflection for penetration `delta`;
     /// returns the normal force (N).
     fn normal_step(&mut self, delta: f64, dt: f64) -> f64 {
-        let (k, c_dt) = (self.body.stiffness_n_per_m, self.body.damping_n_s_per_m / dt);
+        let (k, c_dt) = (
+            self.body.stiffness_n_per_m,
+            self.body.damping_n_s_per_m / dt,
+        );
         let prev = self.deflection;
         // g(x) = c/dt (x - prev) + k x - F_skin(delta - x) rises with x;
         // g(0) <= 0 and g(max(delta, prev)) > 0 bracket the root.
@@ -266,7 +269,10 @@ mod tests {
         let pad = Vector3::new(0.0, 0.0, -1e-3);
         let a = slow.step(&pad, &Vector3::zeros(), &Vector3::z(), 1e-3).z;
         let b = damped.step(&pad, &Vector3::zeros(), &Vector3::z(), 1e-3).z;
-        assert!(b > a, "the damper carries force while the body moves: {a} {b}");
+        assert!(
+            b > a,
+            "the damper carries force while the body moves: {a} {b}"
+        );
         // 1e6 N/m with a 1 ms step: implicit Euler stays bounded and settles.
         let mut stiff = PlaneContact::new(skin(), body(1e6, 100.0));
         let f = settled(&mut stiff, 1e-3).z;

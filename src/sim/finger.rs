@@ -47,7 +47,10 @@ impl FromStr for Segment {
         let mut words = text.split_whitespace();
         let kind = words.next().unwrap_or("");
         let numbers: Vec<f64> = words
-            .map(|w| w.parse().map_err(|_| format!("{w:?} in {text:?} is not a number")))
+            .map(|w| {
+                w.parse()
+                    .map_err(|_| format!("{w:?} in {text:?} is not a number"))
+            })
             .collect::<Result<_, _>>()?;
         match (kind, numbers.as_slice()) {
             ("wait", &[s]) => Ok(Segment::Wait(s)),
@@ -120,7 +123,11 @@ impl FingerPath {
                     positive(&format!("{key}.peak_speed_mps"), *peak_speed_mps)?;
                     let d = Vector3::from(*mm) * 1e-3;
                     if !(d.norm() > 0.0 && d.norm().is_finite()) {
-                        return Err(invalid(&format!("{key}.mm"), d.norm(), "a finite, non-zero push"));
+                        return Err(invalid(
+                            &format!("{key}.mm"),
+                            d.norm(),
+                            "a finite, non-zero push",
+                        ));
                     }
                     (MIN_JERK_PEAK * d.norm() / peak_speed_mps, at + d)
                 }
@@ -166,9 +173,10 @@ impl FingerPath {
             .iter()
             .find(|s| t >= s.start_s && t < s.start_s + s.duration_s)
         else {
-            let end = self.segments.last().map_or(Vector3::zeros(), |s| {
-                s.from + self.displacement(s, 1.0)
-            });
+            let end = self
+                .segments
+                .last()
+                .map_or(Vector3::zeros(), |s| s.from + self.displacement(s, 1.0));
             return rest(if t <= 0.0 { Vector3::zeros() } else { end });
         };
         let u = (t - seg.start_s) / seg.duration_s;
@@ -278,8 +286,14 @@ mod tests {
                 peak_speed_mps: 0.05
             })
         );
-        assert!("circle 20".parse::<Segment>().unwrap_err().contains("expected"));
-        assert!("push a 0 0 1".parse::<Segment>().unwrap_err().contains("\"a\""));
+        assert!("circle 20"
+            .parse::<Segment>()
+            .unwrap_err()
+            .contains("expected"));
+        assert!("push a 0 0 1"
+            .parse::<Segment>()
+            .unwrap_err()
+            .contains("\"a\""));
     }
 
     #[test]
