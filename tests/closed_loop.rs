@@ -207,3 +207,17 @@ fn realtime_pacing_keeps_pace_with_the_wall_clock() {
     assert!(t0.elapsed().as_secs_f64() >= 0.29, "{:?}", t0.elapsed());
     assert_eq!(run.rows.len(), 31);
 }
+
+#[test]
+fn a_model_without_the_axes_the_task_controls_is_refused() {
+    let fz = default_model::train_axes(&"fz".parse().unwrap()).unwrap();
+    let err = Scene::builtin(TaskKind::Guided)
+        .build(fz.clone(), &Default::default(), 1)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("fz") && err.contains("fx,fy,fz"), "{err}");
+    // The guarded scene needs fz only.
+    assert!(Scene::builtin(TaskKind::Guarded)
+        .build(fz, &Default::default(), 1)
+        .is_ok());
+}
