@@ -5,10 +5,15 @@
 //! data flow:
 //!
 //! - [`biotac`]: the reading type, tare, and a physically motivated simulator;
-//! - [`sim`]: the thesis data-collection protocol on that simulator;
+//! - [`sim`]: the thesis data-collection protocol on that simulator, and the
+//!   closed loop's world: arm plant, skin-object contact, a person's finger;
 //! - [`learn`]: data sets, the exact GP, the baseline network, evaluation and
 //!   the model file;
 //! - [`kinematics`]: the PA10-7C chain, Jacobian and damped least-squares inverse;
+//! - [`control`]: the PD force law, the guarded and guided moves, safety;
+//! - [`nodes`]: the transport-free nodes (estimator, controller, simulated robot);
+//! - [`runtime`]: the lockstep runner, scenes, the demos;
+//! - [`report`]: run traces, summaries and plots;
 //! - [`params`]: ROS 2 parameter files, shared with the embedded runtime;
 //! - [`wrench`]: wrenches and the axes a scene needs.
 //!

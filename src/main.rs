@@ -444,8 +444,7 @@ fn run_demo(a: DemoArgs) -> Result<()> {
         scene = scene.with_approach_speed(v);
     }
     // Check the scene before a possibly long training.
-    scene.controller_params()?;
-    scene.sim_params()?;
+    scene.check()?;
     let model = demo_model(a.model.as_deref())?;
     if a.sweep_speed {
         return run_sweep(&a, &scene, &model);

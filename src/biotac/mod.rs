@@ -1,10 +1,15 @@
-//! The BioTac fingertip: reading type, tare, and a simulator (forward model).
+//! The BioTac fingertip: reading type, tare, serial wire codec, and a simulator
+//! (forward model).
 
 pub mod geometry;
 pub mod reading;
 pub mod sim;
 pub mod tare;
+pub mod wire;
 
 pub use reading::{BioTacReading, ADC_MAX, FRAME_PERIOD_S, N_ELECTRODES, N_PAC};
 pub use sim::{BioTacSim, BioTacSimConfig, Contact};
 pub use tare::{Tare, TareError};
+pub use wire::{
+    ChannelMask, DecodedFrame, Decoder, DecoderStats, FrameError, HoldLastGood, WordError,
+};

@@ -106,6 +106,15 @@ impl Scene {
         self.layers.iter().map(String::as_str).collect()
     }
 
+    /// Checks every parameter of the controller and the simulated robot
+    /// (before an expensive step such as training a model).
+    pub fn check(&self) -> Result<(), SceneError> {
+        let controller = ForceController::new(self.controller_params()?)?;
+        let sensor = BioTacSimConfig::default();
+        SimRobot::new(self.sim_params()?, controller.robot().clone(), &sensor, 0)?;
+        Ok(())
+    }
+
     /// Builds the nodes of a run with `model`; `seed` drives the noise.
     pub fn build(
         &self,
