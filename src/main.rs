@@ -1,6 +1,8 @@
 //! The `tactile_force` command line: parses flags, wires library calls,
 //! prints results. Errors go to stderr with exit code 1.
 
+mod commands;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -47,6 +49,10 @@ enum Command {
     Eval(EvalArgs),
     /// Run the closed loop in simulation: a guarded or a guided move.
     Demo(DemoArgs),
+    /// Emulate a BioTac serial bridge: simulated frames to a serial port.
+    BiotacEmulator(commands::serial::EmulatorArgs),
+    /// Show what a BioTac serial bridge sends: readings and link statistics.
+    BiotacMonitor(commands::serial::MonitorArgs),
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -214,6 +220,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Train(a) => run_train(a),
         Command::Eval(a) => run_eval(a),
         Command::Demo(a) => run_demo(a),
+        Command::BiotacEmulator(a) => commands::serial::run_emulator(a),
+        Command::BiotacMonitor(a) => commands::serial::run_monitor(a),
     }
 }
 

@@ -200,7 +200,14 @@ fn too_few_folds_or_trials_are_refused() {
 
 #[test]
 fn every_subcommand_has_help() {
-    for sub in ["collect", "train", "eval", "demo"] {
+    for sub in [
+        "collect",
+        "train",
+        "eval",
+        "demo",
+        "biotac-emulator",
+        "biotac-monitor",
+    ] {
         let o = run(&[sub, "--help"]);
         assert!(o.status.success());
         assert!(text(&o).0.contains("Usage: tactile_force"), "{sub}");
@@ -314,4 +321,73 @@ fn demo_speed_sweep_finds_the_fastest_approach_within_the_bound() {
         j["fastest_within_bound_mps"]["wooden_box"].as_f64(),
         Some(0.01)
     );
+}
+
+#[test]
+fn monitor_prints_what_the_emulator_sends_as_json_lines() {
+    use std::io::BufRead;
+    let mut emulator = Command::new(env!("CARGO_BIN_EXE_tactile_force"))
+        .args(["biotac-emulator", "--pty", "--frames", "1000"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("the emulator starts");
+    let mut line = String::new();
+    std::io::BufReader::new(emulator.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let port = line
+        .split_whitespace()
+        .last()
+        .expect("a port path")
+        .to_string();
+    let o = run(&[
+        "biotac-monitor",
+        "--port",
+        &port,
+        "--frames",
+        "20",
+        "--jsonl",
+    ]);
+    let _ = emulator.kill();
+    let _ = emulator.wait();
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let lines: Vec<serde_json::Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect();
+    assert_eq!(lines.len(), 21);
+    for f in &lines[..20] {
+        assert_eq!(f["sensor"], 0);
+        assert_eq!(f["electrodes"].as_array().unwrap().len(), 19);
+        assert_eq!(f["pac"].as_array().unwrap().len(), 22);
+        assert!(f["pdc"].is_u64() && f["tdc"].is_u64() && f["tac"].is_u64() && f["seq"].is_u64());
+        assert_eq!(f["invalid"], serde_json::json!([]));
+    }
+    let stats = &lines[20]["stats"];
+    assert!(stats["frames"].as_u64().unwrap() >= 20);
+    assert_eq!(
+        (stats["crc_errors"].as_u64(), stats["lost"].as_u64()),
+        (Some(0), Some(0))
+    );
+}
+
+#[test]
+fn monitor_without_a_bridge_gives_up_with_the_reason() {
+    let o = run(&[
+        "biotac-monitor",
+        "--port",
+        "/dev/no-such-bridge",
+        "--timeout-s",
+        "0.3",
+    ]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.contains("no frame from /dev/no-such-bridge") && err.contains("No such file"),
+        "{err}"
+    );
+    let o = run(&["biotac-emulator", "--pty", "--fault-rate", "2"]);
+    assert!(text(&o).1.contains("--fault-rate 2"), "{:?}", text(&o));
 }

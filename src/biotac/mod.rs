@@ -1,6 +1,8 @@
-//! The BioTac fingertip: reading type, tare, serial wire codec, and a simulator
-//! (forward model).
+//! The BioTac fingertip: reading type, tare, serial wire codec and driver, a
+//! bridge emulator, and a simulator (forward model).
 
+pub mod driver;
+pub mod emulator;
 pub mod geometry;
 pub mod reading;
 pub mod sim;

@@ -10,12 +10,25 @@ use serde::{Deserialize, Serialize};
 use super::{BioTacReading, N_ELECTRODES};
 
 /// Why a tare could not be taken.
-#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+#[derive(Debug, Clone, thiserror::Error, PartialEq)]
 #[non_exhaustive]
 pub enum TareError {
     /// No readings were given.
     #[error("cannot tare from zero readings: give readings taken out of contact")]
     Empty,
+    /// PDC says the finger is touched while the tare is taken.
+    #[error(
+        "tare refused: PDC {what} by {counts:.0} counts (limit {limit:.0}); \
+         the finger seems to be in contact, release it and tare again"
+    )]
+    Contact {
+        /// What PDC did: "varied" during the tare or "rose" above the last tare.
+        what: &'static str,
+        /// By how much (counts).
+        counts: f64,
+        /// The limit (counts).
+        limit: f64,
+    },
 }
 
 /// Mean out-of-contact electrode values and PDC (ADC counts).
@@ -46,6 +59,40 @@ impl Tare {
             electrodes: electrodes.map(|s| s / n),
             pdc: pdc / n,
         })
+    }
+
+    /// Like [`Tare::from_readings`], refused when PDC (a good contact
+    /// indicator, architecture page) shows contact: it varies by more than
+    /// `pdc_limit` counts during the readings, or its mean is more than
+    /// `pdc_limit` above the `previous` tare's. A steady press at the very
+    /// first tare cannot be told from PDC alone.
+    pub fn from_readings_out_of_contact(
+        readings: &[BioTacReading],
+        pdc_limit: f64,
+        previous: Option<&Tare>,
+    ) -> Result<Tare, TareError> {
+        let tare = Tare::from_readings(readings)?;
+        let (lo, hi) = readings
+            .iter()
+            .fold((u16::MAX, 0), |(lo, hi), r| (lo.min(r.pdc), hi.max(r.pdc)));
+        let spread = f64::from(hi - lo);
+        if spread > pdc_limit {
+            return Err(TareError::Contact {
+                what: "varied",
+                counts: spread,
+                limit: pdc_limit,
+            });
+        }
+        if let Some(rise) = previous.map(|p| tare.pdc - p.pdc) {
+            if rise > pdc_limit {
+                return Err(TareError::Contact {
+                    what: "rose",
+                    counts: rise,
+                    limit: pdc_limit,
+                });
+            }
+        }
+        Ok(tare)
     }
 
     /// Baseline electrode values E1..E19 (counts).
@@ -110,6 +157,35 @@ mod tests {
         let r = sim.step(Some(&press), FRAME_PERIOD_S);
         assert!(tare.tared(&r)[16] < -300.0, "E17 under a 3 N press");
         assert!(tare.tared_pdc(&r) > 300.0);
+    }
+
+    #[test]
+    fn a_tare_during_contact_is_refused_by_pdc() {
+        let mut sim = BioTacSim::new(&BioTacSimConfig::default(), 4);
+        let press = |f: f64| Contact {
+            x_mm: -4.0,
+            angle_rad: 0.0,
+            force: Vector3::new(0.0, 0.0, f),
+        };
+        let rest: Vec<_> = (0..50).map(|_| sim.step(None, FRAME_PERIOD_S)).collect();
+        let first = Tare::from_readings_out_of_contact(&rest, 30.0, None).expect("at rest");
+        // A finger pressing harder during the tare: PDC varies.
+        let touching: Vec<_> = (0..50)
+            .map(|k| sim.step(Some(&press(0.02 * k as f64)), FRAME_PERIOD_S))
+            .collect();
+        let e = Tare::from_readings_out_of_contact(&touching, 30.0, None).unwrap_err();
+        assert!(
+            matches!(e, TareError::Contact { what: "varied", .. }),
+            "{e}"
+        );
+        // A steady 1 N press: PDC sits above the last tare.
+        let held: Vec<_> = (0..50)
+            .map(|_| sim.step(Some(&press(1.0)), FRAME_PERIOD_S))
+            .collect();
+        let e = Tare::from_readings_out_of_contact(&held, 30.0, Some(&first)).unwrap_err();
+        assert!(e.to_string().contains("rose"), "{e}");
+        let again: Vec<_> = (0..50).map(|_| sim.step(None, FRAME_PERIOD_S)).collect();
+        assert!(Tare::from_readings_out_of_contact(&again, 30.0, Some(&first)).is_ok());
     }
 
     #[test]

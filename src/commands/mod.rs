@@ -1,0 +1,3 @@
+//! Subcommands of the binary that have grown past a few lines.
+
+pub mod serial;

@@ -1,0 +1,230 @@
+//! `biotac-emulator` and `biotac-monitor`: a bridge emulator that writes
+//! frames to a serial port, and a live view of what a port receives.
+
+use std::io::Write;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use serialport::{SerialPort, TTYPort};
+
+use tactile_force::biotac::driver::{Driver, DriverConfig, DriverEvent, LinkStats};
+use tactile_force::biotac::emulator::{stream, Emulator, EmulatorConfig};
+use tactile_force::biotac::wire::{DecodedFrame, DEFAULT_BAUD};
+use tactile_force::biotac::BioTacSimConfig;
+use tactile_force::sim::collect::unit_seed;
+
+#[derive(Args)]
+pub struct EmulatorArgs {
+    /// Serial port to write to (e.g. one end of `socat -d -d pty,raw,echo=0 pty,raw,echo=0`).
+    #[arg(long, required_unless_present = "pty", conflicts_with = "pty")]
+    port: Option<String>,
+    /// Create a pseudo-terminal and print the path a driver should open.
+    #[arg(long)]
+    pty: bool,
+    /// Baud rate.
+    #[arg(long, default_value_t = DEFAULT_BAUD)]
+    baud: u32,
+    /// Fault probability per SPI word (parity error) and per byte (bit flip or drop).
+    #[arg(long, default_value_t = 0.0)]
+    fault_rate: f64,
+    /// The simulated unit is the one `collect --seed N` records.
+    #[arg(long, default_value_t = 1)]
+    unit_seed: u64,
+    /// Seed of the noise and of the faults.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Sensor index written in the frames (0..=2).
+    #[arg(long, default_value_t = 0)]
+    sensor: u8,
+    /// Peak force of the simulated press cycle (N; 0: never touched).
+    #[arg(long, default_value_t = 3.0)]
+    press_peak_n: f64,
+    /// Stop after this many frames (default: run until interrupted).
+    #[arg(long)]
+    frames: Option<u64>,
+}
+
+#[derive(Args)]
+pub struct MonitorArgs {
+    /// Serial port of the BioTac bridge.
+    #[arg(long)]
+    port: String,
+    /// Baud rate.
+    #[arg(long, default_value_t = DEFAULT_BAUD)]
+    baud: u32,
+    /// Stop after this many decoded frames (default: run until interrupted).
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Print each decoded frame as a JSON line, then the link statistics.
+    #[arg(long, requires = "frames")]
+    jsonl: bool,
+    /// Give up when no frame arrives for this long (s).
+    #[arg(long, default_value_t = 10.0)]
+    timeout_s: f64,
+}
+
+pub fn run_emulator(a: EmulatorArgs) -> Result<()> {
+    if !(0.0..=1.0).contains(&a.fault_rate) {
+        bail!(
+            "--fault-rate {}: expected a probability in 0..=1",
+            a.fault_rate
+        );
+    }
+    if a.sensor > 2 {
+        bail!(
+            "--sensor {}: the wire format carries sensors 0..=2",
+            a.sensor
+        );
+    }
+    let config = EmulatorConfig {
+        sensor: a.sensor,
+        fault_rate: a.fault_rate,
+        seed: a.seed,
+        press_peak_n: a.press_peak_n,
+        ..EmulatorConfig::default()
+    };
+    let mut emulator = Emulator::new(config, &BioTacSimConfig::default(), unit_seed(a.unit_seed));
+    // The slave end of a created pty stays open so the pair lives.
+    let (mut port, _slave): (Box<dyn SerialPort>, Option<TTYPort>) = match &a.port {
+        Some(path) => {
+            let port = serialport::new(path, a.baud)
+                .timeout(Duration::from_millis(100))
+                .open()
+                .with_context(|| format!("opening {path}"))?;
+            (port, None)
+        }
+        None => {
+            let (mut master, slave) = TTYPort::pair().context("creating a pseudo-terminal")?;
+            master.set_timeout(Duration::from_millis(100))?;
+            let path = slave.name().unwrap_or_default();
+            println!("emulating a BioTac bridge on {path}");
+            std::io::stdout().flush()?;
+            (Box::new(master), Some(slave))
+        }
+    };
+    let period = Duration::from_secs_f64(tactile_force::biotac::FRAME_PERIOD_S);
+    let sent = stream(
+        &mut emulator,
+        &mut port,
+        period,
+        a.frames,
+        &AtomicBool::new(false),
+    )
+    .context("writing to the port")?;
+    eprintln!("sent {sent} frames");
+    Ok(())
+}
+
+pub fn run_monitor(a: MonitorArgs) -> Result<()> {
+    let mut config = DriverConfig::new(a.port.clone());
+    config.baud = a.baud;
+    let mut driver = Driver::new(config);
+    let view = (!a.jsonl).then(live_view);
+    let mut shown = 0u64;
+    let mut last_frame = Instant::now();
+    let mut last_problem = String::from("no frame yet");
+    let mut stats = driver.stats();
+    let mut out = std::io::stdout().lock();
+    while a.frames.is_none_or(|n| shown < n) {
+        let mut error = None;
+        driver.poll(&mut |e| match e {
+            DriverEvent::Frame { frame, .. } => {
+                shown += 1;
+                last_frame = Instant::now();
+                match &view {
+                    Some(bar) => show_frame(bar, &frame, &stats),
+                    None => {
+                        if a.frames.is_some_and(|n| shown <= n) {
+                            error = writeln!(out, "{}", frame_json(&frame)).err();
+                        }
+                    }
+                }
+            }
+            DriverEvent::Stats(s) => stats = s,
+            DriverEvent::Disconnected { reason, .. } => last_problem = reason,
+            DriverEvent::Stale { silent_s } => {
+                last_problem = format!("no frame for {silent_s:.3} s (stale)");
+            }
+            _ => {}
+        });
+        if let Some(e) = error {
+            return Err(e.into());
+        }
+        if last_frame.elapsed().as_secs_f64() > a.timeout_s {
+            bail!(
+                "no frame from {} for {} s: {last_problem}",
+                a.port,
+                a.timeout_s
+            );
+        }
+    }
+    let s = driver.stats().decoder;
+    let json = serde_json::json!({"stats": {
+        "frames": s.frames,
+        "crc_errors": s.crc_errors,
+        "parity_errors": s.parity_errors,
+        "lost": s.lost.iter().sum::<u64>(),
+    }});
+    writeln!(out, "{json}")?;
+    Ok(())
+}
+
+fn frame_json(f: &DecodedFrame) -> serde_json::Value {
+    let r = &f.reading;
+    serde_json::json!({
+        "sensor": f.sensor,
+        "seq": f.seq,
+        "electrodes": r.electrodes,
+        "pdc": r.pdc,
+        "pac": r.pac,
+        "tdc": r.tdc,
+        "tac": r.tac,
+        "invalid": f.invalid.names().collect::<Vec<_>>(),
+    })
+}
+
+fn live_view() -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{msg}").unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar
+}
+
+fn show_frame(bar: &ProgressBar, f: &DecodedFrame, s: &LinkStats) {
+    // Ten refreshes per second of frames are enough to read.
+    if !f.seq.is_multiple_of(10) {
+        return;
+    }
+    let r = &f.reading;
+    let electrodes: Vec<String> = r
+        .electrodes
+        .chunks(10)
+        .map(|row| row.iter().map(|v| format!("{v:5}")).collect::<String>())
+        .collect();
+    let invalid: Vec<&str> = f.invalid.names().collect();
+    bar.set_message(format!(
+        "sensor {} seq {:5}\nE1-E10 {}\nE11-19 {}\nPDC {:5}  TDC {:5}  TAC {:5}  invalid: {}\n\
+         link: {:.0} frames/s, {} CRC errors, {} invalid samples, {} lost, {} dropped",
+        f.sensor,
+        f.seq,
+        electrodes[0],
+        electrodes.get(1).map_or("", String::as_str),
+        r.pdc,
+        r.tdc,
+        r.tac,
+        if invalid.is_empty() {
+            "none".into()
+        } else {
+            invalid.join(",")
+        },
+        s.frames_per_s,
+        s.decoder.crc_errors,
+        s.decoder.parity_errors,
+        s.decoder.lost.iter().sum::<u64>(),
+        s.dropped,
+    ));
+}
