@@ -65,6 +65,22 @@ fn spawn_driver(
     (rx, handle)
 }
 
+/// A bridge streaming at 100 Hz into the master until `stop`; gives the pty
+/// back so the caller decides when its end closes.
+fn spawn_bridge(mut p: Pty, press_peak_n: f64, stop: Arc<AtomicBool>) -> JoinHandle<Pty> {
+    std::thread::spawn(move || {
+        let mut emu = emulator(0.0, press_peak_n);
+        let _ = stream(
+            &mut emu,
+            &mut p.master,
+            Duration::from_millis(10),
+            None,
+            &stop,
+        );
+        p
+    })
+}
+
 /// Frames the driver decoded among `events`.
 fn frames(events: &[(Instant, DriverEvent)]) -> Vec<DecodedFrame> {
     events
@@ -196,23 +212,8 @@ fn a_lost_port_goes_stale_and_the_stream_resumes_when_it_returns() {
     let stop = Arc::new(AtomicBool::new(false));
     let (rx, driver) = spawn_driver(link.to_str().unwrap(), stop.clone());
 
-    // Bridge 1 streams at 100 Hz.
-    let run = |p: Pty, stop: Arc<AtomicBool>| {
-        std::thread::spawn(move || {
-            let mut p = p;
-            let mut emu = emulator(0.0, 3.0);
-            let _ = stream(
-                &mut emu,
-                &mut p.master,
-                Duration::from_millis(10),
-                None,
-                &stop,
-            );
-            p
-        })
-    };
     let bridge_stop = Arc::new(AtomicBool::new(false));
-    let bridge = run(first, bridge_stop.clone());
+    let bridge = spawn_bridge(first, 3.0, bridge_stop.clone());
     wait_for(&rx, |e| matches!(e, DriverEvent::Frame { .. }));
     std::thread::sleep(Duration::from_millis(300));
 
@@ -229,7 +230,7 @@ fn a_lost_port_goes_stale_and_the_stream_resumes_when_it_returns() {
     relink(&link, &second.path);
     let replugged = Instant::now();
     let bridge_stop = Arc::new(AtomicBool::new(false));
-    let bridge = run(second, bridge_stop.clone());
+    let bridge = spawn_bridge(second, 3.0, bridge_stop.clone());
     let resumed_at = wait_for(&rx, |e| matches!(e, DriverEvent::Frame { .. }));
     bridge_stop.store(true, Ordering::Relaxed);
     drop(bridge.join().unwrap());
@@ -269,20 +270,8 @@ fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
     let p = pty();
     let mut driver = Driver::new(DriverConfig::new(p.path.clone()));
     let bridge_stop = Arc::new(AtomicBool::new(false));
-    let stop = bridge_stop.clone();
     // No press: the guarded move approaches, which needs fresh estimates.
-    let bridge = std::thread::spawn(move || {
-        let mut p = p;
-        let mut emu = emulator(0.0, 0.0);
-        let _ = stream(
-            &mut emu,
-            &mut p.master,
-            Duration::from_millis(10),
-            None,
-            &stop,
-        );
-        p
-    });
+    let bridge = spawn_bridge(p, 0.0, bridge_stop.clone());
 
     // The embedded loop by hand: driver -> estimator -> controller, 100 Hz.
     let mut last_stamp = None;
