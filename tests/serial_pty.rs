@@ -327,3 +327,34 @@ fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
         "halted once stale"
     );
 }
+
+#[test]
+fn a_tare_is_taken_at_rest_and_refused_while_pressed() {
+    for (press_peak_n, refused) in [(0.0, false), (3.0, true)] {
+        let p = pty();
+        let mut driver = Driver::new(DriverConfig::new(p.path.clone()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let bridge = spawn_bridge(p, press_peak_n, stop.clone());
+        // Skip the first second: the press cycle is then well under way.
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let mut outcome = None;
+        let mut asked = false;
+        while outcome.is_none() && Instant::now() < deadline {
+            if !asked && driver.now_s() > 1.0 {
+                driver.request_tare(50);
+                asked = true;
+            }
+            driver.poll(&mut |e| match e {
+                DriverEvent::Tared(t) => outcome = Some(Ok(t)),
+                DriverEvent::TareRefused(e) => outcome = Some(Err(e)),
+                _ => {}
+            });
+        }
+        stop.store(true, Ordering::Relaxed);
+        drop(bridge.join().unwrap());
+        match outcome.expect("the tare finished") {
+            Ok(t) => assert!(!refused && t.pdc() > 1000.0),
+            Err(e) => assert!(refused && e.to_string().contains("PDC varied"), "{e}"),
+        }
+    }
+}
