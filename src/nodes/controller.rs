@@ -228,11 +228,10 @@ impl ForceController {
 
     fn step(&mut self, now: f64, dt: f64) -> Result<(JointVector, Vector3<f64>), Halt> {
         let w = self.watchdog;
-        w.check("joint state", now, self.joints.map(|j| j.stamp_s))?;
-        w.check("wrench estimate", now, self.estimate.map(|e| e.stamp_s))?;
-        let (Some(js), Some(est)) = (self.joints, self.estimate) else {
-            unreachable!("the watchdog passed both");
-        };
+        let js = self.joints.ok_or(Halt::Missing("joint state"))?;
+        w.check("joint state", now, Some(js.stamp_s))?;
+        let est = self.estimate.ok_or(Halt::Missing("wrench estimate"))?;
+        w.check("wrench estimate", now, Some(est.stamp_s))?;
         let pose = self.robot.chain.forward(&js.q);
         let start = *self.start.get_or_insert(pose);
         let v_world = match &mut self.task {
