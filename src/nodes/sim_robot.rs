@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 
 use nalgebra::{Isometry3, Vector3};
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
 
@@ -63,6 +63,10 @@ pub struct SimRobotParams {
     pub sensor_unit_seed: u64,
     /// Length of a run (s).
     pub duration_s: f64,
+    /// Jitter of the control period: each period lasts a uniformly drawn
+    /// whole number of physics steps within +- this fraction (default 0).
+    #[serde(default)]
+    pub period_jitter_fraction: f64,
 }
 
 /// What the simulated robot publishes each control period.
@@ -99,6 +103,7 @@ pub struct SimRobot {
     normal: Vector3<f64>,
     dt: f64,
     steps_per_period: usize,
+    jitter_steps: usize,
     period_s: f64,
     ft_noise: (f64, f64),
     rng: ChaCha8Rng,
@@ -128,6 +133,13 @@ impl SimRobot {
         non_negative("ft_noise_n", p.ft_noise_n)?;
         non_negative("ft_noise_nm", p.ft_noise_nm)?;
         positive("duration_s", p.duration_s)?;
+        if !(0.0..1.0).contains(&p.period_jitter_fraction) {
+            return Err(invalid(
+                "period_jitter_fraction",
+                p.period_jitter_fraction,
+                "a fraction in 0..1",
+            ));
+        }
         p.skin.validate("skin")?;
         let ratio = p.control_period_s * p.physics_rate_hz;
         if (ratio - ratio.round()).abs() > 1e-9 || ratio < 1.0 {
@@ -199,6 +211,7 @@ impl SimRobot {
             normal,
             dt: 1.0 / p.physics_rate_hz,
             steps_per_period: steps,
+            jitter_steps: (p.period_jitter_fraction * steps as f64).round() as usize,
             period_s: p.control_period_s,
             ft_noise: (p.ft_noise_n, p.ft_noise_nm),
             rng: ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_f00d),
@@ -240,7 +253,14 @@ impl SimRobot {
 
     /// Runs the physics for one control period.
     pub fn advance(&mut self) {
-        for _ in 0..self.steps_per_period {
+        let j = self.jitter_steps;
+        let steps = if j == 0 {
+            self.steps_per_period
+        } else {
+            self.rng
+                .random_range(self.steps_per_period - j..=self.steps_per_period + j)
+        };
+        for _ in 0..steps {
             self.arm.step(self.t, self.dt);
             // Counted, not summed, so the clock does not drift.
             self.steps += 1;
@@ -269,7 +289,8 @@ impl SimRobot {
             angle_rad: 0.0,
             force: self.last_force,
         });
-        let mut reading = self.biotac.step(contact.as_ref(), self.period_s);
+        let period_s = (self.steps_in_period.max(1) as f64 * self.dt).max(self.dt);
+        let mut reading = self.biotac.step(contact.as_ref(), period_s);
         reading.stamp_s = self.t;
         let n = self.steps_in_period.max(1) as f64;
         let mean_force = if self.steps_in_period == 0 {
@@ -293,7 +314,7 @@ impl SimRobot {
         let pose = self.robot.chain.forward(self.arm.q());
         let offset = self.start.rotation.inverse()
             * (pose.translation.vector - self.start.translation.vector);
-        let velocity = (offset - self.last_offset) / self.period_s;
+        let velocity = (offset - self.last_offset) / period_s;
         self.last_offset = offset;
         SimSample {
             t: self.t,
