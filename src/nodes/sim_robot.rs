@@ -64,8 +64,7 @@ pub struct SimRobotParams {
     /// Length of a run (s).
     pub duration_s: f64,
     /// Jitter of the control period: each period lasts a uniformly drawn
-    /// whole number of physics steps within +- this fraction (default 0).
-    #[serde(default)]
+    /// whole number of physics steps within +- this fraction (0: none).
     pub period_jitter_fraction: f64,
 }
 
