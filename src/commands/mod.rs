@@ -1,3 +1,5 @@
-//! Subcommands of the binary that have grown past a few lines.
+//! Subcommands of the binary that have grown past a few lines: `demo`, and
+//! the serial tools `biotac-emulator` and `biotac-monitor`.
 
+pub mod demo;
 pub mod serial;

@@ -1,0 +1,302 @@
+//! `demo`: the closed loop in simulation (guarded or guided move), and the
+//! approach-speed sweep.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use tactile_force::learn::default_model::{self, Origin};
+use tactile_force::learn::model::WrenchGp;
+use tactile_force::nodes::controller::TaskKind;
+use tactile_force::report::summary::Summary;
+use tactile_force::report::{plot, TraceRow};
+use tactile_force::runtime::demo::{fastest_within, run_scene, sweep_speeds};
+use tactile_force::runtime::{Pacing, Scene};
+
+use crate::progress_bar;
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DemoTask {
+    /// Approach an object, stop on contact, hold 1 N.
+    Guarded,
+    /// Follow a person's finger like a joystick (1 N along z, 0 N along x/y).
+    Guided,
+}
+
+#[derive(Args)]
+pub struct DemoArgs {
+    /// The task.
+    task: DemoTask,
+    /// Object to touch (a name from the scene's `objects`; e.g. wooden_box,
+    /// carton_box, stuffed_animal). Default: the scene's.
+    #[arg(long)]
+    object: Option<String>,
+    /// Scene file (ROS 2 parameters, layered on config/pa10.yaml and
+    /// config/world.yaml). Default: the shipped config/guarded_move.yaml or
+    /// config/guided_move.yaml.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Model file from `train`. Default: a model trained on simulated data on
+    /// first use and cached.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Guarded move: approach speed (m/s). Default: the scene's.
+    #[arg(long)]
+    speed: Option<f64>,
+    /// Seed of the sensor and F/T noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Pace the simulation by the wall clock.
+    #[arg(long)]
+    realtime: bool,
+    /// Write a PNG plot (forces over time; with --sweep-speed, overshoot over speed).
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Write the run, one row per control period, as CSV.
+    #[arg(long, conflicts_with = "sweep_speed")]
+    csv: Option<PathBuf>,
+    /// Print the figures as one JSON object on the last line.
+    #[arg(long)]
+    json: bool,
+    /// Guarded move: sweep the approach speed against overshoot, per object.
+    #[arg(long, conflicts_with = "realtime")]
+    sweep_speed: bool,
+    /// Objects of the sweep.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "wooden_box,carton_box,stuffed_animal"
+    )]
+    objects: Vec<String>,
+    /// Approach speeds of the sweep (mm/s).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "5,10,15,20,25,30,35,40,50,60,80,100,150,200"
+    )]
+    speeds_mm_s: Vec<f64>,
+}
+
+/// Overshoot bound of the guarded move (N), from the closed-loop issue.
+const OVERSHOOT_BOUND_N: f64 = 0.1;
+
+pub fn run_demo(a: DemoArgs) -> Result<()> {
+    let task = match a.task {
+        DemoTask::Guarded => TaskKind::Guarded,
+        DemoTask::Guided => TaskKind::Guided,
+    };
+    if task == TaskKind::Guided && (a.sweep_speed || a.speed.is_some()) {
+        anyhow::bail!("--speed and --sweep-speed are for the guarded move");
+    }
+    let mut scene = match &a.scene {
+        Some(path) => Scene::from_file(path)?,
+        None => Scene::builtin(task),
+    };
+    if let Some(o) = &a.object {
+        scene = scene.with_object(o);
+    }
+    if let Some(v) = a.speed {
+        scene = scene.with_approach_speed(v);
+    }
+    // Check the scene before a possibly long training.
+    scene.check()?;
+    let model = demo_model(a.model.as_deref())?;
+    if a.sweep_speed {
+        return run_sweep(&a, &scene, &model);
+    }
+    let bar = status_line(&scene)?;
+    let pacing = if a.realtime {
+        Pacing::Realtime
+    } else {
+        Pacing::Lockstep
+    };
+    let run = run_scene(&scene, model, a.seed, pacing, &mut |r| show_status(&bar, r))?;
+    bar.finish_and_clear();
+    if let Some(path) = &a.csv {
+        tactile_force::report::trace::write_csv(path, &run.rows)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &a.plot {
+        let s = &run.summary;
+        let title = format!("{} move, {}", s.task, s.object);
+        plot::plot_run(path, &title, &run.rows)?;
+        println!("plot written to {}", path.display());
+    }
+    print_summary(&run.summary, &run.gains);
+    if a.json {
+        println!("{}", serde_json::to_string(&run.summary)?);
+    }
+    Ok(())
+}
+
+/// The model of `--model`, or the cached default (trained on first use).
+fn demo_model(path: Option<&Path>) -> Result<WrenchGp> {
+    if let Some(p) = path {
+        return Ok(WrenchGp::load(p)?);
+    }
+    let (model, origin) = default_model::load_or_train(&mut || {
+        eprintln!(
+            "no --model given: training the default model on simulated data \
+             (collect --seed {}, {} rows), once; this takes a few seconds",
+            default_model::DATA_SEED,
+            default_model::MAX_TRAIN
+        )
+    })?;
+    match origin {
+        Origin::Cached(p) => eprintln!("default model: {}", p.display()),
+        Origin::TrainedAndCached(p) => {
+            eprintln!("default model trained and cached at {}", p.display())
+        }
+        Origin::TrainedNotCached(why) => eprintln!("default model trained, not cached: {why}"),
+    }
+    Ok(model)
+}
+
+/// A one-line live status on a terminal (hidden otherwise).
+fn status_line(scene: &Scene) -> Result<ProgressBar> {
+    let p = scene.sim_params()?;
+    let periods = (p.duration_s / p.control_period_s).round() as u64;
+    let bar = ProgressBar::new(periods);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:20} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    Ok(bar)
+}
+
+fn show_status(bar: &ProgressBar, r: &TraceRow) {
+    bar.inc(1);
+    // One update in ten periods is enough to read.
+    if !bar.position().is_multiple_of(10) {
+        return;
+    }
+    let axis = r.targets.iter().rposition(Option::is_some).unwrap_or(2);
+    let name = ["Fx", "Fy", "Fz"][axis];
+    let est = r.estimate.map_or("taring".to_string(), |(m, s)| {
+        format!("{:+.3} N (+-{:.3})", m[axis], 2.0 * s[axis])
+    });
+    let halted = if r.halted { "  [halted]" } else { "" };
+    bar.set_message(format!(
+        "t {:5.2} s  {:8}  {name} estimate {est}  measured {:+.3} N{halted}",
+        r.t,
+        r.phase.name(),
+        r.measured[axis]
+    ));
+}
+
+fn print_summary(s: &Summary, gains: &[Option<f64>; 3]) {
+    let opt = |v: Option<f64>, unit: &str| v.map_or("-".into(), |v| format!("{v:.3} {unit}"));
+    println!("{} move, object {}", s.task, s.object);
+    if let Some(v) = s.approach_speed_mps {
+        println!("  approach speed      {:.1} mm/s", v * 1e3);
+    }
+    for (axis, g) in ["x", "y", "z"].iter().zip(gains) {
+        if let Some(g) = g {
+            println!("  gain {axis}              {:.4} m/s per N", g);
+        }
+    }
+    println!("  contact at          {}", opt(s.contact_time_s, "s"));
+    println!(
+        "  peak force          {:.3} N (overshoot {:.3} N)",
+        s.peak_force_n, s.overshoot_n
+    );
+    println!("  steady-state error  {}", opt(s.steady_state_error_n, "N"));
+    println!("  settle time         {}", opt(s.settle_time_s, "s"));
+    for (axis, v) in &s.rms_force_error_by_axis_n {
+        println!("  RMS error {axis}        {v:.3} N");
+    }
+    println!(
+        "  off-axis speed      {:.2} mm/s{}",
+        s.max_off_axis_speed_mps * 1e3,
+        s.max_off_axis_ratio.map_or(String::new(), |r| format!(
+            " ({:.1} % of the commanded speed)",
+            r * 100.0
+        ))
+    );
+    println!(
+        "  end                 {} after {:.2} s{}",
+        s.final_phase,
+        s.duration_s,
+        s.reason
+            .map_or(String::new(), |r| format!(", stopped: {r}"))
+    );
+}
+
+fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
+    let speeds: Vec<f64> = a.speeds_mm_s.iter().map(|v| v * 1e-3).collect();
+    if let Some(bad) = speeds.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        anyhow::bail!("--speeds-mm-s: {} is not a positive speed", bad * 1e3);
+    }
+    let bar = progress_bar();
+    bar.set_message(format!(
+        "sweeping {} speeds x {} objects",
+        speeds.len(),
+        a.objects.len()
+    ));
+    let points = sweep_speeds(scene, model, &a.objects, &speeds, a.seed)?;
+    bar.finish_and_clear();
+    print!("{:>12}", "speed mm/s");
+    for o in &a.objects {
+        print!("  {o:>16}");
+    }
+    println!("   (overshoot N; * = over {OVERSHOOT_BOUND_N} N, ! = aborted)");
+    for v in &speeds {
+        print!("{:>12.1}", v * 1e3);
+        for o in &a.objects {
+            let p = points
+                .iter()
+                .find(|p| &p.object == o && p.approach_speed_mps == *v);
+            let cell = p.map_or("-".into(), |p| {
+                let mark = if p.aborted {
+                    "!"
+                } else if p.overshoot_n > OVERSHOOT_BOUND_N {
+                    "*"
+                } else {
+                    " "
+                };
+                format!("{:.3}{mark}", p.overshoot_n)
+            });
+            print!("  {cell:>16}");
+        }
+        println!();
+    }
+    let fastest = fastest_within(&points, &a.objects, OVERSHOOT_BOUND_N);
+    for (o, v) in &fastest {
+        match v {
+            Some(v) => println!(
+                "{o}: fastest approach within {OVERSHOOT_BOUND_N} N overshoot: {:.1} mm/s",
+                v * 1e3
+            ),
+            None => {
+                println!("{o}: no swept speed keeps the overshoot within {OVERSHOOT_BOUND_N} N")
+            }
+        }
+    }
+    if let Some(path) = &a.plot {
+        let series: Vec<(String, Vec<(f64, f64)>)> = a
+            .objects
+            .iter()
+            .map(|o| {
+                let pts = points
+                    .iter()
+                    .filter(|p| &p.object == o)
+                    .map(|p| (p.approach_speed_mps, p.overshoot_n))
+                    .collect();
+                (o.clone(), pts)
+            })
+            .collect();
+        plot::plot_sweep(path, &series, OVERSHOOT_BOUND_N)?;
+        println!("plot written to {}", path.display());
+    }
+    if a.json {
+        let fastest: std::collections::BTreeMap<&str, Option<f64>> =
+            fastest.iter().map(|(o, v)| (o.as_str(), *v)).collect();
+        println!(
+            "{}",
+            serde_json::json!({"sweep": points, "overshoot_bound_n": OVERSHOOT_BOUND_N, "fastest_within_bound_mps": fastest})
+        );
+    }
+    Ok(())
+}
