@@ -133,3 +133,25 @@ fn a_singular_pose_at_the_start_gives_slow_bounded_motion() {
     assert_sane(&r.rows, MAX_SPEED);
     assert!(holds(&r.summary), "{:?}", r.summary);
 }
+
+#[test]
+fn pushing_harder_than_the_training_data_stops_on_the_estimators_doubt() {
+    // The training data reach ~11 N. Asked for 25 N (limit 40 N), the move
+    // must not trust an estimate that falls behind the true force: the GP's
+    // standard deviation and PDC saturation stop it well before.
+    let scene = Scene::builtin(TaskKind::Guarded).with_layer(
+        "force_controller:\n  ros__parameters:\n    guarded:\n      \
+         target_force_n: 25.0\n      force_limit_n: 40.0\n"
+            .into(),
+    );
+    let r = run(scene);
+    assert_sane(&r.rows, MAX_SPEED);
+    let s = &r.summary;
+    assert_eq!((s.reason, s.aborted), (Some("out_of_range"), true), "{s:?}");
+    assert!(s.peak_force_n > 11.0 && s.peak_force_n < 16.0, "{s:?}");
+    assert_eq!(s.final_phase, "stopped");
+    assert!(
+        r.rows.last().unwrap().measured.z < 0.1,
+        "retracted off the object"
+    );
+}

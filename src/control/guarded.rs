@@ -6,7 +6,7 @@
 //! ```text
 //!  Approach --F >= contact or PDC rise--> Regulate <--band--> Hold
 //!     |  \--travelled > max distance--> Stopped(timeout)
-//!     \------ F > limit (any phase) ---> Retract --retracted--> Stopped(force_limit)
+//!     \-- F > limit or out of range --> Retract --retracted--> Stopped(reason)
 //! ```
 //!
 //! Sign convention: the task works on the pressing force (the force along
@@ -94,6 +94,8 @@ pub struct GuardedInput {
     pub pdc_rise: f64,
     /// Distance travelled along the approach direction since the start (m).
     pub travelled_m: f64,
+    /// True when the input is outside what the estimator knows.
+    pub out_of_range: bool,
     /// Time since the previous cycle (s).
     pub dt: f64,
 }
@@ -159,9 +161,14 @@ impl GuardedMove {
         let p = self.p;
         let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
         let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
-        if active && i.force_n > p.force_limit_n {
+        let abort = if i.force_n > p.force_limit_n {
+            Some(StopReason::ForceLimit)
+        } else {
+            i.out_of_range.then_some(StopReason::OutOfRange)
+        };
+        if let (true, Some(reason)) = (active, abort) {
             self.phase = Phase::Retract;
-            self.reason = Some(StopReason::ForceLimit);
+            self.reason = Some(reason);
             self.retract_from_m = i.travelled_m;
         }
         match self.phase {
@@ -241,6 +248,7 @@ mod tests {
             force_n,
             pdc_rise: 0.0,
             travelled_m,
+            out_of_range: false,
             dt: 0.01,
         }
     }
@@ -304,6 +312,18 @@ mod tests {
                 (Phase::Stopped, Some(StopReason::ForceLimit))
             );
         }
+    }
+
+    #[test]
+    fn out_of_range_input_retracts_like_over_force() {
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+        g.step(&input(0.5, 0.010));
+        let v = g.step(&GuardedInput {
+            out_of_range: true,
+            ..input(1.0, 0.011)
+        });
+        assert_eq!((v, g.phase()), (-0.01, Phase::Retract));
+        assert_eq!(g.reason(), Some(StopReason::OutOfRange));
     }
 
     #[test]

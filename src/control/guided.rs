@@ -52,6 +52,7 @@ pub struct GuidedMove {
     p: GuidedParams,
     pd: [Option<PdAxis>; 3],
     phase: Phase,
+    reason: Option<StopReason>,
 }
 
 impl GuidedMove {
@@ -62,6 +63,7 @@ impl GuidedMove {
             pd: stiffness.map(|k| k.map(|k| PdAxis::new(pd, k, period_s, p.deadband_n))),
             p,
             phase: Phase::Follow,
+            reason: None,
         }
     }
 
@@ -72,7 +74,7 @@ impl GuidedMove {
 
     /// Why the move stopped, if it did.
     pub fn reason(&self) -> Option<StopReason> {
-        (self.phase == Phase::Stopped).then_some(StopReason::ForceLimit)
+        self.reason
     }
 
     /// Target force of each controlled axis (N), None for the others.
@@ -95,10 +97,17 @@ impl GuidedMove {
     }
 
     /// One cycle: estimated force (N, BioTac frame) -> BioTac velocity (m/s,
-    /// BioTac frame).
-    pub fn step(&mut self, force: &Vector3<f64>, dt: f64) -> Vector3<f64> {
-        if force.norm() > self.p.force_limit_n {
+    /// BioTac frame). Over the force limit, or with the input out of the
+    /// estimator's range, the arm stops for good.
+    pub fn step(&mut self, force: &Vector3<f64>, out_of_range: bool, dt: f64) -> Vector3<f64> {
+        let stop = if force.norm() > self.p.force_limit_n {
+            Some(StopReason::ForceLimit)
+        } else {
+            out_of_range.then_some(StopReason::OutOfRange)
+        };
+        if let (Phase::Follow, Some(reason)) = (self.phase, stop) {
             self.phase = Phase::Stopped;
+            self.reason = Some(reason);
         }
         let mut v = Vector3::zeros();
         for (i, pd) in self.pd.iter_mut().enumerate() {
@@ -137,18 +146,34 @@ mod tests {
     #[test]
     fn gives_way_to_pushes_and_presses_when_too_light() {
         let mut g = guided();
-        let v = g.step(&Vector3::new(0.5, -0.5, 1.0), 0.01);
+        let v = g.step(&Vector3::new(0.5, -0.5, 1.0), false, 0.01);
         assert!(v.x > 0.0 && v.y < 0.0 && v.z == 0.0, "{v}");
-        let v = g.step(&Vector3::new(0.1, 0.0, 0.5), 0.01);
+        let v = g.step(&Vector3::new(0.1, 0.0, 0.5), false, 0.01);
         assert!(v.x == 0.0 && v.z < 0.0, "deadband on x, press on z: {v}");
         assert_eq!(g.targets(), [Some(0.0), Some(0.0), Some(1.0)]);
     }
 
     #[test]
+    fn out_of_range_input_stops() {
+        let mut g = guided();
+        assert_eq!(
+            g.step(&Vector3::new(0.5, 0.0, 1.0), true, 0.01),
+            Vector3::zeros()
+        );
+        assert_eq!(g.reason(), Some(StopReason::OutOfRange));
+    }
+
+    #[test]
     fn force_limit_stops_for_good() {
         let mut g = guided();
-        assert_eq!(g.step(&Vector3::new(0.0, 0.0, 6.0), 0.01), Vector3::zeros());
-        assert_eq!(g.step(&Vector3::new(0.0, 0.0, 0.0), 0.01), Vector3::zeros());
+        assert_eq!(
+            g.step(&Vector3::new(0.0, 0.0, 6.0), false, 0.01),
+            Vector3::zeros()
+        );
+        assert_eq!(
+            g.step(&Vector3::new(0.0, 0.0, 0.0), false, 0.01),
+            Vector3::zeros()
+        );
         assert_eq!(
             (g.phase(), g.reason()),
             (Phase::Stopped, Some(StopReason::ForceLimit))

@@ -54,6 +54,9 @@ pub enum StopReason {
     Timeout,
     /// The force passed the limit.
     ForceLimit,
+    /// The BioTac input left what the estimator knows (its uncertainty, or
+    /// PDC near saturation): the force may be larger than estimated.
+    OutOfRange,
 }
 
 impl StopReason {
@@ -62,6 +65,7 @@ impl StopReason {
         match self {
             StopReason::Timeout => "timeout",
             StopReason::ForceLimit => "force_limit",
+            StopReason::OutOfRange => "out_of_range",
         }
     }
 }

@@ -48,6 +48,8 @@ pub struct ControllerParams {
     pub robot: RobotParams,
     /// Estimates older than this many periods stop the arm.
     pub stale_periods: f64,
+    /// When the estimate cannot be trusted.
+    pub out_of_range: OutOfRangeParams,
     /// Wrench axes the task controls (and the estimator must provide).
     pub axes: AxisSet,
     /// The task.
@@ -58,6 +60,20 @@ pub struct ControllerParams {
     pub guarded: Option<GuardedParams>,
     /// Guided-move settings (needed when `task` is guided).
     pub guided: Option<GuidedParams>,
+}
+
+/// Limits beyond which the BioTac input is outside what the estimator
+/// knows. Far from its training data a GP's mean falls back to the prior
+/// (zero force) while its standard deviation grows, and PDC saturates with
+/// force (architecture page): either means the force may be larger than
+/// estimated, so the task stops (guarded: retracts).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutOfRangeParams {
+    /// Largest trusted standard deviation on a controlled axis (N).
+    pub max_std_n: f64,
+    /// Largest trusted PDC rise above the tare (counts).
+    pub max_pdc_rise_counts: f64,
 }
 
 /// The running task.
@@ -90,6 +106,8 @@ pub struct ForceController {
     robot: Robot,
     task: Task,
     axes: AxisSet,
+    task_axes: Vec<Axis>,
+    out_of_range: OutOfRangeParams,
     watchdog: Watchdog,
     period_s: f64,
     estimate: Option<WrenchEstimate>,
@@ -104,6 +122,11 @@ impl ForceController {
     pub fn new(p: ControllerParams) -> Result<Self, ParamsError> {
         positive("control_period_s", p.control_period_s)?;
         positive("stale_periods", p.stale_periods)?;
+        positive("out_of_range.max_std_n", p.out_of_range.max_std_n)?;
+        positive(
+            "out_of_range.max_pdc_rise_counts",
+            p.out_of_range.max_pdc_rise_counts,
+        )?;
         p.skin.validate("skin")?;
         p.pd.validate()?;
         let body = p
@@ -149,6 +172,8 @@ impl ForceController {
             robot,
             task,
             axes: p.axes,
+            task_axes: needed,
+            out_of_range: p.out_of_range,
             watchdog: Watchdog::new(p.stale_periods, p.control_period_s),
             period_s: p.control_period_s,
             estimate: None,
@@ -232,6 +257,7 @@ impl ForceController {
         w.check("joint state", now, Some(js.stamp_s))?;
         let est = self.estimate.ok_or(Halt::Missing("wrench estimate"))?;
         w.check("wrench estimate", now, Some(est.stamp_s))?;
+        let out_of_range = self.is_out_of_range(&est);
         let pose = self.robot.chain.forward(&js.q);
         let start = *self.start.get_or_insert(pose);
         let v_world = match &mut self.task {
@@ -242,11 +268,12 @@ impl ForceController {
                     force_n: -d_tool.dot(&est.mean.force),
                     pdc_rise: est.pdc_rise,
                     travelled_m: (pose.translation.vector - start.translation.vector).dot(&d_world),
+                    out_of_range,
                     dt,
                 };
                 d_world * g.step(&input)
             }
-            Task::Guided(g) => pose.rotation * g.step(&est.mean.force, dt),
+            Task::Guided(g) => pose.rotation * g.step(&est.mean.force, out_of_range, dt),
         };
         if v_world == Vector3::zeros() {
             return Ok((JointVector::zeros(), v_world));
@@ -257,6 +284,16 @@ impl ForceController {
         // What the arm will do after the speed scaling, in the start frame.
         let velocity = start.rotation.inverse() * v_world * motion.scale;
         Ok((motion.qdot, velocity))
+    }
+
+    /// True when a controlled axis is too uncertain or PDC nearly saturated.
+    fn is_out_of_range(&self, est: &WrenchEstimate) -> bool {
+        let limits = &self.out_of_range;
+        let uncertain = self
+            .task_axes
+            .iter()
+            .any(|a| est.std.get(*a) > limits.max_std_n);
+        uncertain || est.pdc_rise > limits.max_pdc_rise_counts
     }
 
     fn output(

@@ -73,9 +73,10 @@ pub struct Summary {
     pub rest_speed_mps: f64,
     /// Periods the safety checks held the arm.
     pub halted_periods: usize,
-    /// True when the task stopped on the force limit.
+    /// True when the task stopped on the force limit or out-of-range input.
     pub aborted: bool,
-    /// Why the task stopped ("timeout", "force_limit"), null when it did not.
+    /// Why the task stopped ("timeout", "force_limit", "out_of_range"), null
+    /// when it did not.
     pub reason: Option<&'static str>,
     /// Phase at the end of the run.
     pub final_phase: &'static str,
@@ -176,7 +177,10 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         max_off_axis_ratio: off_ratio,
         rest_speed_mps,
         halted_periods: rows.iter().filter(|r| r.halted).count(),
-        aborted: reason == Some(crate::control::StopReason::ForceLimit),
+        aborted: matches!(
+            reason,
+            Some(crate::control::StopReason::ForceLimit | crate::control::StopReason::OutOfRange)
+        ),
         reason: reason.map(|r| r.name()),
         final_phase: last.map_or("none", |r| r.phase.name()),
         duration_s: end_t,
