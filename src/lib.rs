@@ -55,6 +55,8 @@ pub mod learn;
 pub mod nodes;
 pub mod params;
 pub mod report;
+#[cfg(feature = "ros2")]
+pub mod ros;
 pub mod runtime;
 pub mod sim;
 pub mod wrench;

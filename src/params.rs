@@ -97,6 +97,86 @@ fn merge(base: &mut serde_yaml_ng::Value, top: &serde_yaml_ng::Value) {
     }
 }
 
+/// The parameters of one node as ROS 2 holds them: flat, dotted names
+/// (`objects.wooden_box.stiffness_n_per_m`), leaf values only. This is what
+/// a ROS 2 node gets from its `--params-file`s and overrides.
+pub type FlatParams = Vec<(String, serde_yaml_ng::Value)>;
+
+/// Flattens the merged `ros__parameters` of `node` in `yamls` (layered as in
+/// [`layered_node_params`]) into dotted names, as ROS 2 loads them. Used to
+/// declare a ROS node's parameters with the shipped files' defaults.
+pub fn layered_flat_params(yamls: &[&str], node: &str) -> Result<FlatParams, ParamsError> {
+    let params: serde_yaml_ng::Value = layered_node_params(yamls, node)?;
+    let mut out = Vec::new();
+    flatten("", &params, &mut out);
+    Ok(out)
+}
+
+fn flatten(prefix: &str, value: &serde_yaml_ng::Value, out: &mut FlatParams) {
+    match value {
+        serde_yaml_ng::Value::Mapping(m) if !m.is_empty() => {
+            for (k, v) in m {
+                let key = match k {
+                    serde_yaml_ng::Value::String(s) => s.clone(),
+                    other => serde_yaml_ng::to_string(other)
+                        .unwrap_or_default()
+                        .trim()
+                        .to_string(),
+                };
+                let name = if prefix.is_empty() {
+                    key
+                } else {
+                    format!("{prefix}.{key}")
+                };
+                flatten(&name, v, out);
+            }
+        }
+        leaf => out.push((prefix.to_string(), leaf.clone())),
+    }
+}
+
+/// Deserialises flat, dotted parameters (as a ROS 2 node holds them) into
+/// the node's checked parameter type: the names are nested back into
+/// mappings, so the same serde structs (and their `deny_unknown_fields`)
+/// check a ROS node's parameters and the embedded runtime's files.
+pub fn from_flat_params<T: DeserializeOwned>(
+    params: &[(String, serde_yaml_ng::Value)],
+    node: &str,
+) -> Result<T, ParamsError> {
+    let mut root = serde_yaml_ng::Mapping::new();
+    for (name, value) in params {
+        let mut parts = name.split('.').peekable();
+        let mut map = &mut root;
+        while let Some(part) = parts.next() {
+            let key = serde_yaml_ng::Value::String(part.to_string());
+            if parts.peek().is_none() {
+                map.insert(key, value.clone());
+                break;
+            }
+            let slot = map
+                .entry(key)
+                .or_insert_with(|| serde_yaml_ng::Value::Mapping(Default::default()));
+            if !slot.is_mapping() {
+                return Err(ParamsError::Invalid {
+                    key: name.clone(),
+                    value: "a value and a group of parameters".into(),
+                    expected: format!("either `{part}` or `{part}.*`, not both"),
+                });
+            }
+            map = match slot {
+                serde_yaml_ng::Value::Mapping(m) => m,
+                _ => unreachable!("checked above"),
+            };
+        }
+    }
+    serde_yaml_ng::from_value(serde_yaml_ng::Value::Mapping(root)).map_err(|source| {
+        ParamsError::Yaml {
+            node: node.into(),
+            source,
+        }
+    })
+}
+
 /// Reads a parameter file and deserialises the `ros__parameters` of `node`.
 pub fn read_node_params<T: DeserializeOwned>(path: &Path, node: &str) -> Result<T, ParamsError> {
     let yaml = std::fs::read_to_string(path).map_err(|source| ParamsError::Io {
@@ -163,5 +243,41 @@ ctrl:
             .unwrap_err()
             .to_string();
         assert!(err.contains("gains"), "{err}");
+    }
+
+    #[test]
+    fn flat_parameters_nest_back_into_the_same_struct() {
+        let yaml = "
+/**:
+  ros__parameters:
+    rate_hz: 100.0
+ctrl:
+  ros__parameters:
+    gains: {kp: 1.0, kd: 0.5}
+";
+        let flat = layered_flat_params(&[yaml], "ctrl").unwrap();
+        let names: Vec<&str> = flat.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["rate_hz", "gains.kp", "gains.kd"]);
+        let s: Section = from_flat_params(&flat, "ctrl").unwrap();
+        assert_eq!(s, node_params::<Section>(yaml, "ctrl").unwrap());
+        // An integer where a double is expected is accepted, as ROS may
+        // hand `kp: 2` over as an integer parameter.
+        let mut flat = flat;
+        flat[1].1 = serde_yaml_ng::Value::Number(2.into());
+        let s: Section = from_flat_params(&flat, "ctrl").unwrap();
+        assert_eq!(s.gains.kp, 2.0);
+    }
+
+    #[test]
+    fn a_name_that_is_both_a_value_and_a_group_is_refused() {
+        let flat = vec![
+            ("gains".to_string(), serde_yaml_ng::Value::Number(1.into())),
+            (
+                "gains.kp".to_string(),
+                serde_yaml_ng::Value::Number(1.into()),
+            ),
+        ];
+        let err = from_flat_params::<Section>(&flat, "ctrl").unwrap_err();
+        assert!(matches!(err, ParamsError::Invalid { .. }), "{err}");
     }
 }

@@ -102,7 +102,8 @@ impl Scene {
         layered_node_params(&self.texts(), "sim_robot")
     }
 
-    fn texts(&self) -> Vec<&str> {
+    /// The layers' texts, in order (as `--params-file`s would be given).
+    pub fn texts(&self) -> Vec<&str> {
         self.layers.iter().map(String::as_str).collect()
     }
 

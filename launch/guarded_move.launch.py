@@ -1,0 +1,16 @@
+"""Guarded move: approach an object with the BioTac, stop on contact, hold 1 N.
+
+ros2 launch tactile_force guarded_move.launch.py [use_sim:=true] [object:=wooden_box]
+    [model:=/path/model.json] [port:=/dev/ttyACM0]
+"""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from guarded_move_launch_common import make  # noqa: E402
+
+
+def generate_launch_description():
+    return make("guarded_move.yaml")

@@ -1,0 +1,16 @@
+"""Guided move (joystick): hold 1 N against a person's fingertip and follow it.
+
+ros2 launch tactile_force joystick.launch.py [use_sim:=true] [object:=fingertip]
+    [model:=/path/model.json] [port:=/dev/ttyACM0]
+"""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from guarded_move_launch_common import make  # noqa: E402
+
+
+def generate_launch_description():
+    return make("guided_move.yaml")

@@ -1,0 +1,350 @@
+//! Conversions between our types and the standard ROS 2 messages (r2r's
+//! typed structs). Frames and units: wrenches in the BioTac frame (N, Nm),
+//! joint positions and velocities in rad and rad/s, stamps in seconds of the
+//! node's clock.
+
+use r2r::builtin_interfaces::msg::Time;
+use r2r::geometry_msgs::msg::{Vector3, Wrench as WrenchMsg, WrenchStamped};
+use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
+use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
+
+use super::biotac_msg::{join_stamp, split_stamp};
+use crate::kinematics::{JointVector, N_JOINTS};
+use crate::nodes::{JointState, WrenchEstimate};
+use crate::wrench::Wrench;
+
+/// Why a message was refused (the adapters count these and drop the message).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConvertError {
+    /// A NaN or an infinity.
+    #[error("{0}: a value is not finite")]
+    NonFinite(&'static str),
+    /// A joint the controller needs is absent from `joint_states`.
+    #[error("joint_states: joint `{0}` is missing or has no position")]
+    MissingJoint(String),
+    /// An array of the wrong length.
+    #[error("{what}: {found} values, expected {expected}")]
+    Length {
+        /// Which message.
+        what: &'static str,
+        /// Values found.
+        found: usize,
+        /// Values expected.
+        expected: usize,
+    },
+}
+
+/// Seconds -> `builtin_interfaces/Time`.
+pub fn time_msg(stamp_s: f64) -> Time {
+    let (sec, nanosec) = split_stamp(stamp_s);
+    Time { sec, nanosec }
+}
+
+/// `builtin_interfaces/Time` -> seconds.
+pub fn time_s(t: &Time) -> f64 {
+    join_stamp(t.sec, t.nanosec)
+}
+
+fn header(stamp_s: f64, frame_id: &str) -> Header {
+    Header {
+        stamp: time_msg(stamp_s),
+        frame_id: frame_id.to_string(),
+    }
+}
+
+fn wrench_msg(w: &Wrench) -> WrenchMsg {
+    let v = |a: &nalgebra::Vector3<f64>| Vector3 {
+        x: a.x,
+        y: a.y,
+        z: a.z,
+    };
+    WrenchMsg {
+        force: v(&w.force),
+        torque: v(&w.torque),
+    }
+}
+
+/// `biotac/wrench` (mean) and `biotac/wrench_stddev` (1-sigma) for an
+/// estimate, in `frame_id` (the BioTac frame). None when a number is not
+/// finite: nothing is published for it.
+pub fn estimate_msgs(e: &WrenchEstimate, frame_id: &str) -> Option<(WrenchStamped, WrenchStamped)> {
+    if !e.is_finite() {
+        return None;
+    }
+    let mean = WrenchStamped {
+        header: header(e.stamp_s, frame_id),
+        wrench: wrench_msg(&e.mean),
+    };
+    let std = WrenchStamped {
+        header: header(e.stamp_s, frame_id),
+        wrench: wrench_msg(&e.std),
+    };
+    Some((mean, std))
+}
+
+/// A wrench with a stamp (N, Nm); refuses NaN and infinities.
+pub fn wrench_from_msg(
+    m: &WrenchStamped,
+    what: &'static str,
+) -> Result<(f64, Wrench), ConvertError> {
+    let v = |a: &Vector3| nalgebra::Vector3::new(a.x, a.y, a.z);
+    let w = Wrench {
+        force: v(&m.wrench.force),
+        torque: v(&m.wrench.torque),
+    };
+    let stamp = time_s(&m.header.stamp);
+    if !(w.force.iter().chain(w.torque.iter()).all(|x| x.is_finite())) {
+        return Err(ConvertError::NonFinite(what));
+    }
+    Ok((stamp, w))
+}
+
+/// A wrench as `WrenchStamped` (e.g. `ft_sensor/wrench`).
+pub fn wrench_stamped(stamp_s: f64, frame_id: &str, w: &Wrench) -> WrenchStamped {
+    WrenchStamped {
+        header: header(stamp_s, frame_id),
+        wrench: wrench_msg(w),
+    }
+}
+
+/// `biotac/pdc_rise`: PDC above its tare, as `sensor_msgs/FluidPressure`
+/// (the PDC is the BioTac's pressure channel). The value is in ADC counts,
+/// not Pa; `variance` is 0 (unknown).
+pub fn pdc_rise_msg(e: &WrenchEstimate, frame_id: &str) -> FluidPressure {
+    FluidPressure {
+        header: header(e.stamp_s, frame_id),
+        fluid_pressure: e.pdc_rise,
+        variance: 0.0,
+    }
+}
+
+/// The estimate the controller sees from `biotac/wrench` and the latest
+/// `biotac/pdc_rise` (0 before the first). The standard deviation does not
+/// reach the controller: its law does not use it.
+pub fn estimate_from_msgs(
+    wrench: &WrenchStamped,
+    pdc_rise: Option<&FluidPressure>,
+) -> Result<WrenchEstimate, ConvertError> {
+    let (stamp_s, mean) = wrench_from_msg(wrench, "biotac/wrench")?;
+    let pdc_rise = pdc_rise.map_or(0.0, |p| p.fluid_pressure);
+    let e = WrenchEstimate {
+        stamp_s,
+        seq: 0,
+        mean,
+        std: Wrench::default(),
+        estimated: [true; 6],
+        pdc_rise,
+    };
+    if !e.is_finite() {
+        return Err(ConvertError::NonFinite("biotac/pdc_rise"));
+    }
+    Ok(e)
+}
+
+/// `joint_states` for our joint positions, named `names` in chain order.
+pub fn joint_state_msg(js: &JointState, names: &[String]) -> JointStateMsg {
+    JointStateMsg {
+        header: header(js.stamp_s, ""),
+        name: names.to_vec(),
+        position: js.q.iter().copied().collect(),
+        velocity: Vec::new(),
+        effort: Vec::new(),
+    }
+}
+
+/// Our joint positions from `joint_states`: the joints are picked by name
+/// (the message may list them in any order, and list others too).
+pub fn joint_state_from_msg(
+    m: &JointStateMsg,
+    names: &[String],
+) -> Result<JointState, ConvertError> {
+    if names.len() != N_JOINTS {
+        return Err(ConvertError::Length {
+            what: "joint_names parameter",
+            found: names.len(),
+            expected: N_JOINTS,
+        });
+    }
+    let mut q = JointVector::zeros();
+    for (i, name) in names.iter().enumerate() {
+        let k = m
+            .name
+            .iter()
+            .position(|n| n == name)
+            .filter(|&k| k < m.position.len())
+            .ok_or_else(|| ConvertError::MissingJoint(name.clone()))?;
+        q[i] = m.position[k];
+    }
+    let stamp_s = time_s(&m.header.stamp);
+    if !q.iter().all(|v| v.is_finite()) {
+        return Err(ConvertError::NonFinite("joint_states"));
+    }
+    Ok(JointState { stamp_s, q })
+}
+
+/// `velocity_controller/commands`: one velocity per joint (rad/s), in the
+/// order of the JointGroupVelocityController's `joints` parameter (which
+/// must list the arm's joints in chain order). A non-finite command becomes
+/// zeros: the arm stops.
+pub fn commands_msg(qdot: &JointVector) -> Float64MultiArray {
+    let finite = qdot.iter().all(|v| v.is_finite());
+    let data = if finite {
+        qdot.iter().copied().collect()
+    } else {
+        vec![0.0; N_JOINTS]
+    };
+    Float64MultiArray {
+        layout: MultiArrayLayout {
+            dim: vec![MultiArrayDimension {
+                label: "joints".into(),
+                size: N_JOINTS as u32,
+                stride: N_JOINTS as u32,
+            }],
+            data_offset: 0,
+        },
+        data,
+    }
+}
+
+/// Joint velocities from a `velocity_controller/commands` message (the
+/// simulated arm's input).
+pub fn qdot_from_msg(m: &Float64MultiArray) -> Result<JointVector, ConvertError> {
+    if m.data.len() != N_JOINTS {
+        return Err(ConvertError::Length {
+            what: "velocity_controller/commands",
+            found: m.data.len(),
+            expected: N_JOINTS,
+        });
+    }
+    if !m.data.iter().all(|v| v.is_finite()) {
+        return Err(ConvertError::NonFinite("velocity_controller/commands"));
+    }
+    Ok(JointVector::from_iterator(m.data.iter().copied()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn estimate() -> WrenchEstimate {
+        let mean = Wrench {
+            force: nalgebra::Vector3::new(0.1, -0.2, 1.5),
+            torque: nalgebra::Vector3::new(0.0, 0.01, 0.0),
+        };
+        let std = Wrench {
+            force: nalgebra::Vector3::new(0.05, 0.05, 0.04),
+            torque: nalgebra::Vector3::zeros(),
+        };
+        WrenchEstimate {
+            stamp_s: 3.5,
+            seq: 9,
+            mean,
+            std,
+            estimated: [true, true, true, false, false, false],
+            pdc_rise: 42.0,
+        }
+    }
+
+    #[test]
+    fn estimates_become_two_wrench_stamped_in_the_biotac_frame() {
+        let (mean, std) = estimate_msgs(&estimate(), "biotac").unwrap();
+        let expected = WrenchStamped {
+            header: Header {
+                stamp: Time {
+                    sec: 3,
+                    nanosec: 500_000_000,
+                },
+                frame_id: "biotac".into(),
+            },
+            wrench: WrenchMsg {
+                force: Vector3 {
+                    x: 0.1,
+                    y: -0.2,
+                    z: 1.5,
+                },
+                torque: Vector3 {
+                    x: 0.0,
+                    y: 0.01,
+                    z: 0.0,
+                },
+            },
+        };
+        assert_eq!(mean, expected);
+        assert_eq!(std.wrench.force.z, 0.04);
+        assert_eq!(std.header, expected.header);
+        let back = estimate_from_msgs(&mean, Some(&pdc_rise_msg(&estimate(), "biotac"))).unwrap();
+        assert_eq!(back.mean, estimate().mean);
+        assert_eq!(back.stamp_s, 3.5);
+        assert_eq!(back.pdc_rise, 42.0);
+    }
+
+    #[test]
+    fn nan_is_never_published_and_refused_on_input() {
+        let mut e = estimate();
+        e.mean.force.x = f64::NAN;
+        assert!(estimate_msgs(&e, "biotac").is_none());
+        let (mut m, _) = estimate_msgs(&estimate(), "biotac").unwrap();
+        m.wrench.torque.y = f64::INFINITY;
+        assert_eq!(
+            estimate_from_msgs(&m, None),
+            Err(ConvertError::NonFinite("biotac/wrench"))
+        );
+        let c = commands_msg(&JointVector::from_element(f64::NAN));
+        assert_eq!(c.data, vec![0.0; N_JOINTS]);
+    }
+
+    #[test]
+    fn joint_states_are_picked_by_name_in_any_order() {
+        let names: Vec<String> = (1..=7).map(|i| format!("j{i}")).collect();
+        let js = JointState {
+            stamp_s: 1.25,
+            q: JointVector::from_fn(|i, _| i as f64 * 0.1),
+        };
+        let m = joint_state_msg(&js, &names);
+        assert_eq!(m.name, names);
+        assert_eq!(
+            m.header.stamp,
+            Time {
+                sec: 1,
+                nanosec: 250_000_000
+            }
+        );
+        assert_eq!(joint_state_from_msg(&m, &names).unwrap(), js);
+        // Reversed, with an extra joint (a gripper) first.
+        let mut r = m.clone();
+        r.name.reverse();
+        r.position.reverse();
+        r.name.insert(0, "gripper".into());
+        r.position.insert(0, 9.0);
+        assert_eq!(joint_state_from_msg(&r, &names).unwrap(), js);
+        let mut missing = m.clone();
+        missing.position.pop();
+        assert_eq!(
+            joint_state_from_msg(&missing, &names),
+            Err(ConvertError::MissingJoint("j7".into()))
+        );
+        let mut nan = m;
+        nan.position[2] = f64::NAN;
+        assert!(joint_state_from_msg(&nan, &names).is_err());
+    }
+
+    #[test]
+    fn commands_have_one_velocity_per_joint() {
+        let qdot = JointVector::from_fn(|i, _| i as f64 - 3.0);
+        let c = commands_msg(&qdot);
+        assert_eq!(c.data, qdot.iter().copied().collect::<Vec<_>>());
+        assert_eq!(c.layout.dim[0].size, 7);
+        assert_eq!(qdot_from_msg(&c).unwrap(), qdot);
+        // Struct literals only: r2r's Default impls go through rcl, which
+        // panics under `doc-only`.
+        let short = Float64MultiArray {
+            layout: c.layout.clone(),
+            data: vec![0.0; 6],
+        };
+        assert!(matches!(
+            qdot_from_msg(&short),
+            Err(ConvertError::Length { found: 6, .. })
+        ));
+    }
+}

@@ -1,0 +1,356 @@
+//! `force_controller`: `joint_states` (sensor_msgs/JointState),
+//! `biotac/wrench` and `biotac/pdc_rise` in -> [`ForceController`] every
+//! `control_period_s` -> `velocity_controller/commands`
+//! (std_msgs/Float64MultiArray, one velocity per joint in chain order: the
+//! ros2_control JointGroupVelocityController convention).
+//!
+//! The watchdog is the embedded one: inputs older than `stale_periods`
+//! periods, or not finite, command zero velocity. Setting the parameter
+//! `task` to `guided` or `guarded` while running switches the mode (the
+//! controller is rebuilt from the start-up parameters with the new task).
+//! The guarded move is also an action, `~/guarded_move`
+//! (tactile_force_msgs/action/GuardedMove): see [`GuardedGoal`]. r2r has no
+//! untyped action server and, under its `doc-only` build, no types for our
+//! interface package, so the action server is compiled only in a real ROS
+//! build (`cfg(not(feature = "ros2-doc-only"))`); the goal handling it
+//! calls is plain Rust, tested here.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use futures::StreamExt;
+use r2r::geometry_msgs::msg::WrenchStamped;
+use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
+use r2r::std_msgs::msg::Float64MultiArray;
+use r2r::QosProfile;
+
+use super::{convert, RosError};
+use crate::control::{GuardedParams, Phase, StopReason};
+use crate::kinematics::robot::PA10_YAML;
+use crate::nodes::controller::TaskKind;
+use crate::nodes::{ControlOutput, ControllerParams, ForceController};
+use crate::params::ParamsError;
+use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
+
+/// The PA10-7C's joint names (S1 S2 S3 E1 E2 W1 W2), the default of `joint_names`.
+pub const PA10_JOINTS: [&str; 7] = ["S1", "S2", "S3", "E1", "E2", "W1", "W2"];
+
+/// A guarded-move goal; zero fields keep the parameter's value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuardedGoal {
+    /// Approach direction, BioTac frame (zero vector: keep).
+    pub direction: [f64; 3],
+    /// Approach speed (m/s).
+    pub speed_mps: f64,
+    /// Force to hold (N).
+    pub target_force_n: f64,
+    /// Approach distance before a timeout (m).
+    pub max_distance_m: f64,
+}
+
+impl GuardedGoal {
+    /// The start-up parameters with this goal applied (task = guarded). The
+    /// controller built from them checks every value.
+    pub fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
+        let mut p = base.clone();
+        p.task = TaskKind::Guarded;
+        let mut g: GuardedParams = p.guarded.ok_or_else(|| ParamsError::Invalid {
+            key: "guarded".into(),
+            value: "absent".into(),
+            expected: "a `guarded` section in the parameters".into(),
+        })?;
+        if self.direction != [0.0; 3] {
+            g.direction = self.direction;
+        }
+        let set = |slot: &mut f64, v: f64| {
+            if v != 0.0 {
+                *slot = v;
+            }
+        };
+        set(&mut g.approach_speed_mps, self.speed_mps);
+        set(&mut g.target_force_n, self.target_force_n);
+        set(&mut g.max_distance_m, self.max_distance_m);
+        p.guarded = Some(g);
+        Ok(p)
+    }
+}
+
+/// How a guarded move ended, for the action result; None while it runs.
+pub fn guarded_outcome(out: &ControlOutput) -> Option<&'static str> {
+    match (out.phase, out.reason) {
+        (Phase::Hold, _) => Some("hold"),
+        (Phase::Stopped, Some(StopReason::Timeout)) => Some("timeout"),
+        (Phase::Stopped, Some(StopReason::ForceLimit)) => Some("force_limit"),
+        (Phase::Stopped, None) => Some("stopped"),
+        _ => None,
+    }
+}
+
+fn lock(s: &Mutex<Shared>) -> std::sync::MutexGuard<'_, Shared> {
+    s.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// What the timer, the subscriptions and the action share.
+struct Shared {
+    controller: ForceController,
+    base: ControllerParams,
+    pdc: Option<FluidPressure>,
+    last: Option<ControlOutput>,
+    rejected: u64,
+}
+
+fn rebuild(s: &mut Shared, p: ControllerParams) -> Result<(), ParamsError> {
+    s.controller = ForceController::new(p)?;
+    s.last = None;
+    Ok(())
+}
+
+/// Runs the node until the process ends.
+pub async fn run() -> Result<(), RosError> {
+    let mut node = super::create_node("force_controller")?;
+    let joint_names = super::own_strings(
+        &node,
+        "joint_names",
+        &PA10_JOINTS,
+        "Arm joints in chain order: read from joint_states by name, commanded in this order.",
+    )?;
+    let skip = ["joint_names"];
+    let base: ControllerParams = super::node_params(
+        &node,
+        "force_controller",
+        &[PA10_YAML, WORLD_YAML, GUARDED_YAML],
+        &skip,
+        super::describe_shared,
+    )?;
+    let period = Duration::from_secs_f64(base.control_period_s);
+    let shared = Arc::new(Mutex::new(Shared {
+        controller: ForceController::new(base.clone())?,
+        base,
+        pdc: None,
+        last: None,
+        rejected: 0,
+    }));
+
+    let mut joints = node.subscribe::<JointStateMsg>("joint_states", QosProfile::default())?;
+    let mut wrench = node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?;
+    let mut pdc = node.subscribe::<FluidPressure>("biotac/pdc_rise", QosProfile::default())?;
+    let commands = node.create_publisher::<Float64MultiArray>(
+        "velocity_controller/commands",
+        QosProfile::default(),
+    )?;
+    let (handler, mut events) = node.make_parameter_handler()?;
+    tokio::spawn(handler);
+    #[cfg(not(feature = "ros2-doc-only"))]
+    let goals = node.create_action_server::<r2r::tactile_force_msgs::action::GuardedMove::Action>(
+        "~/guarded_move",
+    )?;
+    let mut clock = r2r::Clock::create(r2r::ClockType::RosTime)?;
+    super::spin(node);
+
+    // Callbacks only check and store (STYLE 3); the timer runs the pipeline.
+    let s = shared.clone();
+    let names = joint_names.clone();
+    tokio::spawn(async move {
+        while let Some(m) = joints.next().await {
+            let mut g = lock(&s);
+            let ok = convert::joint_state_from_msg(&m, &names)
+                .map_err(|e| e.to_string())
+                .and_then(|js| g.controller.on_joint_state(js).map_err(|e| e.to_string()));
+            if let Err(e) = ok {
+                g.rejected += 1;
+                tracing::debug!("joint_states refused: {e}");
+            }
+        }
+    });
+    let s = shared.clone();
+    tokio::spawn(async move {
+        while let Some(m) = pdc.next().await {
+            if m.fluid_pressure.is_finite() {
+                lock(&s).pdc = Some(m);
+            } else {
+                lock(&s).rejected += 1;
+            }
+        }
+    });
+    let s = shared.clone();
+    tokio::spawn(async move {
+        while let Some(m) = wrench.next().await {
+            let mut g = lock(&s);
+            let ok = convert::estimate_from_msgs(&m, g.pdc.as_ref())
+                .map_err(|e| e.to_string())
+                .and_then(|e| g.controller.on_estimate(e).map_err(|e| e.to_string()));
+            if let Err(e) = ok {
+                g.rejected += 1;
+                tracing::debug!("biotac/wrench refused: {e}");
+            }
+        }
+    });
+    let s = shared.clone();
+    tokio::spawn(async move {
+        while let Some((name, value)) = events.next().await {
+            if name != "task" {
+                tracing::warn!("parameter {name} changed: read at start-up only, restart the node");
+                continue;
+            }
+            let task = match &value {
+                r2r::ParameterValue::String(t) if t == "guarded" => TaskKind::Guarded,
+                r2r::ParameterValue::String(t) if t == "guided" => TaskKind::Guided,
+                other => {
+                    tracing::warn!("task = {other:?}: expected guarded or guided; unchanged");
+                    continue;
+                }
+            };
+            let mut g = lock(&s);
+            let mut p = g.base.clone();
+            p.task = task;
+            match rebuild(&mut g, p) {
+                Ok(()) => tracing::info!("task switched to {task:?}"),
+                Err(e) => tracing::warn!("task {task:?} refused: {e}"),
+            }
+        }
+    });
+    #[cfg(not(feature = "ros2-doc-only"))]
+    tokio::spawn(action::serve(goals, shared.clone(), period));
+
+    let mut ticker = tokio::time::interval(period);
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    loop {
+        ticker.tick().await;
+        let now = super::now_s(&mut clock);
+        let out = {
+            let mut g = lock(&shared);
+            let out = g.controller.tick(now);
+            g.last = Some(out.clone());
+            out
+        };
+        if let Err(e) = commands.publish(&convert::commands_msg(&out.qdot)) {
+            tracing::warn!("velocity_controller/commands: {e}");
+        }
+    }
+}
+
+/// The guarded-move action server (needs r2r's generated types for
+/// tactile_force_msgs, so a real ROS build only).
+#[cfg(not(feature = "ros2-doc-only"))]
+mod action {
+    use super::*;
+    use r2r::tactile_force_msgs::action::GuardedMove;
+
+    pub(super) async fn serve(
+        mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<GuardedMove::Action>>
+            + Unpin,
+        shared: Arc<Mutex<Shared>>,
+        period: Duration,
+    ) {
+        while let Some(req) = goals.next().await {
+            let d = &req.goal.direction;
+            let goal = GuardedGoal {
+                direction: [d.x, d.y, d.z],
+                speed_mps: req.goal.speed_mps,
+                target_force_n: req.goal.target_force_n,
+                max_distance_m: req.goal.max_distance_m,
+            };
+            let started = {
+                let mut g = shared.lock().unwrap_or_else(|e| e.into_inner());
+                goal.apply(&g.base).and_then(|p| rebuild(&mut g, p))
+            };
+            if let Err(e) = started {
+                tracing::warn!("guarded_move goal refused: {e}");
+                let _ = req.reject();
+                continue;
+            }
+            let Ok((mut handle, mut cancel)) = req.accept() else {
+                continue;
+            };
+            let mut ticker = tokio::time::interval(period);
+            loop {
+                ticker.tick().await;
+                if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
+                    c.accept();
+                    let _ = handle.cancel(GuardedMove::Result {
+                        reason: "canceled".into(),
+                        ..Default::default()
+                    });
+                    break;
+                }
+                let last = shared
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .last
+                    .clone();
+                let Some(out) = last else { continue };
+                let force_n = out.targets.iter().flatten().next().copied().unwrap_or(0.0);
+                let _ = handle.publish_feedback(GuardedMove::Feedback {
+                    force_n,
+                    phase: out.phase.name().into(),
+                });
+                let reason = if out.halt.is_some() {
+                    Some("halted")
+                } else {
+                    guarded_outcome(&out)
+                };
+                if let Some(reason) = reason {
+                    let result = GuardedMove::Result {
+                        force_n,
+                        reason: reason.into(),
+                        ..Default::default()
+                    };
+                    let _ = if reason == "hold" {
+                        handle.succeed(result)
+                    } else {
+                        handle.abort(result)
+                    };
+                    break;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::runtime::scene::Scene;
+
+    #[test]
+    fn a_goal_overrides_only_what_it_sets_and_is_checked() {
+        let base = Scene::builtin(TaskKind::Guided)
+            .controller_params()
+            .unwrap();
+        // The guided scene has no guarded section: refused, named.
+        let goal = GuardedGoal {
+            direction: [0.0; 3],
+            speed_mps: 0.02,
+            target_force_n: 0.0,
+            max_distance_m: 0.0,
+        };
+        assert!(goal.apply(&base).is_err());
+        let base = Scene::builtin(TaskKind::Guarded)
+            .controller_params()
+            .unwrap();
+        let p = goal.apply(&base).unwrap();
+        let (g, b) = (p.guarded.as_ref().unwrap(), base.guarded.as_ref().unwrap());
+        assert_eq!(g.approach_speed_mps, 0.02);
+        assert_eq!(g.target_force_n, b.target_force_n);
+        assert_eq!(g.direction, b.direction);
+        ForceController::new(p).unwrap();
+        let bad = GuardedGoal {
+            speed_mps: f64::NAN,
+            ..goal
+        };
+        assert!(ForceController::new(bad.apply(&base).unwrap()).is_err());
+    }
+
+    #[test]
+    fn the_outcome_is_known_only_when_the_move_holds_or_stops() {
+        let mut c = ForceController::new(
+            Scene::builtin(TaskKind::Guarded)
+                .controller_params()
+                .unwrap(),
+        )
+        .unwrap();
+        let out = c.tick(0.0);
+        assert!(out.halt.is_some(), "no input yet: the watchdog halts");
+        assert_eq!(guarded_outcome(&out), None);
+    }
+}

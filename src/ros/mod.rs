@@ -1,0 +1,199 @@
+//! ROS 2 adapters (feature `ros2`), in the style of openrr's `arci-ros2`:
+//! one small file per node, each moving messages between r2r and the
+//! transport-free node structs of [`crate::nodes`], which stay unchanged.
+//!
+//! A tokio runtime drives every node: the subscriptions, services and timers
+//! are tasks; one blocking task spins the r2r node. Each node reads its
+//! parameters once, at start-up, into the same checked structs as the
+//! embedded runtime ([`params`]).
+//!
+//! - [`wrench_estimator`]: `biotac/readings` -> `biotac/wrench`, `biotac/wrench_stddev`, `biotac/pdc_rise`;
+//! - [`force_controller`]: estimates + `joint_states` -> `velocity_controller/commands`;
+//! - [`biotac_driver`]: serial port -> `biotac/readings`, diagnostics, `~/tare`;
+//! - [`sim_robot`]: simulated arm, object or finger, F/T sensor and BioTac.
+
+pub mod biotac_driver;
+pub mod biotac_msg;
+pub mod convert;
+pub mod force_controller;
+pub mod params;
+pub mod sim_robot;
+pub mod wrench_estimator;
+
+use std::time::Duration;
+
+use crate::params::{layered_flat_params, ParamsError};
+
+/// Errors starting or running a ROS node.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RosError {
+    /// From r2r (rcl): node, topic, service or clock.
+    #[error("ROS: {0}")]
+    R2r(#[from] r2r::Error),
+    /// A parameter is missing, unknown or out of range.
+    #[error(transparent)]
+    Params(#[from] ParamsError),
+    /// Anything else at start-up (model file, simulator), said in words.
+    #[error("{0}")]
+    Setup(String),
+}
+
+/// Creates the node `name`; r2r reads `--ros-args` (parameter files,
+/// overrides, remappings) from the process arguments.
+pub fn create_node(name: &str) -> Result<r2r::Node, RosError> {
+    let ctx = r2r::Context::create()?;
+    Ok(r2r::Node::create(ctx, name, "")?)
+}
+
+/// Declares the node's parameters with the shipped files' values as
+/// defaults (`yamls`, layered) and reads them into `T`; `skip` names the
+/// adapter's own parameters, read separately.
+pub fn node_params<T: serde::de::DeserializeOwned>(
+    node: &r2r::Node,
+    name: &str,
+    yamls: &[&str],
+    skip: &[&str],
+    describe: fn(&str) -> &'static str,
+) -> Result<T, RosError> {
+    let defaults = layered_flat_params(yamls, name)?;
+    let mut p = node
+        .params
+        .lock()
+        .map_err(|_| RosError::Setup("parameter lock poisoned".into()))?;
+    params::declare(&mut p, &defaults, describe);
+    Ok(params::read(&p, skip, name)?)
+}
+
+/// One of the adapter's own parameters, declared with its default and
+/// description if absent.
+pub fn own_param(
+    node: &r2r::Node,
+    name: &str,
+    default: r2r::ParameterValue,
+    description: &'static str,
+) -> Result<r2r::ParameterValue, RosError> {
+    let mut p = node
+        .params
+        .lock()
+        .map_err(|_| RosError::Setup("parameter lock poisoned".into()))?;
+    let entry = p.entry(name.to_string()).or_insert(r2r::Parameter {
+        value: default,
+        description,
+    });
+    Ok(entry.value.clone())
+}
+
+/// A string parameter of the adapter.
+pub fn own_string(
+    node: &r2r::Node,
+    name: &str,
+    default: &str,
+    description: &'static str,
+) -> Result<String, RosError> {
+    match own_param(
+        node,
+        name,
+        r2r::ParameterValue::String(default.into()),
+        description,
+    )? {
+        r2r::ParameterValue::String(s) => Ok(s),
+        other => Err(wrong_type(name, "a string", &other)),
+    }
+}
+
+/// A floating-point parameter of the adapter (integers accepted).
+pub fn own_f64(
+    node: &r2r::Node,
+    name: &str,
+    default: f64,
+    description: &'static str,
+) -> Result<f64, RosError> {
+    match own_param(
+        node,
+        name,
+        r2r::ParameterValue::Double(default),
+        description,
+    )? {
+        r2r::ParameterValue::Double(d) if d.is_finite() => Ok(d),
+        r2r::ParameterValue::Integer(i) => Ok(i as f64),
+        other => Err(wrong_type(name, "a finite number", &other)),
+    }
+}
+
+/// A boolean parameter of the adapter.
+pub fn own_bool(
+    node: &r2r::Node,
+    name: &str,
+    default: bool,
+    description: &'static str,
+) -> Result<bool, RosError> {
+    match own_param(node, name, r2r::ParameterValue::Bool(default), description)? {
+        r2r::ParameterValue::Bool(b) => Ok(b),
+        other => Err(wrong_type(name, "true or false", &other)),
+    }
+}
+
+/// A string-array parameter of the adapter.
+pub fn own_strings(
+    node: &r2r::Node,
+    name: &str,
+    default: &[&str],
+    description: &'static str,
+) -> Result<Vec<String>, RosError> {
+    let d = default.iter().map(|s| s.to_string()).collect();
+    match own_param(node, name, r2r::ParameterValue::StringArray(d), description)? {
+        r2r::ParameterValue::StringArray(a) => Ok(a),
+        other => Err(wrong_type(name, "a list of strings", &other)),
+    }
+}
+
+fn wrong_type(name: &str, expected: &str, found: &r2r::ParameterValue) -> RosError {
+    RosError::Params(ParamsError::Invalid {
+        key: name.into(),
+        value: format!("{found:?}"),
+        expected: expected.into(),
+    })
+}
+
+/// Seconds on the ROS clock (system time unless `use_sim_time`); NaN if the
+/// clock cannot be read (the controller's watchdog then halts).
+pub fn now_s(clock: &mut r2r::Clock) -> f64 {
+    clock.get_now().map_or(f64::NAN, |d| d.as_secs_f64())
+}
+
+/// Spins the node on a blocking task until the process ends.
+pub fn spin(mut node: r2r::Node) -> tokio::task::JoinHandle<()> {
+    tokio::task::spawn_blocking(move || loop {
+        node.spin_once(Duration::from_millis(5));
+    })
+}
+
+/// The description of a parameter loaded from the shared config files.
+pub fn describe_shared(name: &str) -> &'static str {
+    match name.split('.').next().unwrap_or("") {
+        "control_period_s" => "Sensing and control period (s).",
+        "skin" => "BioTac skin law (config/world.yaml).",
+        "objects" => "Objects the arm may touch, by name (config/world.yaml).",
+        "object" => "The object of this run (launch argument `object`).",
+        "robot" => "The arm: DH parameters, limits, tool (config/pa10.yaml).",
+        "stale_periods" => "Inputs older than this many periods stop the arm.",
+        "axes" => "Wrench axes the task controls.",
+        "task" => "guarded or guided; may be changed while running (switches mode).",
+        "pd" => "PD force law (config/world.yaml).",
+        "guarded" => "Guarded-move settings (config/guarded_move.yaml).",
+        "guided" => "Guided-move settings (config/guided_move.yaml).",
+        "physics_rate_hz" => "Physics rate of the simulation (Hz).",
+        "command_latency_s" => "Delay before a joint velocity command acts (s).",
+        "velocity_lag_s" => "Time constant of the joints' velocity tracking (s).",
+        "start_joints_deg" => "Joint positions at the start (deg).",
+        "contact_x_mm" => "Where the pad touches, along the BioTac axis (mm).",
+        "object_gap_mm" => "Distance from the pad to the body at the start (mm).",
+        "finger_path" => "The guided move's finger path (wait/push/circle lines).",
+        "ft_noise_n" => "F/T noise per physics step, forces (N, std).",
+        "ft_noise_nm" => "F/T noise per physics step, torques (Nm, std).",
+        "sensor_unit_seed" => "The simulated BioTac unit.",
+        "duration_s" => "Length of a simulated run (s); the node keeps running after it.",
+        _ => "See the config/ files.",
+    }
+}

@@ -1,0 +1,177 @@
+//! ROS 2 parameters <-> our checked parameter structs. A node declares its
+//! parameters with the shipped files' values as defaults; r2r has already
+//! loaded the `--params-file`s and overrides given at launch. The flat,
+//! dotted parameters are then nested and deserialised by the same serde
+//! structs the embedded runtime uses ([`crate::params::from_flat_params`]),
+//! so one code path checks both. Parameters are read once, at start-up.
+
+use r2r::{Parameter, ParameterValue};
+use serde::de::DeserializeOwned;
+use serde_yaml_ng::Value;
+
+use crate::params::{from_flat_params, FlatParams, ParamsError};
+
+/// A ROS parameter value as YAML; None for an unset parameter.
+pub fn to_yaml(v: &ParameterValue) -> Option<Value> {
+    let seq = |it: Vec<Value>| Some(Value::Sequence(it));
+    match v {
+        ParameterValue::NotSet => None,
+        ParameterValue::Bool(b) => Some(Value::Bool(*b)),
+        ParameterValue::Integer(i) => Some(Value::Number((*i).into())),
+        ParameterValue::Double(d) => Some(Value::Number((*d).into())),
+        ParameterValue::String(s) => Some(Value::String(s.clone())),
+        ParameterValue::BoolArray(a) => seq(a.iter().map(|b| Value::Bool(*b)).collect()),
+        ParameterValue::ByteArray(a) => seq(a.iter().map(|b| Value::Number((*b).into())).collect()),
+        ParameterValue::IntegerArray(a) => {
+            seq(a.iter().map(|i| Value::Number((*i).into())).collect())
+        }
+        ParameterValue::DoubleArray(a) => {
+            seq(a.iter().map(|d| Value::Number((*d).into())).collect())
+        }
+        ParameterValue::StringArray(a) => seq(a.iter().map(|s| Value::String(s.clone())).collect()),
+    }
+}
+
+/// A YAML leaf as a ROS parameter value (what a ROS 2 parameter file gives
+/// for it); None for what ROS parameters cannot hold (mixed or nested lists).
+pub fn from_yaml(v: &Value) -> Option<ParameterValue> {
+    match v {
+        Value::Bool(b) => Some(ParameterValue::Bool(*b)),
+        Value::Number(n) => match n.as_i64() {
+            Some(i) => Some(ParameterValue::Integer(i)),
+            None => n.as_f64().map(ParameterValue::Double),
+        },
+        Value::String(s) => Some(ParameterValue::String(s.clone())),
+        Value::Sequence(a) => {
+            if let Some(b) = a.iter().map(Value::as_bool).collect::<Option<Vec<_>>>() {
+                Some(ParameterValue::BoolArray(b))
+            } else if let Some(i) = a.iter().map(Value::as_i64).collect::<Option<Vec<_>>>() {
+                Some(ParameterValue::IntegerArray(i))
+            } else if let Some(d) = a.iter().map(Value::as_f64).collect::<Option<Vec<_>>>() {
+                Some(ParameterValue::DoubleArray(d))
+            } else {
+                a.iter()
+                    .map(|s| s.as_str().map(str::to_string))
+                    .collect::<Option<Vec<_>>>()
+                    .map(ParameterValue::StringArray)
+            }
+        }
+        _ => None,
+    }
+}
+
+/// Parameters every ROS node may carry that our structs do not know.
+fn is_ros_internal(name: &str) -> bool {
+    name == "use_sim_time"
+        || name.starts_with("qos_overrides.")
+        || name == "start_type_description_service"
+}
+
+/// Declares `defaults` (absent ones only: launch-time values win), each
+/// with the description `describe` gives for its name.
+pub fn declare(
+    params: &mut indexmap::IndexMap<String, Parameter>,
+    defaults: &FlatParams,
+    describe: fn(&str) -> &'static str,
+) {
+    for (name, value) in defaults {
+        if params.contains_key(name) {
+            continue;
+        }
+        if let Some(value) = from_yaml(value) {
+            params.insert(
+                name.clone(),
+                Parameter {
+                    value,
+                    description: describe(name),
+                },
+            );
+        }
+    }
+}
+
+/// The node's parameters, minus ROS's own and those in `skip` (the
+/// adapter's, read separately), as flat YAML values.
+pub fn flat(params: &indexmap::IndexMap<String, Parameter>, skip: &[&str]) -> FlatParams {
+    params
+        .iter()
+        .filter(|(name, _)| !is_ros_internal(name) && !skip.contains(&name.as_str()))
+        .filter_map(|(name, p)| to_yaml(&p.value).map(|v| (name.clone(), v)))
+        .collect()
+}
+
+/// Reads the node's checked parameters.
+pub fn read<T: DeserializeOwned>(
+    params: &indexmap::IndexMap<String, Parameter>,
+    skip: &[&str],
+    node: &str,
+) -> Result<T, ParamsError> {
+    from_flat_params(&flat(params, skip), node)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nodes::controller::TaskKind;
+    use crate::params::layered_flat_params;
+    use crate::runtime::scene::Scene;
+
+    #[test]
+    fn every_shipped_parameter_survives_the_trip_through_ros_values() {
+        for task in [TaskKind::Guarded, TaskKind::Guided] {
+            let scene = Scene::builtin(task);
+            for node in ["force_controller", "sim_robot"] {
+                let defaults = layered_flat_params(&scene.texts(), node).unwrap();
+                let mut params = indexmap::IndexMap::new();
+                declare(&mut params, &defaults, |_| "test");
+                assert_eq!(
+                    params.len(),
+                    defaults.len(),
+                    "{node}: every value fits a ROS type"
+                );
+                params.insert(
+                    "use_sim_time".into(),
+                    Parameter::new(ParameterValue::Bool(false)),
+                );
+                if node == "force_controller" {
+                    let p: crate::nodes::ControllerParams = read(&params, &[], node).unwrap();
+                    assert_eq!(p, scene.controller_params().unwrap());
+                } else {
+                    let p: crate::nodes::SimRobotParams = read(&params, &[], node).unwrap();
+                    assert_eq!(p, scene.sim_params().unwrap());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_launch_override_wins_and_a_bad_one_is_named() {
+        let scene = Scene::builtin(TaskKind::Guarded);
+        let defaults = layered_flat_params(&scene.texts(), "force_controller").unwrap();
+        let mut params = indexmap::IndexMap::new();
+        params.insert(
+            "object".to_string(),
+            Parameter::new(ParameterValue::String("carton_box".into())),
+        );
+        params.insert(
+            "pd.gain_ratio".to_string(),
+            Parameter::new(ParameterValue::String("fast".into())),
+        );
+        declare(&mut params, &defaults, |_| "test");
+        let err = read::<crate::nodes::ControllerParams>(&params, &[], "force_controller")
+            .unwrap_err()
+            .to_string();
+        // serde names the node and the bad value (not the key) for a type error.
+        assert!(
+            err.contains("force_controller") && err.contains("fast"),
+            "{err}"
+        );
+        params.insert(
+            "pd.gain_ratio".to_string(),
+            Parameter::new(ParameterValue::Integer(1)),
+        );
+        let p: crate::nodes::ControllerParams = read(&params, &[], "force_controller").unwrap();
+        assert_eq!(p.object, "carton_box");
+        assert_eq!(p.pd.gain_ratio, 1.0);
+    }
+}

@@ -1,0 +1,122 @@
+//! `sim_robot`: the simulated arm, object or finger, F/T sensor and BioTac
+//! ([`SimRobot`]), paced by the wall clock. Every period it publishes
+//! `joint_states`, `ft_sensor/wrench` (ground truth, BioTac frame) and
+//! `biotac/readings` (the simulated BioTac lives here, as in the embedded
+//! runtime: its contact comes from this node's physics), then applies the
+//! latest `velocity_controller/commands`. Stamps are the ROS clock's.
+
+use futures::StreamExt;
+use r2r::geometry_msgs::msg::WrenchStamped;
+use r2r::sensor_msgs::msg::JointState as JointStateMsg;
+use r2r::std_msgs::msg::Float64MultiArray;
+use r2r::QosProfile;
+use serde::Deserialize;
+use std::sync::{Arc, Mutex};
+
+use super::biotac_msg::{self, BioTacMeta, BIOTAC_MSG_TYPE};
+use super::force_controller::PA10_JOINTS;
+use super::{convert, RosError};
+use crate::biotac::BioTacSimConfig;
+use crate::kinematics::robot::PA10_YAML;
+use crate::kinematics::{JointVector, RobotParams};
+use crate::nodes::{JointState, SimRobot, SimRobotParams};
+use crate::params::node_params;
+use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
+
+/// The arm of config/pa10.yaml (the simulated arm is the PA10-7C).
+#[derive(Deserialize)]
+struct Arm {
+    robot: RobotParams,
+}
+
+/// Runs the node until the process ends.
+pub async fn run() -> Result<(), RosError> {
+    let mut node = super::create_node("sim_robot")?;
+    let names = super::own_strings(
+        &node,
+        "joint_names",
+        &PA10_JOINTS,
+        "Names of the simulated joints on joint_states.",
+    )?;
+    let frame_id = super::own_string(
+        &node,
+        "frame_id",
+        "biotac",
+        "The BioTac frame (F/T wrench and readings).",
+    )?;
+    let seed = super::own_param(
+        &node,
+        "seed",
+        r2r::ParameterValue::Integer(1),
+        "Seed of the simulated noise.",
+    )?;
+    let seed = match seed {
+        r2r::ParameterValue::Integer(i) if i >= 0 => i as u64,
+        other => {
+            return Err(RosError::Setup(format!(
+                "seed = {other:?}: expected an integer >= 0"
+            )))
+        }
+    };
+    let p: SimRobotParams = super::node_params(
+        &node,
+        "sim_robot",
+        &[WORLD_YAML, GUARDED_YAML],
+        &["joint_names", "frame_id", "seed"],
+        super::describe_shared,
+    )?;
+    let arm: Arm = node_params(PA10_YAML, "force_controller")?;
+    let robot = arm.robot.validate()?;
+    let mut sim = SimRobot::new(p, robot, &BioTacSimConfig::default(), seed)?;
+
+    let joints = node.create_publisher::<JointStateMsg>("joint_states", QosProfile::default())?;
+    let ft = node.create_publisher::<WrenchStamped>("ft_sensor/wrench", QosProfile::default())?;
+    let readings = node.create_publisher_untyped(
+        "biotac/readings",
+        BIOTAC_MSG_TYPE,
+        QosProfile::sensor_data(),
+    )?;
+    let mut commands =
+        node.subscribe::<Float64MultiArray>("velocity_controller/commands", QosProfile::default())?;
+    let (handler, _events) = node.make_parameter_handler()?;
+    tokio::spawn(handler);
+    let mut clock = r2r::Clock::create(r2r::ClockType::RosTime)?;
+    super::spin(node);
+
+    let qdot = Arc::new(Mutex::new(JointVector::zeros()));
+    let q = qdot.clone();
+    tokio::spawn(async move {
+        while let Some(m) = commands.next().await {
+            match convert::qdot_from_msg(&m) {
+                Ok(v) => *q.lock().unwrap_or_else(|e| e.into_inner()) = v,
+                Err(e) => tracing::debug!("command refused: {e}"),
+            }
+        }
+    });
+    let meta = BioTacMeta {
+        frame_id: frame_id.clone(),
+        serial: "simulated".into(),
+        ..BioTacMeta::default()
+    };
+    let mut ticker = tokio::time::interval(std::time::Duration::from_secs_f64(sim.period_s()));
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    loop {
+        ticker.tick().await;
+        let now = super::now_s(&mut clock);
+        let mut s = sim.sample();
+        s.reading.stamp_s = now;
+        let js = JointState {
+            stamp_s: now,
+            q: s.joints.q,
+        };
+        let sent = joints
+            .publish(&convert::joint_state_msg(&js, &names))
+            .and_then(|()| ft.publish(&convert::wrench_stamped(now, &frame_id, &s.ft)))
+            .and_then(|()| readings.publish(biotac_msg::to_json(&s.reading, &meta)));
+        if let Err(e) = sent {
+            tracing::warn!("publish: {e}");
+        }
+        sim.command(*qdot.lock().unwrap_or_else(|e| e.into_inner()));
+        sim.advance();
+    }
+}
