@@ -20,6 +20,9 @@ pub enum ConvertError {
     /// A NaN or an infinity.
     #[error("{0}: a value is not finite")]
     NonFinite(&'static str),
+    /// A message the conversion needs has not arrived yet.
+    #[error("no {0} received yet")]
+    Missing(&'static str),
     /// A joint the controller needs is absent from `joint_states`.
     #[error("joint_states: joint `{0}` is missing or has no position")]
     MissingJoint(String),
@@ -119,20 +122,25 @@ pub fn pdc_rise_msg(e: &WrenchEstimate, frame_id: &str) -> FluidPressure {
     }
 }
 
-/// The estimate the controller sees from `biotac/wrench` and the latest
-/// `biotac/pdc_rise` (0 before the first). The standard deviation does not
-/// reach the controller: its law does not use it.
+/// The estimate the controller sees from `biotac/wrench` with the latest
+/// `biotac/wrench_stddev` (the controller stops on an uncertain estimate, so
+/// without one the estimate is refused; the two topics are published
+/// together, the latest may lag by one message) and the latest
+/// `biotac/pdc_rise` (0 before the first).
 pub fn estimate_from_msgs(
     wrench: &WrenchStamped,
+    stddev: Option<&WrenchStamped>,
     pdc_rise: Option<&FluidPressure>,
 ) -> Result<WrenchEstimate, ConvertError> {
     let (stamp_s, mean) = wrench_from_msg(wrench, "biotac/wrench")?;
+    let stddev = stddev.ok_or(ConvertError::Missing("biotac/wrench_stddev"))?;
+    let (_, std) = wrench_from_msg(stddev, "biotac/wrench_stddev")?;
     let pdc_rise = pdc_rise.map_or(0.0, |p| p.fluid_pressure);
     let e = WrenchEstimate {
         stamp_s,
         seq: 0,
         mean,
-        std: Wrench::default(),
+        std,
         estimated: [true; 6],
         pdc_rise,
     };
@@ -273,8 +281,14 @@ mod tests {
         assert_eq!(mean, expected);
         assert_eq!(std.wrench.force.z, 0.04);
         assert_eq!(std.header, expected.header);
-        let back = estimate_from_msgs(&mean, Some(&pdc_rise_msg(&estimate(), "biotac"))).unwrap();
+        let pdc = pdc_rise_msg(&estimate(), "biotac");
+        assert_eq!(
+            estimate_from_msgs(&mean, None, Some(&pdc)),
+            Err(ConvertError::Missing("biotac/wrench_stddev"))
+        );
+        let back = estimate_from_msgs(&mean, Some(&std), Some(&pdc)).unwrap();
         assert_eq!(back.mean, estimate().mean);
+        assert_eq!(back.std, estimate().std);
         assert_eq!(back.stamp_s, 3.5);
         assert_eq!(back.pdc_rise, 42.0);
     }
@@ -287,7 +301,7 @@ mod tests {
         let (mut m, _) = estimate_msgs(&estimate(), "biotac").unwrap();
         m.wrench.torque.y = f64::INFINITY;
         assert_eq!(
-            estimate_from_msgs(&m, None),
+            estimate_from_msgs(&m, Some(&m), None),
             Err(ConvertError::NonFinite("biotac/wrench"))
         );
         let c = commands_msg(&JointVector::from_element(f64::NAN));

@@ -1,5 +1,5 @@
 //! `force_controller`: `joint_states` (sensor_msgs/JointState),
-//! `biotac/wrench` and `biotac/pdc_rise` in -> [`ForceController`] every
+//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`] every
 //! `control_period_s` -> `velocity_controller/commands`
 //! (std_msgs/Float64MultiArray, one velocity per joint in chain order: the
 //! ros2_control JointGroupVelocityController convention).
@@ -25,7 +25,7 @@ use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 
 use super::{convert, RosError};
-use crate::control::{GuardedParams, Phase, StopReason};
+use crate::control::{GuardedParams, Phase};
 use crate::kinematics::robot::PA10_YAML;
 use crate::nodes::controller::TaskKind;
 use crate::nodes::{ControlOutput, ControllerParams, ForceController};
@@ -79,8 +79,7 @@ impl GuardedGoal {
 pub fn guarded_outcome(out: &ControlOutput) -> Option<&'static str> {
     match (out.phase, out.reason) {
         (Phase::Hold, _) => Some("hold"),
-        (Phase::Stopped, Some(StopReason::Timeout)) => Some("timeout"),
-        (Phase::Stopped, Some(StopReason::ForceLimit)) => Some("force_limit"),
+        (Phase::Stopped, Some(reason)) => Some(reason.name()),
         (Phase::Stopped, None) => Some("stopped"),
         _ => None,
     }
@@ -95,6 +94,7 @@ struct Shared {
     controller: ForceController,
     base: ControllerParams,
     pdc: Option<FluidPressure>,
+    stddev: Option<WrenchStamped>,
     last: Option<ControlOutput>,
     rejected: u64,
 }
@@ -127,6 +127,7 @@ pub async fn run() -> Result<(), RosError> {
         controller: ForceController::new(base.clone())?,
         base,
         pdc: None,
+        stddev: None,
         last: None,
         rejected: 0,
     }));
@@ -134,6 +135,8 @@ pub async fn run() -> Result<(), RosError> {
     let mut joints = node.subscribe::<JointStateMsg>("joint_states", QosProfile::default())?;
     let mut wrench = node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?;
     let mut pdc = node.subscribe::<FluidPressure>("biotac/pdc_rise", QosProfile::default())?;
+    let mut stddev =
+        node.subscribe::<WrenchStamped>("biotac/wrench_stddev", QosProfile::default())?;
     let commands = node.create_publisher::<Float64MultiArray>(
         "velocity_controller/commands",
         QosProfile::default(),
@@ -174,9 +177,15 @@ pub async fn run() -> Result<(), RosError> {
     });
     let s = shared.clone();
     tokio::spawn(async move {
+        while let Some(m) = stddev.next().await {
+            lock(&s).stddev = Some(m);
+        }
+    });
+    let s = shared.clone();
+    tokio::spawn(async move {
         while let Some(m) = wrench.next().await {
             let mut g = lock(&s);
-            let ok = convert::estimate_from_msgs(&m, g.pdc.as_ref())
+            let ok = convert::estimate_from_msgs(&m, g.stddev.as_ref(), g.pdc.as_ref())
                 .map_err(|e| e.to_string())
                 .and_then(|e| g.controller.on_estimate(e).map_err(|e| e.to_string()));
             if let Err(e) = ok {
