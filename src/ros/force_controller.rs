@@ -95,6 +95,8 @@ struct Shared {
     base: ControllerParams,
     pdc: Option<FluidPressure>,
     stddev: Option<WrenchStamped>,
+    /// The latest estimated force, BioTac frame (N): the action's feedback.
+    force: nalgebra::Vector3<f64>,
     last: Option<ControlOutput>,
     rejected: u64,
 }
@@ -128,6 +130,7 @@ pub async fn run() -> Result<(), RosError> {
         base,
         pdc: None,
         stddev: None,
+        force: nalgebra::Vector3::zeros(),
         last: None,
         rejected: 0,
     }));
@@ -187,7 +190,10 @@ pub async fn run() -> Result<(), RosError> {
             let mut g = lock(&s);
             let ok = convert::estimate_from_msgs(&m, g.stddev.as_ref(), g.pdc.as_ref())
                 .map_err(|e| e.to_string())
-                .and_then(|e| g.controller.on_estimate(e).map_err(|e| e.to_string()));
+                .and_then(|e| {
+                    g.force = e.mean.force;
+                    g.controller.on_estimate(e).map_err(|e| e.to_string())
+                });
             if let Err(e) = ok {
                 g.rejected += 1;
                 tracing::debug!("biotac/wrench refused: {e}");
@@ -282,23 +288,22 @@ mod action {
                     });
                     break;
                 }
-                let last = shared
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .last
-                    .clone();
+                let (last, force) = {
+                    let g = shared.lock().unwrap_or_else(|e| e.into_inner());
+                    (g.last.clone(), g.force)
+                };
                 let Some(out) = last else { continue };
-                let force_n = out.targets.iter().flatten().next().copied().unwrap_or(0.0);
+                // The estimated force on the controlled axis.
+                let axis = out.targets.iter().position(Option::is_some).unwrap_or(2);
+                let force_n = force[axis];
                 let _ = handle.publish_feedback(GuardedMove::Feedback {
                     force_n,
                     phase: out.phase.name().into(),
                 });
-                let reason = if out.halt.is_some() {
-                    Some("halted")
-                } else {
-                    guarded_outcome(&out)
-                };
-                if let Some(reason) = reason {
+                // A halt (inputs missing or stale, e.g. right after the
+                // goal rebuilt the controller) pauses the move; the goal
+                // ends on the task's own outcome.
+                if let Some(reason) = guarded_outcome(&out) {
                     let result = GuardedMove::Result {
                         force_n,
                         reason: reason.into(),
