@@ -161,6 +161,22 @@ fn check_against_reference(bytes: &[u8], sizes: &[usize]) -> Result<(), TestCase
     Ok(())
 }
 
+/// The frame the decoder must return for a valid encoding of these fields:
+/// the header's sequence number, no stamp, no invalid channel.
+fn valid_frame(sensor: u8, seq: u16, bridge_us: u32, r: &BioTacReading) -> DecodedFrame {
+    DecodedFrame {
+        sensor,
+        seq,
+        bridge_us,
+        reading: BioTacReading {
+            seq,
+            stamp_s: 0.0,
+            ..*r
+        },
+        invalid: ChannelMask::default(),
+    }
+}
+
 proptest! {
     #[test]
     fn arbitrary_bytes_decode_like_the_reference_scan(
@@ -190,13 +206,7 @@ proptest! {
     ) {
         let bytes = [&prefix[..], &encode_frame(sensor, seq, us, &r), &suffix].concat();
         let (frames, decoder) = decode_chunked(&bytes, &sizes);
-        let expected = DecodedFrame {
-            sensor,
-            seq,
-            bridge_us: us,
-            reading: BioTacReading { seq, stamp_s: 0.0, ..r },
-            invalid: ChannelMask::default(),
-        };
+        let expected = valid_frame(sensor, seq, us, &r);
         prop_assert_eq!(frames.first(), Some(&expected));
         prop_assert!(decoder.stats().bytes_skipped >= prefix.len() as u64);
     }
@@ -204,14 +214,7 @@ proptest! {
     #[test]
     fn encode_decode_round_trips((sensor, seq, us, r) in frame_fields()) {
         let decoded = decode_frame(&encode_frame(sensor, seq, us, &r));
-        let expected = DecodedFrame {
-            sensor,
-            seq,
-            bridge_us: us,
-            reading: BioTacReading { seq, stamp_s: 0.0, ..r },
-            invalid: ChannelMask::default(),
-        };
-        prop_assert_eq!(decoded, Ok(expected));
+        prop_assert_eq!(decoded, Ok(valid_frame(sensor, seq, us, &r)));
     }
 }
 
