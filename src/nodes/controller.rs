@@ -19,7 +19,7 @@ use crate::control::{
 };
 use crate::kinematics::{joint_velocities, JointVector, Robot, RobotParams, Twist};
 use crate::params::ParamsError;
-use crate::sim::contact::{positive, series_stiffness, BodyParams, SkinParams};
+use crate::sim::contact::{object_body, positive, series_stiffness, BodyParams, SkinParams};
 use crate::wrench::{Axis, AxisSet};
 
 /// Which task the controller runs.
@@ -129,15 +129,7 @@ impl ForceController {
         )?;
         p.skin.validate("skin")?;
         p.pd.validate()?;
-        let body = p
-            .objects
-            .get(&p.object)
-            .ok_or_else(|| ParamsError::Invalid {
-                key: "object".into(),
-                value: p.object.clone(),
-                expected: format!("one of {:?}", p.objects.keys().collect::<Vec<_>>()),
-            })?;
-        body.validate(&format!("objects.{}", p.object))?;
+        let body = object_body(&p.objects, &p.object)?;
         let robot = p.robot.validate()?;
         let missing = |what: &str| ParamsError::Invalid {
             key: what.into(),
@@ -147,12 +139,12 @@ impl ForceController {
         let task = match p.task {
             TaskKind::Guarded => {
                 let g = p.guarded.ok_or_else(|| missing("guarded"))?.validate()?;
-                let k = series_stiffness(&p.skin, body, g.target_force_n);
+                let k = series_stiffness(&p.skin, &body, g.target_force_n);
                 Task::Guarded(GuardedMove::new(g, &p.pd, k, p.control_period_s))
             }
             TaskKind::Guided => {
                 let g = p.guided.ok_or_else(|| missing("guided"))?.validate()?;
-                let normal = series_stiffness(&p.skin, body, g.target_force_n[2]);
+                let normal = series_stiffness(&p.skin, &body, g.target_force_n[2]);
                 let shear =
                     1.0 / (1.0 / p.skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m);
                 let on = |axis| p.axes.axes().contains(&axis);

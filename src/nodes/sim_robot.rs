@@ -25,7 +25,9 @@ use crate::kinematics::{JointVector, Robot, N_JOINTS};
 use crate::params::ParamsError;
 use crate::sim::arm::ArmPlant;
 use crate::sim::collect::unit_seed;
-use crate::sim::contact::{invalid, non_negative, positive, BodyParams, PlaneContact, SkinParams};
+use crate::sim::contact::{
+    invalid, non_negative, object_body, positive, BodyParams, PlaneContact, SkinParams,
+};
 use crate::sim::finger::{FingerPath, FingerState, Segment};
 use crate::wrench::Wrench;
 
@@ -163,15 +165,7 @@ impl SimRobot {
                 expected: "values inside the joint ranges".into(),
             });
         }
-        let body = *p
-            .objects
-            .get(&p.object)
-            .ok_or_else(|| ParamsError::Invalid {
-                key: "object".into(),
-                value: p.object.clone(),
-                expected: format!("one of {:?}", p.objects.keys().collect::<Vec<_>>()),
-            })?;
-        body.validate(&format!("objects.{}", p.object))?;
+        let body = object_body(&p.objects, &p.object)?;
         let path = p.finger_path.as_deref().map(FingerPath::new).transpose()?;
         if let Some(path) = &path {
             if path.duration_s() > p.duration_s {

@@ -16,6 +16,8 @@
 //!
 //! Units: metres, newtons, seconds. Vectors in the world frame.
 
+use std::collections::BTreeMap;
+
 use nalgebra::Vector3;
 use serde::Deserialize;
 
@@ -81,6 +83,21 @@ impl BodyParams {
         non_negative(&format!("{key}.damping_n_s_per_m"), self.damping_n_s_per_m)?;
         non_negative(&format!("{key}.friction"), self.friction)
     }
+}
+
+/// The checked body named `name` among `objects` (the `objects` and `object`
+/// parameters shared by the controller and the simulated robot).
+pub fn object_body(
+    objects: &BTreeMap<String, BodyParams>,
+    name: &str,
+) -> Result<BodyParams, ParamsError> {
+    let body = *objects.get(name).ok_or_else(|| ParamsError::Invalid {
+        key: "object".into(),
+        value: name.into(),
+        expected: format!("one of {:?}", objects.keys().collect::<Vec<_>>()),
+    })?;
+    body.validate(&format!("objects.{name}"))?;
+    Ok(body)
 }
 
 /// Stiffness of the skin (at force `f`) in series with `body` (N/m): the
