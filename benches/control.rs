@@ -2,20 +2,21 @@
 //! parts, against the 10 ms control period:
 //!
 //! - `estimator`: `EstimatorNode::on_reading` on an in-contact reading (the
-//!   guarded move holding 1 N), after the tare, for the 1-axis fz model (what
-//!   the guarded scene needs) and the default 3-axis model (the guided
-//!   scene), with and without the standard deviation;
+//!   guarded move holding 1 N), after the tare, with the scenes' default
+//!   models (guarded: fz; guided: fx, fy, fz) and, for comparison, the
+//!   guarded recipe on all six axes, with and without the standard deviation;
 //! - `tick`: `ForceController::tick` alone (watchdog, task, forward
 //!   kinematics, Jacobian, damped least squares), repeated at the time of a
 //!   tick that commanded motion: the guarded move holding, the guided move
 //!   following a push;
 //! - `period`: sample, estimate, tick, command and one period of physics
 //!   (10 steps), stepping the shipped scenes on from that tick (and back to
-//!   it when a run reaches the scene's duration).
+//!   it when a run reaches the scene's duration); the guarded scene also with
+//!   the six-axis model.
 //!
 //! After the criterion groups, a plain loop per item prints its median and
 //! p99 and their share of the control period, which criterion does not report.
-//! Setup trains both models (a few seconds each).
+//! Setup trains the three models once each and prints their fit times.
 //!
 //! Run with `cargo bench --bench control`.
 
@@ -27,11 +28,12 @@ use nalgebra::Vector3;
 use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::biotac::BioTacReading;
 use tactile_force::control::Phase;
-use tactile_force::learn::default_model;
+use tactile_force::learn::default_model::{self, Recipe};
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::controller::TaskKind;
 use tactile_force::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
 use tactile_force::runtime::{Nodes, Scene};
+use tactile_force::wrench::{Axis, AxisSet};
 
 /// Noise seed of the simulated runs.
 const SEED: u64 = 1;
@@ -66,7 +68,9 @@ impl Run {
             .expect("shipped scene");
         let mut readings = Vec::new();
         loop {
-            let p = nodes.step_period(&mut |_, _| {}).expect("19 electrodes");
+            let p = nodes
+                .step_period(&mut |_, _| {}, &mut |_, _| {})
+                .expect("19 electrodes");
             let (s, out) = (p.sample, p.output);
             readings.push(s.reading);
             if ready(&s, &out) && out.velocity != Vector3::zeros() {
@@ -90,7 +94,7 @@ impl Run {
             self.nodes.controller = self.restart.1.clone();
         }
         self.nodes
-            .step_period(&mut |_, _| {})
+            .step_period(&mut |_, _| {}, &mut |_, _| {})
             .expect("19 electrodes")
             .output
     }
@@ -153,12 +157,40 @@ fn measure(c: &mut Criterion, group: &str, period_s: f64, mut items: Vec<Item>) 
         .collect()
 }
 
+/// Trains the model of `recipe`, printing the fit time.
+fn train(name: &str, recipe: &Recipe) -> WrenchGp {
+    let t0 = Instant::now();
+    let model = default_model::train(recipe).expect("default model trains");
+    println!(
+        "fit {name} ({}): {:.2} s (simulated data included)",
+        recipe.describe(),
+        t0.elapsed().as_secs_f64()
+    );
+    model
+}
+
 fn benches(c: &mut Criterion) {
-    let forces = default_model::train().expect("default model");
-    let fz = default_model::train_axes(&"fz".parse().expect("axis")).expect("fz model");
-    let mut guarded = Run::new("guarded_hold", TaskKind::Guarded, fz.clone(), |_, out| {
-        out.phase == Phase::Hold
-    });
+    let recipe = |task| {
+        Scene::builtin(task)
+            .estimator_params()
+            .expect("shipped scene")
+            .default_model
+    };
+    let fz = train("guarded scene", &recipe(TaskKind::Guarded));
+    let forces = train("guided scene", &recipe(TaskKind::Guided));
+    let six_axes = Recipe {
+        axes: AxisSet::new(Axis::ALL.to_vec()).expect("six axes"),
+        ..recipe(TaskKind::Guarded)
+    };
+    let six = train("guarded recipe, six axes", &six_axes);
+    let hold = |_: &SimSample, out: &ControlOutput| out.phase == Phase::Hold;
+    let mut guarded = Run::new("guarded_hold", TaskKind::Guarded, fz.clone(), hold);
+    let mut guarded_six = Run::new(
+        "guarded_hold_six_axes",
+        TaskKind::Guarded,
+        six.clone(),
+        hold,
+    );
     let mut guided = Run::new("guided_follow", TaskKind::Guided, forces.clone(), |s, _| {
         s.finger.is_some_and(|f| f.velocity != Vector3::zeros())
     });
@@ -168,7 +200,7 @@ fn benches(c: &mut Criterion) {
     let readings = &guarded.readings;
     let contact = readings.last().expect("a reading");
     let mut estimators = Vec::new();
-    for (axes, model) in [("fz", &fz), ("fxyz", &forces)] {
+    for (axes, model) in [("fz", &fz), ("fxyz", &forces), ("six", &six)] {
         for (what, with_std) in [("mean_std", true), ("mean_only", false)] {
             let mut e = tared(model.clone(), with_std, readings);
             estimators.push(item(format!("{axes}_{what}"), move || {
@@ -190,7 +222,8 @@ fn benches(c: &mut Criterion) {
     });
     summary.extend(measure(c, "tick", period_s, ticks.into()));
 
-    let periods = [&mut guarded, &mut guided].map(|run| item(run.name, move || run.step()));
+    let periods =
+        [&mut guarded, &mut guarded_six, &mut guided].map(|run| item(run.name, move || run.step()));
     summary.extend(measure(c, "period", period_s, periods.into()));
 
     println!(

@@ -39,6 +39,6 @@ def make(scene=SCENE):
         node("biotac_driver", [{"port": LaunchConfiguration("port")}, overrides],
              condition=UnlessCondition(use_sim)),
         node("sim_robot", files + [overrides], condition=IfCondition(use_sim)),
-        node("wrench_estimator", [{"model_file": LaunchConfiguration("model")}, overrides]),
+        node("wrench_estimator", files + [{"model_file": LaunchConfiguration("model")}, overrides]),
         node("force_controller", files + [overrides]),
     ])

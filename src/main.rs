@@ -16,7 +16,7 @@ use tactile_force::learn::dataset::{electrode_columns, write_csv, Dataset};
 use tactile_force::learn::evaluate::{
     cross_validate, score_model, train_test, EvalOptions, Evaluation, Progress, Scores,
 };
-use tactile_force::learn::gp::{GpParams, KernelKind};
+use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
 use tactile_force::learn::model::{TareSpec, WrenchGp};
 use tactile_force::learn::nn::NnParams;
 use tactile_force::sim::collect::{collect, CollectConfig};
@@ -47,6 +47,9 @@ enum Command {
     BiotacEmulator(commands::serial::EmulatorArgs),
     /// Show what a BioTac serial bridge sends: readings and link statistics.
     BiotacMonitor(commands::serial::MonitorArgs),
+    /// Measure accuracy against fit time and latency: exact GP on subsets,
+    /// sparse GP, network.
+    Tradeoff(commands::tradeoff::TradeoffArgs),
 }
 
 #[derive(Args)]
@@ -68,9 +71,16 @@ struct FitArgs {
     /// Wrench axes to learn: any subset of fx,fy,fz,tx,ty,tz.
     #[arg(long, default_value = "fx,fy,fz")]
     axes: AxisSet,
-    /// Largest training set for the exact GP (a seeded random subset beyond it): time grows as n^3.
+    /// Largest training set of the exact GP (a subset beyond it, see --subset): time grows as n^3.
     #[arg(long, default_value_t = 2000)]
     max_train: usize,
+    /// How the exact GP's subset is chosen: random, or farthest (spread over the inputs).
+    #[arg(long, default_value = "random")]
+    subset: Subset,
+    /// Train a sparse GP with this many inducing points on every row instead
+    /// of the exact GP (`train` only; `eval` trains on --max-train rows).
+    #[arg(long)]
+    inducing: Option<usize>,
     /// GP kernel: iso (one length-scale) or ard (one length-scale per electrode).
     #[arg(long, default_value = "iso")]
     kernel: KernelKind,
@@ -154,6 +164,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => commands::demo::run_demo(a),
         Command::BiotacEmulator(a) => commands::serial::run_emulator(a),
         Command::BiotacMonitor(a) => commands::serial::run_monitor(a),
+        Command::Tradeoff(a) => commands::tradeoff::run_tradeoff(a),
     }
 }
 
@@ -176,17 +187,18 @@ fn run_collect(a: CollectArgs) -> Result<()> {
     Ok(())
 }
 
-/// Reads a CSV's electrode features and `axes` targets and tares each trial.
-fn load_tared(path: &Path, fit: &FitArgs) -> Result<(Dataset, TareSpec)> {
-    let mut ds = Dataset::read_csv(path, &electrode_columns(), &fit.axes)?;
-    let mean_baseline = match fit.tare_samples {
+/// Reads a CSV's electrode features and `axes` targets and tares each trial
+/// on its first `tare_samples` rows (0: already tared).
+fn load_tared(path: &Path, axes: &AxisSet, tare_samples: usize) -> Result<(Dataset, TareSpec)> {
+    let mut ds = Dataset::read_csv(path, &electrode_columns(), axes)?;
+    let mean_baseline = match tare_samples {
         0 => vec![0.0; ds.features.len()],
         n => ds.tare_per_trial(n)?,
     };
     Ok((
         ds,
         TareSpec {
-            samples: fit.tare_samples,
+            samples: tare_samples,
             mean_baseline,
         },
     ))
@@ -198,6 +210,9 @@ fn gp_params(fit: &FitArgs) -> Result<tactile_force::learn::gp::ValidGpParams> {
         restarts: fit.restarts,
         restart_subset: fit.restart_subset,
         polish_iters: fit.polish_iters,
+        max_train: fit.max_train,
+        subset: fit.subset,
+        inducing: fit.inducing,
         seed: fit.seed,
         ..GpParams::default()
     }
@@ -228,12 +243,7 @@ fn show(bar: &ProgressBar, p: Progress) {
 }
 
 fn run_train(a: TrainArgs) -> Result<()> {
-    let (mut ds, tare) = load_tared(&a.data, &a.fit)?;
-    {
-        use rand::SeedableRng;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(a.fit.seed);
-        ds = ds.random_rows(a.fit.max_train, &mut rng);
-    }
+    let (ds, tare) = load_tared(&a.data, &a.fit.axes, a.fit.tare_samples)?;
     let params = gp_params(&a.fit)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
@@ -248,8 +258,8 @@ fn run_train(a: TrainArgs) -> Result<()> {
     for (axis, gp, info) in model.fits() {
         let h = gp.hyper();
         println!(
-            "{axis}: {} evaluations ({} on all points), -log p(y)/n = {:.4}, signal var {:.3}, noise var {:.2e}",
-            info.evaluations, info.full_evaluations, info.neg_lml_per_sample, h.signal_var, h.noise_var
+            "{axis}: {}, {} evaluations ({} on all points), -log p(y)/n = {:.4}, signal var {:.3}, noise var {:.2e}",
+            gp.describe(), info.evaluations, info.full_evaluations, info.neg_lml_per_sample, h.signal_var, h.noise_var
         );
     }
     println!(
@@ -281,12 +291,12 @@ fn run_eval(a: EvalArgs) -> Result<()> {
     let mut on_progress = |p| show(&bar, p);
     let eval = match (&a.data, &a.train, &a.test) {
         (Some(data), _, _) => {
-            let (ds, tare) = load_tared(data, &a.fit)?;
+            let (ds, tare) = load_tared(data, &a.fit.axes, a.fit.tare_samples)?;
             cross_validate(&ds, a.folds, &tare, &opts, &mut on_progress)?
         }
         (None, Some(train), Some(test)) => {
-            let (train, tare) = load_tared(train, &a.fit)?;
-            let (test, _) = load_tared(test, &a.fit)?;
+            let (train, tare) = load_tared(train, &a.fit.axes, a.fit.tare_samples)?;
+            let (test, _) = load_tared(test, &a.fit.axes, a.fit.tare_samples)?;
             train_test(&train, &test, &tare, &opts, &mut on_progress)?
         }
         _ => {

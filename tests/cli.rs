@@ -85,7 +85,12 @@ fn collect_train_eval_round_trip() {
         m,
     ]);
     assert!(o.status.success(), "{:?}", text(&o));
-    assert!(text(&o).0.contains("trained 1 axes (fz) on 300 samples"));
+    let (out, err) = text(&o);
+    assert!(out.contains("fz: exact GP on 300 rows"), "{out}{err}");
+    assert!(
+        out.contains("trained 1 axes (fz) on 40000 samples"),
+        "{out}"
+    );
 
     // Cross-validation: GP and NN on the same folds, JSON on the last line.
     let o = run(&[
@@ -184,6 +189,79 @@ fn a_corrupt_or_foreign_model_file_is_refused_clearly() {
 }
 
 #[test]
+fn tradeoff_measures_every_setting_on_held_out_trials() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = collect(dir.path(), "6");
+    let png = dir.path().join("tradeoff.png");
+    let o = run(&[
+        "tradeoff",
+        "--data",
+        data.to_str().unwrap(),
+        "--axes",
+        "fz",
+        "--exact-n",
+        "250,100000",
+        "--sparse-m",
+        "25",
+        "--plot",
+        png.to_str().unwrap(),
+        "--json",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    // 5 trials per set, the first of 5 trial-wise folds held out.
+    assert!(
+        out.contains("32000 training rows, 8000 held-out rows"),
+        "{out}"
+    );
+    let rows = last_json(&out)["rows"].as_array().unwrap().clone();
+    let kinds: Vec<(&str, Option<&str>, u64)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r["model"].as_str().unwrap(),
+                r["subset"].as_str(),
+                r["n_train"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    // n = 100000 is more than the training rows: skipped.
+    assert_eq!(
+        kinds,
+        [
+            ("exact", Some("random"), 250),
+            ("exact", Some("farthest"), 250),
+            ("sparse", None, 32000),
+            ("nn", None, 32000),
+        ]
+    );
+    for r in &rows {
+        let rmse = r["rmse"]["fz"].as_f64().unwrap();
+        assert!(rmse > 0.0 && rmse < 3.0, "{r}");
+        assert!(r["r2"]["fz"].as_f64().unwrap() <= 1.0, "{r}");
+        assert!(r["fit_s"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["latency_mean_us"].as_f64().unwrap() > 0.0, "{r}");
+    }
+    assert_eq!(rows[2]["m"], 25);
+    assert!(rows[0]["m"].is_null() && rows[3]["latency_mean_std_us"].is_null());
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+
+    let o = run(&[
+        "tradeoff",
+        "--data",
+        data.to_str().unwrap(),
+        "--subsets",
+        "best",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o).1.contains("expected random or farthest"),
+        "{:?}",
+        text(&o)
+    );
+}
+
+#[test]
 fn too_few_folds_or_trials_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let data = collect(dir.path(), "5");
@@ -207,6 +285,7 @@ fn every_subcommand_has_help() {
         "demo",
         "biotac-emulator",
         "biotac-monitor",
+        "tradeoff",
     ] {
         let o = run(&[sub, "--help"]);
         assert!(o.status.success());
@@ -230,7 +309,10 @@ fn demo_trains_the_default_model_once_then_reuses_it() {
     let first = run_cached(&args, dir.path());
     let (out, err) = text(&first);
     assert!(first.status.success(), "{err}");
-    assert!(err.contains("training the default model"), "{err}");
+    assert!(
+        err.contains("training the default model of the scene ("),
+        "{err}"
+    );
     assert!(err.contains("cached at"), "{err}");
     let j = last_json(&out);
     for key in [

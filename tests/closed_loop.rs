@@ -13,12 +13,20 @@ use tactile_force::report::TraceRow;
 use tactile_force::runtime::demo::{run_scene, DemoRun};
 use tactile_force::runtime::{Nodes, Pacing, Scene};
 
-/// The default model, trained once for all tests of this file.
+/// The default model of a scene's task.
+fn scene_model(task: TaskKind) -> WrenchGp {
+    let recipe = Scene::builtin(task)
+        .estimator_params()
+        .unwrap()
+        .default_model;
+    default_model::train(&recipe).expect("the default model trains")
+}
+
+/// The guided scene's default model (fx, fy, fz), trained once for all tests
+/// of this file.
 fn model() -> WrenchGp {
     static MODEL: OnceLock<WrenchGp> = OnceLock::new();
-    MODEL
-        .get_or_init(|| default_model::train().expect("the default model trains"))
-        .clone()
+    MODEL.get_or_init(|| scene_model(TaskKind::Guided)).clone()
 }
 
 fn guarded(object: &str, speed: f64) -> Scene {
@@ -129,6 +137,9 @@ fn over_force_retracts_in_the_same_cycle_then_stops() {
         .position(|r| r.estimate.is_some_and(|(f, _)| f.z > 1.2))
         .unwrap();
     let r = &run.rows[over];
+    // Contact was seen a period before: the limit hit while regulating (for
+    // the limit hit during the approach see tests/closed_loop_extremes.rs).
+    assert_eq!(run.rows[over - 1].phase, Phase::Regulate);
     assert_eq!(r.phase, Phase::Retract);
     // Away from the object (+z of the BioTac frame) at the retract speed.
     assert!((r.commanded.z - 0.01).abs() < 1e-9, "{}", r.commanded);
@@ -148,7 +159,7 @@ fn run_tampered(
     tamper: &mut dyn FnMut(f64, &mut Option<tactile_force::nodes::WrenchEstimate>),
 ) -> Vec<TraceRow> {
     (0..(seconds * 100.0) as usize)
-        .map(|_| nodes.step_period(tamper).unwrap().row())
+        .map(|_| nodes.step_period(&mut |_, _| {}, tamper).unwrap().row())
         .collect()
 }
 
@@ -210,7 +221,8 @@ fn realtime_pacing_keeps_pace_with_the_wall_clock() {
 
 #[test]
 fn a_model_without_the_axes_the_task_controls_is_refused() {
-    let fz = default_model::train_axes(&"fz".parse().unwrap()).unwrap();
+    let fz = scene_model(TaskKind::Guarded);
+    assert_eq!(fz.axes().to_string(), "fz");
     let err = Scene::builtin(TaskKind::Guided)
         .build(fz.clone(), &Default::default(), 1)
         .unwrap_err()

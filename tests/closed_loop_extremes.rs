@@ -1,15 +1,19 @@
 //! The closed loop at the edges: contact stiffness from 10 N/m to 1e6 N/m,
-//! a jittery control period, a singular arm pose at the start. Each run must
-//! stay finite and bounded, and end holding or stopped safely.
+//! a jittery control period, a singular arm pose at the start, a BioTac that
+//! stops sending or saturates, the force limit hit during the approach. Each
+//! run must stay finite and bounded, and end holding or stopped safely.
 
 use std::sync::OnceLock;
 
+use tactile_force::biotac::{BioTacReading, ADC_MAX};
+use tactile_force::control::{Phase, StopReason};
 use tactile_force::learn::default_model;
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::controller::TaskKind;
-use tactile_force::report::summary::Summary;
+use tactile_force::report::summary::{summarize, RunInfo, Summary};
 use tactile_force::report::TraceRow;
 use tactile_force::runtime::demo::{run_scene, DemoRun};
+use tactile_force::runtime::lockstep::ReadingTamper;
 use tactile_force::runtime::{Pacing, Scene};
 
 /// `pd.max_speed_mps` of config/world.yaml: no command is faster.
@@ -18,12 +22,43 @@ const MAX_SPEED: f64 = 0.08;
 fn model() -> WrenchGp {
     static MODEL: OnceLock<WrenchGp> = OnceLock::new();
     MODEL
-        .get_or_init(|| default_model::train().expect("the default model trains"))
+        .get_or_init(|| {
+            let recipe = Scene::builtin(TaskKind::Guided).estimator_params().unwrap();
+            default_model::train(&recipe.default_model).expect("the default model trains")
+        })
         .clone()
 }
 
 fn run(scene: Scene) -> DemoRun {
     run_scene(&scene, model(), 1, Pacing::Lockstep, &mut |_| {}).expect("the run completes")
+}
+
+/// Runs `scene` for its whole duration, each BioTac reading passing through
+/// `fault` on its way to the estimator.
+fn run_faulty(scene: &Scene, fault: ReadingTamper) -> DemoRun {
+    let mut nodes = scene
+        .build(model(), &Default::default(), 1)
+        .expect("the scene builds");
+    let periods = (nodes.sim.duration_s() / nodes.sim.period_s()).round() as usize;
+    let rows: Vec<TraceRow> = (0..=periods)
+        .map(|_| {
+            let period = nodes.step_period(fault, &mut |_, _| {});
+            period.expect("the model takes 19 electrodes").row()
+        })
+        .collect();
+    let info = RunInfo::new(&scene.controller_params().expect("valid parameters"));
+    DemoRun {
+        summary: summarize(&info, &rows),
+        gains: nodes.controller.gains(),
+        rows,
+    }
+}
+
+/// Index of the first row at or after `t` (s).
+fn at(rows: &[TraceRow], t: f64) -> usize {
+    rows.iter()
+        .position(|r| r.t >= t - 1e-9)
+        .expect("the run reaches t")
 }
 
 /// Every number finite and every commanded speed within `max_mps`.
@@ -154,4 +189,232 @@ fn pushing_harder_than_the_training_data_stops_on_the_estimators_doubt() {
         r.rows.last().unwrap().measured.z < 0.1,
         "retracted off the object"
     );
+}
+
+/// The guided move with a short finger path: it waits 2 s, then pushes
+/// 30 mm along +x.
+fn short_guided() -> Scene {
+    Scene::builtin(TaskKind::Guided).with_layer(
+        "sim_robot:\n  ros__parameters:\n    finger_path: [wait 2.0, push 30 0 0 0.05, wait 1.0]\n    \
+         duration_s: 4.2\n"
+            .into(),
+    )
+}
+
+/// Largest measured force magnitude (N).
+fn peak_force(rows: &[TraceRow]) -> f64 {
+    rows.iter().map(|r| r.measured.norm()).fold(0.0, f64::max)
+}
+
+/// Loses every BioTac reading of `scene` for 0.5 s from `from` (s); checks
+/// that the last estimate drives the task only while it is at most
+/// `stale_periods` old, that the arm is then halted with a zero command
+/// until readings return, and that the task takes over again at once.
+fn drop_readings_for_half_a_second(scene: &Scene, from: f64) -> DemoRun {
+    let to = from + 0.5;
+    let r = run_faulty(scene, &mut |t, reading| {
+        if (from..to).contains(&t) {
+            *reading = None;
+        }
+    });
+    let rows = &r.rows;
+    let p = scene.controller_params().unwrap();
+    let (first, back) = (at(rows, from), at(rows, to));
+    let last_reading = rows[first - 1].t;
+    let halt = first + rows[first..].iter().position(|r| r.halted).unwrap();
+    // Halted in the first period past the limit: 0.04 s after the last reading.
+    let age = rows[halt].t - last_reading;
+    assert!(
+        (age - (p.stale_periods + 1.0) * p.control_period_s).abs() < 1e-9,
+        "{age}"
+    );
+    assert!(rows[halt..back]
+        .iter()
+        .all(|r| r.halted && r.commanded.norm() == 0.0 && r.estimate.is_none()));
+    assert!(!rows[back].halted && rows[back].estimate.is_some());
+    r
+}
+
+#[test]
+fn a_sensor_dropout_of_half_a_second_halts_the_arm_and_the_task_resumes() {
+    // Guarded move, holding 1 N on the wooden box from ~1.8 s.
+    let r = drop_readings_for_half_a_second(&Scene::builtin(TaskKind::Guarded), 3.0);
+    assert_sane(&r.rows, MAX_SPEED);
+    let s = &r.summary;
+    // The halted arm keeps the force: 1.00..1.04 N measured while blind.
+    let blind = &r.rows[at(&r.rows, 3.0)..at(&r.rows, 3.5)];
+    assert!(blind.iter().all(|r| (r.measured.z - 1.0).abs() < 0.1));
+    assert!(peak_force(&r.rows) < 1.1, "far below the 3 N limit: {s:?}");
+    // Holds 1 N again: steady-state error 0.009 N.
+    assert!(holds(s) && s.final_phase == "hold", "{s:?}");
+
+    // Guided move, blind while the finger waits; its push comes after.
+    let r = drop_readings_for_half_a_second(&short_guided(), 1.0);
+    assert_sane(&r.rows, MAX_SPEED);
+    let s = &r.summary;
+    assert!(peak_force(&r.rows) < 2.0, "far below the 5 N limit: {s:?}");
+    assert!(
+        s.rms_force_error_by_axis_n.values().all(|&e| e <= 0.3),
+        "{s:?}"
+    );
+    assert!(s.max_off_axis_ratio.unwrap() <= 0.1 && !s.aborted, "{s:?}");
+    // It followed the push to where the finger went.
+    let end = r.rows.last().unwrap();
+    assert!(
+        (end.offset.x - end.finger.unwrap().offset.x).abs() < 3e-3,
+        "{end:?}"
+    );
+}
+
+/// Pins the electrodes `which` (0-based) and, if `pdc`, PDC at the 12-bit
+/// ADC's full scale (4095 counts, architecture page "BioTac") in the
+/// readings from `from` to `until` (s).
+fn saturate(
+    which: std::ops::Range<usize>,
+    pdc: bool,
+    from: f64,
+    until: f64,
+) -> impl FnMut(f64, &mut Option<BioTacReading>) {
+    move |t, reading| {
+        if let (true, Some(r)) = ((from..until).contains(&t), reading) {
+            r.electrodes[which.clone()].fill(ADC_MAX);
+            if pdc {
+                r.pdc = ADC_MAX;
+            }
+        }
+    }
+}
+
+#[test]
+fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
+    let scene = Scene::builtin(TaskKind::Guarded);
+    let limits = scene.controller_params().unwrap().out_of_range;
+    // (what, electrodes, PDC, until): the fault starts at 3 s, mid-hold.
+    let cases = [
+        ("E17..E19 stuck", 16..19, false, f64::INFINITY),
+        ("PDC stuck", 0..0, true, f64::INFINITY),
+        ("all stuck", 0..19, true, f64::INFINITY),
+        ("all for one frame", 0..19, true, 3.005),
+    ];
+    for (what, which, pdc, until) in cases {
+        let electrodes = !which.is_empty();
+        let r = run_faulty(&scene, &mut saturate(which, pdc, 3.0, until));
+        assert_sane(&r.rows, MAX_SPEED);
+        let i = at(&r.rows, 3.0);
+        let (before, row) = (&r.rows[i - 1], &r.rows[i]);
+        assert_eq!((before.phase, before.reason), (Phase::Hold, None), "{what}");
+        // Retract in the very cycle of the first saturated reading.
+        assert_eq!(
+            (row.phase, row.reason),
+            (Phase::Retract, Some(StopReason::OutOfRange)),
+            "{what}"
+        );
+        assert!(
+            (row.commanded.z - 0.01).abs() < 1e-9,
+            "{what}: {}",
+            row.commanded
+        );
+        // Which limit saw it: the GP's doubt, or PDC near saturation.
+        let (std_z, pdc_rise) = (row.estimate.unwrap().1.z, row.pdc_rise.unwrap());
+        assert_eq!(std_z > limits.max_std_n, electrodes, "{what}: {std_z}");
+        assert_eq!(
+            pdc_rise > limits.max_pdc_rise_counts,
+            pdc,
+            "{what}: {pdc_rise}"
+        );
+        let s = &r.summary;
+        assert_eq!(
+            (s.reason, s.aborted),
+            (Some("out_of_range"), true),
+            "{what}: {s:?}"
+        );
+        assert_eq!(s.final_phase, "stopped", "{what}");
+        assert!(s.peak_force_n < 1.1, "{what}: {s:?}");
+        assert!(
+            r.rows.last().unwrap().measured.z < 0.1,
+            "{what}: off the object"
+        );
+    }
+
+    // The guided move stops where it is: the GP mean, over the 5 N limit,
+    // is not read as a force.
+    let r = run_faulty(
+        &short_guided(),
+        &mut saturate(0..19, true, 1.0, f64::INFINITY),
+    );
+    assert_sane(&r.rows, MAX_SPEED);
+    let stop = at(&r.rows, 1.0);
+    assert_eq!(r.rows[stop - 1].phase, Phase::Follow);
+    assert!(r.rows[stop..].iter().all(|r| r.phase == Phase::Stopped
+        && r.reason == Some(StopReason::OutOfRange)
+        && r.commanded.norm() == 0.0));
+}
+
+#[test]
+fn a_single_saturated_reading_gives_a_finite_doubtful_estimate() {
+    let scene = Scene::builtin(TaskKind::Guarded);
+    let limits = scene.controller_params().unwrap().out_of_range;
+    let mut n = scene.build(model(), &Default::default(), 1).unwrap();
+    // Out of contact: the estimator tares on its first readings.
+    while !n.estimator.is_tared() {
+        n.step_period(&mut |_, _| {}, &mut |_, _| {}).unwrap();
+    }
+    let normal = n.sim.sample().reading;
+    let mut saturated = normal;
+    saturated.electrodes.fill(ADC_MAX);
+    saturated.pdc = ADC_MAX;
+    let e = n.estimator.on_reading(&saturated).unwrap().unwrap();
+    assert!(e.is_finite(), "{e:?}");
+    // Far outside the data the mean means nothing (an exact GP falls back
+    // towards the prior, a sparse one less so); the doubt is large on every axis.
+    assert!(e.std.force.min() > 20.0 * limits.max_std_n, "{e:?}");
+    assert!(e.pdc_rise > limits.max_pdc_rise_counts, "{e:?}");
+    // The next good reading is estimated as if nothing happened.
+    let e = n.estimator.on_reading(&normal).unwrap().unwrap();
+    assert!(e.mean.force.norm() < 0.05 && e.std.force.z < 0.01, "{e:?}");
+}
+
+#[test]
+fn the_force_limit_hit_during_the_approach_retracts_in_the_same_cycle() {
+    // At 80 mm/s the pad moves 0.8 mm a period. With the object 0.7 mm short
+    // of where the pad is at some tick, the previous tick sees no contact and
+    // that tick 0.7 mm of skin squeeze, ~0.4 N: past a 0.3 N limit straight
+    // from the approach. The approach does not depend on the object, so a
+    // run without contact tells where the pad is at each tick.
+    let fast = |gap_mm: f64| {
+        Scene::builtin(TaskKind::Guarded)
+            .with_approach_speed(0.08)
+            .with_layer(format!(
+                "sim_robot:\n  ros__parameters:\n    object_gap_mm: {gap_mm}\n"
+            ))
+    };
+    let free = run(fast(80.0));
+    let tick = free.rows.iter().find(|r| r.offset.z < -0.010).unwrap();
+    let gap_mm = -tick.offset.z * 1e3 - 0.7;
+    let r = run(fast(gap_mm).with_layer(
+        "force_controller:\n  ros__parameters:\n    guarded:\n      \
+         target_force_n: 0.2\n      force_limit_n: 0.3\n"
+            .into(),
+    ));
+    assert_sane(&r.rows, MAX_SPEED);
+    let over = r
+        .rows
+        .iter()
+        .position(|r| r.phase != Phase::Approach)
+        .unwrap();
+    let (before, row) = (&r.rows[over - 1], &r.rows[over]);
+    assert!((row.t - tick.t).abs() < 1e-9, "{} {}", row.t, tick.t);
+    // No contact seen before: neither force nor PDC.
+    let force = |r: &TraceRow| r.estimate.unwrap().0.z;
+    assert!(force(before) < 0.15 && before.pdc_rise.unwrap() < 30.0);
+    assert!(force(row) > 0.3);
+    assert_eq!(
+        (row.phase, row.reason),
+        (Phase::Retract, Some(StopReason::ForceLimit))
+    );
+    assert!((row.commanded.z - 0.01).abs() < 1e-9, "{}", row.commanded);
+    let s = &r.summary;
+    assert_eq!((s.reason, s.aborted), (Some("force_limit"), true), "{s:?}");
+    assert_eq!(s.final_phase, "stopped");
+    assert!(r.rows.last().unwrap().measured.z < 0.1, "off the object");
 }

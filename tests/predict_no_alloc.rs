@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use ndarray::Array2;
 use tactile_force::learn::dataset::Dataset;
-use tactile_force::learn::gp::GpParams;
+use tactile_force::learn::gp::{Gp, GpParams};
 use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
 
 struct Counting;
@@ -69,5 +69,35 @@ fn predict_one_allocates_nothing_after_warm_up() {
         let allocated = ALLOCATIONS.load(Ordering::SeqCst) - before;
         assert_eq!(allocated, 0, "with_std = {with_std}");
         assert!(out.iter().all(|e| e.mean.is_finite()));
+    }
+
+    // The sparse (VFE) GP's single-sample path, through the `Gp` enum.
+    let xs: Vec<f64> = (0..n * 4)
+        .map(|i| ((i * 7) % 13) as f64 / 6.0 - 1.0)
+        .collect();
+    let ys: Vec<f64> = xs.chunks_exact(4).map(|r| r[0] - 0.5 * r[3]).collect();
+    let params = GpParams {
+        restarts: 1,
+        inducing: Some(20),
+        ..GpParams::default()
+    }
+    .validate()
+    .unwrap();
+    let (gp, _) = Gp::fit(&xs, 4, &ys, &params, &mut |_| {}).unwrap();
+    let mut ws = gp.workspace();
+    let z = [0.1, -0.3, 0.5, 0.2];
+    for with_var in [true, false] {
+        for _ in 0..50 {
+            gp.predict_one(&z, &mut ws, with_var);
+        }
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        let mut sum = 0.0;
+        for _ in 0..100 {
+            let (m, v) = gp.predict_one(&z, &mut ws, with_var);
+            sum += m + v;
+        }
+        let allocated = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        assert_eq!(allocated, 0, "sparse, with_var = {with_var}");
+        assert!(sum.is_finite());
     }
 }

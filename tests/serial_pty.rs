@@ -264,7 +264,8 @@ fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
     let q0 = scene.sim_params().unwrap().start_joints_deg;
     let q =
         tactile_force::kinematics::JointVector::from_iterator(q0.iter().map(|d| d.to_radians()));
-    let model = default_model::train_axes(&"fz".parse().unwrap()).unwrap();
+    let recipe = scene.estimator_params().unwrap().default_model;
+    let model = default_model::train(&recipe).unwrap();
     let mut estimator = EstimatorNode::new(model, false).unwrap();
 
     let p = pty();

@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use tactile_force::learn::default_model::{self, Origin};
+use tactile_force::learn::default_model::{self, Origin, Recipe};
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::controller::TaskKind;
 use tactile_force::report::summary::Summary;
@@ -102,7 +102,7 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     }
     // Check the scene before a possibly long training.
     scene.check()?;
-    let model = demo_model(a.model.as_deref())?;
+    let model = demo_model(a.model.as_deref(), &scene.estimator_params()?.default_model)?;
     if a.sweep_speed {
         return run_sweep(&a, &scene, &model);
     }
@@ -131,17 +131,17 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     Ok(())
 }
 
-/// The model of `--model`, or the cached default (trained on first use).
-fn demo_model(path: Option<&Path>) -> Result<WrenchGp> {
+/// The model of `--model`, or the scene's cached default (trained on first use).
+fn demo_model(path: Option<&Path>, recipe: &Recipe) -> Result<WrenchGp> {
     if let Some(p) = path {
         return Ok(WrenchGp::load(p)?);
     }
-    let (model, origin) = default_model::load_or_train(&mut || {
+    let (model, origin) = default_model::load_or_train(recipe, &mut || {
         eprintln!(
-            "no --model given: training the default model on simulated data \
-             (collect --seed {}, {} rows), once; this takes a few seconds",
+            "no --model given: training the default model of the scene ({}) on \
+             simulated data (collect --seed {}), once; this takes a few seconds",
+            recipe.describe(),
             default_model::DATA_SEED,
-            default_model::MAX_TRAIN
         )
     })?;
     match origin {

@@ -161,10 +161,12 @@ impl GuardedMove {
         let p = self.p;
         let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
         let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
-        let abort = if i.force_n > p.force_limit_n {
-            Some(StopReason::ForceLimit)
+        // An estimate outside what the GP knows says nothing about the
+        // force, so it is not read as over the limit.
+        let abort = if i.out_of_range {
+            Some(StopReason::OutOfRange)
         } else {
-            i.out_of_range.then_some(StopReason::OutOfRange)
+            (i.force_n > p.force_limit_n).then_some(StopReason::ForceLimit)
         };
         if let (true, Some(reason)) = (active, abort) {
             self.phase = Phase::Retract;
@@ -316,14 +318,17 @@ mod tests {
 
     #[test]
     fn out_of_range_input_retracts_like_over_force() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
-        g.step(&input(0.5, 0.010));
-        let v = g.step(&GuardedInput {
-            out_of_range: true,
-            ..input(1.0, 0.011)
-        });
-        assert_eq!((v, g.phase()), (-0.01, Phase::Retract));
-        assert_eq!(g.reason(), Some(StopReason::OutOfRange));
+        // Even over the limit (3 N): the estimate is not trusted.
+        for force_n in [1.0, 3.5] {
+            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+            g.step(&input(0.5, 0.010));
+            let v = g.step(&GuardedInput {
+                out_of_range: true,
+                ..input(force_n, 0.011)
+            });
+            assert_eq!((v, g.phase()), (-0.01, Phase::Retract));
+            assert_eq!(g.reason(), Some(StopReason::OutOfRange), "{force_n} N");
+        }
     }
 
     #[test]

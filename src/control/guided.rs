@@ -100,10 +100,12 @@ impl GuidedMove {
     /// BioTac frame). Over the force limit, or with the input out of the
     /// estimator's range, the arm stops for good.
     pub fn step(&mut self, force: &Vector3<f64>, out_of_range: bool, dt: f64) -> Vector3<f64> {
-        let stop = if force.norm() > self.p.force_limit_n {
-            Some(StopReason::ForceLimit)
+        // An estimate outside what the GP knows says nothing about the
+        // force, so it is not read as over the limit.
+        let stop = if out_of_range {
+            Some(StopReason::OutOfRange)
         } else {
-            out_of_range.then_some(StopReason::OutOfRange)
+            (force.norm() > self.p.force_limit_n).then_some(StopReason::ForceLimit)
         };
         if let (Phase::Follow, Some(reason)) = (self.phase, stop) {
             self.phase = Phase::Stopped;
@@ -155,12 +157,12 @@ mod tests {
 
     #[test]
     fn out_of_range_input_stops() {
-        let mut g = guided();
-        assert_eq!(
-            g.step(&Vector3::new(0.5, 0.0, 1.0), true, 0.01),
-            Vector3::zeros()
-        );
-        assert_eq!(g.reason(), Some(StopReason::OutOfRange));
+        for force in [Vector3::new(0.5, 0.0, 1.0), Vector3::new(0.0, 0.0, 8.0)] {
+            let mut g = guided();
+            assert_eq!(g.step(&force, true, 0.01), Vector3::zeros());
+            // Even over the limit: the estimate is not trusted.
+            assert_eq!(g.reason(), Some(StopReason::OutOfRange), "{force}");
+        }
     }
 
     #[test]

@@ -1,21 +1,21 @@
 //! The default estimator for the demos: trained on first use from simulated
-//! data (`collect --seed 1` on the shipped sensor model, forces only, 2000
-//! training rows, default GP settings) and cached, so the demos work on a
-//! fresh machine without a `train` step.
+//! data (`collect --seed 1` on the shipped sensor model) with the recipe the
+//! scene names (`wrench_estimator: default_model:` in config/guarded_move.yaml
+//! and config/guided_move.yaml: the task's axes and the GP) and cached, so the
+//! demos work on a fresh machine without a `train` step.
 //!
 //! The cache lives in `$TACTILE_FORCE_CACHE`, else `$XDG_CACHE_HOME/tactile_force`,
 //! else `$HOME/.cache/tactile_force`. The file name carries a fingerprint of
 //! everything that shapes the model (crate version, sensor and protocol
-//! configuration, the recipe below), so a change trains a new one.
+//! configuration, the recipe), so a change trains a new one.
 
 use std::hash::{Hash, Hasher};
 use std::path::PathBuf;
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
 
 use super::dataset::{Dataset, DatasetError};
-use super::gp::GpParams;
+use super::gp::{GpParams, Subset};
 use super::model::{ModelError, TareSpec, WrenchGp};
 use crate::biotac::sim::DEFAULT_CONFIG_YAML;
 use crate::biotac::BioTacSimConfig;
@@ -25,13 +25,63 @@ use crate::wrench::AxisSet;
 /// Seed of the simulated data set; the demos' BioTac is this seed's unit
 /// (`sim_robot.sensor_unit_seed`).
 pub const DATA_SEED: u64 = 1;
-/// Training rows (a random subset of the data set).
-pub const MAX_TRAIN: usize = 2000;
 /// Out-of-contact rows per trial for the tare.
 pub const TARE_SAMPLES: usize = 50;
 
-/// Where the default model is cached.
-pub fn cache_path() -> Option<PathBuf> {
+/// The GP approximation of a default model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GpKind {
+    /// Exact GP on `size` rows of the data set, chosen at random.
+    Exact,
+    /// Sparse GP with `size` inducing points, on every row.
+    Sparse,
+}
+
+/// How a default model is made: which axes, which GP, how large.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Recipe {
+    /// Axes to estimate: the task's.
+    pub axes: AxisSet,
+    /// Exact or sparse GP.
+    pub gp: GpKind,
+    /// Exact: training rows; sparse: inducing points.
+    pub size: usize,
+}
+
+impl Recipe {
+    /// The GP options of the recipe (the rest are the defaults).
+    pub fn gp_params(&self) -> GpParams {
+        match self.gp {
+            GpKind::Exact => GpParams {
+                max_train: self.size,
+                subset: Subset::Random,
+                ..GpParams::default()
+            },
+            GpKind::Sparse => GpParams {
+                inducing: Some(self.size),
+                ..GpParams::default()
+            },
+        }
+    }
+
+    /// A one-line description for messages.
+    pub fn describe(&self) -> String {
+        let size = match self.gp {
+            GpKind::Exact => format!("{} training rows", self.size),
+            GpKind::Sparse => format!("{} inducing points", self.size),
+        };
+        format!(
+            "{} of {}, {size}",
+            format!("{:?}", self.gp).to_lowercase(),
+            self.axes
+        )
+    }
+}
+
+/// Where the default model of `recipe` is cached.
+pub fn cache_path(recipe: &Recipe) -> Option<PathBuf> {
     let dir = std::env::var_os("TACTILE_FORCE_CACHE")
         .map(PathBuf::from)
         .or_else(|| {
@@ -45,8 +95,10 @@ pub fn cache_path() -> Option<PathBuf> {
         env!("CARGO_PKG_VERSION"),
         DEFAULT_CONFIG_YAML,
         DATA_SEED,
-        MAX_TRAIN,
         TARE_SAMPLES,
+        recipe.axes.to_string(),
+        recipe.gp,
+        recipe.size,
     )
         .hash(&mut h);
     Some(dir.join(format!("default_model_{:016x}.json", h.finish())))
@@ -64,23 +116,22 @@ pub enum DefaultModelError {
     Model(#[from] ModelError),
 }
 
-/// Trains the default model: the three forces (a few seconds on 2 cores).
-pub fn train() -> Result<WrenchGp, DefaultModelError> {
-    train_axes(&AxisSet::forces())
-}
-
-/// Trains the default recipe for other axes (a scene that needs fewer).
-pub fn train_axes(axes: &AxisSet) -> Result<WrenchGp, DefaultModelError> {
+/// Trains the model of `recipe` on the simulated data set.
+pub fn train(recipe: &Recipe) -> Result<WrenchGp, DefaultModelError> {
     let sensor = BioTacSimConfig::default();
     let records = collect(&CollectConfig::default(), &sensor, DATA_SEED);
-    let mut data = Dataset::from_records(&records, axes);
+    let mut data = Dataset::from_records(&records, &recipe.axes);
     let mean_baseline = data.tare_per_trial(TARE_SAMPLES)?;
-    let data = data.random_rows(MAX_TRAIN, &mut ChaCha8Rng::seed_from_u64(DATA_SEED));
     let tare = TareSpec {
         samples: TARE_SAMPLES,
         mean_baseline,
     };
-    let params = GpParams::default().validate().map_err(ModelError::from)?;
+    let params = GpParams {
+        seed: DATA_SEED,
+        ..recipe.gp_params()
+    }
+    .validate()
+    .map_err(ModelError::from)?;
     Ok(WrenchGp::train(&data, tare, &params, &mut |_, _| {})?)
 }
 
@@ -98,16 +149,19 @@ pub enum Origin {
 /// The cached default model, or a freshly trained one (then cached).
 /// `on_training` is called before a training starts.
 pub fn load_or_train(
+    recipe: &Recipe,
     on_training: &mut dyn FnMut(),
 ) -> Result<(WrenchGp, Origin), DefaultModelError> {
-    let path = cache_path();
+    let path = cache_path(recipe);
     if let Some(p) = &path {
         if let Ok(model) = WrenchGp::load(p) {
-            return Ok((model, Origin::Cached(p.clone())));
+            if model.axes() == &recipe.axes {
+                return Ok((model, Origin::Cached(p.clone())));
+            }
         }
     }
     on_training();
-    let model = train()?;
+    let model = train(recipe)?;
     let origin = match &path {
         None => Origin::TrainedNotCached("no cache directory (HOME unset)".into()),
         Some(p) => match p

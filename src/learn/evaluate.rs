@@ -107,7 +107,7 @@ pub enum Progress {
     Nn,
 }
 
-fn scores(
+pub(crate) fn scores(
     axes: &AxisSet,
     y: ArrayView2<f64>,
     yhat: ArrayView2<f64>,

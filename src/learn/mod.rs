@@ -9,3 +9,4 @@ pub mod metrics;
 pub mod model;
 pub mod nn;
 pub mod scale;
+pub mod tradeoff;

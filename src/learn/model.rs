@@ -1,10 +1,13 @@
-//! The wrench estimator: one exact GP per axis on standardised, tared
-//! electrode features, and its versioned model file.
+//! The wrench estimator: one GP per axis (exact, or sparse with inducing
+//! points) on standardised, tared electrode features, and its versioned model
+//! file.
 //!
 //! The model file is JSON: `format`, `version`, the feature names, the axes,
 //! the input standardisation, how the data was tared, and per axis the target
-//! standardisation, hyperparameters and training data. The Cholesky factor is
-//! recomputed on load, which also re-checks the file's numbers.
+//! standardisation and the GP (`{"exact": ..}`: hyperparameters and training
+//! data; `{"sparse": ..}`: hyperparameters, inducing inputs and their
+//! posterior). The factorisations are recomputed on load, which also
+//! re-checks the file's numbers.
 
 use std::path::Path;
 
@@ -14,16 +17,16 @@ use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
 use super::dataset::Dataset;
-use super::gp::exact::ExactGpData;
 use super::gp::fit::FitProgress;
-use super::gp::{fit_gp, ExactGp, FitInfo, GpError, GpWorkspace, ValidGpParams};
+use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, ValidGpParams};
 use super::scale::Standardizer;
 use crate::wrench::{Axis, AxisSet};
 
 /// The `format` field of every model file.
 pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
-/// The model-file version this build writes and reads.
-pub const MODEL_VERSION: u32 = 1;
+/// The model-file version this build writes and reads (2: the GP of an axis
+/// is tagged exact or sparse).
+pub const MODEL_VERSION: u32 = 2;
 
 /// Errors saving, loading or using a model.
 #[derive(Debug, thiserror::Error)]
@@ -120,7 +123,7 @@ struct AxisModel<G> {
     gp: G,
 }
 
-/// The model file; `G` is [`ExactGp`] once checked, [`ExactGpData`] as parsed.
+/// The model file; `G` is [`Gp`] once checked, [`GpData`] as parsed.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ModelFile<G> {
@@ -153,7 +156,7 @@ impl<G> ModelFile<G> {
 /// A trained wrench estimator.
 #[derive(Debug, Clone, Serialize)]
 #[serde(transparent)]
-pub struct WrenchGp(ModelFile<ExactGp>);
+pub struct WrenchGp(ModelFile<Gp>);
 
 /// Scratch for [`WrenchGp::predict_one`], allocated once per estimator.
 #[derive(Debug, Clone)]
@@ -206,7 +209,7 @@ impl WrenchGp {
                         f(axis, p)
                     }
                 };
-                let (gp, fit) = fit_gp(&x, d, &y, params, &mut report)?;
+                let (gp, fit) = Gp::fit(&x, d, &y, params, &mut report)?;
                 Ok(AxisModel {
                     axis,
                     target_mean: m,
@@ -243,26 +246,29 @@ impl WrenchGp {
         &self.0.tare
     }
 
-    /// Training-set size.
+    /// Rows the model was trained on (an exact GP keeps a subset of them,
+    /// see [`Gp::size`]).
     pub fn n_train(&self) -> usize {
         self.0.n_train
     }
 
     /// Per axis: the fitted GP and what its fit did.
-    pub fn fits(&self) -> impl Iterator<Item = (Axis, &ExactGp, &FitInfo)> {
+    pub fn fits(&self) -> impl Iterator<Item = (Axis, &Gp, &FitInfo)> {
         self.0.outputs.iter().map(|o| (o.axis, &o.gp, &o.fit))
     }
 
     /// Scratch for [`WrenchGp::predict_one`].
     pub fn workspace(&self) -> EstimatorWorkspace {
+        let largest = self.0.outputs.iter().max_by_key(|o| o.gp.size());
         EstimatorWorkspace {
             z: vec![0.0; self.0.features.len()],
-            gp: GpWorkspace::new(self.0.n_train, self.0.features.len()),
+            gp: largest.map_or_else(|| GpWorkspace::new(0, 0), |o| o.gp.workspace()),
         }
     }
 
     /// Estimates every axis from one row of tared features, without
-    /// allocating. `with_std = false` skips the O(n^2) variance (std = 0).
+    /// allocating. `with_std = false` skips the variance (std = 0), which
+    /// costs O(n^2) per axis for the exact GP and O(m^2) for the sparse one.
     pub fn predict_one(
         &self,
         features: &[f64],
@@ -351,7 +357,7 @@ impl WrenchGp {
                 found: version,
             });
         }
-        let file: ModelFile<ExactGpData> =
+        let file: ModelFile<GpData> =
             serde_json::from_value(value).map_err(|source| ModelError::Schema {
                 path: p.clone(),
                 source,
@@ -359,7 +365,7 @@ impl WrenchGp {
         Self::from_file(file, &p)
     }
 
-    fn from_file(mut file: ModelFile<ExactGpData>, path: &str) -> Result<Self, ModelError> {
+    fn from_file(mut file: ModelFile<GpData>, path: &str) -> Result<Self, ModelError> {
         let bad = |what: String| {
             Err(ModelError::Inconsistent {
                 path: path.into(),
@@ -384,15 +390,11 @@ impl WrenchGp {
         }
         let mut outputs = Vec::with_capacity(file.outputs.len());
         for o in std::mem::take(&mut file.outputs) {
-            if o.gp.dim != d || o.gp.y.len() != file.n_train || o.gp.x.len() != d * file.n_train {
+            if o.gp.dim() != d {
                 return bad(format!(
-                    "axis {}: GP of dimension {} with {} targets and {} inputs, \
-                     expected dimension {d} and n_train = {}",
+                    "axis {}: GP of dimension {}, expected {d}",
                     o.axis,
-                    o.gp.dim,
-                    o.gp.y.len(),
-                    o.gp.x.len(),
-                    file.n_train
+                    o.gp.dim()
                 ));
             }
             if !(o.target_scale > 0.0 && o.target_scale.is_finite() && o.target_mean.is_finite()) {
@@ -406,7 +408,7 @@ impl WrenchGp {
                 target_mean: o.target_mean,
                 target_scale: o.target_scale,
                 fit: o.fit,
-                gp: ExactGp::try_from(o.gp)?,
+                gp: Gp::try_from(o.gp)?,
             });
         }
         Ok(WrenchGp(file.with_outputs(outputs)))
@@ -486,10 +488,10 @@ mod tests {
         let err = load_text("{\"format\": \"something else\"}").unwrap_err();
         assert!(matches!(err, ModelError::WrongFormat { .. }), "{err}");
 
-        let v2 = json.replace("\"version\":1", "\"version\":2");
-        let err = load_text(&v2).unwrap_err();
+        let v1 = json.replace("\"version\":2", "\"version\":1");
+        let err = load_text(&v1).unwrap_err();
         assert!(
-            matches!(err, ModelError::UnsupportedVersion { found: 2, .. }),
+            matches!(err, ModelError::UnsupportedVersion { found: 1, .. }),
             "{err}"
         );
 

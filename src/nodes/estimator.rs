@@ -1,8 +1,11 @@
 //! The wrench estimator node: tares the BioTac on its first readings (out of
 //! contact), then turns every reading into a wrench estimate with the GP.
 
+use serde::Deserialize;
+
 use crate::biotac::{BioTacReading, Tare};
 use crate::learn::dataset::electrode_columns;
+use crate::learn::default_model::Recipe;
 use crate::learn::model::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
 use crate::wrench::Wrench;
 
@@ -33,6 +36,20 @@ impl WrenchEstimate {
         let w = |w: &Wrench| w.force.iter().chain(w.torque.iter()).all(|v| v.is_finite());
         self.stamp_s.is_finite() && w(&self.mean) && w(&self.std) && self.pdc_rise.is_finite()
     }
+}
+
+/// Parameters of the estimator node (`wrench_estimator` in the scene files).
+///
+/// Unknown keys are not refused here: the world's `/**` parameters meant for
+/// the other nodes reach this one too.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct EstimatorParams {
+    /// Publish the posterior standard deviation, which the controller's
+    /// out-of-range check reads; false: the mean only (cheaper, and that
+    /// check then rests on PDC alone).
+    pub with_std: bool,
+    /// The model made when no model file is given.
+    pub default_model: Recipe,
 }
 
 /// Errors building the node.

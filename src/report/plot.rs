@@ -17,6 +17,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::TraceRow;
 use crate::control::Phase;
+use crate::learn::tradeoff::{pareto_front, ModelKind, Row as TradeoffRow};
 
 const FONT_TTF: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 const FONT: &str = "sans-serif";
@@ -157,6 +158,92 @@ pub fn plot_sweep(
             draw_legend(&legend, &chart, &entries)
         },
     )
+}
+
+/// Draws the trade-off of [`crate::learn::tradeoff`]: mean held-out RMSE
+/// against single-sample latency (mean and std; mean only for the network)
+/// and against fit time, both on log scales, one colour per model family,
+/// with each panel's Pareto front joined by a dashed line and ringed.
+pub fn plot_tradeoff(path: &Path, rows: &[TradeoffRow]) -> Result<(), PlotError> {
+    if rows.is_empty() {
+        return Err(PlotError::empty(path, "no trade-off rows"));
+    }
+    let panels: [(&str, Cost); 2] = [
+        ("latency, mean and std (µs)", TradeoffRow::latency_us),
+        ("fit time (s)", |r| r.fit_s),
+    ];
+    let mut families: Vec<String> = Vec::new();
+    for r in rows {
+        let name = family(r);
+        if !families.contains(&name) {
+            families.push(name);
+        }
+    }
+    let height = TITLE_HEIGHT + 2 * PANEL_HEIGHT + 100;
+    draw_png(path, (WIDTH, height), "Accuracy against cost", |body| {
+        for (area, (x_desc, cost)) in body.split_evenly((2, 1)).iter().zip(panels) {
+            let (plot, legend) = area.split_horizontally(WIDTH - LEGEND_WIDTH);
+            let x = log_range(rows.iter().map(cost));
+            let y = log_range(rows.iter().map(TradeoffRow::mean_rmse));
+            let x_axis = x.clone().log_scale().with_key_points(log_ticks(&x));
+            let y_axis = y.clone().log_scale().with_key_points(log_ticks(&y));
+            let mut chart = chart_on(&plot, None, x_axis, y_axis)?;
+            draw_mesh(&mut chart, x_desc, "RMSE, mean of the axes")?;
+            let mut front: Vec<(f64, f64)> = rows
+                .iter()
+                .zip(pareto_front(rows, cost))
+                .filter(|(_, on)| *on)
+                .map(|(r, _)| (cost(r), r.mean_rmse()))
+                .collect();
+            front.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let front_style = BLACK.stroke_width(1);
+            chart.draw_series(dashed(front.clone(), front_style))?;
+            chart.draw_series(
+                front
+                    .iter()
+                    .map(|&p| Circle::new(p, MARKER_SIZE + 4, front_style)),
+            )?;
+            let mut entries = Vec::with_capacity(families.len() + 1);
+            for (name, color) in families.iter().zip(SERIES_COLORS.iter().cycle()) {
+                // In the rows' order: growing n or m.
+                let points: Vec<(f64, f64)> = rows
+                    .iter()
+                    .filter(|r| &family(r) == name)
+                    .map(|r| (cost(r), r.mean_rmse()))
+                    .collect();
+                chart.draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))?;
+                chart.draw_series(
+                    points
+                        .iter()
+                        .map(|&p| Circle::new(p, MARKER_SIZE, color.filled())),
+                )?;
+                entries.push((name.as_str(), Icon::Marked(color.stroke_width(2))));
+            }
+            entries.push(("Pareto front", Icon::Dashed(front_style)));
+            draw_legend(&legend, &chart, &entries)?;
+        }
+        Ok(())
+    })
+}
+
+/// The cost a trade-off panel plots a row at.
+type Cost = fn(&TradeoffRow) -> f64;
+
+/// The series a trade-off row belongs to: the model, and for the exact GP
+/// the rule that chose its rows.
+fn family(r: &TradeoffRow) -> String {
+    match r.subset {
+        Some(s) => format!("{} ({})", kind_name(r), s.name()),
+        None => kind_name(r).into(),
+    }
+}
+
+fn kind_name(r: &TradeoffRow) -> &'static str {
+    match r.model {
+        ModelKind::Exact => "exact GP",
+        ModelKind::Sparse => "sparse GP",
+        ModelKind::Nn => "network",
+    }
 }
 
 /// Creates the PNG, writes the title and hands the area below it to `draw`.
@@ -563,6 +650,36 @@ mod tests {
         let path = dir.path().join("sweep.png");
         plot_sweep(&path, &sweep(), 0.5).expect("plotted");
         assert_eq!(png_size(&path), (WIDTH, SWEEP_HEIGHT));
+    }
+
+    #[test]
+    fn tradeoff_is_drawn_and_nothing_is_an_error() {
+        let row = |model, m: Option<usize>, cost: f64, rmse: f64| TradeoffRow {
+            model,
+            subset: None,
+            n_train: 1000,
+            m,
+            fit_s: cost * 1e-5,
+            latency_mean_us: cost / 4.0,
+            latency_mean_std_us: (model != ModelKind::Nn).then_some(cost),
+            rmse: [(crate::wrench::Axis::Fz, rmse)].into(),
+            r2: [(crate::wrench::Axis::Fz, 0.99)].into(),
+        };
+        let rows = [
+            row(ModelKind::Exact, None, 2000.0, 0.05),
+            row(ModelKind::Sparse, Some(25), 2.0, 1.0),
+            row(ModelKind::Sparse, Some(200), 30.0, 0.04),
+            row(ModelKind::Nn, None, 8.0, 0.1),
+        ];
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("tradeoff.png");
+        plot_tradeoff(&path, &rows).expect("plotted");
+        assert_eq!(
+            png_size(&path),
+            (WIDTH, TITLE_HEIGHT + 2 * PANEL_HEIGHT + 100)
+        );
+        let err = plot_tradeoff(&path, &[]).unwrap_err();
+        assert!(matches!(err, PlotError::Empty { .. }), "{err}");
     }
 
     #[test]

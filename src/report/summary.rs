@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::TraceRow;
-use crate::nodes::controller::TaskKind;
+use crate::nodes::controller::{ControllerParams, TaskKind};
 use crate::wrench::Axis;
 
 /// Measured force that counts as contact (N): 8 sigma of the F/T noise
@@ -39,6 +39,20 @@ pub struct RunInfo {
     pub object: String,
     /// Approach speed of a guarded move (m/s).
     pub approach_speed_mps: Option<f64>,
+}
+
+impl RunInfo {
+    /// The run of a controller with `params`.
+    pub fn new(params: &ControllerParams) -> Self {
+        RunInfo {
+            task: params.task,
+            object: params.object.clone(),
+            approach_speed_mps: match params.task {
+                TaskKind::Guarded => params.guarded.map(|g| g.approach_speed_mps),
+                TaskKind::Guided => None,
+            },
+        }
+    }
 }
 
 /// The figures of one run (the `--json` line of `demo`).

@@ -194,6 +194,10 @@ pub fn describe_shared(name: &str) -> &'static str {
         "ft_noise_nm" => "F/T noise per physics step, torques (Nm, std).",
         "sensor_unit_seed" => "The simulated BioTac unit.",
         "duration_s" => "Length of a simulated run (s); the node keeps running after it.",
+        "with_std" => {
+            "Publish the posterior std (the out-of-range check reads it); false: mean only."
+        }
+        "default_model" => "The model when no model file is given: axes, gp (exact|sparse), size.",
         _ => "See the config/ files.",
     }
 }

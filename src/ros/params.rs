@@ -120,7 +120,7 @@ mod tests {
     fn every_shipped_parameter_survives_the_trip_through_ros_values() {
         for task in [TaskKind::Guarded, TaskKind::Guided] {
             let scene = Scene::builtin(task);
-            for node in ["force_controller", "sim_robot"] {
+            for node in ["force_controller", "sim_robot", "wrench_estimator"] {
                 let defaults = layered_flat_params(&scene.texts(), node).unwrap();
                 let mut params = indexmap::IndexMap::new();
                 declare(&mut params, &defaults, |_| "test");
@@ -133,12 +133,20 @@ mod tests {
                     "use_sim_time".into(),
                     Parameter::new(ParameterValue::Bool(false)),
                 );
-                if node == "force_controller" {
-                    let p: crate::nodes::ControllerParams = read(&params, &[], node).unwrap();
-                    assert_eq!(p, scene.controller_params().unwrap());
-                } else {
-                    let p: crate::nodes::SimRobotParams = read(&params, &[], node).unwrap();
-                    assert_eq!(p, scene.sim_params().unwrap());
+                match node {
+                    "force_controller" => {
+                        let p: crate::nodes::ControllerParams = read(&params, &[], node).unwrap();
+                        assert_eq!(p, scene.controller_params().unwrap());
+                    }
+                    "sim_robot" => {
+                        let p: crate::nodes::SimRobotParams = read(&params, &[], node).unwrap();
+                        assert_eq!(p, scene.sim_params().unwrap());
+                    }
+                    _ => {
+                        let p: crate::nodes::estimator::EstimatorParams =
+                            read(&params, &[], node).unwrap();
+                        assert_eq!(p, scene.estimator_params().unwrap());
+                    }
                 }
             }
         }

@@ -12,8 +12,11 @@ use r2r::QosProfile;
 
 use super::biotac_msg::{self, BIOTAC_MSG_TYPE};
 use super::{convert, RosError};
+use crate::kinematics::robot::PA10_YAML;
 use crate::learn::model::WrenchGp;
+use crate::nodes::estimator::EstimatorParams;
 use crate::nodes::EstimatorNode;
+use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
 
 /// Counters of dropped input (logged every 1000 drops).
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
@@ -43,12 +46,6 @@ pub async fn run() -> Result<(), RosError> {
         "biotac",
         "Frame of the published wrenches (the BioTac frame).",
     )?;
-    let with_std = super::own_bool(
-        &node,
-        "with_std",
-        true,
-        "Publish the posterior standard deviation (costs O(n^2) per axis).",
-    )?;
     let stale_s = super::own_f64(
         &node,
         "stale_timeout_s",
@@ -60,9 +57,18 @@ pub async fn run() -> Result<(), RosError> {
             "stale_timeout_s = {stale_s}: expected > 0"
         )));
     }
+    let skip = ["model_file", "frame_id", "stale_timeout_s"];
+    let params: EstimatorParams = super::node_params(
+        &node,
+        "wrench_estimator",
+        &[PA10_YAML, WORLD_YAML, GUARDED_YAML],
+        &skip,
+        super::describe_shared,
+    )?;
     let model = if model_file.is_empty() {
-        crate::learn::default_model::load_or_train(&mut || {
-            tracing::info!("training the default model (a few seconds)")
+        let recipe = &params.default_model;
+        crate::learn::default_model::load_or_train(recipe, &mut || {
+            tracing::info!("training the default model ({})", recipe.describe())
         })
         .map_err(|e| RosError::Setup(e.to_string()))?
         .0
@@ -71,7 +77,7 @@ pub async fn run() -> Result<(), RosError> {
             .map_err(|e| RosError::Setup(format!("{model_file}: {e}")))?
     };
     let mut estimator =
-        EstimatorNode::new(model, with_std).map_err(|e| RosError::Setup(e.to_string()))?;
+        EstimatorNode::new(model, params.with_std).map_err(|e| RosError::Setup(e.to_string()))?;
 
     let mut readings = node.subscribe_untyped(
         "biotac/readings",
@@ -124,7 +130,7 @@ pub async fn run() -> Result<(), RosError> {
         let sent = wrench
             .publish(&mean)
             .and_then(|()| {
-                if with_std {
+                if params.with_std {
                     stddev.publish(&std)
                 } else {
                     Ok(())

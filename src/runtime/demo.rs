@@ -8,7 +8,6 @@ use super::scene::{Scene, SceneError};
 use super::{run, Pacing};
 use crate::biotac::BioTacSimConfig;
 use crate::learn::model::WrenchGp;
-use crate::nodes::controller::TaskKind;
 use crate::report::summary::{summarize, RunInfo, Summary};
 use crate::report::TraceRow;
 
@@ -31,15 +30,7 @@ pub fn run_scene(
     pacing: Pacing,
     on_row: &mut dyn FnMut(&TraceRow),
 ) -> Result<DemoRun, SceneError> {
-    let params = scene.controller_params()?;
-    let info = RunInfo {
-        task: params.task,
-        object: params.object.clone(),
-        approach_speed_mps: match params.task {
-            TaskKind::Guarded => params.guarded.map(|g| g.approach_speed_mps),
-            TaskKind::Guided => None,
-        },
-    };
+    let info = RunInfo::new(&scene.controller_params()?);
     let mut nodes = scene.build(model, &BioTacSimConfig::default(), seed)?;
     let rows = run(&mut nodes, pacing, on_row)?;
     Ok(DemoRun {

@@ -7,6 +7,7 @@
 
 use std::time::{Duration, Instant};
 
+use crate::biotac::BioTacReading;
 use crate::control::Phase;
 use crate::nodes::estimator::EstimatorError;
 use crate::nodes::{
@@ -41,12 +42,18 @@ pub struct Nodes {
 /// for fault-injection tests: sees the time (s) and the estimate, if any.
 pub type Tamper<'a> = &'a mut dyn FnMut(f64, &mut Option<WrenchEstimate>);
 
+/// A change made to a BioTac reading between the sensor and the estimator
+/// (the driver's output), for fault-injection tests: sees the time (s) and
+/// the reading; setting it to None loses it, as a stopped driver would.
+pub type ReadingTamper<'a> = &'a mut dyn FnMut(f64, &mut Option<BioTacReading>);
+
 /// What one control period saw and did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Period {
-    /// The robot's sensors at the start of the period.
+    /// The robot's sensors at the start of the period (before any tampering).
     pub sample: SimSample,
-    /// The estimator's output for that reading (before any tampering).
+    /// The estimator's output for the reading it got, if any (before the
+    /// estimate is tampered with).
     pub estimate: Option<WrenchEstimate>,
     /// The controller's command.
     pub output: ControlOutput,
@@ -75,11 +82,21 @@ impl Period {
 
 impl Nodes {
     /// One control period: sample the robot, estimate, control, command,
-    /// then run the physics for a period. `tamper` may alter or drop the
-    /// estimate on its way to the controller.
-    pub fn step_period(&mut self, tamper: Tamper) -> Result<Period, EstimatorError> {
+    /// then run the physics for a period. `reading_tamper` may alter or drop
+    /// the reading on its way to the estimator, `tamper` the estimate on its
+    /// way to the controller.
+    pub fn step_period(
+        &mut self,
+        reading_tamper: ReadingTamper,
+        tamper: Tamper,
+    ) -> Result<Period, EstimatorError> {
         let sample = self.sim.sample();
-        let estimate = self.estimator.on_reading(&sample.reading)?;
+        let mut reading = Some(sample.reading);
+        reading_tamper(sample.t, &mut reading);
+        let estimate = match reading {
+            Some(r) => self.estimator.on_reading(&r)?,
+            None => None,
+        };
         let mut delivered = estimate;
         tamper(sample.t, &mut delivered);
         if let Some(e) = delivered {
@@ -112,7 +129,7 @@ pub fn run(
     let wall_start = Instant::now();
     let mut stopped_at = None;
     for _ in 0..=periods {
-        let row = nodes.step_period(&mut |_, _| {})?.row();
+        let row = nodes.step_period(&mut |_, _| {}, &mut |_, _| {})?.row();
         on_row(&row);
         rows.push(row);
         if row.phase == Phase::Stopped {

@@ -11,10 +11,11 @@ use crate::biotac::BioTacSimConfig;
 use crate::kinematics::robot::PA10_YAML;
 use crate::learn::model::WrenchGp;
 use crate::nodes::controller::TaskKind;
-use crate::nodes::estimator::EstimatorError;
+use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError};
 use crate::runtime::Nodes;
+use crate::wrench::AxisSet;
 
 /// The shipped world file.
 pub const WORLD_YAML: &str = include_str!("../../config/world.yaml");
@@ -97,6 +98,11 @@ impl Scene {
         layered_node_params(&self.texts(), "force_controller")
     }
 
+    /// The estimator's parameters.
+    pub fn estimator_params(&self) -> Result<EstimatorParams, ParamsError> {
+        layered_node_params(&self.texts(), "wrench_estimator")
+    }
+
     /// The simulated robot's parameters.
     pub fn sim_params(&self) -> Result<SimRobotParams, ParamsError> {
         layered_node_params(&self.texts(), "sim_robot")
@@ -111,6 +117,8 @@ impl Scene {
     /// (before an expensive step such as training a model).
     pub fn check(&self) -> Result<(), SceneError> {
         let controller = ForceController::new(self.controller_params()?)?;
+        let recipe = self.estimator_params()?.default_model;
+        missing_axes(&recipe.axes, controller.axes())?;
         let sensor = BioTacSimConfig::default();
         SimRobot::new(self.sim_params()?, controller.robot().clone(), &sensor, 0)?;
         Ok(())
@@ -124,25 +132,26 @@ impl Scene {
         seed: u64,
     ) -> Result<Nodes, SceneError> {
         let controller = ForceController::new(self.controller_params()?)?;
-        let missing = controller
-            .axes()
-            .axes()
-            .iter()
-            .any(|a| !model.axes().axes().contains(a));
-        if missing {
-            return Err(SceneError::Axes {
-                model: model.axes().to_string(),
-                task: controller.axes().to_string(),
-            });
-        }
+        missing_axes(model.axes(), controller.axes())?;
         let sim = SimRobot::new(self.sim_params()?, controller.robot().clone(), sensor, seed)?;
-        let estimator = EstimatorNode::new(model, true)?;
+        let estimator = EstimatorNode::new(model, self.estimator_params()?.with_std)?;
         Ok(Nodes {
             sim,
             estimator,
             controller,
         })
     }
+}
+
+/// Refuses a model (or recipe) lacking an axis the task controls.
+fn missing_axes(model: &AxisSet, task: &AxisSet) -> Result<(), SceneError> {
+    if task.axes().iter().all(|a| model.axes().contains(a)) {
+        return Ok(());
+    }
+    Err(SceneError::Axes {
+        model: model.to_string(),
+        task: task.to_string(),
+    })
 }
 
 #[cfg(test)]
@@ -190,5 +199,27 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("guided"), "a guided task needs its section: {e}");
+    }
+
+    #[test]
+    fn a_default_model_the_task_cannot_use_is_refused_before_training() {
+        let recipe = |r: &str| {
+            Scene::builtin(TaskKind::Guided).with_layer(format!(
+                "wrench_estimator:\n  ros__parameters:\n    default_model: {r}\n"
+            ))
+        };
+        let e = recipe("{axes: [fz], gp: sparse, size: 200}")
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("estimates fz") && e.contains("fx,fy,fz"), "{e}");
+        let e = recipe("{axes: [fx, fy, fz], gp: sprase, size: 200}")
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("sprase"), "{e}");
+        let guarded = Scene::builtin(TaskKind::Guarded).estimator_params().unwrap();
+        assert_eq!(guarded.default_model.axes.to_string(), "fz");
+        assert!(guarded.with_std);
     }
 }

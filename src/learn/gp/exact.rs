@@ -20,20 +20,23 @@ const JITTER_START: f64 = 1e-10;
 /// Largest jitter tried, relative to the mean diagonal of K.
 const JITTER_MAX: f64 = 1e-4;
 
-/// Cholesky factor of `K_f + (sn2 + jitter) I`, escalating the jitter tenfold
-/// from zero, then `JITTER_START`, up to `JITTER_MAX` times the mean diagonal.
-/// Returns the factor and the jitter that was needed.
-fn cholesky_with_jitter(
+/// Cholesky factor of `K_f + (diag + jitter) I`, escalating the jitter
+/// tenfold from zero, then `JITTER_START`, up to `JITTER_MAX` times
+/// `s2 + diag` (the mean diagonal). `diag` is the noise variance for the
+/// exact GP, a fixed small jitter for the inducing-point covariance K_uu.
+/// Returns the factor and the escalated jitter that was needed.
+pub(super) fn cholesky_with_jitter(
     kf: &Mat<f64>,
+    diag: f64,
     hyper: &SeHyper,
 ) -> Result<(faer::linalg::solvers::Llt<f64>, f64), GpError> {
     let n = kf.nrows();
-    let scale = hyper.signal_var + hyper.noise_var;
+    let scale = hyper.signal_var + diag;
     let mut k = kf.clone();
     let mut jitter = 0.0;
     loop {
         for i in 0..n {
-            k[(i, i)] = kf[(i, i)] + hyper.noise_var + jitter;
+            k[(i, i)] = kf[(i, i)] + diag + jitter;
         }
         if let Ok(llt) = k.llt(Side::Lower) {
             return Ok((llt, jitter));
@@ -43,7 +46,7 @@ fn cholesky_with_jitter(
         } else {
             jitter * 10.0
         };
-        if jitter > JITTER_MAX * scale * 1.0001 {
+        if !jitter.is_finite() || jitter > JITTER_MAX * scale * 1.0001 {
             return Err(GpError::NotPositiveDefinite {
                 n,
                 jitter: jitter / 10.0,
@@ -77,7 +80,7 @@ pub(crate) fn check_data(x: &[f64], d: usize, y: &[f64]) -> Result<(), GpError> 
     Ok(())
 }
 
-fn check_hyper(hyper: &SeHyper, d: usize) -> Result<(), GpError> {
+pub(super) fn check_hyper(hyper: &SeHyper, d: usize) -> Result<(), GpError> {
     if hyper.is_valid(d) {
         Ok(())
     } else {
@@ -103,7 +106,7 @@ pub fn neg_lml_and_grad(
     let n = y.len();
     let xs = scale_rows(x, &hyper.lengthscales);
     let kf = se_gram(&xs, d, hyper.signal_var);
-    let (llt, _) = cholesky_with_jitter(&kf, hyper)?;
+    let (llt, _) = cholesky_with_jitter(&kf, hyper.noise_var, hyper)?;
     let l = llt.L();
     let mut alpha = Mat::from_fn(n, 1, |i, _| y[i]);
     faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
@@ -184,7 +187,7 @@ pub struct ExactGp {
     xs: Vec<f64>,
     /// K^-1 y.
     alpha: Vec<f64>,
-    /// Columns of the Cholesky factor L, packed: column j holds L[j..n, j].
+    /// Columns of the Cholesky factor L, packed (see [`pack_lower`]).
     l_cols: Vec<f64>,
     /// Jitter that the factorisation needed.
     jitter: f64,
@@ -223,15 +226,17 @@ impl TryFrom<ExactGpData> for ExactGp {
     }
 }
 
-/// Per-call scratch for [`ExactGp::predict_one`], allocated once.
+/// Per-call scratch for [`ExactGp::predict_one`] and
+/// [`SparseGp::predict_one`](super::SparseGp::predict_one), allocated once.
 #[derive(Debug, Clone)]
 pub struct GpWorkspace {
-    scaled: Vec<f64>,
-    k: Vec<f64>,
+    pub(super) scaled: Vec<f64>,
+    pub(super) k: Vec<f64>,
 }
 
 impl GpWorkspace {
-    /// Scratch for a GP with `n` training points and `dim` inputs.
+    /// Scratch for a GP with at most `n` training (or inducing) points and
+    /// `dim` inputs; one workspace serves every GP up to that size.
     pub fn new(n: usize, dim: usize) -> Self {
         GpWorkspace {
             scaled: vec![0.0; dim],
@@ -242,7 +247,7 @@ impl GpWorkspace {
 
 /// Dot product with four accumulators, so the compiler can vectorise it.
 #[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
     let tail: f64 = ca
@@ -259,6 +264,81 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     acc[0] + acc[1] + acc[2] + acc[3] + tail
 }
 
+/// The kernel vector `k(x_i, z)` against scaled rows `xs` (the first
+/// `xs.len() / d` entries of `ws.k`, returned), without allocating.
+pub(super) fn cross_one<'w>(
+    xs: &[f64],
+    hyper: &SeHyper,
+    z: &[f64],
+    ws: &'w mut GpWorkspace,
+) -> &'w mut [f64] {
+    let d = hyper.lengthscales.len();
+    for ((s, v), l) in ws.scaled.iter_mut().zip(z).zip(&hyper.lengthscales) {
+        *s = v / l;
+    }
+    let k = &mut ws.k[..xs.len() / d];
+    for (k, row) in k.iter_mut().zip(xs.chunks_exact(d)) {
+        let d2: f64 = row
+            .iter()
+            .zip(&ws.scaled)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum();
+        *k = hyper.signal_var * (-0.5 * d2).exp();
+    }
+    k
+}
+
+/// A latent variance clamped at 0; non-finite values fall back to the prior `s2`.
+pub(super) fn clamp_var(var: f64, s2: f64) -> f64 {
+    let var = var.max(0.0);
+    if var.is_finite() {
+        var
+    } else {
+        s2
+    }
+}
+
+/// The lower triangle of a square matrix, packed column by column: column j
+/// contributes L[j..n, j].
+pub(super) fn pack_lower(l: MatRef<'_, f64>) -> Vec<f64> {
+    let n = l.nrows();
+    let mut cols = Vec::with_capacity(n * (n + 1) / 2);
+    for j in 0..n {
+        cols.extend(l.col(j).iter().skip(j));
+    }
+    cols
+}
+
+/// The n x n lower-triangular matrix of [`pack_lower`]'s packing.
+pub(super) fn unpack_lower(cols: &[f64], n: usize) -> Mat<f64> {
+    let mut l = Mat::<f64>::zeros(n, n);
+    let mut start = 0;
+    for j in 0..n {
+        for (i, v) in cols[start..start + n - j].iter().enumerate() {
+            l[(j + i, j)] = *v;
+        }
+        start += n - j;
+    }
+    l
+}
+
+/// Forward substitution `L v = k` in place, with L packed by [`pack_lower`]
+/// (as many columns as `k` has entries): v_j = k_j / L_jj, then
+/// k[j+1..] -= v_j L[j+1.., j].
+pub(super) fn forward_subst_packed(l_cols: &[f64], k: &mut [f64]) {
+    let n = k.len();
+    let mut start = 0;
+    for j in 0..n {
+        let col = &l_cols[start..start + n - j];
+        let vj = k[j] / col[0];
+        k[j] = vj;
+        for (k, l) in k[j + 1..].iter_mut().zip(&col[1..]) {
+            *k -= vj * l;
+        }
+        start += n - j;
+    }
+}
+
 impl ExactGp {
     /// Conditions the GP on row-major inputs `x` (n x dim) and targets `y`,
     /// both standardised, with fixed hyperparameters.
@@ -268,7 +348,7 @@ impl ExactGp {
         let n = y.len();
         let xs = scale_rows(x, &hyper.lengthscales);
         let kf = se_gram(&xs, dim, hyper.signal_var);
-        let (llt, jitter) = cholesky_with_jitter(&kf, &hyper)?;
+        let (llt, jitter) = cholesky_with_jitter(&kf, hyper.noise_var, &hyper)?;
         if jitter > 0.0 {
             tracing::warn!(
                 n,
@@ -279,12 +359,7 @@ impl ExactGp {
         }
         let mut alpha = Mat::from_fn(n, 1, |i, _| y[i]);
         faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
-        let l = llt.L();
-        let mut l_cols = Vec::with_capacity(n * (n + 1) / 2);
-        for j in 0..n {
-            let col = l.col(j);
-            l_cols.extend(col.iter().skip(j));
-        }
+        let l_cols = pack_lower(llt.L());
         let gp = ExactGp {
             hyper,
             dim,
@@ -329,40 +404,17 @@ impl ExactGp {
     /// Mean and latent variance at one standardised input, without allocating.
     ///
     /// Cost: O(n d) for the mean, O(n^2) for the variance (one forward
-    /// substitution with L). `with_var = false` skips the variance (returns 0).
+    /// substitution with L). `with_var = false` skips the variance (returns
+    /// 0). `ws` must have room for at least `n_train()` points.
     pub fn predict_one(&self, z: &[f64], ws: &mut GpWorkspace, with_var: bool) -> (f64, f64) {
-        let d = self.dim;
-        for ((s, v), l) in ws.scaled.iter_mut().zip(z).zip(&self.hyper.lengthscales) {
-            *s = v / l;
-        }
-        let s2 = self.hyper.signal_var;
-        for (k, row) in ws.k.iter_mut().zip(self.xs.chunks_exact(d)) {
-            let d2: f64 = row
-                .iter()
-                .zip(&ws.scaled)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum();
-            *k = s2 * (-0.5 * d2).exp();
-        }
-        let mean = dot(&ws.k, &self.alpha);
+        let k = cross_one(&self.xs, &self.hyper, z, ws);
+        let mean = dot(k, &self.alpha);
         if !with_var {
             return (mean, 0.0);
         }
-        // Forward substitution L v = k in place, column by column:
-        // v_j = k_j / L_jj, then k[j+1..] -= v_j L[j+1.., j].
-        let n = ws.k.len();
-        let mut start = 0;
-        for j in 0..n {
-            let col = &self.l_cols[start..start + n - j];
-            let vj = ws.k[j] / col[0];
-            ws.k[j] = vj;
-            for (k, l) in ws.k[j + 1..].iter_mut().zip(&col[1..]) {
-                *k -= vj * l;
-            }
-            start += n - j;
-        }
-        let var = (s2 - dot(&ws.k, &ws.k)).max(0.0);
-        (mean, if var.is_finite() { var } else { s2 })
+        forward_subst_packed(&self.l_cols, k);
+        let s2 = self.hyper.signal_var;
+        (mean, clamp_var(s2 - dot(k, k), s2))
     }
 
     /// Means and latent variances at many standardised inputs (row-major m x dim).
@@ -377,17 +429,7 @@ impl ExactGp {
         let s2 = self.hyper.signal_var;
         let mut means = Vec::with_capacity(m);
         let mut vars = Vec::with_capacity(m);
-        let l = with_var.then(|| {
-            let mut l = Mat::<f64>::zeros(n, n);
-            let mut start = 0;
-            for j in 0..n {
-                for (i, v) in self.l_cols[start..start + n - j].iter().enumerate() {
-                    l[(j + i, j)] = *v;
-                }
-                start += n - j;
-            }
-            l
-        });
+        let l = with_var.then(|| unpack_lower(&self.l_cols, n));
         // Blocks of test points bound the n x block cross-covariance memory.
         const BLOCK: usize = 1024;
         for chunk in zs.chunks(BLOCK * d) {
@@ -406,8 +448,7 @@ impl ExactGp {
                 );
                 for c in 0..kt.ncols() {
                     let v: f64 = kt.col(c).iter().map(|v| v * v).sum();
-                    let var = (s2 - v).max(0.0);
-                    vars.push(if var.is_finite() { var } else { s2 });
+                    vars.push(clamp_var(s2 - v, s2));
                 }
             } else {
                 vars.extend(std::iter::repeat_n(0.0, kt.ncols()));

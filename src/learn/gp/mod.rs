@@ -1,5 +1,7 @@
 //! Gaussian-process regression: SE kernels, the exact GP with its log marginal
-//! likelihood and gradient, and hyperparameter fitting.
+//! likelihood and gradient, the sparse variational GP (Titsias 2009) with its
+//! bound and gradient, training-row and inducing-point selection, and
+//! hyperparameter fitting.
 //!
 //! Every function here works on standardised data (see
 //! [`crate::learn::scale`]); one GP models one output axis, with its own
@@ -8,10 +10,143 @@
 pub mod exact;
 pub mod fit;
 pub mod kernel;
+pub mod select;
+pub mod sparse;
 
-pub use exact::{ExactGp, GpWorkspace};
-pub use fit::{fit_gp, FitInfo, GpParams, ValidGpParams};
+use serde::{Deserialize, Serialize};
+
+pub use exact::{ExactGp, ExactGpData, GpWorkspace};
+pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress, GpParams, Subset, ValidGpParams};
 pub use kernel::{KernelKind, SeHyper};
+pub use select::{farthest_point, greedy_variance};
+pub use sparse::{SparseGp, SparseGpData};
+
+/// A fitted GP for one output: exact, or sparse (VFE) with inducing points.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(into = "GpData", try_from = "GpData")]
+pub enum Gp {
+    /// Exact GP on (a subset of) the training rows.
+    Exact(ExactGp),
+    /// Sparse variational GP (Titsias 2009).
+    Sparse(SparseGp),
+}
+
+/// What a [`Gp`] stores in a model file, tagged `exact` or `sparse`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GpData {
+    /// An [`ExactGp`]'s data.
+    Exact(ExactGpData),
+    /// A [`SparseGp`]'s data.
+    Sparse(SparseGpData),
+}
+
+impl From<Gp> for GpData {
+    fn from(gp: Gp) -> Self {
+        match gp {
+            Gp::Exact(g) => GpData::Exact(g.into()),
+            Gp::Sparse(g) => GpData::Sparse(g.into()),
+        }
+    }
+}
+
+impl GpData {
+    /// Input dimension.
+    pub fn dim(&self) -> usize {
+        match self {
+            GpData::Exact(d) => d.dim,
+            GpData::Sparse(d) => d.dim,
+        }
+    }
+}
+
+impl TryFrom<GpData> for Gp {
+    type Error = GpError;
+    fn try_from(data: GpData) -> Result<Self, Self::Error> {
+        Ok(match data {
+            GpData::Exact(d) => Gp::Exact(d.try_into()?),
+            GpData::Sparse(d) => Gp::Sparse(d.try_into()?),
+        })
+    }
+}
+
+impl Gp {
+    /// Fits an exact GP ([`fit_gp`]) when `params.inducing` is `None`, else a
+    /// sparse one ([`fit_sparse`]).
+    pub fn fit(
+        x: &[f64],
+        d: usize,
+        y: &[f64],
+        params: &ValidGpParams,
+        progress: &mut dyn FnMut(FitProgress),
+    ) -> Result<(Gp, FitInfo), GpError> {
+        Ok(match params.get().inducing {
+            None => {
+                let (gp, info) = fit_gp(x, d, y, params, progress)?;
+                (Gp::Exact(gp), info)
+            }
+            Some(_) => {
+                let (gp, info) = fit_sparse(x, d, y, params, progress)?;
+                (Gp::Sparse(gp), info)
+            }
+        })
+    }
+
+    /// Input dimension.
+    pub fn dim(&self) -> usize {
+        match self {
+            Gp::Exact(g) => g.dim(),
+            Gp::Sparse(g) => g.dim(),
+        }
+    }
+
+    /// Hyperparameters.
+    pub fn hyper(&self) -> &SeHyper {
+        match self {
+            Gp::Exact(g) => g.hyper(),
+            Gp::Sparse(g) => g.hyper(),
+        }
+    }
+
+    /// Points a prediction sums over: training rows (exact) or inducing points (sparse).
+    pub fn size(&self) -> usize {
+        match self {
+            Gp::Exact(g) => g.n_train(),
+            Gp::Sparse(g) => g.n_inducing(),
+        }
+    }
+
+    /// What the GP is, for messages: `exact GP on 2000 rows`, `sparse GP,
+    /// 200 inducing points`.
+    pub fn describe(&self) -> String {
+        match self {
+            Gp::Exact(g) => format!("exact GP on {} rows", g.n_train()),
+            Gp::Sparse(g) => format!("sparse GP, {} inducing points", g.n_inducing()),
+        }
+    }
+
+    /// Scratch for [`Gp::predict_one`] with this GP.
+    pub fn workspace(&self) -> GpWorkspace {
+        GpWorkspace::new(self.size(), self.dim())
+    }
+
+    /// Mean and latent variance at one standardised input, without
+    /// allocating; `ws` must have room for [`Gp::size`] points.
+    pub fn predict_one(&self, z: &[f64], ws: &mut GpWorkspace, with_var: bool) -> (f64, f64) {
+        match self {
+            Gp::Exact(g) => g.predict_one(z, ws, with_var),
+            Gp::Sparse(g) => g.predict_one(z, ws, with_var),
+        }
+    }
+
+    /// Means and latent variances at many standardised inputs (row-major).
+    pub fn predict(&self, z: &[f64], with_var: bool) -> (Vec<f64>, Vec<f64>) {
+        match self {
+            Gp::Exact(g) => g.predict(z, with_var),
+            Gp::Sparse(g) => g.predict(z, with_var),
+        }
+    }
+}
 
 /// Errors of GP training and prediction.
 #[derive(Debug, thiserror::Error)]
@@ -71,6 +206,9 @@ pub enum GpError {
         /// What is accepted.
         expected: &'static str,
     },
+    /// Stored sparse-GP data of the wrong shape or with invalid values.
+    #[error("invalid sparse GP data: {0}")]
+    InvalidSparse(String),
     /// The optimiser failed on every start.
     #[error("hyperparameter optimisation failed on every start: {0}")]
     Optimisation(String),
