@@ -3,6 +3,7 @@
 
 mod commands;
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -20,7 +21,7 @@ use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
 use tactile_force::learn::model::{TareSpec, WrenchGp};
 use tactile_force::learn::nn::NnParams;
 use tactile_force::sim::collect::{collect, CollectConfig};
-use tactile_force::wrench::AxisSet;
+use tactile_force::wrench::{Axis, AxisSet};
 
 #[derive(Parser)]
 #[command(
@@ -330,29 +331,39 @@ fn run_score(model: &Path, test: &Path, json: bool) -> Result<()> {
     Ok(())
 }
 
-fn print_table(axes: &AxisSet, eval: &Evaluation) {
+/// The "RMSE R2" column headers of a score table, one pair per axis.
+fn axis_headers(axes: &AxisSet) -> String {
     let cols: Vec<String> = axes
         .axes()
         .iter()
         .map(|a| format!("{:>9} {:>7}", format!("{a} RMSE"), "R2"))
         .collect();
+    cols.join("  ")
+}
+
+/// One row's RMSE and R2 under [`axis_headers`].
+fn axis_scores(axes: &AxisSet, rmse: &BTreeMap<Axis, f64>, r2: &BTreeMap<Axis, f64>) -> String {
+    let vals: Vec<String> = axes
+        .axes()
+        .iter()
+        .map(|a| format!("{:>9.4} {:>7.4}", rmse[a], r2[a]))
+        .collect();
+    vals.join("  ")
+}
+
+fn print_table(axes: &AxisSet, eval: &Evaluation) {
     println!(
         "{:<8} {:<5} {}  {:>8} {:>7}",
         "fold",
         "model",
-        cols.join("  "),
+        axis_headers(axes),
         "fit s",
         "n_train"
     );
     let row = |fold: &str, model: &str, s: &Scores| {
-        let vals: Vec<String> = axes
-            .axes()
-            .iter()
-            .map(|a| format!("{:>9.4} {:>7.4}", s.rmse[a], s.r2[a]))
-            .collect();
         println!(
             "{fold:<8} {model:<5} {}  {:>8.2} {:>7}",
-            vals.join("  "),
+            axis_scores(axes, &s.rmse, &s.r2),
             s.fit_s,
             s.n_train
         );

@@ -139,7 +139,7 @@ fn demo_model(path: Option<&Path>, recipe: &Recipe) -> Result<WrenchGp> {
     let (model, origin) = default_model::load_or_train(recipe, &mut || {
         eprintln!(
             "no --model given: training the default model of the scene ({}) on \
-             simulated data (collect --seed {}), once; this takes a few seconds",
+             simulated data (collect --seed {}), once; this takes about 10 s",
             recipe.describe(),
             default_model::DATA_SEED,
         )

@@ -13,7 +13,7 @@ use tactile_force::learn::tradeoff::{pareto_front, tradeoff, Row, TradeoffOption
 use tactile_force::report::plot;
 use tactile_force::wrench::AxisSet;
 
-use crate::{load_tared, progress_bar};
+use crate::{axis_headers, axis_scores, load_tared, progress_bar};
 
 #[derive(Args)]
 pub struct TradeoffArgs {
@@ -117,25 +117,15 @@ pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
 
 fn print_table(axes: &AxisSet, rows: &[Row]) {
     let front = pareto_front(rows, Row::latency_us);
-    let cols: Vec<String> = axes
-        .axes()
-        .iter()
-        .map(|a| format!("{:>9} {:>7}", format!("{a} RMSE"), "R2"))
-        .collect();
     println!(
         "{:<26} {:>9} {:>10} {:>12}  {}  Pareto",
         "model",
         "fit s",
         "mean us",
         "mean+std us",
-        cols.join("  ")
+        axis_headers(axes)
     );
     for (r, on_front) in rows.iter().zip(front) {
-        let vals: Vec<String> = axes
-            .axes()
-            .iter()
-            .map(|a| format!("{:>9.4} {:>7.4}", r.rmse[a], r.r2[a]))
-            .collect();
         let mean_std = r
             .latency_mean_std_us
             .map_or("-".into(), |v| format!("{v:.1}"));
@@ -145,7 +135,7 @@ fn print_table(axes: &AxisSet, rows: &[Row]) {
             r.fit_s,
             r.latency_mean_us,
             mean_std,
-            vals.join("  "),
+            axis_scores(axes, &r.rmse, &r.r2),
             if on_front { "*" } else { "" }
         );
     }

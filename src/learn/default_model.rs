@@ -116,23 +116,34 @@ pub enum DefaultModelError {
     Model(#[from] ModelError),
 }
 
-/// Trains the model of `recipe` on the simulated data set.
-pub fn train(recipe: &Recipe) -> Result<WrenchGp, DefaultModelError> {
+/// The simulated data set with `axes` as targets, tared per trial.
+pub fn training_data(axes: &AxisSet) -> Result<(Dataset, TareSpec), DefaultModelError> {
     let sensor = BioTacSimConfig::default();
     let records = collect(&CollectConfig::default(), &sensor, DATA_SEED);
-    let mut data = Dataset::from_records(&records, &recipe.axes);
+    let mut data = Dataset::from_records(&records, axes);
     let mean_baseline = data.tare_per_trial(TARE_SAMPLES)?;
     let tare = TareSpec {
         samples: TARE_SAMPLES,
         mean_baseline,
     };
+    Ok((data, tare))
+}
+
+/// Trains the model of `recipe` on `data` from [`training_data`].
+pub fn fit(recipe: &Recipe, data: &Dataset, tare: TareSpec) -> Result<WrenchGp, DefaultModelError> {
     let params = GpParams {
         seed: DATA_SEED,
         ..recipe.gp_params()
     }
     .validate()
     .map_err(ModelError::from)?;
-    Ok(WrenchGp::train(&data, tare, &params, &mut |_, _| {})?)
+    Ok(WrenchGp::train(data, tare, &params, &mut |_, _| {})?)
+}
+
+/// Trains the model of `recipe` on the simulated data set.
+pub fn train(recipe: &Recipe) -> Result<WrenchGp, DefaultModelError> {
+    let (data, tare) = training_data(&recipe.axes)?;
+    fit(recipe, &data, tare)
 }
 
 /// Where the model came from.

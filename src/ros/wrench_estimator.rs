@@ -68,7 +68,10 @@ pub async fn run() -> Result<(), RosError> {
     let model = if model_file.is_empty() {
         let recipe = &params.default_model;
         crate::learn::default_model::load_or_train(recipe, &mut || {
-            tracing::info!("training the default model ({})", recipe.describe())
+            tracing::info!(
+                "training the default model ({}, about 10 s)",
+                recipe.describe()
+            )
         })
         .map_err(|e| RosError::Setup(e.to_string()))?
         .0

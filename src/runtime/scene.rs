@@ -218,7 +218,9 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("sprase"), "{e}");
-        let guarded = Scene::builtin(TaskKind::Guarded).estimator_params().unwrap();
+        let guarded = Scene::builtin(TaskKind::Guarded)
+            .estimator_params()
+            .unwrap();
         assert_eq!(guarded.default_model.axes.to_string(), "fz");
         assert!(guarded.with_std);
     }

@@ -459,13 +459,15 @@ impl ExactGp {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::KernelKind;
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn data(n: usize, d: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    /// Random inputs in [-2, 2)^d and a smooth target with a little noise
+    /// (shared with the sparse GP's tests).
+    pub(in crate::learn::gp) fn data(n: usize, d: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let x: Vec<f64> = (0..n * d).map(|_| rng.random_range(-2.0..2.0)).collect();
         let y = x
@@ -475,7 +477,8 @@ mod tests {
         (x, y)
     }
 
-    fn hyper(kind: KernelKind, d: usize) -> SeHyper {
+    /// Fixed hyperparameters for `d` inputs (shared with the sparse GP's tests).
+    pub(in crate::learn::gp) fn hyper(kind: KernelKind, d: usize) -> SeHyper {
         let mut h = SeHyper {
             kind,
             signal_var: 0.8,
@@ -488,29 +491,37 @@ mod tests {
         h
     }
 
+    /// Asserts that `objective`'s gradient matches central differences in
+    /// the log-parameters around `h`, for 3 inputs (shared with the sparse
+    /// GP's tests).
+    pub(in crate::learn::gp) fn assert_gradient_matches(
+        objective: impl Fn(&SeHyper) -> Result<(f64, Vec<f64>), GpError>,
+        h: &SeHyper,
+    ) {
+        let theta = h.to_log();
+        let (_, g) = objective(h).unwrap();
+        for k in 0..theta.len() {
+            let step = 1e-5;
+            let f = |s: f64| {
+                let mut t = theta.clone();
+                t[k] += s;
+                objective(&SeHyper::from_log(h.kind, 3, &t)).unwrap().0
+            };
+            let fd = (f(step) - f(-step)) / (2.0 * step);
+            assert!(
+                (fd - g[k]).abs() < 1e-6 * (1.0 + fd.abs()),
+                "{:?} param {k}: analytic {} vs finite difference {fd}",
+                h.kind,
+                g[k]
+            );
+        }
+    }
+
     #[test]
     fn likelihood_gradient_matches_central_differences() {
         let (x, y) = data(40, 3, 1);
         for kind in [KernelKind::Isotropic, KernelKind::Ard] {
-            let h = hyper(kind, 3);
-            let theta = h.to_log();
-            let (_, g) = neg_lml_and_grad(&x, 3, &y, &h).unwrap();
-            for k in 0..theta.len() {
-                let step = 1e-5;
-                let f = |s: f64| {
-                    let mut t = theta.clone();
-                    t[k] += s;
-                    neg_lml_and_grad(&x, 3, &y, &SeHyper::from_log(kind, 3, &t))
-                        .unwrap()
-                        .0
-                };
-                let fd = (f(step) - f(-step)) / (2.0 * step);
-                assert!(
-                    (fd - g[k]).abs() < 1e-6 * (1.0 + fd.abs()),
-                    "{kind:?} param {k}: analytic {} vs finite difference {fd}",
-                    g[k]
-                );
-            }
+            assert_gradient_matches(|h| neg_lml_and_grad(&x, 3, &y, h), &hyper(kind, 3));
         }
     }
 

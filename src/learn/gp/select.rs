@@ -56,13 +56,7 @@ pub fn greedy_variance(x: &[f64], d: usize, hyper: &SeHyper, m: usize) -> Vec<us
                     if *v == f64::NEG_INFINITY {
                         continue;
                     }
-                    let d2: f64 = xi
-                        .iter()
-                        .zip(xp)
-                        .zip(&inv_l)
-                        .map(|((a, b), il)| ((a - b) * il).powi(2))
-                        .sum();
-                    let kip = s2 * (-0.5 * d2).exp();
+                    let kip = s2 * (-0.5 * scaled_sq_dist(xi, xp, &inv_l)).exp();
                     let proj: f64 = row[..k].iter().zip(&lp).map(|(a, b)| a * b).sum();
                     let lik = (kip - proj) / sp;
                     row[k] = lik;
@@ -72,6 +66,15 @@ pub fn greedy_variance(x: &[f64], d: usize, hyper: &SeHyper, m: usize) -> Vec<us
         var[p] = f64::NEG_INFINITY;
     }
     chosen
+}
+
+/// |(a - b) / l|^2, given 1 / l.
+fn scaled_sq_dist(a: &[f64], b: &[f64], inv_l: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .zip(inv_l)
+        .map(|((a, b), il)| ((a - b) * il).powi(2))
+        .sum()
 }
 
 /// Index and value of the largest entry; ties go to the lowest index.
@@ -117,13 +120,7 @@ pub fn farthest_point(x: &[f64], d: usize, lengthscales: &[f64], m: usize) -> Ve
             .enumerate()
             .map(|(i, (di, xi))| {
                 if *di != f64::NEG_INFINITY {
-                    let d2: f64 = xi
-                        .iter()
-                        .zip(xp)
-                        .zip(&inv_l)
-                        .map(|((a, b), il)| ((a - b) * il).powi(2))
-                        .sum();
-                    *di = di.min(d2);
+                    *di = di.min(scaled_sq_dist(xi, xp, &inv_l));
                 }
                 (i, *di)
             })

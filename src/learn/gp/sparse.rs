@@ -548,34 +548,10 @@ impl SparseGp {
 
 #[cfg(test)]
 mod tests {
+    use super::super::exact::tests::{assert_gradient_matches, data, hyper};
     use super::super::exact::{neg_lml_and_grad, ExactGp};
     use super::super::select::greedy_variance;
     use super::*;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    fn data(n: usize, d: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let x: Vec<f64> = (0..n * d).map(|_| rng.random_range(-2.0..2.0)).collect();
-        let y = x
-            .chunks_exact(d)
-            .map(|r| r[0].sin() + 0.3 * r[d - 1] + 0.05 * rng.random_range(-1.0..1.0))
-            .collect();
-        (x, y)
-    }
-
-    fn hyper(kind: KernelKind, d: usize) -> SeHyper {
-        let lengthscales = match kind {
-            KernelKind::Isotropic => vec![1.1; d],
-            KernelKind::Ard => (0..d).map(|i| 0.7 + 0.4 * i as f64).collect(),
-        };
-        SeHyper {
-            kind,
-            signal_var: 0.8,
-            lengthscales,
-            noise_var: 0.02,
-        }
-    }
 
     fn rows(x: &[f64], d: usize, idx: &[usize]) -> Vec<f64> {
         idx.iter()
@@ -588,25 +564,7 @@ mod tests {
         let (x, y) = data(60, 3, 1);
         let z = rows(&x, 3, &[0, 5, 9, 17, 22, 31, 40, 48]);
         for kind in [KernelKind::Isotropic, KernelKind::Ard] {
-            let h = hyper(kind, 3);
-            let theta = h.to_log();
-            let (_, g) = neg_vfe_and_grad(&x, 3, &y, &z, &h).unwrap();
-            for k in 0..theta.len() {
-                let step = 1e-5;
-                let f = |s: f64| {
-                    let mut t = theta.clone();
-                    t[k] += s;
-                    neg_vfe_and_grad(&x, 3, &y, &z, &SeHyper::from_log(kind, 3, &t))
-                        .unwrap()
-                        .0
-                };
-                let fd = (f(step) - f(-step)) / (2.0 * step);
-                assert!(
-                    (fd - g[k]).abs() < 1e-6 * (1.0 + fd.abs()),
-                    "{kind:?} param {k}: analytic {} vs finite difference {fd}",
-                    g[k]
-                );
-            }
+            assert_gradient_matches(|h| neg_vfe_and_grad(&x, 3, &y, &z, h), &hyper(kind, 3));
         }
     }
 
