@@ -5,6 +5,8 @@
 
 use std::sync::OnceLock;
 
+use nalgebra::Vector3;
+
 use tactile_force::control::{Phase, StopReason};
 use tactile_force::learn::default_model;
 use tactile_force::learn::model::WrenchGp;
@@ -60,6 +62,21 @@ fn guarded_move_holds_1n_on_every_object_without_overshoot() {
         // Straight down: nothing across the approach direction.
         assert!(s.max_off_axis_ratio.unwrap() < 0.05, "{s:?}");
     }
+}
+
+#[test]
+fn a_mean_only_estimator_still_holds_1n() {
+    // `with_std: false`: no variance is computed (std 0), so the
+    // out-of-range check rests on PDC alone; the task is unchanged.
+    let scene = guarded("wooden_box", 0.01)
+        .with_layer("wrench_estimator:\n  ros__parameters:\n    with_std: false\n".into());
+    let r = run(&scene, 1);
+    let s = &r.summary;
+    assert!(s.overshoot_n <= 0.1 && s.final_phase == "hold", "{s:?}");
+    assert!(s.steady_state_error_n.unwrap() <= 0.05, "{s:?}");
+    let estimates: Vec<_> = r.rows.iter().filter_map(|r| r.estimate).collect();
+    assert!(estimates.len() > 700);
+    assert!(estimates.iter().all(|(_, std)| *std == Vector3::zeros()));
 }
 
 #[test]
