@@ -68,15 +68,11 @@ impl Recipe {
 
     /// A one-line description for messages.
     pub fn describe(&self) -> String {
-        let size = match self.gp {
-            GpKind::Exact => format!("{} training rows", self.size),
-            GpKind::Sparse => format!("{} inducing points", self.size),
+        let (gp, size) = match self.gp {
+            GpKind::Exact => ("exact", "training rows"),
+            GpKind::Sparse => ("sparse", "inducing points"),
         };
-        format!(
-            "{} of {}, {size}",
-            format!("{:?}", self.gp).to_lowercase(),
-            self.axes
-        )
+        format!("{gp} of {}, {} {size}", self.axes, self.size)
     }
 }
 
