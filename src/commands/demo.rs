@@ -118,13 +118,13 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
         tactile_force::report::trace::write_csv(path, &run.rows)
             .with_context(|| format!("writing {}", path.display()))?;
     }
+    print_summary(&run.summary, &run.gains);
     if let Some(path) = &a.plot {
         let s = &run.summary;
         let title = format!("{} move, {}", s.task, s.object);
         plot::plot_run(path, &title, &run.rows)?;
-        println!("plot written to {}", path.display());
+        println!("plot written to {}", shown_path(path));
     }
-    print_summary(&run.summary, &run.gains);
     if a.json {
         println!("{}", serde_json::to_string(&run.summary)?);
     }
@@ -139,7 +139,7 @@ fn demo_model(path: Option<&Path>, recipe: &Recipe) -> Result<WrenchGp> {
     let (model, origin) = default_model::load_or_train(recipe, &mut || {
         eprintln!(
             "no --model given: training the default model of the scene ({}) on \
-             simulated data (collect --seed {}), once; this takes about 10 s",
+             simulated data (collect --seed {}), once; this takes about 10-20 s",
             recipe.describe(),
             default_model::DATA_SEED,
         )
@@ -152,6 +152,14 @@ fn demo_model(path: Option<&Path>, recipe: &Recipe) -> Result<WrenchGp> {
         Origin::TrainedNotCached(why) => eprintln!("default model trained, not cached: {why}"),
     }
     Ok(model)
+}
+
+/// `path` made absolute, for a message the user can act on from anywhere.
+fn shown_path(path: &Path) -> String {
+    std::path::absolute(path)
+        .unwrap_or_else(|_| path.to_path_buf())
+        .display()
+        .to_string()
 }
 
 /// A one-line live status on a terminal (hidden otherwise).
@@ -288,7 +296,7 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
             })
             .collect();
         plot::plot_sweep(path, &series, OVERSHOOT_BOUND_N)?;
-        println!("plot written to {}", path.display());
+        println!("plot written to {}", shown_path(path));
     }
     if a.json {
         let fastest: std::collections::BTreeMap<&str, Option<f64>> =
