@@ -365,6 +365,37 @@ fn demo_refuses_bad_requests_before_any_training() {
         dir.path(),
     );
     assert!(text(&o).1.contains("/nonexistent.yaml"), "{:?}", text(&o));
+    // Approach speeds beyond the safety envelope (the wooden box's 51 mm/s):
+    // 0.2 m/s, and a user who meant 5 mm/s.
+    for speed in ["0.2", "5"] {
+        let o = run_cached(&["demo", "guarded", "--speed", speed], dir.path());
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{speed}: {err}");
+        assert!(
+            err.contains("guarded.approach_speed_mps") && err.contains("at most 0.0512 m/s"),
+            "{speed}: {err}"
+        );
+        assert!(
+            err.contains("wooden_box") && err.contains("3.00 N force limit"),
+            "{err}"
+        );
+    }
+    // Speeds that are no speeds.
+    for speed in ["NaN", "-0.01", "0"] {
+        let o = run_cached(
+            &["demo", "guarded", &format!("--speed={speed}")],
+            dir.path(),
+        );
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{speed}: {err}");
+        assert!(err.contains("guarded.approach_speed_mps"), "{speed}: {err}");
+    }
+    let o = run_cached(&["demo", "guarded", "--speed", "5"], dir.path());
+    assert!(
+        text(&o).1.contains("5 mm/s would be 0.005 m/s"),
+        "{:?}",
+        text(&o)
+    );
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
         0,
@@ -373,8 +404,9 @@ fn demo_refuses_bad_requests_before_any_training() {
 }
 
 #[test]
-fn demo_speed_sweep_finds_the_fastest_approach_within_the_bound() {
+fn demo_speed_sweep_measures_the_peak_within_the_envelope_and_refuses_beyond() {
     let dir = tempfile::tempdir().unwrap();
+    let plot = dir.path().join("sweep.png");
     let o = run_cached(
         &[
             "demo",
@@ -383,7 +415,9 @@ fn demo_speed_sweep_finds_the_fastest_approach_within_the_bound() {
             "--objects",
             "wooden_box",
             "--speeds-mm-s",
-            "10,80",
+            "10,40,80",
+            "--plot",
+            plot.to_str().unwrap(),
             "--json",
         ],
         dir.path(),
@@ -394,11 +428,27 @@ fn demo_speed_sweep_finds_the_fastest_approach_within_the_bound() {
         out.contains("wooden_box: fastest approach within 0.1 N overshoot: 10.0 mm/s"),
         "{out}"
     );
+    assert!(
+        out.contains("wooden_box: the envelope accepts up to 51.2 mm/s"),
+        "{out}"
+    );
+    assert!(std::fs::read(&plot).unwrap().starts_with(b"\x89PNG"));
     let j = last_json(&out);
+    let limit = j["objects"][0]["max_speed_mps"].as_f64().unwrap();
+    assert!((limit - 0.0512).abs() < 5e-4, "{j}");
     let sweep = j["sweep"].as_array().unwrap();
-    assert_eq!(sweep.len(), 2);
-    assert!(sweep[0]["overshoot_n"].as_f64().unwrap() <= 0.1);
-    assert!(sweep[1]["overshoot_n"].as_f64().unwrap() > 0.1);
+    assert_eq!(sweep.len(), 3);
+    let run = |i: usize| &sweep[i]["run"];
+    assert!(run(0)["overshoot_n"].as_f64().unwrap() <= 0.1);
+    assert!(run(1)["overshoot_n"].as_f64().unwrap() > 0.1);
+    // Where the envelope predicts more than the target, it is an upper bound.
+    let (peak, predicted) = (
+        run(1)["peak_force_n"].as_f64().unwrap(),
+        sweep[1]["predicted_peak_n"].as_f64().unwrap(),
+    );
+    assert!(predicted > 1.0 && peak <= predicted && peak < 3.0, "{j}");
+    assert!(run(2).is_null(), "80 mm/s is refused: {j}");
+    assert!(sweep[2]["predicted_peak_n"].as_f64().unwrap() > 3.0);
     assert_eq!(
         j["fastest_within_bound_mps"]["wooden_box"].as_f64(),
         Some(0.01)

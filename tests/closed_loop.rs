@@ -81,11 +81,18 @@ fn a_mean_only_estimator_still_holds_1n() {
 
 #[test]
 fn a_fast_approach_on_a_hard_object_overshoots_as_physics_says() {
-    // Peak force ~ latency x speed x stiffness: at 80 mm/s the wooden box
-    // overshoots, the stuffed animal does not.
-    let hard = run(&guarded("wooden_box", 0.08), 1).summary;
-    let soft = run(&guarded("stuffed_animal", 0.08), 1).summary;
-    assert!(hard.overshoot_n > 0.3, "{hard:?}");
+    // Peak force ~ latency x speed x stiffness: at 50 mm/s (within the
+    // wooden box's safety envelope, 51 mm/s) the wooden box overshoots; at
+    // 80 mm/s, alone in its scene, the stuffed animal does not.
+    let hard = run(&guarded("wooden_box", 0.05), 1).summary;
+    let soft = Scene::builtin(TaskKind::Guarded)
+        .with_only_object("stuffed_animal")
+        .with_approach_speed(0.08);
+    let soft = run(&soft, 1).summary;
+    assert!(
+        hard.overshoot_n > 0.3 && hard.peak_force_n < 3.0,
+        "{hard:?}"
+    );
     assert!(soft.overshoot_n < 0.1, "{soft:?}");
 }
 
@@ -141,9 +148,14 @@ fn nothing_touched_within_the_distance_is_a_timeout_and_the_arm_stops() {
 
 #[test]
 fn over_force_retracts_in_the_same_cycle_then_stops() {
-    // A limit just above the target and a fast approach on the wooden box.
+    // A limit just above the target and a fast approach on the wooden box,
+    // which the controller was told is a stuffed animal: its envelope
+    // accepts 80 mm/s, the wooden box's would not (the one way past it is a
+    // wrong declaration of what is touched).
     let scene = guarded("wooden_box", 0.08).with_layer(
-        "force_controller:\n  ros__parameters:\n    guarded:\n      force_limit_n: 1.2\n".into(),
+        "force_controller:\n  ros__parameters:\n    object: stuffed_animal\n    \
+         safety:\n      objects: [stuffed_animal]\n    guarded:\n      force_limit_n: 1.2\n"
+            .into(),
     );
     let run = run(&scene, 1);
     assert_eq!(run.summary.reason, Some("force_limit"), "{:?}", run.summary);

@@ -88,11 +88,11 @@ fn assert_sane(rows: &[TraceRow], max_mps: f64) {
 
 fn object(stiffness: f64) -> Scene {
     Scene::builtin(TaskKind::Guarded)
-        .with_object("test")
         .with_layer(format!(
             "/**:\n  ros__parameters:\n    objects:\n      test: \
          {{stiffness_n_per_m: {stiffness:e}, damping_n_s_per_m: 1.0, friction: 0.5}}\n"
         ))
+        .with_only_object("test")
 }
 
 fn holds(s: &Summary) -> bool {
@@ -383,9 +383,18 @@ fn the_force_limit_hit_during_the_approach_retracts_in_the_same_cycle() {
     // of where the pad is at some tick, the previous tick sees no contact and
     // that tick 0.7 mm of skin squeeze, ~0.4 N: past a 0.3 N limit straight
     // from the approach. The approach does not depend on the object, so a
-    // run without contact tells where the pad is at each tick.
+    // run without contact tells where the pad is at each tick. The
+    // controller is told the body is a soft sponge, so that its safety
+    // envelope accepts 80 mm/s against a 0.3 N limit: the wooden box's
+    // would refuse it (the one way past the envelope is a wrong declaration).
     let fast = |gap_mm: f64| {
         Scene::builtin(TaskKind::Guarded)
+            .with_layer(
+                "force_controller:\n  ros__parameters:\n    object: sponge\n    objects:\n      \
+                 sponge: {stiffness_n_per_m: 10.0, damping_n_s_per_m: 0.1, friction: 0.5}\n    \
+                 safety:\n      objects: [sponge]\n"
+                    .into(),
+            )
             .with_approach_speed(0.08)
             .with_layer(format!(
                 "sim_robot:\n  ros__parameters:\n    object_gap_mm: {gap_mm}\n"

@@ -10,9 +10,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tactile_force::learn::default_model::{self, Origin, Recipe};
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::controller::TaskKind;
+use tactile_force::report::plot::{self, SweepSeries};
 use tactile_force::report::summary::Summary;
-use tactile_force::report::{plot, TraceRow};
-use tactile_force::runtime::demo::{fastest_within, run_scene, sweep_speeds};
+use tactile_force::report::TraceRow;
+use tactile_force::runtime::demo::{
+    fastest_within, run_scene, sweep_speeds, SweepObject, SweepPoint,
+};
 use tactile_force::runtime::{Pacing, Scene};
 
 use crate::progress_bar;
@@ -60,7 +63,9 @@ pub struct DemoArgs {
     /// Print the figures as one JSON object on the last line.
     #[arg(long)]
     json: bool,
-    /// Guarded move: sweep the approach speed against overshoot, per object.
+    /// Guarded move: sweep the approach speed against the peak force, per
+    /// object (each alone in the scene, so with its own safety envelope),
+    /// measured and as the envelope predicts; speeds above it are refused.
     #[arg(long, conflicts_with = "realtime")]
     sweep_speed: bool,
     /// Objects of the sweep.
@@ -243,32 +248,46 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
         speeds.len(),
         a.objects.len()
     ));
-    let points = sweep_speeds(scene, model, &a.objects, &speeds, a.seed)?;
+    let (objects, points) = sweep_speeds(scene, model, &a.objects, &speeds, a.seed)?;
     bar.finish_and_clear();
-    print!("{:>12}", "speed mm/s");
+    println!("Peak force (N) measured / predicted by the safety envelope; each object alone in the scene.");
+    println!("* overshoot over {OVERSHOOT_BOUND_N} N, ! stopped on the force limit, refused: above the envelope.");
+    print!("{:>10}", "mm/s");
     for o in &a.objects {
-        print!("  {o:>16}");
+        print!("  {o:>20}");
     }
-    println!("   (overshoot N; * = over {OVERSHOOT_BOUND_N} N, ! = aborted)");
+    println!();
     for v in &speeds {
-        print!("{:>12.1}", v * 1e3);
+        print!("{:>10.1}", v * 1e3);
         for o in &a.objects {
             let p = points
                 .iter()
                 .find(|p| &p.object == o && p.approach_speed_mps == *v);
-            let cell = p.map_or("-".into(), |p| {
-                let mark = if p.aborted {
-                    "!"
-                } else if p.overshoot_n > OVERSHOOT_BOUND_N {
-                    "*"
-                } else {
-                    " "
-                };
-                format!("{:.3}{mark}", p.overshoot_n)
+            let cell = p.map_or("-".into(), |p| match &p.run {
+                Some(r) => {
+                    let mark = if r.aborted {
+                        "!"
+                    } else if r.overshoot_n > OVERSHOOT_BOUND_N {
+                        "*"
+                    } else {
+                        " "
+                    };
+                    format!("{:.3} / {:.2}{mark}", r.peak_force_n, p.predicted_peak_n)
+                }
+                None => "refused ".into(),
             });
-            print!("  {cell:>16}");
+            print!("  {cell:>20}");
         }
         println!();
+    }
+    for o in &objects {
+        println!(
+            "{}: the envelope accepts up to {:.1} mm/s ({:.1e} N/m, force limit {} N)",
+            o.object,
+            o.max_speed_mps * 1e3,
+            o.stiffness_n_per_m,
+            o.force_limit_n
+        );
     }
     let fastest = fastest_within(&points, &a.objects, OVERSHOOT_BOUND_N);
     for (o, v) in &fastest {
@@ -283,19 +302,7 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
         }
     }
     if let Some(path) = &a.plot {
-        let series: Vec<(String, Vec<(f64, f64)>)> = a
-            .objects
-            .iter()
-            .map(|o| {
-                let pts = points
-                    .iter()
-                    .filter(|p| &p.object == o)
-                    .map(|p| (p.approach_speed_mps, p.overshoot_n))
-                    .collect();
-                (o.clone(), pts)
-            })
-            .collect();
-        plot::plot_sweep(path, &series, OVERSHOOT_BOUND_N)?;
+        plot_sweep(path, &objects, &points)?;
         println!("plot written to {}", shown_path(path));
     }
     if a.json {
@@ -303,8 +310,49 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
             fastest.iter().map(|(o, v)| (o.as_str(), *v)).collect();
         println!(
             "{}",
-            serde_json::json!({"sweep": points, "overshoot_bound_n": OVERSHOOT_BOUND_N, "fastest_within_bound_mps": fastest})
+            serde_json::json!({
+                "objects": objects,
+                "sweep": points,
+                "overshoot_bound_n": OVERSHOOT_BOUND_N,
+                "fastest_within_bound_mps": fastest,
+            })
         );
     }
+    Ok(())
+}
+
+/// The sweep's plot: measured peaks, the envelope's predicted peak on a
+/// fine grid up to each object's limit, and the limits.
+fn plot_sweep(path: &Path, objects: &[SweepObject], points: &[SweepPoint]) -> Result<()> {
+    let series: Vec<SweepSeries> = objects
+        .iter()
+        .map(|o| {
+            let mine = points.iter().filter(|p| p.object == o.object);
+            let measured = mine
+                .clone()
+                .filter_map(|p| Some((p.approach_speed_mps, p.run.as_ref()?.peak_force_n)))
+                .collect();
+            let speeds = mine.map(|p| p.approach_speed_mps);
+            let (slowest, fastest) = speeds.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+            let top = o.max_speed_mps.min(fastest * 1.2);
+            let predicted = (0..=100)
+                .map(|i| {
+                    let v = slowest + (top - slowest) * f64::from(i) / 100.0;
+                    (v, o.envelope.peak_force_n(v))
+                })
+                .collect();
+            SweepSeries {
+                name: o.object.clone(),
+                measured,
+                predicted,
+                max_speed_mps: o.max_speed_mps,
+            }
+        })
+        .collect();
+    let limit = objects.first().map_or(0.0, |o| o.force_limit_n);
+    let target = objects.first().map_or(0.0, |o| o.envelope.target_n);
+    plot::plot_sweep(path, &series, limit, target + OVERSHOOT_BOUND_N)?;
     Ok(())
 }

@@ -16,7 +16,7 @@
 use nalgebra::Vector3;
 use serde::Deserialize;
 
-use super::pd::{PdAxis, PdParams};
+use super::pd::{LoopDelays, PdAxis, PdParams};
 use super::{Phase, StopReason};
 use crate::params::ParamsError;
 use crate::sim::contact::{invalid, non_negative, positive};
@@ -113,10 +113,17 @@ pub struct GuardedMove {
 
 impl GuardedMove {
     /// A move with checked parameters, its PD law for a contact of effective
-    /// stiffness `stiffness` (N/m) at control period `period_s`.
-    pub fn new(p: GuardedParams, pd: &PdParams, stiffness: f64, period_s: f64) -> Self {
+    /// stiffness `stiffness` (N/m) at control period `period_s` in a loop
+    /// with these delays ([`PdAxis::new`]).
+    pub fn new(
+        p: GuardedParams,
+        pd: &PdParams,
+        stiffness: f64,
+        period_s: f64,
+        delays: &LoopDelays,
+    ) -> Self {
         GuardedMove {
-            pd: PdAxis::new(pd, stiffness, period_s, 0.0),
+            pd: PdAxis::new(pd, stiffness, period_s, 0.0, delays),
             p,
             phase: Phase::Approach,
             reason: None,
@@ -239,7 +246,6 @@ mod tests {
     fn pd() -> PdParams {
         PdParams {
             gain_ratio: 0.4,
-            derivative_time_s: 0.0,
             derivative_filter_s: 0.02,
             max_speed_mps: 0.05,
         }
@@ -257,7 +263,7 @@ mod tests {
 
     #[test]
     fn approach_contact_regulate_hold_on_a_spring() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
         assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
         // Object 5 mm away, stiffness 1000 N/m, ideal velocity tracking.
         let mut x: f64 = 0.0;
@@ -278,7 +284,7 @@ mod tests {
 
     #[test]
     fn pdc_alone_detects_contact() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
         g.step(&GuardedInput {
             pdc_rise: 40.0,
             ..input(0.0, 0.001)
@@ -288,7 +294,7 @@ mod tests {
 
     #[test]
     fn timeout_stops_at_the_distance() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
         assert_eq!(g.step(&input(0.0, 0.049)), 0.01);
         assert_eq!(g.step(&input(0.0, 0.05)), 0.0);
         assert_eq!(
@@ -301,7 +307,7 @@ mod tests {
     #[test]
     fn over_force_retracts_in_the_same_cycle_then_stops() {
         for start in [Phase::Approach, Phase::Regulate] {
-            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
             if start == Phase::Regulate {
                 g.step(&input(0.5, 0.010));
             }
@@ -320,7 +326,7 @@ mod tests {
     fn out_of_range_input_retracts_like_over_force() {
         // Even over the limit (3 N): the estimate is not trusted.
         for force_n in [1.0, 3.5] {
-            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01);
+            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
             g.step(&input(0.5, 0.010));
             let v = g.step(&GuardedInput {
                 out_of_range: true,

@@ -10,7 +10,7 @@
 use nalgebra::Vector3;
 use serde::Deserialize;
 
-use super::pd::{PdAxis, PdParams};
+use super::pd::{LoopDelays, PdAxis, PdParams};
 use super::{Phase, StopReason};
 use crate::params::ParamsError;
 use crate::sim::contact::{invalid, non_negative};
@@ -57,10 +57,18 @@ pub struct GuidedMove {
 
 impl GuidedMove {
     /// A guided move controlling the axes with `Some(stiffness)` (N/m,
-    /// effective contact stiffness along x, y, z) at control period `period_s`.
-    pub fn new(p: GuidedParams, pd: &PdParams, stiffness: [Option<f64>; 3], period_s: f64) -> Self {
+    /// effective contact stiffness along x, y, z) at control period
+    /// `period_s` in a loop with these delays ([`PdAxis::new`]).
+    pub fn new(
+        p: GuidedParams,
+        pd: &PdParams,
+        stiffness: [Option<f64>; 3],
+        period_s: f64,
+        delays: &LoopDelays,
+    ) -> Self {
+        let axis = |k| PdAxis::new(pd, k, period_s, p.deadband_n, delays);
         GuidedMove {
-            pd: stiffness.map(|k| k.map(|k| PdAxis::new(pd, k, period_s, p.deadband_n))),
+            pd: stiffness.map(|k| k.map(axis)),
             p,
             phase: Phase::Follow,
             reason: None,
@@ -138,11 +146,16 @@ mod tests {
         .unwrap();
         let pd = PdParams {
             gain_ratio: 0.4,
-            derivative_time_s: 0.0,
             derivative_filter_s: 0.02,
             max_speed_mps: 0.1,
         };
-        GuidedMove::new(p, &pd, [Some(500.0), Some(500.0), Some(300.0)], 0.01)
+        GuidedMove::new(
+            p,
+            &pd,
+            [Some(500.0), Some(500.0), Some(300.0)],
+            0.01,
+            &LoopDelays::default(),
+        )
     }
 
     #[test]

@@ -1,15 +1,17 @@
-//! Force control: the PD law, the guarded and guided tasks, and the safety
-//! checks. Everything here is in the BioTac (tool) frame and in SI units;
+//! Force control: the PD law, the guarded and guided tasks, the safety
+//! checks and the safety envelope (how fast a task may move towards a body). Everything here is in the BioTac (tool) frame and in SI units;
 //! [`crate::nodes::controller`] turns the result into joint velocities.
 
+pub mod envelope;
 pub mod guarded;
 pub mod guided;
 pub mod pd;
 pub mod safety;
 
+pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
 pub use guided::{GuidedMove, GuidedParams};
-pub use pd::{PdAxis, PdParams};
+pub use pd::{LoopDelays, PdAxis, PdParams};
 pub use safety::{Halt, Watchdog};
 
 use serde::Serialize;

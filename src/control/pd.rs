@@ -12,26 +12,78 @@
 //!
 //! Gain. For a velocity-controlled arm against a contact of stiffness `k`
 //! sampled with period `T`, `e[k+1] = (1 - a) e[k]` with `a = K k T`: stable
-//! for `0 < a < 2`, no ringing for `a <= 1`, and with one period of delay
-//! stable only for `a < 1` (architecture page, "Force control facts"). So
-//! `K = a / (k T)` with the gain ratio `a` a parameter (default 0.4, margin
-//! for the command latency and the arm's lag) and `k` the effective stiffness:
-//! the BioTac skin at the target force in series with the object
-//! ([`crate::sim::contact::series_stiffness`]).
+//! for `0 < a < 2`, no ringing for `a <= 1`, and with `d` periods of delay
+//! stable only for `a < a_max(d) = 2 sin(pi / (2 (2 d + 1)))` (architecture
+//! page, "Force control facts"). So `K = a / (k T)` with `k` the effective
+//! stiffness (the BioTac skin at the target force in series with the
+//! object, [`crate::sim::contact::series_stiffness`]) and
+//! `a = min(gain_ratio, 0.9 a_max(d))`, `d` the whole loop delay in periods
+//! ([`LoopDelays`]): the parameter (default 0.4), lowered when the loop is
+//! slower than it allows (0.4 is 0.9 a_max(3), the 30 ms of the embedded
+//! loop's arm; over ROS 2 the transport adds to it).
+//!
+//! Derivative time. The force is predicted ahead by the arm's part of the
+//! delay (command latency + servo lag), the time a command takes to show in
+//! the motion. Predicting the transport delay too amplified the estimate's
+//! noise into a sustained oscillation in the simulator (`demo guarded` with
+//! `sim_robot.transport_delay_s`), so the gain alone answers for it.
 
 use serde::Deserialize;
 
 use crate::params::ParamsError;
 use crate::sim::contact::{invalid, non_negative, positive};
 
+/// Fraction of the delay's stability bound the gain ratio may reach.
+const STABILITY_FRACTION: f64 = 0.9;
+
+/// The delays of the force loop after a reading is taken
+/// (`force_controller.loop_delays` in the scene files). They set the PD's
+/// derivative time and cap its gain, and the safety envelope's reaction
+/// time ([`crate::control::envelope`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoopDelays {
+    /// From a reading to its estimate reaching the controller, beyond the
+    /// control period (s): 0 in one process; over ROS 2 the estimator, DDS
+    /// and the controller's wait for its next tick.
+    pub transport_delay_s: f64,
+    /// Before the arm acts on a velocity command (s).
+    pub command_latency_s: f64,
+    /// Time constant of the arm's velocity servos (s).
+    pub arm_lag_s: f64,
+}
+
+impl LoopDelays {
+    /// Checks the values.
+    pub fn validate(&self) -> Result<(), ParamsError> {
+        non_negative("loop_delays.transport_delay_s", self.transport_delay_s)?;
+        non_negative("loop_delays.command_latency_s", self.command_latency_s)?;
+        non_negative("loop_delays.arm_lag_s", self.arm_lag_s)
+    }
+
+    /// The whole delay (s).
+    pub fn total_s(&self) -> f64 {
+        self.transport_delay_s + self.arm_s()
+    }
+
+    /// The arm's part: command latency and servo lag (s).
+    pub fn arm_s(&self) -> f64 {
+        self.command_latency_s + self.arm_lag_s
+    }
+}
+
+/// The largest stable gain ratio with `d` periods of delay (architecture
+/// page, "Force control facts").
+pub fn max_gain_ratio(d: f64) -> f64 {
+    2.0 * (std::f64::consts::PI / (2.0 * (2.0 * d.max(0.0) + 1.0))).sin()
+}
+
 /// PD settings (`force_controller.pd` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PdParams {
-    /// Gain ratio `a = K k T`, in (0, 1).
+    /// Gain ratio `a = K k T`, in (0, 1); lowered for a slow loop.
     pub gain_ratio: f64,
-    /// Derivative time `T_d` (s).
-    pub derivative_time_s: f64,
     /// Time constant of the force low-pass feeding the derivative (s).
     pub derivative_filter_s: f64,
     /// Largest speed the law commands (m/s).
@@ -44,7 +96,6 @@ impl PdParams {
         if !(self.gain_ratio > 0.0 && self.gain_ratio < 1.0) {
             return Err(invalid("pd.gain_ratio", self.gain_ratio, "0 < a < 1"));
         }
-        non_negative("pd.derivative_time_s", self.derivative_time_s)?;
         non_negative("pd.derivative_filter_s", self.derivative_filter_s)?;
         positive("pd.max_speed_mps", self.max_speed_mps)
     }
@@ -64,11 +115,20 @@ pub struct PdAxis {
 
 impl PdAxis {
     /// The law for a contact of effective stiffness `stiffness` (N/m) at
-    /// control period `period_s`, with a deadband (N).
-    pub fn new(p: &PdParams, stiffness: f64, period_s: f64, deadband_n: f64) -> Self {
+    /// control period `period_s`, with a deadband (N), in a loop with these
+    /// delays.
+    pub fn new(
+        p: &PdParams,
+        stiffness: f64,
+        period_s: f64,
+        deadband_n: f64,
+        delays: &LoopDelays,
+    ) -> Self {
+        let d = delays.total_s() / period_s;
+        let a = p.gain_ratio.min(STABILITY_FRACTION * max_gain_ratio(d));
         PdAxis {
-            gain: p.gain_ratio / (stiffness * period_s),
-            derivative_time_s: p.derivative_time_s,
+            gain: a / (stiffness * period_s),
+            derivative_time_s: delays.arm_s(),
             filter_s: p.derivative_filter_s,
             deadband_n,
             max_speed: p.max_speed_mps,
@@ -116,10 +176,18 @@ impl PdAxis {
 mod tests {
     use super::*;
 
+    /// Delays of `n` periods of 10 ms in the arm, none in the transport.
+    fn arm_delay(n: usize) -> LoopDelays {
+        LoopDelays {
+            transport_delay_s: 0.0,
+            command_latency_s: n as f64 * 0.01,
+            arm_lag_s: 0.0,
+        }
+    }
+
     fn params() -> PdParams {
         PdParams {
             gain_ratio: 0.5,
-            derivative_time_s: 0.0,
             derivative_filter_s: 0.02,
             max_speed_mps: 1.0,
         }
@@ -128,7 +196,7 @@ mod tests {
     /// Closes the loop on an ideal spring: F = k x, x += u T.
     fn settle(p: &PdParams, k: f64, delay: usize) -> Vec<f64> {
         let t = 0.01;
-        let mut pd = PdAxis::new(p, k, t, 0.0);
+        let mut pd = PdAxis::new(p, k, t, 0.0, &arm_delay(0));
         let (mut x, mut queue) = (0.0, vec![0.0; delay]);
         let mut forces = Vec::new();
         for _ in 0..200 {
@@ -158,7 +226,7 @@ mod tests {
         assert!((ok[199] - 1.0).abs() < 1e-6);
         let mut high = params();
         high.gain_ratio = 0.999;
-        let mut pd = PdAxis::new(&high, 1e3, 0.01, 0.0);
+        let mut pd = PdAxis::new(&high, 1e3, 0.01, 0.0, &arm_delay(0));
         pd.gain *= 1.2;
         let (mut x, mut queue, mut last) = (0.0, vec![0.0], 0.0);
         for _ in 0..400 {
@@ -173,10 +241,43 @@ mod tests {
     }
 
     #[test]
+    fn the_gain_is_capped_for_a_slow_loop_and_still_settles() {
+        // a_max: 1 period -> 1, 2 -> 0.618, 3 -> 0.445 (architecture page).
+        assert!((max_gain_ratio(1.0) - 1.0).abs() < 1e-12);
+        assert!((max_gain_ratio(2.0) - 0.618).abs() < 1e-3);
+        let p = PdParams {
+            gain_ratio: 0.9,
+            ..params()
+        };
+        for delay in [1usize, 2, 4, 6] {
+            let t = 0.01;
+            // The transport's delay: no derivative, the gain alone.
+            let delays = LoopDelays {
+                transport_delay_s: delay as f64 * t,
+                ..arm_delay(0)
+            };
+            let mut pd = PdAxis::new(&p, 1e3, t, 0.0, &delays);
+            assert_eq!(pd.derivative_time_s, 0.0);
+            let a = pd.gain() * 1e3 * t;
+            assert!(
+                a <= 0.9 * max_gain_ratio(delay as f64) + 1e-12,
+                "{delay}: {a}"
+            );
+            let (mut x, mut queue, mut last) = (0.0, vec![0.0; delay], 0.0);
+            for _ in 0..600 {
+                last = 1e3 * x;
+                queue.push(pd.step(1.0, last, t));
+                x += queue.remove(0) * t;
+            }
+            assert!((last - 1.0).abs() < 1e-3, "{delay} periods: {last}");
+        }
+    }
+
+    #[test]
     fn deadband_and_clamp() {
         let mut p = params();
         p.max_speed_mps = 0.01;
-        let mut pd = PdAxis::new(&p, 1e3, 0.01, 0.2);
+        let mut pd = PdAxis::new(&p, 1e3, 0.01, 0.2, &arm_delay(0));
         assert_eq!(pd.step(1.0, 0.85, 0.01), 0.0, "inside the deadband");
         let u = pd.step(1.0, 0.7, 0.01);
         assert!((u - 0.1 * pd.gain()).abs() < 1e-12, "width subtracted: {u}");
@@ -186,10 +287,10 @@ mod tests {
 
     #[test]
     fn the_derivative_brakes_a_rising_force() {
-        let mut p = params();
-        p.derivative_time_s = 0.05;
-        let mut pd = PdAxis::new(&p, 1e3, 0.01, 0.0);
-        let mut plain = PdAxis::new(&params(), 1e3, 0.01, 0.0);
+        // A 30 ms loop delay: a = min(0.5, 0.9 a_max(3)) = 0.4005, T_d = 30 ms.
+        let mut pd = PdAxis::new(&params(), 1e3, 0.01, 0.0, &arm_delay(3));
+        let mut plain = PdAxis::new(&params(), 1e3, 0.01, 0.0, &arm_delay(0));
+        assert!((pd.gain() * 1e3 * 0.01 - 0.9 * max_gain_ratio(3.0)).abs() < 1e-12);
         let (mut u, mut v) = (0.0, 0.0);
         for k in 0..10 {
             let f = 0.05 * k as f64;
@@ -197,6 +298,7 @@ mod tests {
             v = plain.step(1.0, f, 0.01);
         }
         assert!(pd.force_rate() > 0.0 && u < v, "{u} {v}");
+        assert_eq!(plain.gain() * 1e3 * 0.01, 0.5, "no delay: the parameter");
         assert!(PdParams {
             gain_ratio: 1.5,
             ..params()

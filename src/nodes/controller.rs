@@ -14,8 +14,8 @@ use serde::Deserialize;
 use super::{JointState, WrenchEstimate};
 use crate::control::guarded::GuardedInput;
 use crate::control::{
-    GuardedMove, GuardedParams, GuidedMove, GuidedParams, Halt, PdParams, Phase, StopReason,
-    Watchdog,
+    Envelope, GuardedMove, GuardedParams, GuidedMove, GuidedParams, Halt, LoopDelays, PdParams,
+    Phase, SafetyParams, StopReason, Watchdog, UNKNOWN_OBJECT,
 };
 use crate::kinematics::{joint_velocities, JointVector, Robot, RobotParams, Twist};
 use crate::params::ParamsError;
@@ -42,7 +42,8 @@ pub struct ControllerParams {
     pub skin: SkinParams,
     /// Objects the arm may touch, by name.
     pub objects: BTreeMap<String, BodyParams>,
-    /// The object of this run: its stiffness sets the gains.
+    /// The object of this run: its stiffness sets the gains. One of
+    /// `safety.objects`; `unknown` takes `safety.worst_case_stiffness_n_per_m`.
     pub object: String,
     /// The arm.
     pub robot: RobotParams,
@@ -50,12 +51,17 @@ pub struct ControllerParams {
     pub stale_periods: f64,
     /// When the estimate cannot be trusted.
     pub out_of_range: OutOfRangeParams,
+    /// What the safety envelope assumes: delays, the bodies the scene may touch.
+    pub safety: SafetyParams,
     /// Wrench axes the task controls (and the estimator must provide).
     pub axes: AxisSet,
     /// The task.
     pub task: TaskKind,
     /// PD law.
     pub pd: PdParams,
+    /// Delays of the loop: they set the PD's derivative time and gain cap,
+    /// and the safety envelope's reaction time.
+    pub loop_delays: LoopDelays,
     /// Guarded-move settings (needed when `task` is guarded).
     pub guarded: Option<GuardedParams>,
     /// Guided-move settings (needed when `task` is guided).
@@ -109,6 +115,7 @@ pub struct ForceController {
     task_axes: Vec<Axis>,
     out_of_range: OutOfRangeParams,
     watchdog: Watchdog,
+    envelope: Envelope,
     period_s: f64,
     estimate: Option<WrenchEstimate>,
     joints: Option<JointState>,
@@ -129,33 +136,42 @@ impl ForceController {
         )?;
         p.skin.validate("skin")?;
         p.pd.validate()?;
-        let body = object_body(&p.objects, &p.object)?;
-        let robot = p.robot.validate()?;
-        let missing = |what: &str| ParamsError::Invalid {
-            key: what.into(),
-            value: "absent".into(),
-            expected: format!("a `{what}` section for this task"),
-        };
+        p.loop_delays.validate()?;
+        let speed = task_envelope(&p)?;
+        speed.check()?;
+        let body = permitted_body(&p, &p.object)?;
         let task = match p.task {
             TaskKind::Guarded => {
-                let g = p.guarded.ok_or_else(|| missing("guarded"))?.validate()?;
+                let g = p
+                    .guarded
+                    .ok_or_else(|| missing(&p, "guarded"))?
+                    .validate()?;
                 let k = series_stiffness(&p.skin, &body, g.target_force_n);
-                Task::Guarded(GuardedMove::new(g, &p.pd, k, p.control_period_s))
+                Task::Guarded(GuardedMove::new(
+                    g,
+                    &p.pd,
+                    k,
+                    p.control_period_s,
+                    &p.loop_delays,
+                ))
             }
             TaskKind::Guided => {
-                let g = p.guided.ok_or_else(|| missing("guided"))?.validate()?;
+                let g = p.guided.ok_or_else(|| missing(&p, "guided"))?.validate()?;
                 let normal = series_stiffness(&p.skin, &body, g.target_force_n[2]);
-                let shear =
-                    1.0 / (1.0 / p.skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m);
-                let on = |axis| p.axes.axes().contains(&axis);
-                let k = [
-                    on(Axis::Fx).then_some(shear),
-                    on(Axis::Fy).then_some(shear),
-                    on(Axis::Fz).then_some(normal),
-                ];
-                Task::Guided(GuidedMove::new(g, &p.pd, k, p.control_period_s))
+                let shear = shear_stiffness(&p.skin, &body);
+                let k = [shear, shear, normal];
+                let controlled = controlled_forces(&p.axes);
+                let k = std::array::from_fn(|i| controlled[i].then_some(k[i]));
+                Task::Guided(GuidedMove::new(
+                    g,
+                    &p.pd,
+                    k,
+                    p.control_period_s,
+                    &p.loop_delays,
+                ))
             }
         };
+        let robot = p.robot.validate()?;
         let needed = needed_axes(&task);
         if let Some(axis) = needed.iter().find(|a| !p.axes.axes().contains(a)) {
             return Err(invalid_axes(&p.axes, *axis));
@@ -166,7 +182,12 @@ impl ForceController {
             axes: p.axes,
             task_axes: needed,
             out_of_range: p.out_of_range,
-            watchdog: Watchdog::new(p.stale_periods, p.control_period_s),
+            // Inputs arrive the transport delay after their stamp.
+            watchdog: Watchdog::new(
+                p.stale_periods + p.loop_delays.transport_delay_s / p.control_period_s,
+                p.control_period_s,
+            ),
+            envelope: speed.envelope,
             period_s: p.control_period_s,
             estimate: None,
             joints: None,
@@ -199,6 +220,12 @@ impl ForceController {
             }
             Task::Guided(g) => g.gains(),
         }
+    }
+
+    /// The safety envelope the task's speed was checked against: the
+    /// guarded move's approach, or the guided move's tightest axis.
+    pub fn envelope(&self) -> &Envelope {
+        &self.envelope
     }
 
     /// Inputs rejected for NaN or infinity so far.
@@ -312,6 +339,159 @@ impl ForceController {
             targets,
         }
     }
+}
+
+/// A task's speed towards its bodies and the envelope it must stay in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TaskEnvelope {
+    /// The envelope against the stiffest body the scene permits.
+    pub envelope: Envelope,
+    /// That body's name.
+    pub body: String,
+    /// The parameter that sets the speed.
+    pub key: &'static str,
+    /// The speed (m/s): the guarded move's approach, the guided move's
+    /// largest commanded speed.
+    pub speed_mps: f64,
+}
+
+impl TaskEnvelope {
+    /// Refuses a speed above the envelope's limit, naming it.
+    pub fn check(&self) -> Result<(), ParamsError> {
+        self.envelope.check(self.key, self.speed_mps, &self.body)
+    }
+}
+
+/// The safety envelope of the task of `p` (src/control/envelope.rs): the
+/// guarded move's approach against the stiffest permitted body, or the
+/// guided move's controlled axis that allows the slowest motion.
+pub fn task_envelope(p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
+    positive("control_period_s", p.control_period_s)?;
+    p.skin.validate("skin")?;
+    p.safety.validate()?;
+    p.loop_delays.validate()?;
+    permitted_body(p, &p.object)?;
+    let (body, name) = stiffest_permitted(p)?;
+    let reaction_s = p.control_period_s + p.loop_delays.total_s();
+    let (envelope, key, speed_mps) = match p.task {
+        TaskKind::Guarded => {
+            let g = p.guarded.ok_or_else(|| missing(p, "guarded"))?.validate()?;
+            let envelope = Envelope {
+                skin: p.skin,
+                stiffness_n_per_m: body.stiffness_n_per_m,
+                shear: false,
+                trigger_n: g.contact_force_n,
+                target_n: g.target_force_n,
+                limit_n: g.force_limit_n,
+                reaction_s,
+            };
+            (envelope, "guarded.approach_speed_mps", g.approach_speed_mps)
+        }
+        TaskKind::Guided => {
+            let g = p.guided.ok_or_else(|| missing(p, "guided"))?.validate()?;
+            let envelope = guided_envelope(p, &g, &body, reaction_s)
+                .ok_or_else(|| invalid_axes(&p.axes, Axis::Fz))?;
+            (envelope, "pd.max_speed_mps", p.pd.max_speed_mps)
+        }
+    };
+    Ok(TaskEnvelope {
+        envelope,
+        body: name,
+        key,
+        speed_mps,
+    })
+}
+
+fn missing(p: &ControllerParams, section: &str) -> ParamsError {
+    ParamsError::Invalid {
+        key: section.into(),
+        value: "absent".into(),
+        expected: format!("a `{section}` section for the task {:?}", p.task),
+    }
+}
+
+/// Which of x, y, z force the task controls.
+fn controlled_forces(axes: &AxisSet) -> [bool; 3] {
+    [Axis::Fx, Axis::Fy, Axis::Fz].map(|a| axes.axes().contains(&a))
+}
+
+/// The body named `name`, which the scene must permit (`safety.objects`).
+fn permitted_body(p: &ControllerParams, name: &str) -> Result<BodyParams, ParamsError> {
+    if !p.safety.objects.iter().any(|o| o == name) {
+        return Err(ParamsError::Invalid {
+            key: "object".into(),
+            value: name.into(),
+            expected: format!(
+                "one of the bodies this scene may touch, safety.objects = {:?}",
+                p.safety.objects
+            ),
+        });
+    }
+    if name == UNKNOWN_OBJECT {
+        return Ok(BodyParams {
+            stiffness_n_per_m: p.safety.worst_case_stiffness_n_per_m,
+            damping_n_s_per_m: 0.0,
+            friction: 0.0,
+        });
+    }
+    object_body(&p.objects, name)
+}
+
+/// The stiffest body the scene permits, and its name.
+fn stiffest_permitted(p: &ControllerParams) -> Result<(BodyParams, String), ParamsError> {
+    let mut stiffest: Option<(BodyParams, String)> = None;
+    for name in &p.safety.objects {
+        let body = permitted_body(p, name)?;
+        if stiffest
+            .as_ref()
+            .is_none_or(|(b, _)| body.stiffness_n_per_m > b.stiffness_n_per_m)
+        {
+            stiffest = Some((body, name.clone()));
+        }
+    }
+    // `safety.objects` is not empty (checked).
+    stiffest.ok_or_else(|| ParamsError::Invalid {
+        key: "safety.objects".into(),
+        value: "[]".into(),
+        expected: "the bodies this scene may touch".into(),
+    })
+}
+
+/// Stiffness of a stuck contact across the pad: the skin's shear stiffness
+/// in series with the body (N/m).
+fn shear_stiffness(skin: &SkinParams, body: &BodyParams) -> f64 {
+    1.0 / (1.0 / skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m)
+}
+
+/// The guided move's envelope: the controlled axis that allows the slowest
+/// motion towards `body` (None when no force axis is controlled). On each axis the PD stops advancing past the
+/// target plus the deadband, and the axis may take what the force limit
+/// leaves beside the other axes' targets.
+fn guided_envelope(
+    p: &ControllerParams,
+    g: &GuidedParams,
+    body: &BodyParams,
+    reaction_s: f64,
+) -> Option<Envelope> {
+    let controlled = controlled_forces(&p.axes);
+    let t = g.target_force_n;
+    let total: f64 = t.iter().map(|v| v * v).sum();
+    (0..3)
+        .filter(|&i| controlled[i])
+        .map(|i| Envelope {
+            skin: p.skin,
+            stiffness_n_per_m: if i == 2 {
+                body.stiffness_n_per_m
+            } else {
+                shear_stiffness(&p.skin, body)
+            },
+            shear: i != 2,
+            trigger_n: t[i].abs() + g.deadband_n,
+            target_n: t[i].abs(),
+            limit_n: (g.force_limit_n.powi(2) - (total - t[i] * t[i])).sqrt(),
+            reaction_s,
+        })
+        .min_by(|a, b| a.max_speed_mps().total_cmp(&b.max_speed_mps()))
 }
 
 /// Force axes a task reads.

@@ -68,6 +68,11 @@ pub struct SimRobotParams {
     /// Jitter of the control period: each period lasts a uniformly drawn
     /// whole number of physics steps within +- this fraction (0: none).
     pub period_jitter_fraction: f64,
+    /// Embedded runtime only: delay of an estimate on its way to the
+    /// controller (s), as over ROS 2.
+    pub transport_delay_s: f64,
+    /// Embedded runtime only: uniform jitter added to that delay (s).
+    pub transport_jitter_s: f64,
 }
 
 /// What the simulated robot publishes each control period.
@@ -134,6 +139,8 @@ impl SimRobot {
         non_negative("ft_noise_n", p.ft_noise_n)?;
         non_negative("ft_noise_nm", p.ft_noise_nm)?;
         positive("duration_s", p.duration_s)?;
+        non_negative("transport_delay_s", p.transport_delay_s)?;
+        non_negative("transport_jitter_s", p.transport_jitter_s)?;
         if !(0.0..1.0).contains(&p.period_jitter_fraction) {
             return Err(invalid(
                 "period_jitter_fraction",

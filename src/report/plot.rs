@@ -1,5 +1,5 @@
-//! Plots of a run (thesis Fig. 4.5/4.6) and of an approach-speed sweep, as
-//! PNG files. The text is drawn with DejaVu Sans embedded in the binary
+//! Plots of a run (thesis Fig. 4.5/4.6), of an approach-speed sweep and of
+//! the accuracy-cost trade-off, as PNG files. The text is drawn with DejaVu Sans embedded in the binary
 //! (`assets/DejaVuSans.ttf`), so no system font library is needed.
 
 use std::error::Error;
@@ -32,7 +32,7 @@ const LEGEND_WIDTH: u32 = 200;
 /// their names side by side.
 const PHASE_LABEL_ROWS: usize = 2;
 const PHASE_LABEL_SIZE: u32 = 15;
-/// Lowest overshoot a sweep plot shows (N), well below the F/T noise.
+/// Lowest value a log axis shows (below it, values sit on the floor).
 const LOG_FLOOR: f64 = 1e-3;
 /// Room above the data for the phase names, as a fraction of its span.
 const HEADROOM: f64 = 0.25;
@@ -112,48 +112,94 @@ pub fn plot_run(path: &Path, title: &str, rows: &[TraceRow]) -> Result<(), PlotE
     })
 }
 
-/// Draws the overshoot (N, log scale) against the approach speed (m/s,
-/// shown in mm/s) of each named series, with the bound as a dashed line.
-/// Overshoots below the scale (such as 0) sit on its lower edge.
+/// One object of a speed-sweep plot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepSeries {
+    /// The object.
+    pub name: String,
+    /// Measured peak force (N) at each speed run (m/s).
+    pub measured: Vec<(f64, f64)>,
+    /// The safety envelope's predicted peak force (N) against speed (m/s).
+    pub predicted: Vec<(f64, f64)>,
+    /// The fastest speed the envelope accepts (m/s).
+    pub max_speed_mps: f64,
+}
+
+/// Draws a speed sweep: per object the measured peak force against the
+/// approach speed (solid, marked), the envelope's predicted peak (dashed)
+/// and its speed limit (a vertical line, where it falls on the chart), with
+/// the force limit and the overshoot bound (`bound_n`, a force) across.
 pub fn plot_sweep(
     path: &Path,
-    series: &[(String, Vec<(f64, f64)>)],
+    series: &[SweepSeries],
+    force_limit_n: f64,
     bound_n: f64,
 ) -> Result<(), PlotError> {
-    let points = || series.iter().flat_map(|(_, p)| p);
-    if points().next().is_none() {
+    let measured = || series.iter().flat_map(|s| &s.measured);
+    if measured().next().is_none() {
         return Err(PlotError::empty(path, "no sweep points"));
     }
-    let x = padded(points().map(|p| p.0 * 1e3), 0.05, 0.05);
-    let y = log_range(points().map(|p| p.1).chain([bound_n]));
-    let on_scale = |o: f64| o.max(y.start);
+    // Log speeds: the soft objects accept ten times the hard ones' speed.
+    let x = log_range(
+        measured()
+            .map(|p| p.0 * 1e3)
+            .chain(series.iter().map(|s| s.max_speed_mps * 1e3)),
+    );
+    let y = padded(
+        measured().map(|p| p.1).chain([force_limit_n, bound_n]),
+        0.05,
+        0.1,
+    );
+    let inside = |(v, f): (f64, f64)| x.contains(&v) && y.contains(&f);
     draw_png(
         path,
         (WIDTH, SWEEP_HEIGHT),
-        "Overshoot against approach speed",
+        "Peak force against approach speed, measured and predicted",
         |body| {
             let (plot, legend) = body.split_horizontally(WIDTH - LEGEND_WIDTH);
-            let y_axis = y.clone().log_scale().with_key_points(log_ticks(&y));
-            let mut chart = chart_on(&plot, None, x.clone(), y_axis)?;
-            draw_mesh(&mut chart, "approach speed (mm/s)", "overshoot (N)")?;
-            let bound = vec![(x.start, on_scale(bound_n)), (x.end, on_scale(bound_n))];
-            let bound_style = BLACK.stroke_width(2);
-            chart.draw_series(dashed(bound, bound_style))?;
-            let mut entries = Vec::with_capacity(series.len() + 1);
-            for ((name, points), color) in series.iter().zip(SERIES_COLORS.iter().cycle()) {
-                let mut mm: Vec<(f64, f64)> = points
-                    .iter()
-                    .map(|&(v, o)| (v * 1e3, on_scale(o)))
+            let x_axis = x.clone().log_scale().with_key_points(log_ticks(&x));
+            let mut chart = chart_on(&plot, None, x_axis, y.clone())?;
+            draw_mesh(&mut chart, "approach speed (mm/s)", "peak force (N)")?;
+            let across = |f: f64| vec![(x.start, f), (x.end, f)];
+            let limit_style = BLACK.stroke_width(3);
+            let bound_style = BLACK.mix(0.5).stroke_width(2);
+            chart.draw_series(LineSeries::new(across(force_limit_n), limit_style))?;
+            chart.draw_series(dashed(across(bound_n), bound_style))?;
+            let mut entries = Vec::with_capacity(series.len() + 4);
+            for (s, color) in series.iter().zip(SERIES_COLORS.iter().cycle()) {
+                let mm = |p: &[(f64, f64)]| -> Vec<(f64, f64)> {
+                    let mut v: Vec<_> = p.iter().map(|&(v, f)| (v * 1e3, f)).collect();
+                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    v
+                };
+                let measured = mm(&s.measured);
+                let predicted: Vec<_> = mm(&s.predicted)
+                    .into_iter()
+                    .filter(|&p| inside(p))
                     .collect();
-                mm.sort_by(|a, b| a.0.total_cmp(&b.0));
-                chart.draw_series(LineSeries::new(mm.iter().copied(), color.stroke_width(2)))?;
+                chart.draw_series(LineSeries::new(
+                    measured.iter().copied(),
+                    color.stroke_width(2),
+                ))?;
                 chart.draw_series(
-                    mm.iter()
+                    measured
+                        .iter()
                         .map(|&p| Circle::new(p, MARKER_SIZE, color.filled())),
                 )?;
-                entries.push((name.as_str(), Icon::Marked(color.stroke_width(2))));
+                chart.draw_series(dashed(predicted, color.stroke_width(2)))?;
+                let limit_mm = s.max_speed_mps * 1e3;
+                if x.contains(&limit_mm) {
+                    let line = vec![(limit_mm, y.start), (limit_mm, y.end)];
+                    chart.draw_series(LineSeries::new(line, color.mix(0.6).stroke_width(1)))?;
+                }
+                entries.push((s.name.as_str(), Icon::Marked(color.stroke_width(2))));
             }
-            let bound_label = format!("bound ({bound_n} N)");
+            let grey = BLACK.mix(0.6).stroke_width(2);
+            entries.push(("predicted peak", Icon::Dashed(grey)));
+            entries.push(("speed limit", Icon::Line(BLACK.mix(0.6).stroke_width(1))));
+            let limit_label = format!("force limit {force_limit_n} N");
+            entries.push((&limit_label, Icon::Line(limit_style)));
+            let bound_label = format!("overshoot {bound_n} N");
             entries.push((&bound_label, Icon::Dashed(bound_style)));
             draw_legend(&legend, &chart, &entries)
         },
@@ -610,15 +656,20 @@ mod tests {
             .collect()
     }
 
-    /// Overshoots growing with the speed, and a series with no overshoot.
-    fn sweep() -> Vec<(String, Vec<(f64, f64)>)> {
+    /// Peaks growing with the speed, and a series at the target.
+    fn sweep() -> Vec<SweepSeries> {
         let speeds = [0.005, 0.01, 0.02, 0.04];
-        let growing = |k: f64| speeds.map(|v| (v, 0.02 + k * v * v)).to_vec();
+        let series = |name: &str, k: f64, max_speed_mps: f64| SweepSeries {
+            name: name.into(),
+            measured: speeds.map(|v| (v, 1.02 + k * v * v)).to_vec(),
+            predicted: speeds.map(|v| (v, 1.0 + 2.0 * k * v * v)).to_vec(),
+            max_speed_mps,
+        };
         vec![
-            ("wooden_box".into(), growing(240.0)),
-            ("carton_box".into(), growing(150.0)),
-            ("stuffed_animal".into(), growing(30.0)),
-            ("foam".into(), speeds.map(|v| (v, 0.0)).to_vec()),
+            series("wooden_box", 240.0, 0.05),
+            series("carton_box", 150.0, 0.07),
+            series("stuffed_animal", 30.0, 0.7),
+            series("foam", 0.0, 1.0),
         ]
     }
 
@@ -648,7 +699,7 @@ mod tests {
     fn sweep_is_drawn() {
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("sweep.png");
-        plot_sweep(&path, &sweep(), 0.5).expect("plotted");
+        plot_sweep(&path, &sweep(), 3.0, 1.1).expect("plotted");
         assert_eq!(png_size(&path), (WIDTH, SWEEP_HEIGHT));
     }
 
@@ -696,8 +747,12 @@ mod tests {
         let empty = |r: Result<(), PlotError>| matches!(r, Err(PlotError::Empty { .. }));
         assert!(empty(plot_run(&path, "no rows", &[])));
         assert!(empty(plot_run(&path, "no axis", &rows([false; 3]))));
-        assert!(empty(plot_sweep(&path, &[], 0.5)));
-        assert!(empty(plot_sweep(&path, &[("box".into(), vec![])], 0.5)));
+        assert!(empty(plot_sweep(&path, &[], 3.0, 1.1)));
+        let refused = SweepSeries {
+            measured: vec![],
+            ..sweep()[0].clone()
+        };
+        assert!(empty(plot_sweep(&path, &[refused], 3.0, 1.1)));
         assert!(!path.exists());
     }
 

@@ -6,7 +6,7 @@
 //! - Guarded move: peak force, overshoot above the target, settle time (from
 //!   contact until the force stays within [`SETTLE_BAND_N`] of the target),
 //!   steady-state error (|mean - target| over the last [`STEADY_WINDOW_S`]),
-//!   RMS error from contact on, and the largest speed across the approach
+//!   its standard deviation over the last [`SD_WINDOW_S`], RMS error from contact on, and the largest speed across the approach
 //!   direction.
 //! - Guided move: RMS error per controlled axis from contact on, and the
 //!   largest speed along an axis the finger is not moving along, also as a
@@ -27,6 +27,8 @@ pub const CONTACT_N: f64 = 0.05;
 pub const SETTLE_BAND_N: f64 = 0.05;
 /// Window at the end of a run for the steady-state error (s).
 pub const STEADY_WINDOW_S: f64 = 1.0;
+/// Window at the end of a run for the force's standard deviation (s).
+pub const SD_WINDOW_S: f64 = 2.0;
 /// Window at the end of a run for the speed at rest (s).
 pub const REST_WINDOW_S: f64 = 0.5;
 
@@ -72,6 +74,9 @@ pub struct Summary {
     pub overshoot_n: f64,
     /// |mean - target| of the normal force over the last second (N).
     pub steady_state_error_n: Option<f64>,
+    /// Standard deviation of the normal force over the last 2 s (N), from
+    /// contact on: a sustained oscillation shows here.
+    pub final_sd_n: Option<f64>,
     /// From contact until the normal force stays within the band (s).
     pub settle_time_s: Option<f64>,
     /// RMS force error from contact on, worst controlled axis (N).
@@ -135,6 +140,12 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
     let steady: Vec<f64> = window(STEADY_WINDOW_S).map(pressing).collect();
     let steady_state_error_n = (contact.is_some() && !steady.is_empty())
         .then(|| (steady.iter().sum::<f64>() / steady.len() as f64 - target.abs()).abs());
+    let last_two: Vec<f64> = window(SD_WINDOW_S).map(pressing).collect();
+    let final_sd_n = (contact.is_some() && last_two.len() > 1).then(|| {
+        let n = last_two.len() as f64;
+        let mean = last_two.iter().sum::<f64>() / n;
+        (last_two.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    });
     let settle_time_s = contact.and_then(|c| {
         let outside = rows
             .iter()
@@ -184,6 +195,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         peak_force_n,
         overshoot_n: (peak_force_n - target.abs()).max(0.0),
         steady_state_error_n,
+        final_sd_n,
         settle_time_s,
         rms_force_error_n: rms,
         rms_force_error_by_axis_n: by_axis,

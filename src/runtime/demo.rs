@@ -1,5 +1,6 @@
 //! The demos behind `tactile_force demo`: one run of a scene, and the sweep
-//! of the guarded move's approach speed against overshoot.
+//! of the guarded move's approach speed against the peak force, measured
+//! and predicted by the safety envelope.
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -7,7 +8,9 @@ use serde::Serialize;
 use super::scene::{Scene, SceneError};
 use super::{run, Pacing};
 use crate::biotac::BioTacSimConfig;
+use crate::control::Envelope;
 use crate::learn::model::WrenchGp;
+use crate::nodes::controller::task_envelope;
 use crate::report::summary::{summarize, RunInfo, Summary};
 use crate::report::TraceRow;
 
@@ -40,13 +43,28 @@ pub fn run_scene(
     })
 }
 
-/// One point of the speed sweep.
+/// One object of the speed sweep: its own safety envelope (the scene
+/// permitting only that object).
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SweepPoint {
+pub struct SweepObject {
     /// The object.
     pub object: String,
-    /// Approach speed (m/s).
-    pub approach_speed_mps: f64,
+    /// Its stiffness (N/m).
+    pub stiffness_n_per_m: f64,
+    /// The fastest approach the envelope accepts (m/s).
+    pub max_speed_mps: f64,
+    /// The force limit (N).
+    pub force_limit_n: f64,
+    /// The envelope, for the predicted peak at any speed.
+    #[serde(skip)]
+    pub envelope: Envelope,
+}
+
+/// What a run of the sweep measured (from the F/T force).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepRun {
+    /// Peak force (N).
+    pub peak_force_n: f64,
     /// Peak force above the target (N).
     pub overshoot_n: f64,
     /// Steady-state error (N).
@@ -55,32 +73,72 @@ pub struct SweepPoint {
     pub aborted: bool,
 }
 
-/// Runs the guarded `scene` for every object and approach speed (m/s), the
-/// runs in parallel; points come back by object, then speed.
+/// One point of the speed sweep.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepPoint {
+    /// The object.
+    pub object: String,
+    /// Approach speed (m/s).
+    pub approach_speed_mps: f64,
+    /// The envelope's bound on the peak force at this speed (N).
+    pub predicted_peak_n: f64,
+    /// The run; None when the speed is above the envelope and was refused.
+    pub run: Option<SweepRun>,
+}
+
+/// The objects' envelopes, then every object at every approach speed (m/s)
+/// it accepts, the runs in parallel; points come back by object, then speed.
 pub fn sweep_speeds(
     scene: &Scene,
     model: &WrenchGp,
     objects: &[String],
     speeds: &[f64],
     seed: u64,
-) -> Result<Vec<SweepPoint>, SceneError> {
-    let runs: Vec<(&String, f64)> = objects
+) -> Result<(Vec<SweepObject>, Vec<SweepPoint>), SceneError> {
+    let envelopes = objects
+        .iter()
+        .map(|o| {
+            let speed = task_envelope(&scene.clone().with_only_object(o).controller_params()?)?;
+            Ok(SweepObject {
+                object: o.clone(),
+                stiffness_n_per_m: speed.envelope.stiffness_n_per_m,
+                max_speed_mps: speed.envelope.max_speed_mps(),
+                force_limit_n: speed.envelope.limit_n,
+                envelope: speed.envelope,
+            })
+        })
+        .collect::<Result<Vec<_>, SceneError>>()?;
+    let runs: Vec<(&SweepObject, f64)> = envelopes
         .iter()
         .flat_map(|o| speeds.iter().map(move |&v| (o, v)))
         .collect();
-    runs.par_iter()
-        .map(|&(object, speed)| {
-            let s = scene.clone().with_object(object).with_approach_speed(speed);
-            let run = run_scene(&s, model.clone(), seed, Pacing::Lockstep, &mut |_| {})?;
+    let points = runs
+        .par_iter()
+        .map(|&(o, speed)| {
+            let run = if speed <= o.max_speed_mps {
+                let s = scene
+                    .clone()
+                    .with_only_object(&o.object)
+                    .with_approach_speed(speed);
+                let s = run_scene(&s, model.clone(), seed, Pacing::Lockstep, &mut |_| {})?.summary;
+                Some(SweepRun {
+                    peak_force_n: s.peak_force_n,
+                    overshoot_n: s.overshoot_n,
+                    steady_state_error_n: s.steady_state_error_n,
+                    aborted: s.aborted,
+                })
+            } else {
+                None
+            };
             Ok(SweepPoint {
-                object: object.clone(),
+                object: o.object.clone(),
                 approach_speed_mps: speed,
-                overshoot_n: run.summary.overshoot_n,
-                steady_state_error_n: run.summary.steady_state_error_n,
-                aborted: run.summary.aborted,
+                predicted_peak_n: o.envelope.peak_force_n(speed),
+                run,
             })
         })
-        .collect()
+        .collect::<Result<Vec<_>, SceneError>>()?;
+    Ok((envelopes, points))
 }
 
 /// The fastest speed of each object whose overshoot is within `bound_n`,
@@ -97,10 +155,12 @@ pub fn fastest_within(
             let mut mine: Vec<&SweepPoint> = points.iter().filter(|p| &p.object == o).collect();
             mine.sort_by(|a, b| a.approach_speed_mps.total_cmp(&b.approach_speed_mps));
             for p in mine {
-                if p.aborted || p.overshoot_n > bound_n {
-                    break;
+                match &p.run {
+                    Some(r) if !r.aborted && r.overshoot_n <= bound_n => {
+                        best = Some(p.approach_speed_mps)
+                    }
+                    _ => break,
                 }
-                best = Some(p.approach_speed_mps);
             }
             (o.clone(), best)
         })

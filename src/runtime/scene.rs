@@ -14,6 +14,7 @@ use crate::nodes::controller::TaskKind;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError};
+use crate::runtime::lockstep::Link;
 use crate::runtime::Nodes;
 use crate::wrench::AxisSet;
 
@@ -88,8 +89,21 @@ impl Scene {
 
     /// Sets the guarded move's approach speed (m/s).
     pub fn with_approach_speed(self, mps: f64) -> Self {
+        // As YAML writes it (NaN is `.nan`), so that any value reaches the check.
+        let value = serde_yaml_ng::to_string(&mps).unwrap_or_default();
         self.with_layer(format!(
-            "force_controller:\n  ros__parameters:\n    guarded:\n      approach_speed_mps: {mps:?}\n"
+            "force_controller:\n  ros__parameters:\n    guarded:\n      approach_speed_mps: {}\n",
+            value.trim()
+        ))
+    }
+
+    /// Sets the object for every node and permits only it
+    /// (`force_controller.safety.objects`): the speed limit is then that
+    /// object's own (the speed sweep, tests).
+    pub fn with_only_object(self, name: &str) -> Self {
+        let quoted = serde_json::to_string(name).unwrap_or_default();
+        self.with_object(name).with_layer(format!(
+            "force_controller:\n  ros__parameters:\n    safety:\n      objects: [{quoted}]\n"
         ))
     }
 
@@ -116,12 +130,60 @@ impl Scene {
     /// Checks every parameter of the controller and the simulated robot
     /// (before an expensive step such as training a model).
     pub fn check(&self) -> Result<(), SceneError> {
-        let controller = ForceController::new(self.controller_params()?)?;
         let recipe = self.estimator_params()?.default_model;
-        missing_axes(&recipe.axes, controller.axes())?;
-        let sensor = BioTacSimConfig::default();
-        SimRobot::new(self.sim_params()?, controller.robot().clone(), &sensor, 0)?;
-        Ok(())
+        let (controller, _sim) = self.controller_and_sim(&BioTacSimConfig::default(), 0)?;
+        missing_axes(&recipe.axes, controller.axes())
+    }
+
+    /// The controller and the simulated robot, checked, and checked against
+    /// each other: the controller's gains and safety envelope must assume an
+    /// arm and a transport no faster than the simulated ones.
+    fn controller_and_sim(
+        &self,
+        sensor: &BioTacSimConfig,
+        seed: u64,
+    ) -> Result<(ForceController, SimRobot), SceneError> {
+        let cp = self.controller_params()?;
+        let sp = self.sim_params()?;
+        // The lockstep controller takes a delayed estimate at its next tick.
+        let ticks = ((sp.transport_delay_s + sp.transport_jitter_s) / sp.control_period_s - 1e-9)
+            .ceil()
+            .max(0.0);
+        let covered = [
+            (
+                "loop_delays.transport_delay_s",
+                cp.loop_delays.transport_delay_s,
+                ticks * sp.control_period_s,
+                "sim_robot.transport_delay_s + transport_jitter_s, in whole periods",
+            ),
+            (
+                "loop_delays.command_latency_s",
+                cp.loop_delays.command_latency_s,
+                sp.command_latency_s,
+                "sim_robot.command_latency_s",
+            ),
+            (
+                "loop_delays.arm_lag_s",
+                cp.loop_delays.arm_lag_s,
+                sp.velocity_lag_s,
+                "sim_robot.velocity_lag_s",
+            ),
+        ];
+        for (key, assumed, actual, what) in covered {
+            if assumed < actual - 1e-12 {
+                return Err(SceneError::Params(ParamsError::Invalid {
+                    key: key.into(),
+                    value: assumed.to_string(),
+                    expected: format!(
+                        "at least {actual} s, the simulated {what}: the gains and the \
+                         safety envelope must not assume a faster loop than the one they run in"
+                    ),
+                }));
+            }
+        }
+        let controller = ForceController::new(cp)?;
+        let sim = SimRobot::new(sp, controller.robot().clone(), sensor, seed)?;
+        Ok((controller, sim))
     }
 
     /// Builds the nodes of a run with `model`; `seed` drives the noise.
@@ -131,14 +193,15 @@ impl Scene {
         sensor: &BioTacSimConfig,
         seed: u64,
     ) -> Result<Nodes, SceneError> {
-        let controller = ForceController::new(self.controller_params()?)?;
+        let (controller, sim) = self.controller_and_sim(sensor, seed)?;
         missing_axes(model.axes(), controller.axes())?;
-        let sim = SimRobot::new(self.sim_params()?, controller.robot().clone(), sensor, seed)?;
         let estimator = EstimatorNode::new(model, self.estimator_params()?.with_std)?;
+        let sp = self.sim_params()?;
         Ok(Nodes {
             sim,
             estimator,
             controller,
+            link: Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed),
         })
     }
 }
