@@ -9,7 +9,11 @@
 //! `task` to `guided` or `guarded` while running switches the mode (the
 //! controller is rebuilt from the start-up parameters with the new task).
 //! The guarded move is also an action, `~/guarded_move`
-//! (tactile_force_msgs/action/GuardedMove): see [`GuardedGoal`]. r2r has no
+//! (tactile_force_msgs/action/GuardedMove): see
+//! [`crate::nodes::guarded_goal`]. A goal the
+//! controller refuses (a value out of range, a speed beyond the safety
+//! envelope) is accepted and aborted at once with `reason` "refused: ..."
+//! naming the limit, so that a client can read why. r2r has no
 //! untyped action server and, under its `doc-only` build, no types for our
 //! interface package, so the action server is compiled only in a real ROS
 //! build (`cfg(not(feature = "ros2-doc-only"))`); the goal handling it
@@ -25,7 +29,6 @@ use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 
 use super::{convert, RosError};
-use crate::control::{GuardedParams, Phase};
 use crate::kinematics::robot::PA10_YAML;
 use crate::nodes::controller::TaskKind;
 use crate::nodes::{ControlOutput, ControllerParams, ForceController};
@@ -34,56 +37,6 @@ use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
 
 /// The PA10-7C's joint names (S1 S2 S3 E1 E2 W1 W2), the default of `joint_names`.
 pub const PA10_JOINTS: [&str; 7] = ["S1", "S2", "S3", "E1", "E2", "W1", "W2"];
-
-/// A guarded-move goal; zero fields keep the parameter's value.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GuardedGoal {
-    /// Approach direction, BioTac frame (zero vector: keep).
-    pub direction: [f64; 3],
-    /// Approach speed (m/s).
-    pub speed_mps: f64,
-    /// Force to hold (N).
-    pub target_force_n: f64,
-    /// Approach distance before a timeout (m).
-    pub max_distance_m: f64,
-}
-
-impl GuardedGoal {
-    /// The start-up parameters with this goal applied (task = guarded). The
-    /// controller built from them checks every value.
-    pub fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
-        let mut p = base.clone();
-        p.task = TaskKind::Guarded;
-        let mut g: GuardedParams = p.guarded.ok_or_else(|| ParamsError::Invalid {
-            key: "guarded".into(),
-            value: "absent".into(),
-            expected: "a `guarded` section in the parameters".into(),
-        })?;
-        if self.direction != [0.0; 3] {
-            g.direction = self.direction;
-        }
-        let set = |slot: &mut f64, v: f64| {
-            if v != 0.0 {
-                *slot = v;
-            }
-        };
-        set(&mut g.approach_speed_mps, self.speed_mps);
-        set(&mut g.target_force_n, self.target_force_n);
-        set(&mut g.max_distance_m, self.max_distance_m);
-        p.guarded = Some(g);
-        Ok(p)
-    }
-}
-
-/// How a guarded move ended, for the action result; None while it runs.
-pub fn guarded_outcome(out: &ControlOutput) -> Option<&'static str> {
-    match (out.phase, out.reason) {
-        (Phase::Hold, _) => Some("hold"),
-        (Phase::Stopped, Some(reason)) => Some(reason.name()),
-        (Phase::Stopped, None) => Some("stopped"),
-        _ => None,
-    }
-}
 
 fn lock(s: &Mutex<Shared>) -> std::sync::MutexGuard<'_, Shared> {
     s.lock().unwrap_or_else(|e| e.into_inner())
@@ -249,6 +202,7 @@ pub async fn run() -> Result<(), RosError> {
 #[cfg(not(feature = "ros2-doc-only"))]
 mod action {
     use super::*;
+    use crate::nodes::guarded_goal::{guarded_outcome, GuardedGoal};
     use r2r::tactile_force_msgs::action::GuardedMove;
 
     pub(super) async fn serve(
@@ -267,16 +221,22 @@ mod action {
             };
             let started = {
                 let mut g = shared.lock().unwrap_or_else(|e| e.into_inner());
-                goal.apply(&g.base).and_then(|p| rebuild(&mut g, p))
+                goal.start(&g.base).map(|c| {
+                    g.controller = c;
+                    g.last = None;
+                })
             };
-            if let Err(e) = started {
-                tracing::warn!("guarded_move goal refused: {e}");
-                let _ = req.reject();
-                continue;
-            }
             let Ok((mut handle, mut cancel)) = req.accept() else {
                 continue;
             };
+            if let Err(e) = started {
+                tracing::warn!("guarded_move goal refused: {e}");
+                let _ = handle.abort(GuardedMove::Result {
+                    reason: format!("refused: {e}"),
+                    ..Default::default()
+                });
+                continue;
+            }
             let mut ticker = tokio::time::interval(period);
             loop {
                 ticker.tick().await;
@@ -318,53 +278,5 @@ mod action {
                 }
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::runtime::scene::Scene;
-
-    #[test]
-    fn a_goal_overrides_only_what_it_sets_and_is_checked() {
-        let base = Scene::builtin(TaskKind::Guided)
-            .controller_params()
-            .unwrap();
-        // The guided scene has no guarded section: refused, named.
-        let goal = GuardedGoal {
-            direction: [0.0; 3],
-            speed_mps: 0.02,
-            target_force_n: 0.0,
-            max_distance_m: 0.0,
-        };
-        assert!(goal.apply(&base).is_err());
-        let base = Scene::builtin(TaskKind::Guarded)
-            .controller_params()
-            .unwrap();
-        let p = goal.apply(&base).unwrap();
-        let (g, b) = (p.guarded.as_ref().unwrap(), base.guarded.as_ref().unwrap());
-        assert_eq!(g.approach_speed_mps, 0.02);
-        assert_eq!(g.target_force_n, b.target_force_n);
-        assert_eq!(g.direction, b.direction);
-        ForceController::new(p).unwrap();
-        let bad = GuardedGoal {
-            speed_mps: f64::NAN,
-            ..goal
-        };
-        assert!(ForceController::new(bad.apply(&base).unwrap()).is_err());
-    }
-
-    #[test]
-    fn the_outcome_is_known_only_when_the_move_holds_or_stops() {
-        let mut c = ForceController::new(
-            Scene::builtin(TaskKind::Guarded)
-                .controller_params()
-                .unwrap(),
-        )
-        .unwrap();
-        let out = c.tick(0.0);
-        assert!(out.halt.is_some(), "no input yet: the watchdog halts");
-        assert_eq!(guarded_outcome(&out), None);
     }
 }
