@@ -3,33 +3,16 @@
 //! touching simulated objects or a finger. Figures from the measured (F/T)
 //! force; bounds from the closed-loop issue.
 
-use std::sync::OnceLock;
-
 use nalgebra::Vector3;
 
 use tactile_force::control::{Phase, StopReason};
-use tactile_force::learn::default_model;
-use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::controller::TaskKind;
 use tactile_force::report::TraceRow;
 use tactile_force::runtime::demo::{run_scene, DemoRun};
 use tactile_force::runtime::{Nodes, Pacing, Scene};
 
-/// The default model of a scene's task.
-fn scene_model(task: TaskKind) -> WrenchGp {
-    let recipe = Scene::builtin(task)
-        .estimator_params()
-        .unwrap()
-        .default_model;
-    default_model::train(&recipe).expect("the default model trains")
-}
-
-/// The guided scene's default model (fx, fy, fz), trained once for all tests
-/// of this file.
-fn model() -> WrenchGp {
-    static MODEL: OnceLock<WrenchGp> = OnceLock::new();
-    MODEL.get_or_init(|| scene_model(TaskKind::Guided)).clone()
-}
+mod common;
+use common::{model, scene_model};
 
 fn guarded(object: &str, speed: f64) -> Scene {
     Scene::builtin(TaskKind::Guarded)

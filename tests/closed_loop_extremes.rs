@@ -3,12 +3,8 @@
 //! stops sending or saturates, the force limit hit during the approach. Each
 //! run must stay finite and bounded, and end holding or stopped safely.
 
-use std::sync::OnceLock;
-
 use tactile_force::biotac::{BioTacReading, ADC_MAX};
 use tactile_force::control::{Phase, StopReason};
-use tactile_force::learn::default_model;
-use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::controller::TaskKind;
 use tactile_force::report::summary::{summarize, RunInfo, Summary};
 use tactile_force::report::TraceRow;
@@ -19,15 +15,8 @@ use tactile_force::runtime::{Pacing, Scene};
 /// `pd.max_speed_mps` of config/world.yaml: no command is faster.
 const MAX_SPEED: f64 = 0.08;
 
-fn model() -> WrenchGp {
-    static MODEL: OnceLock<WrenchGp> = OnceLock::new();
-    MODEL
-        .get_or_init(|| {
-            let recipe = Scene::builtin(TaskKind::Guided).estimator_params().unwrap();
-            default_model::train(&recipe.default_model).expect("the default model trains")
-        })
-        .clone()
-}
+mod common;
+use common::model;
 
 fn run(scene: Scene) -> DemoRun {
     run_scene(&scene, model(), 1, Pacing::Lockstep, &mut |_| {}).expect("the run completes")

@@ -7,10 +7,6 @@
 //! limit named, and the delayed loop still meets the guarded and guided
 //! bounds. Figures from the measured (F/T) force.
 
-use std::sync::OnceLock;
-
-use tactile_force::learn::default_model;
-use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::controller::{task_envelope, TaskKind};
 use tactile_force::nodes::ForceController;
 use tactile_force::report::summary::Summary;
@@ -19,16 +15,8 @@ use tactile_force::runtime::{Pacing, Scene};
 
 const OBJECTS: [&str; 3] = ["wooden_box", "carton_box", "stuffed_animal"];
 
-/// The guided scene's default model (fx, fy, fz), trained once.
-fn model() -> WrenchGp {
-    static MODEL: OnceLock<WrenchGp> = OnceLock::new();
-    MODEL
-        .get_or_init(|| {
-            let recipe = Scene::builtin(TaskKind::Guided).estimator_params().unwrap();
-            default_model::train(&recipe.default_model).expect("the default model trains")
-        })
-        .clone()
-}
+mod common;
+use common::model;
 
 fn run(scene: &Scene, seed: u64) -> Summary {
     run_scene(scene, model(), seed, Pacing::Lockstep, &mut |_| {})
