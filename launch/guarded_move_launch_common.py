@@ -1,4 +1,8 @@
-"""Shared builder of the tactile_force launch files (guarded_move, joystick)."""
+"""Shared builder of the tactile_force launch files (guarded_move, joystick).
+
+The nodes, their parameter files and overrides come from
+tactile_force_nodes.nodes(), which the tests over DDS use too.
+"""
 
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
@@ -7,26 +11,36 @@ from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
+from tactile_force_nodes import nodes
+
 SCENE = "guarded_move.yaml"
 
 
 def make(scene=SCENE):
     config = PathJoinSubstitution([FindPackageShare("tactile_force"), "config"])
-    files = [PathJoinSubstitution([config, name]) for name in ("pa10.yaml", "world.yaml", scene)]
     use_sim = LaunchConfiguration("use_sim")
-    # Passed to every node, as Scene::with_object does in the embedded runtime.
-    overrides = {"object": LaunchConfiguration("object")}
+    args = dict(
+        object_name=LaunchConfiguration("object"),
+        model=LaunchConfiguration("model"),
+        port=LaunchConfiguration("port"),
+    )
 
-    def node(executable, params, **kw):
+    def node(executable, files, overrides, condition=None):
+        params = [PathJoinSubstitution([config, name]) for name in files] + [overrides]
         return Node(
             package="tactile_force",
             executable=executable,
             name=executable,
             output="screen",
             parameters=params,
-            **kw,
+            condition=condition,
         )
 
+    sim = nodes(scene, True, **args)
+    real = nodes(scene, False, **args)
+    started = [node(*sim[0], condition=IfCondition(use_sim)),
+               node(*real[0], condition=UnlessCondition(use_sim))]
+    started += [node(*n) for n in sim[1:]]
     return LaunchDescription([
         DeclareLaunchArgument("use_sim", default_value="true",
                               description="Simulated arm, object and BioTac (no hardware)."),
@@ -36,9 +50,5 @@ def make(scene=SCENE):
                               description="Serial device of the BioTac bridge (use_sim:=false)."),
         DeclareLaunchArgument("object", default_value="wooden_box" if scene == SCENE else "fingertip",
                               description="Object (config/world.yaml objects)."),
-        node("biotac_driver", [{"port": LaunchConfiguration("port")}, overrides],
-             condition=UnlessCondition(use_sim)),
-        node("sim_robot", files + [overrides], condition=IfCondition(use_sim)),
-        node("wrench_estimator", files + [{"model_file": LaunchConfiguration("model")}, overrides]),
-        node("force_controller", files + [overrides]),
+        *started,
     ])

@@ -1,8 +1,13 @@
 //! `force_controller`: `joint_states` (sensor_msgs/JointState),
-//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`] every
-//! `control_period_s` -> `velocity_controller/commands`
-//! (std_msgs/Float64MultiArray, one velocity per joint in chain order: the
-//! ros2_control JointGroupVelocityController convention).
+//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`] ->
+//! `velocity_controller/commands` (std_msgs/Float64MultiArray, one velocity
+//! per joint in chain order: the ros2_control JointGroupVelocityController
+//! convention).
+//!
+//! The controller steps on each new estimate (the mean and the std of one
+//! reading both in), so an estimate acts as soon as it arrives rather than
+//! up to a period later on a timer of its own; with no estimate for 1.5
+//! periods it steps anyway, and the watchdog stops the arm.
 //!
 //! The watchdog is the embedded one: inputs older than `stale_periods`
 //! periods, or not finite, command zero velocity. Setting the parameter
@@ -42,11 +47,13 @@ fn lock(s: &Mutex<Shared>) -> std::sync::MutexGuard<'_, Shared> {
     s.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// What the timer, the subscriptions and the action share.
+/// What the loop, the subscriptions and the action share.
 struct Shared {
     controller: ForceController,
     base: ControllerParams,
     pdc: Option<FluidPressure>,
+    /// The newest mean and std not yet stepped on.
+    mean: Option<WrenchStamped>,
     stddev: Option<WrenchStamped>,
     /// The latest estimated force, BioTac frame (N): the action's feedback.
     force: nalgebra::Vector3<f64>,
@@ -78,10 +85,24 @@ pub async fn run() -> Result<(), RosError> {
         super::describe_shared,
     )?;
     let period = Duration::from_secs_f64(base.control_period_s);
+    let controller = ForceController::new(base.clone())?;
+    let envelope = controller.envelope();
+    tracing::info!(
+        "force_controller: task {:?} on {}, gains {:?} m/s per N, loop delays {:?}, \
+         speed limit {:.1} mm/s (safety envelope for the stiffest permitted body, {:.1e} N/m), \
+         joints {joint_names:?}",
+        base.task,
+        base.object,
+        controller.gains(),
+        base.loop_delays,
+        envelope.max_speed_mps() * 1e3,
+        envelope.stiffness_n_per_m,
+    );
     let shared = Arc::new(Mutex::new(Shared {
-        controller: ForceController::new(base.clone())?,
+        controller,
         base,
         pdc: None,
+        mean: None,
         stddev: None,
         force: nalgebra::Vector3::zeros(),
         last: None,
@@ -89,10 +110,9 @@ pub async fn run() -> Result<(), RosError> {
     }));
 
     let mut joints = node.subscribe::<JointStateMsg>("joint_states", QosProfile::default())?;
-    let mut wrench = node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?;
+    let wrench = node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?;
     let mut pdc = node.subscribe::<FluidPressure>("biotac/pdc_rise", QosProfile::default())?;
-    let mut stddev =
-        node.subscribe::<WrenchStamped>("biotac/wrench_stddev", QosProfile::default())?;
+    let stddev = node.subscribe::<WrenchStamped>("biotac/wrench_stddev", QosProfile::default())?;
     let commands = node.create_publisher::<Float64MultiArray>(
         "velocity_controller/commands",
         QosProfile::default(),
@@ -106,7 +126,7 @@ pub async fn run() -> Result<(), RosError> {
     let mut clock = r2r::Clock::create(r2r::ClockType::RosTime)?;
     super::spin(node);
 
-    // Callbacks only check and store (STYLE 3); the timer runs the pipeline.
+    // Callbacks only check and store (STYLE 3); the loop below runs the pipeline.
     let s = shared.clone();
     let names = joint_names.clone();
     tokio::spawn(async move {
@@ -128,28 +148,6 @@ pub async fn run() -> Result<(), RosError> {
                 lock(&s).pdc = Some(m);
             } else {
                 lock(&s).rejected += 1;
-            }
-        }
-    });
-    let s = shared.clone();
-    tokio::spawn(async move {
-        while let Some(m) = stddev.next().await {
-            lock(&s).stddev = Some(m);
-        }
-    });
-    let s = shared.clone();
-    tokio::spawn(async move {
-        while let Some(m) = wrench.next().await {
-            let mut g = lock(&s);
-            let ok = convert::estimate_from_msgs(&m, g.stddev.as_ref(), g.pdc.as_ref())
-                .map_err(|e| e.to_string())
-                .and_then(|e| {
-                    g.force = e.mean.force;
-                    g.controller.on_estimate(e).map_err(|e| e.to_string())
-                });
-            if let Err(e) = ok {
-                g.rejected += 1;
-                tracing::debug!("biotac/wrench refused: {e}");
             }
         }
     });
@@ -180,10 +178,21 @@ pub async fn run() -> Result<(), RosError> {
     #[cfg(not(feature = "ros2-doc-only"))]
     tokio::spawn(action::serve(goals, shared.clone(), period));
 
-    let mut ticker = tokio::time::interval(period);
-    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut estimates = futures::stream::select(
+        wrench.map(EstimatePart::Mean),
+        stddev.map(EstimatePart::Std),
+    );
+    let wait = period.mul_f64(1.5);
     loop {
-        ticker.tick().await;
+        let step = match tokio::time::timeout(wait, estimates.next()).await {
+            Ok(Some(part)) => take_estimate(&mut lock(&shared), part),
+            Ok(None) => return Ok(()),
+            // Nothing for 1.5 periods: step, and the watchdog halts the arm.
+            Err(_) => true,
+        };
+        if !step {
+            continue;
+        }
         let now = super::now_s(&mut clock);
         let out = {
             let mut g = lock(&shared);
@@ -195,6 +204,40 @@ pub async fn run() -> Result<(), RosError> {
             tracing::warn!("velocity_controller/commands: {e}");
         }
     }
+}
+
+/// One of the two messages of an estimate.
+enum EstimatePart {
+    Mean(WrenchStamped),
+    Std(WrenchStamped),
+}
+
+/// Stores `part`; once the mean and the std of one reading are both in,
+/// hands the estimate to the controller and returns true (time to step).
+fn take_estimate(g: &mut Shared, part: EstimatePart) -> bool {
+    match part {
+        EstimatePart::Mean(m) => g.mean = Some(m),
+        EstimatePart::Std(m) => g.stddev = Some(m),
+    }
+    let paired =
+        matches!((&g.mean, &g.stddev), (Some(m), Some(s)) if m.header.stamp == s.header.stamp);
+    if !paired {
+        return false;
+    }
+    let (Some(mean), Some(std)) = (g.mean.take(), g.stddev.take()) else {
+        return false;
+    };
+    let ok = convert::estimate_from_msgs(&mean, Some(&std), g.pdc.as_ref())
+        .map_err(|e| e.to_string())
+        .and_then(|e| {
+            g.force = e.mean.force;
+            g.controller.on_estimate(e).map_err(|e| e.to_string())
+        });
+    if let Err(e) = ok {
+        g.rejected += 1;
+        tracing::debug!("biotac/wrench refused: {e}");
+    }
+    true
 }
 
 /// The guarded-move action server (needs r2r's generated types for

@@ -24,6 +24,32 @@ use std::time::Duration;
 
 use crate::params::{layered_flat_params, ParamsError};
 
+/// The main of a node executable: logs at `info` (or as `RUST_LOG` says)
+/// to stderr, which `ros2 launch` shows, runs `node` on a tokio runtime and
+/// turns its end into the exit code (1, with the reason, on an error).
+pub fn main(
+    name: &str,
+    node: impl std::future::Future<Output = Result<(), RosError>>,
+) -> std::process::ExitCode {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(colour)
+        .init();
+    let ended = tokio::runtime::Runtime::new()
+        .map_err(|e| RosError::Setup(format!("tokio runtime: {e}")))
+        .and_then(|rt| rt.block_on(node));
+    match ended {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            tracing::error!("{name}: {e}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
 /// Errors starting or running a ROS node.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -181,6 +207,13 @@ pub fn describe_shared(name: &str) -> &'static str {
         "axes" => "Wrench axes the task controls.",
         "task" => "guarded or guided; may be changed while running (switches mode).",
         "pd" => "PD force law (config/world.yaml).",
+        "loop_delays" => {
+            "Delays of the force loop: they set the gains and the safety envelope (s)."
+        }
+        "safety" => "Safety envelope: the bodies the scene may touch, the worst-case stiffness.",
+        "out_of_range" => "Limits of what the estimator knows (std, PDC rise); beyond: stop.",
+        "transport_delay_s" | "transport_jitter_s" => "Embedded runtime only (s).",
+        "period_jitter_fraction" => "Jitter of the simulated control period (fraction).",
         "guarded" => "Guarded-move settings (config/guarded_move.yaml).",
         "guided" => "Guided-move settings (config/guided_move.yaml).",
         "physics_rate_hz" => "Physics rate of the simulation (Hz).",

@@ -67,6 +67,12 @@ pub async fn run() -> Result<(), RosError> {
     )?;
     let arm: Arm = node_params(PA10_YAML, "force_controller")?;
     let robot = arm.robot.validate()?;
+    tracing::info!(
+        "sim_robot: object {}, BioTac unit {}, noise seed {seed}, period {} s",
+        p.object,
+        p.sensor_unit_seed,
+        p.control_period_s
+    );
     let mut sim = SimRobot::new(p, robot, &BioTacSimConfig::default(), seed)?;
 
     let joints = node.create_publisher::<JointStateMsg>("joint_states", QosProfile::default())?;

@@ -79,6 +79,18 @@ pub async fn run() -> Result<(), RosError> {
         WrenchGp::load(std::path::Path::new(&model_file))
             .map_err(|e| RosError::Setup(format!("{model_file}: {e}")))?
     };
+    let gps: Vec<String> = model
+        .fits()
+        .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))
+        .collect();
+    tracing::info!(
+        "wrench_estimator: model {} ({}; {} training samples), axes {}, with_std {}, stale after {stale_s} s",
+        if model_file.is_empty() { "default" } else { &model_file },
+        gps.join(", "),
+        model.n_train(),
+        model.axes(),
+        params.with_std,
+    );
     let mut estimator =
         EstimatorNode::new(model, params.with_std).map_err(|e| RosError::Setup(e.to_string()))?;
 
@@ -130,16 +142,12 @@ pub async fn run() -> Result<(), RosError> {
             dropped.non_finite += 1;
             continue;
         };
-        let sent = wrench
-            .publish(&mean)
-            .and_then(|()| {
-                if params.with_std {
-                    stddev.publish(&std)
-                } else {
-                    Ok(())
-                }
-            })
-            .and_then(|()| pdc.publish(&convert::pdc_rise_msg(&estimate, &frame_id)));
+        // The mean last: the controller steps when the mean and std of a
+        // reading are both in (the std is zeros without `with_std`).
+        let sent = pdc
+            .publish(&convert::pdc_rise_msg(&estimate, &frame_id))
+            .and_then(|()| stddev.publish(&std))
+            .and_then(|()| wrench.publish(&mean));
         if let Err(e) = sent {
             tracing::warn!("publish: {e}");
         }
