@@ -250,11 +250,13 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
     ));
     let (objects, points) = sweep_speeds(scene, model, &a.objects, &speeds, a.seed)?;
     bar.finish_and_clear();
-    println!("Peak force (N) measured / predicted by the safety envelope; each object alone in the scene.");
+    println!(
+        "Peak force (N) measured (overshoot) / predicted by the safety envelope; each object alone in the scene."
+    );
     println!("* overshoot over {OVERSHOOT_BOUND_N} N, ! stopped on the force limit, refused: above the envelope.");
     print!("{:>10}", "mm/s");
     for o in &a.objects {
-        print!("  {o:>20}");
+        print!("  {o:>26}");
     }
     println!();
     for v in &speeds {
@@ -272,11 +274,14 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
                     } else {
                         " "
                     };
-                    format!("{:.3} / {:.2}{mark}", r.peak_force_n, p.predicted_peak_n)
+                    format!(
+                        "{:.3} (+{:.3}) / {:.2}{mark}",
+                        r.peak_force_n, r.overshoot_n, p.predicted_peak_n
+                    )
                 }
                 None => "refused ".into(),
             });
-            print!("  {cell:>20}");
+            print!("  {cell:>26}");
         }
         println!();
     }

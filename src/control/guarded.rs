@@ -5,7 +5,7 @@
 //!
 //! ```text
 //!  Approach --F >= contact or PDC rise--> Regulate <--band--> Hold
-//!     |  \--travelled > max distance--> Stopped(timeout)
+//!     |  \--travelled > max distance (any of the three)--> Stopped(timeout)
 //!     \-- F > limit or out of range --> Retract --retracted--> Stopped(reason)
 //! ```
 //!
@@ -163,6 +163,11 @@ impl GuardedMove {
         self.in_band_s = 0.0;
     }
 
+    /// Stops where it is (a canceled goal): no motion any more.
+    pub fn stop(&mut self) {
+        self.phase = Phase::Stopped;
+    }
+
     /// One cycle: the speed along the approach direction (m/s).
     pub fn step(&mut self, i: &GuardedInput) -> f64 {
         let p = self.p;
@@ -192,6 +197,13 @@ impl GuardedMove {
                     return 0.0;
                 }
                 p.approach_speed_mps
+            }
+            // Never further than the approach distance, even in contact
+            // (a PDC rise can mean a touch away from the approach direction).
+            Phase::Regulate | Phase::Hold if i.travelled_m >= p.max_distance_m => {
+                self.phase = Phase::Stopped;
+                self.reason = Some(StopReason::Timeout);
+                0.0
             }
             Phase::Regulate | Phase::Hold => self.regulate(u, i),
             Phase::Retract => {
@@ -302,6 +314,34 @@ mod tests {
             (Phase::Stopped, Some(StopReason::Timeout))
         );
         assert_eq!(g.step(&input(0.0, 0.05)), 0.0, "stays stopped");
+    }
+
+    #[test]
+    fn a_stopped_move_stays_still() {
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+        assert_eq!(g.step(&input(0.0, 0.0)), 0.01);
+        g.stop();
+        assert_eq!(g.step(&input(0.0, 0.001)), 0.0);
+        assert_eq!((g.phase(), g.reason()), (Phase::Stopped, None));
+    }
+
+    #[test]
+    fn regulating_never_goes_past_the_approach_distance() {
+        // A PDC rise from a touch behind the pad: contact, but the force
+        // along the approach direction stays below the target.
+        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+        let touch = |travelled_m| GuardedInput {
+            pdc_rise: 100.0,
+            ..input(-1.0, travelled_m)
+        };
+        assert!(g.step(&touch(0.0)) > 0.0);
+        assert_eq!(g.phase(), Phase::Regulate);
+        assert!(g.step(&touch(0.049)) > 0.0);
+        assert_eq!(g.step(&touch(0.05)), 0.0);
+        assert_eq!(
+            (g.phase(), g.reason()),
+            (Phase::Stopped, Some(StopReason::Timeout))
+        );
     }
 
     #[test]

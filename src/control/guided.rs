@@ -104,6 +104,11 @@ impl GuidedMove {
         self.pd.iter_mut().flatten().for_each(PdAxis::reset);
     }
 
+    /// Stops where it is: no motion any more.
+    pub fn stop(&mut self) {
+        self.phase = Phase::Stopped;
+    }
+
     /// One cycle: estimated force (N, BioTac frame) -> BioTac velocity (m/s,
     /// BioTac frame). Over the force limit, or with the input out of the
     /// estimator's range, the arm stops for good.

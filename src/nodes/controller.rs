@@ -254,6 +254,15 @@ impl ForceController {
         Ok(())
     }
 
+    /// Stops the task where it is (a canceled goal): every later tick
+    /// commands zero velocity.
+    pub fn stop(&mut self) {
+        match &mut self.task {
+            Task::Guarded(g) => g.stop(),
+            Task::Guided(g) => g.stop(),
+        }
+    }
+
     /// One control cycle at time `now` (s).
     pub fn tick(&mut self, now: f64) -> ControlOutput {
         let dt = self.last_tick.map_or(self.period_s, |t| now - t);

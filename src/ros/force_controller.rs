@@ -284,6 +284,7 @@ mod action {
             loop {
                 ticker.tick().await;
                 if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
+                    lock(&shared).controller.stop();
                     c.accept();
                     let _ = handle.cancel(GuardedMove::Result {
                         reason: "canceled".into(),
