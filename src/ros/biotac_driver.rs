@@ -158,7 +158,8 @@ pub async fn run() -> Result<(), RosError> {
                         vec![],
                     )),
                     DriverEvent::TareRefused(e) => {
-                        Some(status(WARN, format!("tare refused: {e}"), &port, vec![]))
+                        // The error says "tare refused: ..." itself.
+                        Some(status(WARN, e.to_string(), &port, vec![]))
                     }
                 };
                 if let Some(s) = diag {

@@ -13,6 +13,8 @@ independent rclpy peer that checks them from the topics and the action.
   to the command that follows it, and the CPU of each node.
 - Guided move against the fingertip: RMS force error <= 0.3 N per axis while
   the finger pushes.
+- biotac_driver on the serial bridge emulator's pseudo-terminal: readings
+  at 100 Hz over DDS, and a tare through its ~/tare service.
 
 Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
 check, the figures, and "N passed, N failed".
@@ -32,6 +34,8 @@ from rclpy.action import ActionClient
 from rclpy.qos import qos_profile_sensor_data
 from geometry_msgs.msg import WrenchStamped
 from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
+from diagnostic_msgs.msg import DiagnosticArray
 from action_msgs.msg import GoalStatus
 from tactile_force_msgs.action import GuardedMove
 from tactile_force_msgs.msg import BioTac
@@ -55,14 +59,15 @@ class Nodes:
     estimator first, until its model is loaded (training it on first use
     takes 10-20 s), so that the others start with estimates flowing."""
 
-    def __init__(self, scene, object_name):
+    def __init__(self, scene, object_name, port=None, only=None):
         self.domain = random.randint(10, 200)
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
         self.procs = {}
-        specs = {exe: (files, overrides) for exe, files, overrides in nodes(scene, True, object_name, "", "")}
+        specs = {exe: (files, overrides)
+                 for exe, files, overrides in nodes(scene, port is None, object_name, "", port or "")}
         order = ["wrench_estimator"] + [exe for exe in specs if exe != "wrench_estimator"]
-        for exe in order:
+        for exe in [e for e in order if only is None or e in only]:
             self._start(exe, *specs[exe])
             if exe == "wrench_estimator" and not self._wait_log(exe, "wrench_estimator: model", 180):
                 raise RuntimeError("the estimator did not load its model:\n" + self.tail(exe))
@@ -269,11 +274,52 @@ def guided():
         n.stop(keep_logs=not ok)
 
 
+def driver():
+    """biotac_driver on the emulator's pseudo-terminal: readings over DDS,
+    and a tare through ~/tare, answered on /diagnostics."""
+    # Never pressed (a tare is refused while the skin is pressed).
+    emulator = subprocess.Popen(["tactile_force", "biotac-emulator", "--pty", "--press-peak-n", "0"],
+                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    port = emulator.stdout.readline().split()[-1]
+    n = Nodes("guarded_move.yaml", "wooden_box", port=port, only=("biotac_driver",))
+    peer = Peer(n.domain)
+    ok = False
+    try:
+        got = []
+        peer.node.create_subscription(BioTac, "biotac/readings", lambda m: got.append(m), qos_profile_sensor_data)
+        diags = []
+        peer.node.create_subscription(
+            DiagnosticArray, "/diagnostics",
+            lambda m: diags.extend(st.message for st in m.status), 10)
+        peer.spin(10, lambda: len(got) >= 50)
+        t0, n0 = time.monotonic(), len(got)
+        peer.spin(2)
+        rate = (len(got) - n0) / (time.monotonic() - t0)
+        valid = all(len(m.electrodes) == 19 and not m.invalid_channels for m in got)
+        check("driver: readings from the emulator over DDS", 90 <= rate <= 110 and valid,
+              f"{rate:.1f} per s from {port}, {len(got)} in all, all valid: {valid}")
+        tare = peer.node.create_client(Trigger, "biotac_driver/tare")
+        ready = tare.wait_for_service(timeout_sec=10)
+        answer = tare.call_async(Trigger.Request()) if ready else None
+        answered = answer is not None and peer.spin(5, answer.done)
+        tared = answered and peer.spin(5, lambda: any(d.startswith("tared") for d in diags))
+        check("driver: tare through ~/tare", tared,
+              (answer.result().message if answered else "no answer") + "; "
+              + next((d for d in diags if d.startswith("tared")), "no tare on /diagnostics"))
+        ok = all(RESULTS)
+    finally:
+        peer.destroy()
+        n.stop(keep_logs=not ok)
+        emulator.terminate()
+        emulator.wait(timeout=10)
+
+
 def main():
     os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(REPO, "target", "ros-test-cache"))
     for object_name in ("wooden_box", "carton_box", "stuffed_animal"):
         guarded(object_name)
     guided()
+    driver()
     failed = RESULTS.count(False)
     print(f"{len(RESULTS) - failed} passed, {failed} failed")
     return 1 if failed else 0
