@@ -19,7 +19,9 @@ use crate::control::{
 };
 use crate::kinematics::{joint_velocities, JointVector, Robot, RobotParams, Twist};
 use crate::params::ParamsError;
-use crate::sim::contact::{object_body, positive, series_stiffness, BodyParams, SkinParams};
+use crate::sim::contact::{
+    object_body, positive, series_stiffness, shear_stiffness, BodyParams, SkinParams,
+};
 use crate::wrench::{Axis, AxisSet};
 
 /// Which task the controller runs.
@@ -464,12 +466,6 @@ fn stiffest_permitted(p: &ControllerParams) -> Result<(BodyParams, String), Para
         value: "[]".into(),
         expected: "the bodies this scene may touch".into(),
     })
-}
-
-/// Stiffness of a stuck contact across the pad: the skin's shear stiffness
-/// in series with the body (N/m).
-fn shear_stiffness(skin: &SkinParams, body: &BodyParams) -> f64 {
-    1.0 / (1.0 / skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m)
 }
 
 /// The guided move's envelope: the controlled axis that allows the slowest

@@ -131,18 +131,18 @@ impl Scene {
     /// (before an expensive step such as training a model).
     pub fn check(&self) -> Result<(), SceneError> {
         let recipe = self.estimator_params()?.default_model;
-        let (controller, _sim) = self.controller_and_sim(&BioTacSimConfig::default(), 0)?;
+        let (controller, _, _) = self.controller_and_sim(&BioTacSimConfig::default(), 0)?;
         missing_axes(&recipe.axes, controller.axes())
     }
 
-    /// The controller and the simulated robot, checked, and checked against
-    /// each other: the controller's gains and safety envelope must assume an
+    /// The controller, the simulated robot and the estimate's link, checked,
+    /// and checked against each other: the controller's gains and safety envelope must assume an
     /// arm and a transport no faster than the simulated ones.
     fn controller_and_sim(
         &self,
         sensor: &BioTacSimConfig,
         seed: u64,
-    ) -> Result<(ForceController, SimRobot), SceneError> {
+    ) -> Result<(ForceController, SimRobot, Link), SceneError> {
         let cp = self.controller_params()?;
         let sp = self.sim_params()?;
         // The lockstep controller takes a delayed estimate at its next tick.
@@ -182,8 +182,9 @@ impl Scene {
             }
         }
         let controller = ForceController::new(cp)?;
+        let link = Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed);
         let sim = SimRobot::new(sp, controller.robot().clone(), sensor, seed)?;
-        Ok((controller, sim))
+        Ok((controller, sim, link))
     }
 
     /// Builds the nodes of a run with `model`; `seed` drives the noise.
@@ -193,15 +194,14 @@ impl Scene {
         sensor: &BioTacSimConfig,
         seed: u64,
     ) -> Result<Nodes, SceneError> {
-        let (controller, sim) = self.controller_and_sim(sensor, seed)?;
+        let (controller, sim, link) = self.controller_and_sim(sensor, seed)?;
         missing_axes(model.axes(), controller.axes())?;
         let estimator = EstimatorNode::new(model, self.estimator_params()?.with_std)?;
-        let sp = self.sim_params()?;
         Ok(Nodes {
             sim,
             estimator,
             controller,
-            link: Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed),
+            link,
         })
     }
 }

@@ -106,6 +106,12 @@ pub fn series_stiffness(skin: &SkinParams, body: &BodyParams, f: f64) -> f64 {
     1.0 / (1.0 / skin.stiffness_at(f) + 1.0 / body.stiffness_n_per_m)
 }
 
+/// Stiffness of a stuck contact across the pad: the skin's shear stiffness
+/// in series with `body` (N/m).
+pub fn shear_stiffness(skin: &SkinParams, body: &BodyParams) -> f64 {
+    1.0 / (1.0 / skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m)
+}
+
 pub(crate) fn positive(key: &str, v: f64) -> Result<(), ParamsError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
@@ -177,8 +183,7 @@ impl PlaneContact {
         let anchor = plane + *self.anchor.get_or_insert(pad - plane);
         let slip = pad - anchor;
         let slip_t = slip - normal * slip.dot(normal);
-        let k_t =
-            1.0 / (1.0 / self.skin.shear_stiffness_n_per_m + 1.0 / self.body.stiffness_n_per_m);
+        let k_t = shear_stiffness(&self.skin, &self.body);
         let mut ft = -slip_t * k_t;
         let limit = self.body.friction * fn_;
         let norm = ft.norm();
