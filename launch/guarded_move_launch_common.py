@@ -9,6 +9,7 @@ from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition, UnlessCondition
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
 from tactile_force_nodes import nodes
@@ -23,6 +24,8 @@ def make(scene=SCENE):
         object_name=LaunchConfiguration("object"),
         model=LaunchConfiguration("model"),
         port=LaunchConfiguration("port"),
+        sim_time=ParameterValue(LaunchConfiguration("use_sim_time"), value_type=bool),
+        real_time_factor=ParameterValue(LaunchConfiguration("real_time_factor"), value_type=float),
     )
 
     def node(executable, files, overrides, condition=None):
@@ -48,6 +51,10 @@ def make(scene=SCENE):
                               description="GP model file; empty: the default model."),
         DeclareLaunchArgument("port", default_value="/dev/ttyACM0",
                               description="Serial device of the BioTac bridge (use_sim:=false)."),
+        DeclareLaunchArgument("use_sim_time", default_value="false",
+                              description="Every node on sim_robot's /clock (use_sim:=true)."),
+        DeclareLaunchArgument("real_time_factor", default_value="1.0",
+                              description="Simulated seconds per wall-clock second (use_sim_time:=true), >= 1."),
         DeclareLaunchArgument("object", default_value="wooden_box" if scene == SCENE else "fingertip",
                               description="Object (config/world.yaml objects)."),
         *started,

@@ -2,6 +2,7 @@
 
 ros2 launch tactile_force joystick.launch.py [use_sim:=true] [object:=fingertip]
     [model:=/path/model.json] [port:=/dev/ttyACM0]
+    [use_sim_time:=true [real_time_factor:=2.0]]
 """
 
 import os

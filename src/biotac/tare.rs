@@ -117,6 +117,81 @@ impl Tare {
     }
 }
 
+/// A tare kept on disk, so that an estimator restarted while the finger is
+/// pressed takes up the baseline it had rather than taring on the press.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SavedTare {
+    /// The sensor's serial number, as in its readings.
+    pub serial: String,
+    /// When it was taken (s since the Unix epoch).
+    pub taken_unix_s: f64,
+    /// The tare.
+    pub tare: Tare,
+}
+
+/// Why a saved tare could not be read or written.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SavedTareError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// The file is not a saved tare.
+    #[error("{path}: not a saved tare: {source}")]
+    Format {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The error.
+        source: serde_json::Error,
+    },
+}
+
+impl SavedTare {
+    /// Reads `path`; None if there is no such file.
+    pub fn load(path: &std::path::Path) -> Result<Option<SavedTare>, SavedTareError> {
+        let text = match std::fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(source) => {
+                return Err(SavedTareError::Io {
+                    path: path.into(),
+                    source,
+                })
+            }
+        };
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|source| SavedTareError::Format {
+                path: path.into(),
+                source,
+            })
+    }
+
+    /// Writes it to `path` (through a temporary file, so that a crash
+    /// leaves the old file or the new one).
+    pub fn save(&self, path: &std::path::Path) -> Result<(), SavedTareError> {
+        let io = |source| SavedTareError::Io {
+            path: path.into(),
+            source,
+        };
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(io)?;
+        }
+        let tmp = path.with_extension("tmp");
+        let text = serde_json::to_string(self).map_err(|source| SavedTareError::Format {
+            path: path.into(),
+            source,
+        })?;
+        std::fs::write(&tmp, text).map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,5 +271,28 @@ mod tests {
         let json = serde_json::to_string(&tare).expect("serialises");
         let back: Tare = serde_json::from_str(&json).expect("deserialises");
         assert_eq!(back, tare);
+    }
+
+    #[test]
+    fn a_saved_tare_reads_back_and_a_wrong_file_is_named() {
+        let dir = std::env::temp_dir().join(format!("tare_test_{}", std::process::id()));
+        let path = dir.join("t.json");
+        assert!(SavedTare::load(&path).unwrap().is_none());
+        let mut sim = BioTacSim::new(&BioTacSimConfig::default(), 3);
+        let rest: Vec<_> = (0..10).map(|_| sim.step(None, FRAME_PERIOD_S)).collect();
+        let saved = SavedTare {
+            serial: "simulated".into(),
+            taken_unix_s: 1.7e9,
+            tare: Tare::from_readings(&rest).unwrap(),
+        };
+        saved.save(&path).unwrap();
+        assert_eq!(SavedTare::load(&path).unwrap(), Some(saved));
+        std::fs::write(&path, "{\"serial\": 3}").unwrap();
+        let err = SavedTare::load(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("t.json") && err.contains("not a saved tare"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -76,16 +76,19 @@ impl Recipe {
     }
 }
 
-/// Where the default model of `recipe` is cached.
-pub fn cache_path(recipe: &Recipe) -> Option<PathBuf> {
-    let dir = std::env::var_os("TACTILE_FORCE_CACHE")
+/// The cache folder (module doc); None without `$HOME` or the variables.
+pub fn cache_dir() -> Option<PathBuf> {
+    std::env::var_os("TACTILE_FORCE_CACHE")
         .map(PathBuf::from)
         .or_else(|| {
             std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("tactile_force"))
         })
-        .or_else(|| {
-            std::env::var_os("HOME").map(|d| PathBuf::from(d).join(".cache/tactile_force"))
-        })?;
+        .or_else(|| std::env::var_os("HOME").map(|d| PathBuf::from(d).join(".cache/tactile_force")))
+}
+
+/// Where the default model of `recipe` is cached.
+pub fn cache_path(recipe: &Recipe) -> Option<PathBuf> {
+    let dir = cache_dir()?;
     let mut h = std::collections::hash_map::DefaultHasher::new();
     (
         env!("CARGO_PKG_VERSION"),

@@ -34,6 +34,22 @@ pub enum TaskKind {
     Guided,
 }
 
+impl std::str::FromStr for TaskKind {
+    type Err = ParamsError;
+
+    fn from_str(s: &str) -> Result<Self, ParamsError> {
+        match s {
+            "guarded" => Ok(TaskKind::Guarded),
+            "guided" => Ok(TaskKind::Guided),
+            other => Err(ParamsError::Invalid {
+                key: "task".into(),
+                value: other.into(),
+                expected: "guarded or guided".into(),
+            }),
+        }
+    }
+}
+
 /// The `force_controller` parameters (robot file + scene file).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -199,6 +215,16 @@ impl ForceController {
         })
     }
 
+    /// A controller for `task` with the other parameters of `base`: a task
+    /// switch while running, checked as at start-up (the other task's
+    /// section, its safety envelope against the scene's bodies).
+    pub fn switched(base: &ControllerParams, task: TaskKind) -> Result<Self, ParamsError> {
+        ForceController::new(ControllerParams {
+            task,
+            ..base.clone()
+        })
+    }
+
     /// The axes the task controls.
     pub fn axes(&self) -> &AxisSet {
         &self.axes
@@ -271,14 +297,30 @@ impl ForceController {
         self.last_tick = Some(now);
         match self.step(now, dt) {
             Ok((qdot, velocity)) => self.output(qdot, velocity, None),
-            Err(halt) => {
-                match &mut self.task {
-                    Task::Guarded(g) => g.pause(),
-                    Task::Guided(g) => g.pause(),
-                }
-                self.output(JointVector::zeros(), Vector3::zeros(), Some(halt))
-            }
+            Err(halt) => self.halt(halt),
         }
+    }
+
+    /// A cycle in which the estimate did not come: a controller that steps
+    /// on each estimate halts at once (zero velocity, the task paused)
+    /// rather than acting on the previous estimate until the watchdog's
+    /// age limit. `waited_s`: how long it waited.
+    pub fn estimate_late(&mut self, now: f64, waited_s: f64) -> ControlOutput {
+        self.last_tick = Some(now);
+        let age_s = self.estimate.map_or(f64::INFINITY, |e| now - e.stamp_s);
+        self.halt(Halt::Stale {
+            what: "wrench estimate",
+            age_s,
+            max_age_s: waited_s,
+        })
+    }
+
+    fn halt(&mut self, halt: Halt) -> ControlOutput {
+        match &mut self.task {
+            Task::Guarded(g) => g.pause(),
+            Task::Guided(g) => g.pause(),
+        }
+        self.output(JointVector::zeros(), Vector3::zeros(), Some(halt))
     }
 
     fn step(&mut self, now: f64, dt: f64) -> Result<(JointVector, Vector3<f64>), Halt> {
@@ -520,5 +562,97 @@ fn invalid_axes(axes: &AxisSet, axis: Axis) -> ParamsError {
         key: "axes".into(),
         value: axes.to_string(),
         expected: format!("a set including {axis}, which the task reads"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::runtime::scene::Scene;
+
+    /// A scene's parameters with both tasks' sections, as the ROS node
+    /// declares them.
+    fn both_sections(task: TaskKind) -> ControllerParams {
+        let guarded = Scene::builtin(TaskKind::Guarded)
+            .controller_params()
+            .unwrap();
+        let guided = Scene::builtin(TaskKind::Guided)
+            .controller_params()
+            .unwrap();
+        let mut p = if task == TaskKind::Guarded {
+            guarded.clone()
+        } else {
+            guided.clone()
+        };
+        p.guarded = guarded.guarded;
+        p.guided = guided.guided;
+        p
+    }
+
+    #[test]
+    fn a_task_switch_is_checked_as_at_start_up() {
+        assert_eq!("guided".parse::<TaskKind>().unwrap(), TaskKind::Guided);
+        let err = "fast".parse::<TaskKind>().unwrap_err().to_string();
+        assert!(
+            err.contains("fast") && err.contains("guarded or guided"),
+            "{err}"
+        );
+        // The joystick scene may switch to the guarded move, and back.
+        let guided = both_sections(TaskKind::Guided);
+        let c = ForceController::switched(&guided, TaskKind::Guarded).unwrap();
+        assert!(c.gains()[2].is_some() && c.gains()[0].is_none());
+        ForceController::switched(&guided, TaskKind::Guided).unwrap();
+        // Without the other task's section the switch names what is missing.
+        let only = Scene::builtin(TaskKind::Guided)
+            .controller_params()
+            .unwrap();
+        let err = ForceController::switched(&only, TaskKind::Guarded).unwrap_err();
+        assert!(err.to_string().contains("guarded"), "{err}");
+        // The guided move's speeds are beyond the envelope of a wooden box.
+        let guarded = both_sections(TaskKind::Guarded);
+        let err = ForceController::switched(&guarded, TaskKind::Guided)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("pd.max_speed_mps") && err.contains("against wooden_box"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
+        let scene = Scene::builtin(TaskKind::Guarded);
+        let mut c = ForceController::new(scene.controller_params().unwrap()).unwrap();
+        let deg = scene.sim_params().unwrap().start_joints_deg;
+        let q = JointVector::from_iterator(deg.iter().map(|d| d.to_radians()));
+        let inputs = |c: &mut ForceController, t: f64| {
+            c.on_joint_state(JointState { stamp_s: t, q }).unwrap();
+            c.on_estimate(WrenchEstimate {
+                stamp_s: t,
+                seq: 0,
+                mean: Default::default(),
+                std: Default::default(),
+                estimated: [false, false, true, false, false, false],
+                pdc_rise: 0.0,
+            })
+            .unwrap();
+        };
+        inputs(&mut c, 0.0);
+        let out = c.tick(0.002);
+        assert!(out.halt.is_none() && out.qdot.norm() > 0.0, "approaching");
+        // 15 ms without an estimate: well inside the watchdog's 30 ms.
+        let out = c.estimate_late(0.015, 0.015);
+        assert_eq!(out.qdot, JointVector::zeros());
+        assert!(
+            matches!(out.halt, Some(Halt::Stale { .. })),
+            "{:?}",
+            out.halt
+        );
+        inputs(&mut c, 0.02);
+        let out = c.tick(0.022);
+        assert!(
+            out.halt.is_none() && out.qdot.norm() > 0.0,
+            "approaching again"
+        );
     }
 }

@@ -1,5 +1,7 @@
 //! The wrench estimator node: tares the BioTac on its first readings (out of
 //! contact), then turns every reading into a wrench estimate with the GP.
+//! Over ROS, readings that arrive too late are dropped and counted
+//! ([`EstimatorNode::on_received`]).
 
 use serde::Deserialize;
 
@@ -52,6 +54,26 @@ pub struct EstimatorParams {
     pub default_model: Recipe,
 }
 
+/// Readings that gave no estimate, by reason (the node's diagnostics).
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct Dropped {
+    /// Messages that could not be decoded (wrong lengths, wrong type).
+    pub refused: u64,
+    /// Readings with channels the driver flagged invalid.
+    pub invalid: u64,
+    /// Readings older than the stale timeout on arrival.
+    pub stale: u64,
+    /// Readings the model refused or turned into NaN or infinity.
+    pub non_finite: u64,
+}
+
+impl Dropped {
+    /// All of them.
+    pub fn total(&self) -> u64 {
+        self.refused + self.invalid + self.stale + self.non_finite
+    }
+}
+
 /// Errors building the node.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -65,6 +87,9 @@ pub enum EstimatorError {
     /// The model refused the input.
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// The stale timeout is not a positive number of seconds.
+    #[error("stale_timeout_s = {0}: expected a time > 0 s")]
+    StaleTimeout(f64),
 }
 
 /// The estimator node.
@@ -77,6 +102,9 @@ pub struct EstimatorNode {
     tare_readings: Vec<BioTacReading>,
     tare: Option<Tare>,
     out: Vec<Estimate>,
+    stale_timeout_s: Option<f64>,
+    dropped: Dropped,
+    estimates: u64,
 }
 
 impl EstimatorNode {
@@ -99,7 +127,76 @@ impl EstimatorNode {
             tare_samples,
             tare_readings: Vec::with_capacity(tare_samples),
             tare: None,
+            stale_timeout_s: None,
+            dropped: Dropped::default(),
+            estimates: 0,
         })
+    }
+
+    /// Readings older than `seconds` on arrival are dropped
+    /// ([`EstimatorNode::on_received`]).
+    pub fn with_stale_timeout(mut self, seconds: f64) -> Result<Self, EstimatorError> {
+        if !(seconds > 0.0 && seconds.is_finite()) {
+            return Err(EstimatorError::StaleTimeout(seconds));
+        }
+        self.stale_timeout_s = Some(seconds);
+        Ok(self)
+    }
+
+    /// The baseline, once taken.
+    pub fn tare(&self) -> Option<&Tare> {
+        self.tare.as_ref()
+    }
+
+    /// Takes `tare` as the baseline (a saved one): no readings are spent on it.
+    pub fn set_tare(&mut self, tare: Tare) {
+        self.tare = Some(tare);
+        self.tare_readings.clear();
+    }
+
+    /// What was dropped so far.
+    pub fn dropped(&self) -> Dropped {
+        self.dropped
+    }
+
+    /// Counts a message that never became a reading: undecodable (`invalid`
+    /// false) or with channels the driver flagged invalid (`invalid` true).
+    pub fn count_unusable(&mut self, invalid: bool) {
+        if invalid {
+            self.dropped.invalid += 1;
+        } else {
+            self.dropped.refused += 1;
+        }
+    }
+
+    /// Estimates made so far.
+    pub fn estimates(&self) -> u64 {
+        self.estimates
+    }
+
+    /// Takes a reading that arrived at `now_s` (s, the clock of its stamp):
+    /// None while taring, and for a reading older than the stale timeout
+    /// (or with `now_s` unknown, NaN) or whose estimate is not finite;
+    /// those are counted ([`EstimatorNode::dropped`]).
+    pub fn on_received(&mut self, r: &BioTacReading, now_s: f64) -> Option<WrenchEstimate> {
+        if let Some(limit) = self.stale_timeout_s {
+            let fresh = now_s - r.stamp_s <= limit; // false for a NaN age
+            if !fresh {
+                self.dropped.stale += 1;
+                return None;
+            }
+        }
+        match self.on_reading(r) {
+            Ok(Some(e)) if e.is_finite() => {
+                self.estimates += 1;
+                Some(e)
+            }
+            Ok(None) => None,
+            Ok(Some(_)) | Err(_) => {
+                self.dropped.non_finite += 1;
+                None
+            }
+        }
     }
 
     /// The model.
@@ -150,5 +247,90 @@ impl EstimatorNode {
             estimated,
             pdc_rise: tare.tared_pdc(r),
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learn::dataset::Dataset;
+    use crate::learn::gp::GpParams;
+    use crate::learn::model::TareSpec;
+    use ndarray::Array2;
+
+    /// A model on the 19 electrodes, fz = minus the mean tared electrode.
+    fn electrode_model() -> WrenchGp {
+        let n = 30;
+        let x = Array2::from_shape_fn((n, 19), |(i, j)| -(((i * 7 + j * 3) % 11) as f64));
+        let y = Array2::from_shape_fn((n, 1), |(i, _)| -x.row(i).sum() / 19.0);
+        let data = Dataset {
+            features: electrode_columns(),
+            x,
+            axes: "fz".parse().unwrap(),
+            y,
+            set: vec![1; n],
+            trial: vec![1; n],
+        };
+        let tare = TareSpec {
+            samples: 3,
+            mean_baseline: vec![2000.0; 19],
+        };
+        let params = GpParams {
+            restarts: 1,
+            ..GpParams::default()
+        }
+        .validate()
+        .unwrap();
+        WrenchGp::train(&data, tare, &params, &mut |_, _| {}).unwrap()
+    }
+
+    fn reading(stamp_s: f64, pressed: u16) -> BioTacReading {
+        BioTacReading {
+            seq: 0,
+            stamp_s,
+            electrodes: [2000 - pressed; 19],
+            pdc: 2000 + pressed,
+            pac: [0; 22],
+            tdc: 0,
+            tac: 0,
+        }
+    }
+
+    #[test]
+    fn late_readings_and_an_unknown_clock_are_dropped_and_counted() {
+        let node = EstimatorNode::new(electrode_model(), true).unwrap();
+        assert!(matches!(
+            node.clone().with_stale_timeout(0.0),
+            Err(EstimatorError::StaleTimeout(_))
+        ));
+        let mut node = node.with_stale_timeout(0.03).unwrap();
+        for i in 0..3 {
+            assert_eq!(node.on_received(&reading(i as f64 * 0.01, 0), 0.03), None);
+        }
+        assert!(node.is_tared());
+        assert!(node.on_received(&reading(1.0, 5), 1.02).is_some());
+        assert_eq!(node.on_received(&reading(1.0, 5), 1.04), None);
+        assert_eq!(node.on_received(&reading(1.0, 5), f64::NAN), None);
+        node.count_unusable(true);
+        node.count_unusable(false);
+        let d = node.dropped();
+        assert_eq!((d.stale, d.invalid, d.refused, d.non_finite), (2, 1, 1, 0));
+        assert_eq!((d.total(), node.estimates()), (4, 1));
+    }
+
+    #[test]
+    fn a_saved_tare_is_used_at_once_and_gives_the_same_estimate() {
+        let mut first = EstimatorNode::new(electrode_model(), false).unwrap();
+        for i in 0..3 {
+            first.on_received(&reading(i as f64, 0), i as f64);
+        }
+        let pressed = reading(5.0, 6);
+        let before = first.on_received(&pressed, 5.0).unwrap();
+        // A restart while pressed: taring on the press would read ~0 N.
+        let mut restarted = EstimatorNode::new(electrode_model(), false).unwrap();
+        restarted.set_tare(first.tare().unwrap().clone());
+        let after = restarted.on_received(&pressed, 5.0).unwrap();
+        assert_eq!(after.mean, before.mean);
+        assert!(before.mean.force.z > 3.0, "{:?}", before.mean);
     }
 }

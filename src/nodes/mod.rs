@@ -5,11 +5,13 @@
 //! - [`estimator::EstimatorNode`]: BioTac readings -> wrench estimates (GP);
 //! - [`controller::ForceController`]: estimates and joint states -> joint velocities;
 //!   [`guarded_goal`]: a guarded-move goal applied to it, and its outcome;
+//!   [`loop_delay`]: the delay it actually sees, from header stamps;
 //! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac.
 
 pub mod controller;
 pub mod estimator;
 pub mod guarded_goal;
+pub mod loop_delay;
 pub mod sim_robot;
 
 pub use controller::{ControlOutput, ControllerParams, ForceController};

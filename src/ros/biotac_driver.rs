@@ -7,33 +7,14 @@
 //! `use_sim:=true` the launch files do not start this node: `sim_robot`
 //! publishes the simulated BioTac.
 
-use r2r::diagnostic_msgs::msg::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::QosProfile;
 
 use super::biotac_msg::{self, BioTacMeta, BIOTAC_MSG_TYPE};
+use super::convert::level::{ERROR, OK, WARN};
+use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::driver::{Driver, DriverConfig, DriverEvent};
-
-/// Diagnostic levels (diagnostic_msgs/DiagnosticStatus).
-const OK: u8 = 0;
-const WARN: u8 = 1;
-const ERROR: u8 = 2;
-
-fn status(level: u8, message: String, port: &str, values: Vec<(&str, String)>) -> DiagnosticStatus {
-    DiagnosticStatus {
-        level,
-        name: "biotac_driver: link".into(),
-        message,
-        hardware_id: port.into(),
-        values: values
-            .into_iter()
-            .map(|(k, v)| KeyValue {
-                key: k.into(),
-                value: v,
-            })
-            .collect(),
-    }
-}
 
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
@@ -74,9 +55,7 @@ pub async fn run() -> Result<(), RosError> {
         "~/tare",
         QosProfile::services_default(),
     )?;
-    let (handler, _events) = node.make_parameter_handler()?;
-    tokio::spawn(handler);
-    let mut clock = r2r::Clock::create(r2r::ClockType::RosTime)?;
+    let clock = super::serve_parameters(&mut node, RuntimeParams::none())?;
     super::spin(node);
 
     let (tare_tx, tare_rx) = std::sync::mpsc::channel::<()>();
@@ -106,7 +85,7 @@ pub async fn run() -> Result<(), RosError> {
                 driver.request_tare(samples);
             }
             driver.poll(&mut |event| {
-                let now = super::now_s(&mut clock);
+                let now = clock.now_s();
                 let diag = match event {
                     DriverEvent::Frame {
                         frame,
@@ -125,25 +104,23 @@ pub async fn run() -> Result<(), RosError> {
                         None
                     }
                     DriverEvent::Frame { reading: None, .. } => None,
+                    // (level, message, values)
                     DriverEvent::Connected { port } => {
-                        Some(status(OK, format!("connected to {port}"), &port, vec![]))
+                        Some((OK, format!("connected to {port}"), vec![]))
                     }
-                    DriverEvent::Disconnected { reason, retry_in_s } => Some(status(
+                    DriverEvent::Disconnected { reason, retry_in_s } => Some((
                         ERROR,
                         format!("disconnected: {reason}"),
-                        &port,
                         vec![("retry_in_s", format!("{retry_in_s:.2}"))],
                     )),
-                    DriverEvent::Stale { silent_s } => Some(status(
+                    DriverEvent::Stale { silent_s } => Some((
                         WARN,
                         "stale: no frames".into(),
-                        &port,
                         vec![("silent_s", format!("{silent_s:.3}"))],
                     )),
-                    DriverEvent::Stats(s) => Some(status(
+                    DriverEvent::Stats(s) => Some((
                         OK,
                         "streaming".into(),
-                        &port,
                         vec![
                             ("frames_per_s", format!("{:.1}", s.frames_per_s)),
                             ("dropped", s.dropped.to_string()),
@@ -151,25 +128,17 @@ pub async fn run() -> Result<(), RosError> {
                             ("decoder", format!("{:?}", s.decoder)),
                         ],
                     )),
-                    DriverEvent::Tared(t) => Some(status(
-                        OK,
-                        format!("tared: PDC baseline {:.1}", t.pdc()),
-                        &port,
-                        vec![],
-                    )),
+                    DriverEvent::Tared(t) => {
+                        Some((OK, format!("tared: PDC baseline {:.1}", t.pdc()), vec![]))
+                    }
                     DriverEvent::TareRefused(e) => {
                         // The error says "tare refused: ..." itself.
-                        Some(status(WARN, e.to_string(), &port, vec![]))
+                        Some((WARN, e.to_string(), vec![]))
                     }
                 };
-                if let Some(s) = diag {
-                    let msg = DiagnosticArray {
-                        header: r2r::std_msgs::msg::Header {
-                            stamp: convert::time_msg(now),
-                            frame_id: String::new(),
-                        },
-                        status: vec![s],
-                    };
+                if let Some((level, message, values)) = diag {
+                    let name = "biotac_driver: link";
+                    let msg = convert::diagnostics_msg(now, level, name, message, &port, values);
                     if let Err(e) = diagnostics.publish(&msg) {
                         tracing::warn!("diagnostics: {e}");
                     }

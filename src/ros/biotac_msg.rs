@@ -1,5 +1,6 @@
 //! `tactile_force_msgs/msg/BioTac` <-> [`BioTacReading`], as the JSON value
-//! r2r's untyped publishers and subscriptions carry (`msg/msg/BioTac.msg`).
+//! r2r's untyped publishers carry, and from the CDR bytes a raw
+//! subscription delivers (`msg/msg/BioTac.msg`).
 //!
 //! Under r2r's `doc-only` build there are no Rust types for our own
 //! interface package, so the BioTac topic is untyped: this module is the one
@@ -36,6 +37,10 @@ pub enum BioTacMsgError {
         /// Values expected.
         expected: usize,
     },
+    /// The bytes are not a BioTac message in CDR (too short, a wrong
+    /// array or string length).
+    #[error("BioTac message: not decodable as CDR ({0})")]
+    Cdr(String),
     /// A count above the 12-bit range.
     #[error("BioTac message: `{field}` = {value} is above 4095")]
     Range {
@@ -200,6 +205,58 @@ pub fn from_json(v: &Value) -> Result<(BioTacReading, BioTacMeta), BioTacMsgErro
     Ok((reading, meta))
 }
 
+/// The message's fields in CDR order (`msg/msg/BioTac.msg`).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct CdrBioTac {
+    sec: i32,
+    nanosec: u32,
+    frame_id: String,
+    serial: String,
+    sensor_index: u8,
+    seq: u16,
+    electrodes: [u16; N_ELECTRODES],
+    pdc: u16,
+    pac: [u16; N_PAC],
+    tdc: u16,
+    tac: u16,
+    invalid_channels: Vec<String>,
+}
+
+/// The reading in a serialized message (CDR, with its encapsulation
+/// header, as DDS delivers it); refuses bytes that do not decode and counts
+/// above 4095.
+pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
+    let m: CdrBioTac = cdr::deserialize(bytes).map_err(|e| BioTacMsgError::Cdr(e.to_string()))?;
+    let range = |field: &'static str, values: &[u16]| match values.iter().find(|v| **v > 4095) {
+        Some(v) => Err(BioTacMsgError::Range {
+            field,
+            value: u64::from(*v),
+        }),
+        None => Ok(()),
+    };
+    range("electrodes", &m.electrodes)?;
+    range("pdc", &[m.pdc])?;
+    range("pac", &m.pac)?;
+    range("tdc", &[m.tdc])?;
+    range("tac", &[m.tac])?;
+    let reading = BioTacReading {
+        seq: m.seq,
+        stamp_s: join_stamp(m.sec, m.nanosec),
+        electrodes: m.electrodes,
+        pdc: m.pdc,
+        pac: m.pac,
+        tdc: m.tdc,
+        tac: m.tac,
+    };
+    let meta = BioTacMeta {
+        frame_id: m.frame_id,
+        serial: m.serial,
+        sensor_index: m.sensor_index,
+        invalid_channels: m.invalid_channels,
+    };
+    Ok((reading, meta))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -310,5 +367,39 @@ mod tests {
         assert_eq!(split_stamp(f64::NAN), (0, 0));
         assert_eq!(split_stamp(-1.0), (0, 0));
         assert!((join_stamp(12, 250_000_000) - 12.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cdr_bytes_decode_and_short_or_out_of_range_ones_are_refused() {
+        let r = reading();
+        let (sec, nanosec) = split_stamp(r.stamp_s);
+        let mut m = CdrBioTac {
+            sec,
+            nanosec,
+            frame_id: "biotac".into(),
+            serial: "BT-1".into(),
+            sensor_index: 1,
+            seq: r.seq,
+            electrodes: r.electrodes,
+            pdc: r.pdc,
+            pac: r.pac,
+            tdc: r.tdc,
+            tac: r.tac,
+            invalid_channels: vec!["e3".into()],
+        };
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
+        let (back, meta) = from_cdr(&bytes).unwrap();
+        assert_eq!(back, r);
+        assert_eq!(
+            (meta.serial.as_str(), meta.invalid_channels.len()),
+            ("BT-1", 1)
+        );
+        // A message cut short (an electrode array of 10 values, say).
+        let err = from_cdr(&bytes[..40]).unwrap_err();
+        assert!(matches!(err, BioTacMsgError::Cdr(_)), "{err}");
+        m.pac[3] = 5000;
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
+        let err = from_cdr(&bytes).unwrap_err().to_string();
+        assert!(err.contains("pac") && err.contains("5000"), "{err}");
     }
 }

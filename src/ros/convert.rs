@@ -4,7 +4,8 @@
 //! node's clock.
 
 use r2r::builtin_interfaces::msg::Time;
-use r2r::geometry_msgs::msg::{Vector3, Wrench as WrenchMsg, WrenchStamped};
+use r2r::diagnostic_msgs::msg::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use r2r::geometry_msgs::msg::{Twist, TwistStamped, Vector3, Wrench as WrenchMsg, WrenchStamped};
 use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
 
@@ -229,6 +230,65 @@ pub fn qdot_from_msg(m: &Float64MultiArray) -> Result<JointVector, ConvertError>
         return Err(ConvertError::NonFinite("velocity_controller/commands"));
     }
     Ok(JointVector::from_iterator(m.data.iter().copied()))
+}
+
+/// A linear velocity (m/s) as a TwistStamped with zero angular part.
+pub fn linear_twist_msg(stamp_s: f64, frame_id: &str, v: &nalgebra::Vector3<f64>) -> TwistStamped {
+    TwistStamped {
+        header: Header {
+            stamp: time_msg(stamp_s),
+            frame_id: frame_id.into(),
+        },
+        twist: Twist {
+            linear: Vector3 {
+                x: v.x,
+                y: v.y,
+                z: v.z,
+            },
+            angular: Vector3::default(),
+        },
+    }
+}
+
+/// Diagnostic levels (diagnostic_msgs/DiagnosticStatus).
+pub mod level {
+    /// All is well.
+    pub const OK: u8 = 0;
+    /// Working, with something to look at.
+    pub const WARN: u8 = 1;
+    /// Not working.
+    pub const ERROR: u8 = 2;
+}
+
+/// One status on `/diagnostics`: `name` says who, `values` the figures.
+pub fn diagnostics_msg(
+    stamp_s: f64,
+    level: u8,
+    name: &str,
+    message: String,
+    hardware_id: &str,
+    values: Vec<(&str, String)>,
+) -> DiagnosticArray {
+    let values = values
+        .into_iter()
+        .map(|(key, value)| KeyValue {
+            key: key.into(),
+            value,
+        })
+        .collect();
+    DiagnosticArray {
+        header: Header {
+            stamp: time_msg(stamp_s),
+            frame_id: String::new(),
+        },
+        status: vec![DiagnosticStatus {
+            level,
+            name: name.into(),
+            message,
+            hardware_id: hardware_id.into(),
+            values,
+        }],
+    }
 }
 
 #[cfg(test)]

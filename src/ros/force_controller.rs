@@ -6,13 +6,16 @@
 //!
 //! The controller steps on each new estimate (the mean and the std of one
 //! reading both in), so an estimate acts as soon as it arrives rather than
-//! up to a period later on a timer of its own; with no estimate for 1.5
-//! periods it steps anyway, and the watchdog stops the arm.
+//! up to a period later on a timer of its own. With no estimate for 1.5
+//! periods it commands zero velocity, every period, until estimates return
+//! ([`ForceController::estimate_late`]). The age of each estimate's reading
+//! when stepped on is measured from its stamp ([`LoopDelayMonitor`]) and
+//! reported on `/diagnostics` once a second, with a warning when it exceeds
+//! what the gains assume.
 //!
-//! The watchdog is the embedded one: inputs older than `stale_periods`
-//! periods, or not finite, command zero velocity. Setting the parameter
-//! `task` to `guided` or `guarded` while running switches the mode (the
-//! controller is rebuilt from the start-up parameters with the new task).
+//! The parameter `task` (`guarded` or `guided`) may be set while running:
+//! the controller is rebuilt for it and checked as at start-up, or the set
+//! is refused with the reason. Every other parameter is read at start-up.
 //! The guarded move is also an action, `~/guarded_move`
 //! (tactile_force_msgs/action/GuardedMove): see
 //! [`crate::nodes::guarded_goal`]. A goal the
@@ -21,24 +24,30 @@
 //! naming the limit, so that a client can read why. r2r has no
 //! untyped action server and, under its `doc-only` build, no types for our
 //! interface package, so the action server is compiled only in a real ROS
-//! build (`cfg(not(feature = "ros2-doc-only"))`); the goal handling it
-//! calls is plain Rust, tested here.
+//! build (`cfg(not(feature = "ros2-doc-only"))`).
+
+#[cfg(not(feature = "ros2-doc-only"))]
+mod guarded_move_action;
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use futures::StreamExt;
+use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::geometry_msgs::msg::WrenchStamped;
 use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 
+use super::convert::level::{OK, WARN};
+use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::kinematics::robot::PA10_YAML;
 use crate::nodes::controller::TaskKind;
+use crate::nodes::loop_delay::LoopDelayMonitor;
 use crate::nodes::{ControlOutput, ControllerParams, ForceController};
-use crate::params::ParamsError;
-use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
+use crate::params::{layered_flat_params, FlatParams, ParamsError};
+use crate::runtime::scene::{GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
 
 /// The PA10-7C's joint names (S1 S2 S3 E1 E2 W1 W2), the default of `joint_names`.
 pub const PA10_JOINTS: [&str; 7] = ["S1", "S2", "S3", "E1", "E2", "W1", "W2"];
@@ -51,6 +60,8 @@ fn lock(s: &Mutex<Shared>) -> std::sync::MutexGuard<'_, Shared> {
 struct Shared {
     controller: ForceController,
     base: ControllerParams,
+    /// The task running: the parameter's, or guarded after a goal.
+    task: TaskKind,
     pdc: Option<FluidPressure>,
     /// The newest mean and std not yet stepped on.
     mean: Option<WrenchStamped>,
@@ -58,12 +69,35 @@ struct Shared {
     /// The latest estimated force, BioTac frame (N): the action's feedback.
     force: nalgebra::Vector3<f64>,
     last: Option<ControlOutput>,
+    /// Messages refused: not finite, or not matching the arm.
     rejected: u64,
+    delays: LoopDelayMonitor,
 }
 
-fn rebuild(s: &mut Shared, p: ControllerParams) -> Result<(), ParamsError> {
-    s.controller = ForceController::new(p)?;
-    s.last = None;
+/// The shipped defaults, with both tasks' sections whatever the scene, so
+/// that `task` can switch while running.
+fn defaults() -> Result<FlatParams, ParamsError> {
+    let name = "force_controller";
+    let mut d = layered_flat_params(&[PA10_YAML, WORLD_YAML, GUARDED_YAML], name)?;
+    let guided = layered_flat_params(&[GUIDED_YAML], name)?;
+    d.extend(guided.into_iter().filter(|(k, _)| k.starts_with("guided.")));
+    Ok(d)
+}
+
+/// Applies (or, `apply` false, checks) a new value of `task`.
+fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> Result<(), String> {
+    let r2r::ParameterValue::String(name) = value else {
+        return Err(format!("{value:?}: expected the string guarded or guided"));
+    };
+    let task: TaskKind = name.parse().map_err(|e: ParamsError| e.to_string())?;
+    let mut g = lock(s);
+    let c = ForceController::switched(&g.base, task).map_err(|e| e.to_string())?;
+    if apply {
+        g.controller = c;
+        g.task = task;
+        g.last = None;
+        tracing::info!("task switched to {name}");
+    }
     Ok(())
 }
 
@@ -80,7 +114,7 @@ pub async fn run() -> Result<(), RosError> {
     let base: ControllerParams = super::node_params(
         &node,
         "force_controller",
-        &[PA10_YAML, WORLD_YAML, GUARDED_YAML],
+        defaults()?,
         &skip,
         super::describe_shared,
     )?;
@@ -88,7 +122,7 @@ pub async fn run() -> Result<(), RosError> {
     let controller = ForceController::new(base.clone())?;
     let envelope = controller.envelope();
     tracing::info!(
-        "force_controller: task {:?} on {}, gains {:?} m/s per N, loop delays {:?}, \
+        "task {:?} on {}, gains {:?} m/s per N, loop delays {:?}, \
          speed limit {:.1} mm/s (safety envelope for the stiffest permitted body, {:.1e} N/m), \
          joints {joint_names:?}",
         base.task,
@@ -100,6 +134,8 @@ pub async fn run() -> Result<(), RosError> {
     );
     let shared = Arc::new(Mutex::new(Shared {
         controller,
+        task: base.task,
+        delays: LoopDelayMonitor::new(base.loop_delays.transport_delay_s),
         base,
         pdc: None,
         mean: None,
@@ -117,13 +153,20 @@ pub async fn run() -> Result<(), RosError> {
         "velocity_controller/commands",
         QosProfile::default(),
     )?;
-    let (handler, mut events) = node.make_parameter_handler()?;
-    tokio::spawn(handler);
+    let diagnostics =
+        node.create_publisher::<DiagnosticArray>("/diagnostics", QosProfile::default())?;
     #[cfg(not(feature = "ros2-doc-only"))]
     let goals = node.create_action_server::<r2r::tactile_force_msgs::action::GuardedMove::Action>(
         "~/guarded_move",
     )?;
-    let mut clock = r2r::Clock::create(r2r::ClockType::RosTime)?;
+    let s = shared.clone();
+    let live = RuntimeParams::new(
+        &["task"],
+        Box::new(move |_, value, apply| {
+            switch_task(&s, value, apply).inspect_err(|e| tracing::warn!("task refused: {e}"))
+        }),
+    );
+    let clock = super::serve_parameters(&mut node, live)?;
     super::spin(node);
 
     // Callbacks only check and store (STYLE 3); the loop below runs the pipeline.
@@ -151,59 +194,95 @@ pub async fn run() -> Result<(), RosError> {
             }
         }
     });
-    let s = shared.clone();
-    tokio::spawn(async move {
-        while let Some((name, value)) = events.next().await {
-            if name != "task" {
-                tracing::warn!("parameter {name} changed: read at start-up only, restart the node");
-                continue;
-            }
-            let task = match &value {
-                r2r::ParameterValue::String(t) if t == "guarded" => TaskKind::Guarded,
-                r2r::ParameterValue::String(t) if t == "guided" => TaskKind::Guided,
-                other => {
-                    tracing::warn!("task = {other:?}: expected guarded or guided; unchanged");
-                    continue;
-                }
-            };
-            let mut g = lock(&s);
-            let mut p = g.base.clone();
-            p.task = task;
-            match rebuild(&mut g, p) {
-                Ok(()) => tracing::info!("task switched to {task:?}"),
-                Err(e) => tracing::warn!("task {task:?} refused: {e}"),
-            }
-        }
-    });
     #[cfg(not(feature = "ros2-doc-only"))]
-    tokio::spawn(action::serve(goals, shared.clone(), period));
+    tokio::spawn(guarded_move_action::serve(goals, shared.clone(), period));
 
     let mut estimates = futures::stream::select(
         wrench.map(EstimatePart::Mean),
         stddev.map(EstimatePart::Std),
     );
     let wait = period.mul_f64(1.5);
+    let mut deadline = tokio::time::Instant::now() + wait;
+    let mut report = tokio::time::interval(Duration::from_secs(1));
+    let mut delay_warned = false;
     loop {
-        let step = match tokio::time::timeout(wait, estimates.next()).await {
-            Ok(Some(part)) => take_estimate(&mut lock(&shared), part),
-            Ok(None) => return Ok(()),
-            // Nothing for 1.5 periods: step, and the watchdog halts the arm.
-            Err(_) => true,
-        };
-        if !step {
-            continue;
-        }
-        let now = super::now_s(&mut clock);
-        let out = {
-            let mut g = lock(&shared);
-            let out = g.controller.tick(now);
-            g.last = Some(out.clone());
-            out
+        let out = tokio::select! {
+            part = estimates.next() => {
+                let Some(part) = part else { return Ok(()) };
+                let mut g = lock(&shared);
+                let Some(stamp_s) = take_estimate(&mut g, part) else { continue };
+                let now = clock.now_s();
+                g.delays.record(stamp_s, now);
+                deadline = tokio::time::Instant::now() + wait;
+                g.controller.tick(now)
+            }
+            // No estimate for 1.5 periods: zero velocity, every period.
+            _ = tokio::time::sleep_until(deadline) => {
+                deadline = tokio::time::Instant::now() + period;
+                lock(&shared).controller.estimate_late(clock.now_s(), wait.as_secs_f64())
+            }
+            _ = report.tick() => {
+                let msg = diagnostics_msg(&mut lock(&shared), clock.now_s(), &mut delay_warned);
+                if let Err(e) = diagnostics.publish(&msg) {
+                    tracing::warn!("diagnostics: {e}");
+                }
+                continue;
+            }
         };
         if let Err(e) = commands.publish(&convert::commands_msg(&out.qdot)) {
             tracing::warn!("velocity_controller/commands: {e}");
         }
+        lock(&shared).last = Some(out);
     }
+}
+
+/// The controller's status: task, phase, halt, the loop delay it sees and
+/// what it refused. Warns once when the delay goes beyond what the gains
+/// assume, and once when it is back.
+fn diagnostics_msg(g: &mut Shared, now: f64, warned: &mut bool) -> DiagnosticArray {
+    let mut values = vec![("task", format!("{:?}", g.task).to_lowercase())];
+    let (mut level, mut message) = (OK, format!("{:?}", g.task).to_lowercase());
+    if let Some(out) = &g.last {
+        values.push(("phase", out.phase.name().to_string()));
+        message = format!("{message}, {}", out.phase.name());
+        if let Some(h) = &out.halt {
+            (level, message) = (WARN, format!("{message}, halted: {h}"));
+            values.push(("halt", h.to_string()));
+        }
+    }
+    if let Some(r) = g.delays.take_report() {
+        let ms = |s: f64| format!("{:.2}", s * 1e3);
+        values.extend([
+            ("loop_delay_steps", r.steps.to_string()),
+            ("loop_delay_p50_ms", ms(r.p50_s)),
+            ("loop_delay_p99_ms", ms(r.p99_s)),
+            ("loop_delay_max_ms", ms(r.max_s)),
+            ("loop_delay_assumed_ms", ms(r.assumed_s)),
+        ]);
+        if r.exceeds_assumed() {
+            level = WARN;
+            message = format!("{message}; loop delay beyond what the gains assume");
+        }
+        if r.exceeds_assumed() != *warned {
+            *warned = r.exceeds_assumed();
+            if *warned {
+                tracing::warn!(
+                    "estimates are {:.1} ms old (p99) when stepped on, beyond the {:.1} ms the \
+                     gains and the safety envelope assume (loop_delays.transport_delay_s): \
+                     the loop may ring; raise it to the delay of this deployment",
+                    r.p99_s * 1e3,
+                    r.assumed_s * 1e3
+                );
+            } else {
+                tracing::info!("loop delay back within what the gains assume");
+            }
+        }
+    }
+    values.push((
+        "rejected",
+        (g.rejected + g.controller.rejected()).to_string(),
+    ));
+    convert::diagnostics_msg(now, level, "force_controller", message, "", values)
 }
 
 /// One of the two messages of an estimate.
@@ -213,8 +292,9 @@ enum EstimatePart {
 }
 
 /// Stores `part`; once the mean and the std of one reading are both in,
-/// hands the estimate to the controller and returns true (time to step).
-fn take_estimate(g: &mut Shared, part: EstimatePart) -> bool {
+/// hands the estimate to the controller and returns its reading's stamp
+/// (time to step).
+fn take_estimate(g: &mut Shared, part: EstimatePart) -> Option<f64> {
     match part {
         EstimatePart::Mean(m) => g.mean = Some(m),
         EstimatePart::Std(m) => g.stddev = Some(m),
@@ -222,11 +302,10 @@ fn take_estimate(g: &mut Shared, part: EstimatePart) -> bool {
     let paired =
         matches!((&g.mean, &g.stddev), (Some(m), Some(s)) if m.header.stamp == s.header.stamp);
     if !paired {
-        return false;
+        return None;
     }
-    let (Some(mean), Some(std)) = (g.mean.take(), g.stddev.take()) else {
-        return false;
-    };
+    let (mean, std) = (g.mean.take()?, g.stddev.take()?);
+    let stamp_s = convert::time_s(&mean.header.stamp);
     let ok = convert::estimate_from_msgs(&mean, Some(&std), g.pdc.as_ref())
         .map_err(|e| e.to_string())
         .and_then(|e| {
@@ -237,90 +316,5 @@ fn take_estimate(g: &mut Shared, part: EstimatePart) -> bool {
         g.rejected += 1;
         tracing::debug!("biotac/wrench refused: {e}");
     }
-    true
-}
-
-/// The guarded-move action server (needs r2r's generated types for
-/// tactile_force_msgs, so a real ROS build only).
-#[cfg(not(feature = "ros2-doc-only"))]
-mod action {
-    use super::*;
-    use crate::nodes::guarded_goal::{guarded_outcome, GuardedGoal};
-    use r2r::tactile_force_msgs::action::GuardedMove;
-
-    pub(super) async fn serve(
-        mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<GuardedMove::Action>>
-            + Unpin,
-        shared: Arc<Mutex<Shared>>,
-        period: Duration,
-    ) {
-        while let Some(req) = goals.next().await {
-            let d = &req.goal.direction;
-            let goal = GuardedGoal {
-                direction: [d.x, d.y, d.z],
-                speed_mps: req.goal.speed_mps,
-                target_force_n: req.goal.target_force_n,
-                max_distance_m: req.goal.max_distance_m,
-            };
-            let started = {
-                let mut g = shared.lock().unwrap_or_else(|e| e.into_inner());
-                goal.start(&g.base).map(|c| {
-                    g.controller = c;
-                    g.last = None;
-                })
-            };
-            let Ok((mut handle, mut cancel)) = req.accept() else {
-                continue;
-            };
-            if let Err(e) = started {
-                tracing::warn!("guarded_move goal refused: {e}");
-                let _ = handle.abort(GuardedMove::Result {
-                    reason: format!("refused: {e}"),
-                    ..Default::default()
-                });
-                continue;
-            }
-            let mut ticker = tokio::time::interval(period);
-            loop {
-                ticker.tick().await;
-                if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
-                    lock(&shared).controller.stop();
-                    c.accept();
-                    let _ = handle.cancel(GuardedMove::Result {
-                        reason: "canceled".into(),
-                        ..Default::default()
-                    });
-                    break;
-                }
-                let (last, force) = {
-                    let g = shared.lock().unwrap_or_else(|e| e.into_inner());
-                    (g.last.clone(), g.force)
-                };
-                let Some(out) = last else { continue };
-                // The estimated force on the controlled axis.
-                let axis = out.targets.iter().position(Option::is_some).unwrap_or(2);
-                let force_n = force[axis];
-                let _ = handle.publish_feedback(GuardedMove::Feedback {
-                    force_n,
-                    phase: out.phase.name().into(),
-                });
-                // A halt (inputs missing or stale, e.g. right after the
-                // goal rebuilt the controller) pauses the move; the goal
-                // ends on the task's own outcome.
-                if let Some(reason) = guarded_outcome(&out) {
-                    let result = GuardedMove::Result {
-                        force_n,
-                        reason: reason.into(),
-                        ..Default::default()
-                    };
-                    let _ = if reason == "hold" {
-                        handle.succeed(result)
-                    } else {
-                        handle.abort(result)
-                    };
-                    break;
-                }
-            }
-        }
-    }
+    Some(stamp_s)
 }

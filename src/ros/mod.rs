@@ -16,35 +16,34 @@ pub mod biotac_driver;
 pub mod biotac_msg;
 pub mod convert;
 pub mod force_controller;
+pub mod log;
 pub mod params;
 pub mod sim_robot;
 pub mod wrench_estimator;
 
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crate::params::{layered_flat_params, ParamsError};
+#[cfg(doc)]
+use crate::params::layered_flat_params;
+use crate::params::{FlatParams, ParamsError};
+use params::RuntimeParams;
 
-/// The main of a node executable: logs at `info` (or as `RUST_LOG` says)
-/// to stderr, which `ros2 launch` shows, runs `node` on a tokio runtime and
-/// turns its end into the exit code (1, with the reason, on an error).
+/// The main of a node executable: logs through ROS logging ([`log`]), runs
+/// `node` on a tokio runtime and turns its end into the exit code (1, with
+/// the reason, on an error).
 pub fn main(
     name: &str,
     node: impl std::future::Future<Output = Result<(), RosError>>,
 ) -> std::process::ExitCode {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_ansi(colour)
-        .init();
+    log::init(name);
     let ended = tokio::runtime::Runtime::new()
         .map_err(|e| RosError::Setup(format!("tokio runtime: {e}")))
         .and_then(|rt| rt.block_on(node));
     match ended {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            tracing::error!("{name}: {e}");
+            tracing::error!("{e}");
             std::process::ExitCode::FAILURE
         }
     }
@@ -69,20 +68,46 @@ pub enum RosError {
 /// overrides, remappings) from the process arguments.
 pub fn create_node(name: &str) -> Result<r2r::Node, RosError> {
     let ctx = r2r::Context::create()?;
-    Ok(r2r::Node::create(ctx, name, "")?)
+    let mut node = r2r::Node::create(ctx, name, "")?;
+    log::attach(&mut node)?;
+    Ok(node)
 }
 
-/// Declares the node's parameters with the shipped files' values as
-/// defaults (`yamls`, layered) and reads them into `T`; `skip` names the
-/// adapter's own parameters, read separately.
+/// The node's ROS clock: system time, or `/clock` when `use_sim_time` is true.
+#[derive(Clone)]
+pub struct RosClock(Arc<Mutex<r2r::Clock>>);
+
+impl RosClock {
+    /// Seconds on the clock; NaN if it cannot be read (the controller's
+    /// watchdog then halts) or if `/clock` has not ticked yet (0).
+    pub fn now_s(&self) -> f64 {
+        let mut clock = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        match clock.get_now().map(|d| d.as_secs_f64()) {
+            Ok(t) if t > 0.0 => t,
+            _ => f64::NAN,
+        }
+    }
+}
+
+/// Serves the node's parameter services, answering a set while running as
+/// `live` says, and returns the node's clock (which follows `/clock` when
+/// the node was started with `use_sim_time:=true`).
+pub fn serve_parameters(node: &mut r2r::Node, live: RuntimeParams) -> Result<RosClock, RosError> {
+    let (handler, _events) = node.make_derived_parameter_handler(Arc::new(Mutex::new(live)))?;
+    tokio::spawn(handler);
+    Ok(RosClock(node.get_ros_clock()))
+}
+
+/// Declares the node's parameters with `defaults` (the shipped files'
+/// values, [`layered_flat_params`]) and reads them into `T`; `skip` names
+/// the adapter's own parameters, read separately.
 pub fn node_params<T: serde::de::DeserializeOwned>(
     node: &r2r::Node,
     name: &str,
-    yamls: &[&str],
+    defaults: FlatParams,
     skip: &[&str],
     describe: fn(&str) -> &'static str,
 ) -> Result<T, RosError> {
-    let defaults = layered_flat_params(yamls, name)?;
     let mut p = node
         .params
         .lock()
@@ -147,19 +172,6 @@ pub fn own_f64(
     }
 }
 
-/// A boolean parameter of the adapter.
-pub fn own_bool(
-    node: &r2r::Node,
-    name: &str,
-    default: bool,
-    description: &'static str,
-) -> Result<bool, RosError> {
-    match own_param(node, name, r2r::ParameterValue::Bool(default), description)? {
-        r2r::ParameterValue::Bool(b) => Ok(b),
-        other => Err(wrong_type(name, "true or false", &other)),
-    }
-}
-
 /// A string-array parameter of the adapter.
 pub fn own_strings(
     node: &r2r::Node,
@@ -180,12 +192,6 @@ fn wrong_type(name: &str, expected: &str, found: &r2r::ParameterValue) -> RosErr
         value: format!("{found:?}"),
         expected: expected.into(),
     })
-}
-
-/// Seconds on the ROS clock (system time unless `use_sim_time`); NaN if the
-/// clock cannot be read (the controller's watchdog then halts).
-pub fn now_s(clock: &mut r2r::Clock) -> f64 {
-    clock.get_now().map_or(f64::NAN, |d| d.as_secs_f64())
 }
 
 /// Spins the node on a blocking task until the process ends.

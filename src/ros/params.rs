@@ -3,7 +3,9 @@
 //! loaded the `--params-file`s and overrides given at launch. The flat,
 //! dotted parameters are then nested and deserialised by the same serde
 //! structs the embedded runtime uses ([`crate::params::from_flat_params`]),
-//! so one code path checks both. Parameters are read once, at start-up.
+//! so one code path checks both. Parameters are read once, at start-up;
+//! a set while the node runs is refused, except for those the node names
+//! live ([`RuntimeParams`]), which it applies or refuses with a reason.
 
 use r2r::{Parameter, ParameterValue};
 use serde::de::DeserializeOwned;
@@ -109,6 +111,73 @@ pub fn read<T: DeserializeOwned>(
     from_flat_params(&flat(params, skip), node)
 }
 
+/// Applies (`true`) or only checks (`false`) a new value of a live
+/// parameter; an error refuses it, with the reason.
+pub type ApplyParam = Box<dyn Fn(&str, &ParameterValue, bool) -> Result<(), String> + Send>;
+
+/// How a running node answers `set_parameters`: the parameters named live
+/// go to the node, which applies or refuses them; every other is refused
+/// with "read at start-up only".
+pub struct RuntimeParams {
+    live: &'static [&'static str],
+    apply: ApplyParam,
+}
+
+impl RuntimeParams {
+    /// `live` parameters go to `apply`.
+    pub fn new(live: &'static [&'static str], apply: ApplyParam) -> Self {
+        RuntimeParams { live, apply }
+    }
+
+    /// No parameter may change while the node runs.
+    pub fn none() -> Self {
+        RuntimeParams::new(&[], Box::new(|_, _, _| Ok(())))
+    }
+
+    fn answer(&self, name: &str, value: &ParameterValue, apply: bool) -> r2r::Result<()> {
+        let refused = |msg: String| r2r::Error::ParameterValueConv {
+            name: name.into(),
+            msg,
+        };
+        if !self.live.contains(&name) {
+            let live = match self.live {
+                [] => "none".to_string(),
+                l => l.join(", "),
+            };
+            return Err(refused(format!(
+                "read at start-up only: restart the node to change it \
+                 (may change while running: {live})"
+            )));
+        }
+        (self.apply)(name, value, apply).map_err(refused)
+    }
+}
+
+impl r2r::RosParams for RuntimeParams {
+    fn register_parameters(
+        &mut self,
+        _prefix: &str,
+        _param: Option<Parameter>,
+        _params: &mut indexmap::IndexMap<String, Parameter>,
+    ) -> r2r::Result<()> {
+        // Declared already, from the shipped files (declare()).
+        Ok(())
+    }
+
+    fn get_parameter(&mut self, name: &str) -> r2r::Result<ParameterValue> {
+        // The node's parameter map answers.
+        Err(r2r::Error::InvalidParameterName { name: name.into() })
+    }
+
+    fn set_parameter(&mut self, name: &str, value: &ParameterValue) -> r2r::Result<()> {
+        self.answer(name, value, true)
+    }
+
+    fn check_parameter(&self, name: &str, value: &ParameterValue) -> r2r::Result<()> {
+        self.answer(name, value, false)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -181,5 +250,34 @@ mod tests {
         let p: crate::nodes::ControllerParams = read(&params, &[], "force_controller").unwrap();
         assert_eq!(p.object, "carton_box");
         assert_eq!(p.pd.gain_ratio, 1.0);
+    }
+
+    #[test]
+    fn only_live_parameters_change_while_running_and_a_refusal_says_why() {
+        use r2r::RosParams;
+        let mut p = RuntimeParams::new(
+            &["task"],
+            Box::new(|_, v, _| match v {
+                ParameterValue::String(s) if s == "guided" => Ok(()),
+                other => Err(format!("{other:?}: expected guided")),
+            }),
+        );
+        let guided = ParameterValue::String("guided".into());
+        assert!(p.set_parameter("task", &guided).is_ok());
+        let err = p
+            .set_parameter("task", &ParameterValue::String("fast".into()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("task") && err.contains("expected guided"),
+            "{err}"
+        );
+        let err = p.check_parameter("pd.gain_ratio", &guided).unwrap_err();
+        assert!(err.to_string().contains("read at start-up only"), "{err}");
+        let err = RuntimeParams::none().check_parameter("task", &guided);
+        assert!(err
+            .unwrap_err()
+            .to_string()
+            .contains("(may change while running: none)"));
     }
 }

@@ -4,9 +4,19 @@
 //! `biotac/readings` (the simulated BioTac lives here, as in the embedded
 //! runtime: its contact comes from this node's physics), then applies the
 //! latest `velocity_controller/commands`. Stamps are the ROS clock's.
+//! Ground truth for tests and plots, in the BioTac frame at the start
+//! (frame_id `<frame_id>_start`): `~/biotac_twist`, the BioTac's velocity
+//! over the last period, and, when a finger moves the body, `~/finger_twist`
+//! (geometry_msgs/TwistStamped, linear part only).
+//!
+//! With `use_sim_time:=true` it is the clock: it publishes its simulated
+//! time on `/clock` every period and stamps with it, and it may run
+//! `real_time_factor` times faster than the wall clock (the other nodes,
+//! started with `use_sim_time:=true` too, follow `/clock`).
 
 use futures::StreamExt;
-use r2r::geometry_msgs::msg::WrenchStamped;
+use r2r::geometry_msgs::msg::{TwistStamped, WrenchStamped};
+use r2r::rosgraph_msgs::msg::Clock as ClockMsg;
 use r2r::sensor_msgs::msg::JointState as JointStateMsg;
 use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
@@ -15,11 +25,13 @@ use std::sync::{Arc, Mutex};
 
 use super::biotac_msg::{self, BioTacMeta, BIOTAC_MSG_TYPE};
 use super::force_controller::PA10_JOINTS;
+use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::BioTacSimConfig;
 use crate::kinematics::robot::PA10_YAML;
 use crate::kinematics::{JointVector, RobotParams};
 use crate::nodes::{JointState, SimRobot, SimRobotParams};
+use crate::params::layered_flat_params;
 use crate::params::node_params;
 use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
 
@@ -58,20 +70,47 @@ pub async fn run() -> Result<(), RosError> {
             )))
         }
     };
+    let sim_time = matches!(
+        super::own_param(
+            &node,
+            "use_sim_time",
+            r2r::ParameterValue::Bool(false),
+            "Publish the simulated time on /clock and stamp with it.",
+        )?,
+        r2r::ParameterValue::Bool(true)
+    );
+    let speed = super::own_f64(
+        &node,
+        "real_time_factor",
+        1.0,
+        "Simulated seconds per wall-clock second (with use_sim_time:=true); at least 1.",
+    )?;
+    if !(speed >= 1.0 && (sim_time || speed == 1.0)) {
+        return Err(RosError::Setup(format!(
+            "real_time_factor = {speed}: expected 1, or more than 1 with use_sim_time:=true \
+             (stamps on the system clock cannot run faster than it; slower than real time \
+             the controller would take each estimate for late)"
+        )));
+    }
     let p: SimRobotParams = super::node_params(
         &node,
         "sim_robot",
-        &[WORLD_YAML, GUARDED_YAML],
-        &["joint_names", "frame_id", "seed"],
+        layered_flat_params(&[WORLD_YAML, GUARDED_YAML], "sim_robot")?,
+        &["joint_names", "frame_id", "seed", "real_time_factor"],
         super::describe_shared,
     )?;
     let arm: Arm = node_params(PA10_YAML, "force_controller")?;
     let robot = arm.robot.validate()?;
     tracing::info!(
-        "sim_robot: object {}, BioTac unit {}, noise seed {seed}, period {} s",
+        "object {}, BioTac unit {}, noise seed {seed}, period {} s, {}",
         p.object,
         p.sensor_unit_seed,
-        p.control_period_s
+        p.control_period_s,
+        if sim_time {
+            format!("simulated time on /clock, {speed}x real time")
+        } else {
+            "system time".to_string()
+        }
     );
     let mut sim = SimRobot::new(p, robot, &BioTacSimConfig::default(), seed)?;
 
@@ -84,9 +123,13 @@ pub async fn run() -> Result<(), RosError> {
     )?;
     let mut commands =
         node.subscribe::<Float64MultiArray>("velocity_controller/commands", QosProfile::default())?;
-    let (handler, _events) = node.make_parameter_handler()?;
-    tokio::spawn(handler);
-    let mut clock = r2r::Clock::create(r2r::ClockType::RosTime)?;
+    let biotac_twist =
+        node.create_publisher::<TwistStamped>("~/biotac_twist", QosProfile::default())?;
+    let finger_twist =
+        node.create_publisher::<TwistStamped>("~/finger_twist", QosProfile::default())?;
+    let start_frame = format!("{frame_id}_start");
+    let clock_pub = node.create_publisher::<ClockMsg>("/clock", QosProfile::default())?;
+    let clock = super::serve_parameters(&mut node, RuntimeParams::none())?;
     super::spin(node);
 
     let qdot = Arc::new(Mutex::new(JointVector::zeros()));
@@ -104,11 +147,23 @@ pub async fn run() -> Result<(), RosError> {
         serial: "simulated".into(),
         ..BioTacMeta::default()
     };
-    let mut ticker = tokio::time::interval(std::time::Duration::from_secs_f64(sim.period_s()));
+    let period = std::time::Duration::from_secs_f64(sim.period_s() / speed);
+    let mut ticker = tokio::time::interval(period);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    loop {
+    for step in 1u64.. {
         ticker.tick().await;
-        let now = super::now_s(&mut clock);
+        let now = if sim_time {
+            let t = step as f64 * sim.period_s();
+            let msg = ClockMsg {
+                clock: convert::time_msg(t),
+            };
+            if let Err(e) = clock_pub.publish(&msg) {
+                tracing::warn!("/clock: {e}");
+            }
+            t
+        } else {
+            clock.now_s()
+        };
         let mut s = sim.sample();
         s.reading.stamp_s = now;
         let js = JointState {
@@ -118,11 +173,21 @@ pub async fn run() -> Result<(), RosError> {
         let sent = joints
             .publish(&convert::joint_state_msg(&js, &names))
             .and_then(|()| ft.publish(&convert::wrench_stamped(now, &frame_id, &s.ft)))
-            .and_then(|()| readings.publish(biotac_msg::to_json(&s.reading, &meta)));
+            .and_then(|()| readings.publish(biotac_msg::to_json(&s.reading, &meta)))
+            .and_then(|()| {
+                biotac_twist.publish(&convert::linear_twist_msg(now, &start_frame, &s.velocity))
+            })
+            .and_then(|()| match &s.finger {
+                Some(f) => {
+                    finger_twist.publish(&convert::linear_twist_msg(now, &start_frame, &f.velocity))
+                }
+                None => Ok(()),
+            });
         if let Err(e) = sent {
             tracing::warn!("publish: {e}");
         }
         sim.command(*qdot.lock().unwrap_or_else(|e| e.into_inner()));
         sim.advance();
     }
+    Ok(())
 }

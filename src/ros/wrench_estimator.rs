@@ -1,34 +1,40 @@
-//! `wrench_estimator`: `biotac/readings` (tactile_force_msgs/BioTac,
-//! untyped) -> [`EstimatorNode`] -> `biotac/wrench` and
+//! `wrench_estimator`: `biotac/readings` (tactile_force_msgs/BioTac, taken
+//! as CDR bytes and decoded here) -> [`EstimatorNode`] -> `biotac/wrench` and
 //! `biotac/wrench_stddev` (geometry_msgs/WrenchStamped, frame_id = the
 //! BioTac frame) and `biotac/pdc_rise` (sensor_msgs/FluidPressure, counts).
-//! Nothing is published for a refused message, a reading with invalid
-//! channels, a reading older than `stale_timeout_s`, or a non-finite estimate.
+//! Nothing is published for a message that does not decode, a reading with
+//! invalid channels, a reading older than `stale_timeout_s`, or a non-finite
+//! estimate: each is counted, on `/diagnostics` once a second.
+//!
+//! The tare is saved (`tare_file`): restarted within `tare_max_age_s`, for
+//! the same sensor serial, the node takes it up rather than taring again,
+//! since the finger may be pressed (a hold) when it comes back.
+
+use std::path::PathBuf;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use futures::StreamExt;
+use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::geometry_msgs::msg::WrenchStamped;
 use r2r::sensor_msgs::msg::FluidPressure;
 use r2r::QosProfile;
 
 use super::biotac_msg::{self, BIOTAC_MSG_TYPE};
+use super::convert::level::{OK, WARN};
+use super::params::RuntimeParams;
 use super::{convert, RosError};
+use crate::biotac::tare::SavedTare;
 use crate::kinematics::robot::PA10_YAML;
 use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::EstimatorParams;
 use crate::nodes::EstimatorNode;
+use crate::params::layered_flat_params;
 use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
 
-/// Counters of dropped input (logged every 1000 drops).
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
-pub struct Dropped {
-    /// Messages refused by [`biotac_msg::from_json`].
-    pub refused: u64,
-    /// Readings with invalid channels.
-    pub invalid: u64,
-    /// Readings older than the stale timeout.
-    pub stale: u64,
-    /// Estimates with NaN or infinity.
-    pub non_finite: u64,
+fn unix_s() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
 }
 
 /// Runs the node until the process ends.
@@ -52,16 +58,29 @@ pub async fn run() -> Result<(), RosError> {
         0.03,
         "Readings older than this are not estimated (s).",
     )?;
-    if stale_s <= 0.0 {
-        return Err(RosError::Setup(format!(
-            "stale_timeout_s = {stale_s}: expected > 0"
-        )));
-    }
-    let skip = ["model_file", "frame_id", "stale_timeout_s"];
+    let tare_file = super::own_string(
+        &node,
+        "tare_file",
+        "",
+        "Where the tare is saved; empty: wrench_estimator_tare.json in the model cache folder.",
+    )?;
+    let tare_max_age_s = super::own_f64(
+        &node,
+        "tare_max_age_s",
+        600.0,
+        "A saved tare younger than this is taken up at start (s); 0: always tare anew.",
+    )?;
+    let skip = [
+        "model_file",
+        "frame_id",
+        "stale_timeout_s",
+        "tare_file",
+        "tare_max_age_s",
+    ];
     let params: EstimatorParams = super::node_params(
         &node,
         "wrench_estimator",
-        &[PA10_YAML, WORLD_YAML, GUARDED_YAML],
+        layered_flat_params(&[PA10_YAML, WORLD_YAML, GUARDED_YAML], "wrench_estimator")?,
         &skip,
         super::describe_shared,
     )?;
@@ -84,17 +103,35 @@ pub async fn run() -> Result<(), RosError> {
         .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))
         .collect();
     tracing::info!(
-        "wrench_estimator: model {} ({}; {} training samples), axes {}, with_std {}, stale after {stale_s} s",
-        if model_file.is_empty() { "default" } else { &model_file },
+        "model {} ({}; {} training samples), axes {}, with_std {}, stale after {stale_s} s",
+        if model_file.is_empty() {
+            "default"
+        } else {
+            &model_file
+        },
         gps.join(", "),
         model.n_train(),
         model.axes(),
         params.with_std,
     );
-    let mut estimator =
-        EstimatorNode::new(model, params.with_std).map_err(|e| RosError::Setup(e.to_string()))?;
+    let mut estimator = EstimatorNode::new(model, params.with_std)
+        .and_then(|e| e.with_stale_timeout(stale_s))
+        .map_err(|e| RosError::Setup(e.to_string()))?;
+    let tare_path = match tare_file.as_str() {
+        "" => crate::learn::default_model::cache_dir()
+            .unwrap_or_default()
+            .join("wrench_estimator_tare.json"),
+        f => PathBuf::from(f),
+    };
+    let mut saved = match SavedTare::load(&tare_path) {
+        Ok(s) => s.filter(|s| unix_s() - s.taken_unix_s <= tare_max_age_s),
+        Err(e) => {
+            tracing::warn!("{e}; taking a new tare");
+            None
+        }
+    };
 
-    let mut readings = node.subscribe_untyped(
+    let mut readings = node.subscribe_raw(
         "biotac/readings",
         BIOTAC_MSG_TYPE,
         QosProfile::sensor_data(),
@@ -103,58 +140,91 @@ pub async fn run() -> Result<(), RosError> {
     let stddev =
         node.create_publisher::<WrenchStamped>("biotac/wrench_stddev", QosProfile::default())?;
     let pdc = node.create_publisher::<FluidPressure>("biotac/pdc_rise", QosProfile::default())?;
-    let mut clock = r2r::Clock::create(r2r::ClockType::RosTime)?;
-    let (handler, _events) = node.make_parameter_handler()?;
-    tokio::spawn(handler);
+    let diagnostics =
+        node.create_publisher::<DiagnosticArray>("/diagnostics", QosProfile::default())?;
+    let clock = super::serve_parameters(&mut node, RuntimeParams::none())?;
     super::spin(node);
 
-    let mut dropped = Dropped::default();
-    while let Some(msg) = readings.next().await {
-        let reading = match msg
-            .map_err(|e| e.to_string())
-            .and_then(|v| biotac_msg::from_json(&v).map_err(|e| e.to_string()))
-        {
-            Ok((r, meta)) if meta.invalid_channels.is_empty() => r,
+    let mut report = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        let msg = tokio::select! {
+            m = readings.next() => match m {
+                Some(m) => m,
+                None => return Ok(()),
+            },
+            _ = report.tick() => {
+                let d = estimator.dropped();
+                let (level, message) = match (estimator.is_tared(), d.total()) {
+                    (false, _) => (WARN, "taring".to_string()),
+                    (true, 0) => (OK, "estimating".to_string()),
+                    (true, n) => (WARN, format!("estimating; {n} readings dropped so far")),
+                };
+                let values = vec![
+                    ("estimates", estimator.estimates().to_string()),
+                    ("dropped_refused", d.refused.to_string()),
+                    ("dropped_invalid_channels", d.invalid.to_string()),
+                    ("dropped_stale", d.stale.to_string()),
+                    ("dropped_non_finite", d.non_finite.to_string()),
+                ];
+                let name = "wrench_estimator";
+                let msg = convert::diagnostics_msg(clock.now_s(), level, name, message, "", values);
+                if let Err(e) = diagnostics.publish(&msg) {
+                    tracing::warn!("diagnostics: {e}");
+                }
+                continue;
+            }
+        };
+        let (reading, meta) = match biotac_msg::from_cdr(&msg) {
+            Ok((r, meta)) if meta.invalid_channels.is_empty() => (r, meta),
             Ok(_) => {
-                dropped.invalid += 1;
+                estimator.count_unusable(true);
                 continue;
             }
             Err(e) => {
-                dropped.refused += 1;
+                estimator.count_unusable(false);
                 tracing::debug!("biotac/readings: {e}");
                 continue;
             }
         };
-        if super::now_s(&mut clock) - reading.stamp_s > stale_s {
-            dropped.stale += 1;
-            continue;
-        }
-        let estimate = match estimator.on_reading(&reading) {
-            Ok(Some(e)) => e,
-            Ok(None) => continue, // still taking the tare
-            Err(e) => {
-                dropped.non_finite += 1;
-                tracing::debug!("estimate: {e}");
-                continue;
+        if let Some(s) = saved.take() {
+            if s.serial == meta.serial && !estimator.is_tared() {
+                tracing::info!(
+                    "taking up the tare saved {:.0} s ago in {} (same sensor, \"{}\"): \
+                     the skin may be pressed now; tare_max_age_s:=0 tares anew",
+                    unix_s() - s.taken_unix_s,
+                    tare_path.display(),
+                    s.serial,
+                );
+                estimator.set_tare(s.tare);
             }
-        };
-        let Some((mean, std)) = convert::estimate_msgs(&estimate, &frame_id) else {
-            dropped.non_finite += 1;
-            continue;
+        }
+        let was_tared = estimator.is_tared();
+        let estimate = estimator.on_received(&reading, clock.now_s());
+        if !was_tared && estimator.is_tared() {
+            tracing::info!("tared on {} readings", estimator.tare_samples());
+            if let Some(tare) = estimator.tare() {
+                let s = SavedTare {
+                    serial: meta.serial.clone(),
+                    taken_unix_s: unix_s(),
+                    tare: tare.clone(),
+                };
+                if let Err(e) = s.save(&tare_path) {
+                    tracing::warn!("tare not saved: {e}");
+                }
+            }
+        }
+        let Some(e) = estimate else { continue };
+        let Some((mean, std)) = convert::estimate_msgs(&e, &frame_id) else {
+            continue; // on_received has checked that every number is finite
         };
         // The mean last: the controller steps when the mean and std of a
         // reading are both in (the std is zeros without `with_std`).
         let sent = pdc
-            .publish(&convert::pdc_rise_msg(&estimate, &frame_id))
+            .publish(&convert::pdc_rise_msg(&e, &frame_id))
             .and_then(|()| stddev.publish(&std))
             .and_then(|()| wrench.publish(&mean));
         if let Err(e) = sent {
             tracing::warn!("publish: {e}");
         }
-        let total = dropped.refused + dropped.invalid + dropped.stale + dropped.non_finite;
-        if total > 0 && total % 1000 == 0 {
-            tracing::warn!("dropped input so far: {dropped:?}");
-        }
     }
-    Ok(())
 }

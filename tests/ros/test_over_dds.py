@@ -11,8 +11,20 @@ independent rclpy peer that checks them from the topics and the action.
   nothing to touch ends with `timeout`; 0.2 m/s, past the safety envelope, is aborted with a
   reason naming the limit. While it holds: the latency from a reading's stamp
   to the command that follows it, and the CPU of each node.
+- On the wooden box, parameters while running: `task` to guided is refused
+  (beyond the safety envelope of a wooden box), so are an unknown task and a
+  start-up-only parameter, each with its reason, on /rosout too.
+- Faults while it holds: undecodable BioTac messages and NaN or mis-sized
+  joint states are dropped and counted (/diagnostics) with every node alive;
+  a burst of readings at 10x the rate grows neither the loop delay nor the
+  memory; the estimator killed -> zero commands within 3 periods; restarted
+  -> it takes up its saved tare and the hold resumes.
+- Start-up: every node says what it loaded, on /rosout.
 - Guided move against the fingertip: RMS force error <= 0.3 N per axis while
-  the finger pushes.
+  the finger pushes, off-axis speed <= 10 % of the finger's; then `task`
+  switched to guarded and back.
+- Simulated time: sim_robot on /clock at 2x real time, every node with
+  use_sim_time: the guarded move holds as in real time.
 - biotac_driver on the serial bridge emulator's pseudo-terminal: readings
   at 100 Hz over DDS, and a tare through its ~/tare service.
 
@@ -31,8 +43,13 @@ import time
 
 import rclpy
 from rclpy.action import ActionClient
-from rclpy.qos import qos_profile_sensor_data
-from geometry_msgs.msg import WrenchStamped
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.serialization import serialize_message
+from geometry_msgs.msg import TwistStamped, WrenchStamped
+from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from diagnostic_msgs.msg import DiagnosticArray
@@ -46,6 +63,7 @@ from tactile_force_nodes import nodes  # noqa: E402
 
 RESULTS = []
 CONTACT_N = 0.05
+PERIOD_S = 0.01
 
 
 def check(name, ok, detail):
@@ -59,18 +77,25 @@ class Nodes:
     estimator first, until its model is loaded (training it on first use
     takes 10-20 s), so that the others start with estimates flowing."""
 
-    def __init__(self, scene, object_name, port=None, only=None):
+    def __init__(self, scene, object_name, port=None, only=None, speed=None):
         self.domain = random.randint(10, 200)
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
         self.procs = {}
-        specs = {exe: (files, overrides)
-                 for exe, files, overrides in nodes(scene, port is None, object_name, "", port or "")}
-        order = ["wrench_estimator"] + [exe for exe in specs if exe != "wrench_estimator"]
+        started = nodes(scene, port is None, object_name, "", port or "",
+                        sim_time=speed is not None, real_time_factor=speed or 1.0)
+        self.specs = {exe: (files, overrides) for exe, files, overrides in started}
+        # Each scenario tares anew: its own tare file.
+        self.specs["wrench_estimator"][1]["tare_file"] = os.path.join(self.logs, "tare.json")
+        order = ["wrench_estimator"] + [exe for exe in self.specs if exe != "wrench_estimator"]
         for exe in [e for e in order if only is None or e in only]:
-            self._start(exe, *specs[exe])
-            if exe == "wrench_estimator" and not self._wait_log(exe, "wrench_estimator: model", 180):
-                raise RuntimeError("the estimator did not load its model:\n" + self.tail(exe))
+            self.start(exe)
+
+    def start(self, exe):
+        """Starts `exe`; the estimator until its model is loaded."""
+        self._start(exe, *self.specs[exe])
+        if exe == "wrench_estimator" and not self.wait_log(exe, "]: model", 180):
+            raise RuntimeError("the estimator did not load its model:\n" + self.tail(exe))
 
     def _start(self, exe, files, overrides):
         # Overrides in a parameter file, as launch_ros passes them (an empty
@@ -79,15 +104,16 @@ class Nodes:
         with open(extra, "w") as f:
             f.write("/**:\n  ros__parameters:\n")
             for k, v in overrides.items():
-                f.write(f"    {k}: \"{v}\"\n")
+                value = str(v).lower() if isinstance(v, bool) else v if isinstance(v, (int, float)) else f'"{v}"'
+                f.write(f"    {k}: {value}\n")
         cmd = [exe, "--ros-args", "-r", f"__node:={exe}"]
         for name in files:
             cmd += ["--params-file", os.path.join(REPO, "config", name)]
         cmd += ["--params-file", extra]
-        log = open(os.path.join(self.logs, f"{exe}.log"), "w")
+        log = open(os.path.join(self.logs, f"{exe}.log"), "a")
         self.procs[exe] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=REPO)
 
-    def _wait_log(self, exe, text, timeout):
+    def wait_log(self, exe, text, timeout):
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             if text in open(os.path.join(self.logs, f"{exe}.log")).read():
@@ -100,6 +126,18 @@ class Nodes:
     def tail(self, exe, lines=15):
         with open(os.path.join(self.logs, f"{exe}.log")) as f:
             return "".join(f.readlines()[-lines:])
+
+    def log(self, exe):
+        with open(os.path.join(self.logs, f"{exe}.log")) as f:
+            return f.read()
+
+    def rss_kib(self):
+        """Resident memory of each node (KiB)."""
+        out = {}
+        for exe, p in self.procs.items():
+            with open(f"/proc/{p.pid}/status") as f:
+                out[exe] = next(int(line.split()[1]) for line in f if line.startswith("VmRSS"))
+        return out
 
     def cpu_s(self):
         """CPU seconds (user + system) of each node so far."""
@@ -133,23 +171,58 @@ class Peer:
         rclpy.init(domain_id=domain)
         self.node = rclpy.create_node(f"tactile_force_check_{os.getpid()}")
         self.forces = []  # (receive time, (fx, fy, fz)) from ft_sensor/wrench
+        self.ft_stamped = []  # (header stamp, fz) from ft_sensor/wrench
         self.stamps = []  # latest biotac/readings stamp (s) at each command received
-        self.latest_stamp = None
+        self.commands = []  # (receive time, all velocities zero)
+        self.latest = None  # the latest biotac/readings message
+        self.logs = []  # /rosout: (logger, level, text)
+        self.diagnostics = {}  # /diagnostics: name -> {key: value}, the latest
         self.node.create_subscription(WrenchStamped, "ft_sensor/wrench", self._on_ft, 10)
         self.node.create_subscription(BioTac, "biotac/readings", self._on_reading, qos_profile_sensor_data)
         self.node.create_subscription(Float64MultiArray, "velocity_controller/commands", self._on_command, 10)
+        rosout = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                            durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.node.create_subscription(Log, "/rosout", lambda m: self.logs.append((m.name, m.level, m.msg)), rosout)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.client = ActionClient(self.node, GuardedMove, "force_controller/guarded_move")
 
     def _on_ft(self, m):
         f = m.wrench.force
         self.forces.append((time.monotonic(), (f.x, f.y, f.z)))
+        self.ft_stamped.append((m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, f.z))
 
     def _on_reading(self, m):
-        self.latest_stamp = m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+        self.latest = m
 
-    def _on_command(self, _):
-        if self.latest_stamp is not None:
-            self.stamps.append((time.time(), self.latest_stamp))
+    def _on_command(self, m):
+        if self.latest is not None:
+            stamp = self.latest.header.stamp.sec + 1e-9 * self.latest.header.stamp.nanosec
+            self.stamps.append((time.time(), stamp))
+        self.commands.append((time.monotonic(), all(v == 0.0 for v in m.data)))
+
+    def _on_diagnostics(self, m):
+        for st in m.status:
+            self.diagnostics[st.name] = {kv.key: kv.value for kv in st.values}
+
+    def set_param(self, node, name, value):
+        """Sets a parameter of `node`; (successful, reason)."""
+        client = self.node.create_client(SetParameters, f"{node}/set_parameters")
+        if not client.wait_for_service(timeout_sec=10):
+            return False, "no set_parameters service"
+        v = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value) if isinstance(value, str) \
+            else ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
+        future = client.call_async(SetParameters.Request(parameters=[Parameter(name=name, value=v)]))
+        if not self.spin(10, future.done):
+            return False, "no answer"
+        r = future.result().results[0]
+        self.node.destroy_client(client)
+        return r.successful, r.reason
+
+    def diagnostic(self, name, key, timeout=3.0):
+        """The next value of `key` in the `name` status on /diagnostics."""
+        self.diagnostics.pop(name, None)
+        self.spin(timeout, lambda: key in self.diagnostics.get(name, {}))
+        return self.diagnostics.get(name, {}).get(key)
 
     def spin(self, seconds, until=None):
         end = time.monotonic() + seconds
@@ -184,31 +257,65 @@ def contact_time(forces):
     return next((t for t, f in forces if abs(f[2]) > CONTACT_N), None)
 
 
-def guarded(object_name):
-    n = Nodes("guarded_move.yaml", object_name)
+def hold_figures(peer, t0, seconds):
+    """Peak, steady-state error (last 1 s) and sd (last 2 s) of fz on
+    ft_sensor/wrench, by header stamp, over `seconds` from stamp t0."""
+    after = [(t, f) for t, f in peer.ft_stamped if t0 <= t <= t0 + seconds]
+    end = after[-1][0]
+    peak = max(f for _, f in after)
+    err = abs(statistics.mean([f for t, f in after if t > end - 1.0]) - 1.0)
+    sd = statistics.stdev([f for t, f in after if t > end - 2.0])
+    return peak, err, sd
+
+
+def check_hold(label, peer, t0, seconds, wall_timeout):
+    """Waits for `seconds` of ft_sensor/wrench stamps after t0, then checks
+    the hold."""
+    peer.spin(wall_timeout, lambda: peer.ft_stamped[-1][0] >= t0 + seconds)
+    peak, err, sd = hold_figures(peer, t0, seconds)
+    check(f"{label}: overshoot <= 0.1 N", peak - 1.0 <= 0.1, f"peak {peak:.3f} N")
+    check(f"{label}: steady-state error <= 0.05 N", err <= 0.05, f"{err:.4f} N")
+    check(f"{label}: sd over the last 2 s <= 0.02 N", sd <= 0.02, f"{sd:.4f} N")
+
+
+def guarded(object_name, speed=None, label=None):
+    """The guarded move on `object_name`; `speed`: simulated time on /clock
+    at that many times real time."""
+    label = label or object_name
+    n = Nodes("guarded_move.yaml", object_name, speed=speed)
     peer = Peer(n.domain)
     ok = False
     try:
-        touched = peer.spin(60, lambda: contact_time(peer.forces) is not None)
-        check(f"{object_name}: contact", touched, f"{len(peer.forces)} ft_sensor/wrench messages")
+        touched = peer.spin(60, lambda: any(abs(f) > CONTACT_N for _, f in peer.ft_stamped))
+        check(f"{label}: contact", touched, f"{len(peer.forces)} ft_sensor/wrench messages")
         if touched:
-            t0 = contact_time(peer.forces)
-            peer.spin(6)
-            after = [(t - t0, f[2]) for t, f in peer.forces if t >= t0]
-            end = after[-1][0]
-            peak = max(f for _, f in after)
-            err = abs(statistics.mean([f for t, f in after if t > end - 1.0]) - 1.0)
-            sd = statistics.stdev([f for t, f in after if t > end - 2.0])
-            check(f"{object_name}: overshoot <= 0.1 N", peak - 1.0 <= 0.1, f"peak {peak:.3f} N")
-            check(f"{object_name}: steady-state error <= 0.05 N", err <= 0.05, f"{err:.4f} N")
-            check(f"{object_name}: sd over the last 2 s <= 0.02 N", sd <= 0.02, f"{sd:.4f} N")
-        if object_name == "wooden_box":
+            t0 = next(t for t, f in peer.ft_stamped if abs(f) > CONTACT_N)
+            wall0 = time.monotonic()
+            check_hold(label, peer, t0, 6.0, 30)
+            if speed:
+                ratio = (peer.ft_stamped[-1][0] - t0) / (time.monotonic() - wall0)
+                check(f"{label}: simulated time runs at {speed}x", abs(ratio / speed - 1) <= 0.2,
+                      f"{ratio:.2f} simulated s per wall-clock s")
+        if touched and object_name == "wooden_box" and not speed:
+            startup_logs(peer)
             holding(n, peer)
             goals(peer)
+            parameters_guarded(peer)
+            faults(n, peer)
         ok = all(RESULTS)
     finally:
         peer.destroy()
         n.stop(keep_logs=not ok)
+
+
+def startup_logs(peer):
+    """What each node said at start-up, read back from /rosout."""
+    peer.spin(1)
+    wanted = {"sim_robot": "object wooden_box", "wrench_estimator": "model default",
+              "force_controller": "task Guarded on wooden_box"}
+    for node, text in wanted.items():
+        line = next((m for name, level, m in peer.logs if name == node and text in m), None)
+        check(f"/rosout: {node} at start-up", line is not None, (line or f"nothing with {text!r}")[:110] + "...")
 
 
 def holding(n, peer):
@@ -252,9 +359,131 @@ def goals(peer):
     check("0.2 m/s refused, limit named", ok, why or reason[:120] + "...")
 
 
+def parameters_guarded(peer):
+    """Sets while running: each refused with its reason, also on /rosout."""
+    ok, why = peer.set_param("force_controller", "task", "guided")
+    check("task guided refused on a wooden box", not ok and "pd.max_speed_mps" in why and "wooden_box" in why,
+          why[:140] + "...")
+    ok, why = peer.set_param("force_controller", "task", "fast")
+    check("task fast refused", not ok and "guarded or guided" in why, why)
+    ok, why = peer.set_param("force_controller", "pd.gain_ratio", 2.0)
+    check("pd.gain_ratio refused while running", not ok and "read at start-up only" in why, why)
+    peer.spin(0.5)
+    warned = [m for name, level, m in peer.logs if name == "force_controller" and level == Log.WARN]
+    check("/rosout: refusals logged", any("task refused" in m for m in warned)
+          and any("goal refused" in m for m in warned), f"{len(warned)} warnings from force_controller")
+
+
+def faults(n, peer):
+    """While holding: bad input, a burst, the estimator killed and back."""
+    res, why = peer.goal(GuardedMove.Goal(), 30)
+    check("holding again", res is not None and res.result.reason == "hold", why or res.result.reason)
+    pub = peer.node.create_publisher(BioTac, "biotac/readings", qos_profile_sensor_data)
+    joints = peer.node.create_publisher(JointState, "joint_states", 10)
+    before_e = int(peer.diagnostic("wrench_estimator", "dropped_refused") or -1)
+    before_c = int(peer.diagnostic("force_controller", "rejected") or -1)
+    t_start = peer.ft_stamped[-1][0]
+    good = serialize_message(peer.latest)
+    for k in range(100):
+        pub.publish(good[: 20 + k % 40])  # cut short: arrays of the wrong length
+        # NaN positions, or a joint missing.
+        bad = JointState(name=["S1", "S2", "S3", "E1", "E2", "W1", "W2"][: 7 - k % 2])
+        bad.position = [0.1 if k % 2 else float("nan")] * len(bad.name)
+        joints.publish(bad)
+        peer.spin(0.01)
+    peer.spin(1.5)
+    after_e = int(peer.diagnostic("wrench_estimator", "dropped_refused") or -1)
+    after_c = int(peer.diagnostic("force_controller", "rejected") or -1)
+    alive = all(p.poll() is None for p in n.procs.values())
+    check("cut-short BioTac messages dropped and counted", after_e - before_e >= 95 and alive,
+          f"{after_e - before_e} of 100 counted (best-effort QoS), every node alive: {alive}")
+    check("NaN and mis-sized joint states dropped and counted", after_c - before_c == 100 and alive,
+          f"{after_c - before_c} of 100 counted")
+    _, err, sd = hold_figures(peer, t_start, 99)
+    check("the hold through bad input", err <= 0.05 and sd <= 0.02, f"error {err:.4f} N, sd {sd:.4f} N")
+
+    # A burst: every reading repeated 9 times, freshly stamped (10x the rate).
+    delay = lambda: float(peer.diagnostic("force_controller", "loop_delay_p99_ms") or "nan")  # noqa: E731
+    p99_before, rss_before = delay(), n.rss_kib()
+    t0, sent, p99_during = time.monotonic(), 0, []
+    while time.monotonic() - t0 < 3.0:
+        m = peer.latest
+        now = time.time()
+        m.header.stamp.sec, m.header.stamp.nanosec = int(now), int((now % 1) * 1e9)
+        pub.publish(m)
+        sent += 1
+        rclpy.spin_once(peer.node, timeout_sec=0.0)
+        if "loop_delay_p99_ms" in peer.diagnostics.get("force_controller", {}):
+            p99_during.append(float(peer.diagnostics["force_controller"].pop("loop_delay_p99_ms")))
+        time.sleep(0.001)
+    rate = sent / (time.monotonic() - t0)
+    peer.spin(2)
+    p99_after, rss_after = delay(), n.rss_kib()
+    worst = max(p99_during or [float("nan")])
+    check("burst: loop delay p99 within one period", worst < 10.0 and p99_after < 10.0,
+          f"{rate:.0f} extra readings per s for 3 s; p99 {p99_before:.2f} ms before, "
+          f"worst second {worst:.2f} ms, {p99_after:.2f} ms after")
+    growth = {exe: rss_after[exe] - rss_before[exe] for exe in rss_after}
+    check("burst: no memory growth (< 1 MiB per node)", max(growth.values()) < 1024,
+          ", ".join(f"{exe} {g:+d} KiB" for exe, g in growth.items()))
+
+    # The estimator killed mid-hold, then started again.
+    t_kill = time.monotonic()
+    n.procs["wrench_estimator"].kill()
+    peer.spin(1.0)
+    zero_at = next((t for t, zero in peer.commands if t > t_kill and zero), None)
+    moving = [t for t, zero in peer.commands if t > t_kill + 3 * PERIOD_S and not zero]
+    ms = (zero_at - t_kill) * 1e3 if zero_at else float("nan")
+    check("estimator killed: zero commands within 3 periods", zero_at is not None and ms <= 30 and not moving,
+          f"first zero command {ms:.1f} ms after the kill; {len(moving)} non-zero after 30 ms")
+    n.start("wrench_estimator")
+    t_back = peer.ft_stamped[-1][0]
+    peer.spin(2)
+    taken_up = "taking up the tare" in n.log("wrench_estimator")
+    check_hold_after("estimator restarted", peer, t_back + 1.0)
+    check("restarted estimator takes up its saved tare", taken_up,
+          "logged" if taken_up else n.tail("wrench_estimator", 3))
+
+
+def check_hold_after(label, peer, t0):
+    peer.spin(10, lambda: peer.ft_stamped[-1][0] >= t0 + 2.0)
+    _, err, sd = hold_figures(peer, t0, 2.0)
+    check(f"{label}: the hold resumes (error <= 0.05 N, sd <= 0.02 N)", err <= 0.05 and sd <= 0.02,
+          f"error {err:.4f} N, sd {sd:.4f} N")
+
+
+def off_axis_ratio(arm, finger):
+    """The largest arm speed along an axis the finger does not push, over
+    the peak speed of the finger's push (as `demo` reports it): pushes are
+    the runs of finger motion between its waits; an axis is pushed when the
+    finger moves along it in that run. arm, finger: {stamp: (vx, vy, vz)}."""
+    stamps = sorted(t for t in finger if t in arm)
+    runs, run = [], []
+    for t in stamps:
+        if max(abs(v) for v in finger[t]) > 1e-6:
+            run.append(t)
+        elif run:
+            runs, run = runs + [run], []
+    worst = 0.0
+    for run in runs + ([run] if run else []):
+        peak = max(sum(v * v for v in finger[t]) ** 0.5 for t in run)
+        pushed = [max(abs(finger[t][i]) for t in run) > 0.01 * peak for i in range(3)]
+        for t in run:
+            off = max((abs(arm[t][i]) for i in range(3) if not pushed[i]), default=0.0)
+            worst = max(worst, off / peak)
+    return worst
+
+
 def guided():
     n = Nodes("guided_move.yaml", "fingertip")
     peer = Peer(n.domain)
+    arm, finger = {}, {}
+    stamp = lambda m: (m.header.stamp.sec, m.header.stamp.nanosec)  # noqa: E731
+    linear = lambda m: (m.twist.linear.x, m.twist.linear.y, m.twist.linear.z)  # noqa: E731
+    peer.node.create_subscription(TwistStamped, "sim_robot/biotac_twist",
+                                  lambda m: arm.__setitem__(stamp(m), linear(m)), 100)
+    peer.node.create_subscription(TwistStamped, "sim_robot/finger_twist",
+                                  lambda m: finger.__setitem__(stamp(m), linear(m)), 100)
     ok = False
     try:
         # The finger's path (config/guided_move.yaml) takes 20 s from the
@@ -268,6 +497,14 @@ def guided():
             rms = [(sum((f[i] - targets[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
             check("guided: RMS force error <= 0.3 N per axis", max(rms) <= 0.3,
                   "fx %.3f, fy %.3f, fz %.3f N" % tuple(rms))
+            ratio = off_axis_ratio(arm, finger)
+            check("guided: off-axis speed <= 10 % of the finger's", ratio <= 0.10,
+                  f"{100 * ratio:.1f} % at most ({len(finger)} finger samples)")
+        for task in ("guarded", "guided"):
+            done, why = peer.set_param("force_controller", "task", task)
+            running = peer.diagnostic("force_controller", "task")
+            check(f"task switched to {task} while running", done and running == task,
+                  f"set: {done} {why}; /diagnostics says {running}")
         ok = all(RESULTS)
     finally:
         peer.destroy()
@@ -318,6 +555,7 @@ def main():
     os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(REPO, "target", "ros-test-cache"))
     for object_name in ("wooden_box", "carton_box", "stuffed_animal"):
         guarded(object_name)
+    guarded("wooden_box", speed=2.0, label="wooden_box, simulated time at 2x")
     guided()
     driver()
     failed = RESULTS.count(False)
