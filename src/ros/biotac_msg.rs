@@ -1,6 +1,6 @@
-//! `tactile_force_msgs/msg/BioTac` <-> [`BioTacReading`], as the JSON value
-//! r2r's untyped publishers carry, and from the CDR bytes a raw
-//! subscription delivers (`msg/msg/BioTac.msg`).
+//! `tactile_force_msgs/msg/BioTac` <-> [`BioTacReading`]: to the JSON value
+//! r2r's untyped publishers carry, from the CDR bytes a raw subscription
+//! delivers (`msg/msg/BioTac.msg`).
 //!
 //! Under r2r's `doc-only` build there are no Rust types for our own
 //! interface package, so the BioTac topic is untyped: this module is the one
@@ -10,7 +10,7 @@
 use serde_json::{json, Value};
 
 use crate::biotac::reading::{N_ELECTRODES, N_PAC};
-use crate::biotac::BioTacReading;
+use crate::biotac::{BioTacReading, ADC_MAX};
 
 /// The ROS type name of the readings topic.
 pub const BIOTAC_MSG_TYPE: &str = "tactile_force_msgs/msg/BioTac";
@@ -19,28 +19,18 @@ pub const BIOTAC_MSG_TYPE: &str = "tactile_force_msgs/msg/BioTac";
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum BioTacMsgError {
-    /// A field is missing or of the wrong type.
-    #[error("BioTac message: field `{field}` missing or not {expected}")]
-    Field {
-        /// Field name.
-        field: &'static str,
-        /// What was expected.
-        expected: &'static str,
-    },
-    /// An array has the wrong length.
-    #[error("BioTac message: `{field}` has {found} values, expected {expected}")]
-    Length {
-        /// Field name.
-        field: &'static str,
-        /// Values found.
-        found: usize,
-        /// Values expected.
-        expected: usize,
-    },
     /// The bytes are not a BioTac message in CDR (too short, a wrong
     /// array or string length).
     #[error("BioTac message: not decodable as CDR ({0})")]
     Cdr(String),
+    /// A stamp that is not a time: negative, or nanoseconds past a second.
+    #[error("BioTac message: stamp {sec} s {nanosec} ns is not a time")]
+    Stamp {
+        /// Seconds.
+        sec: i32,
+        /// Nanoseconds.
+        nanosec: u32,
+    },
     /// A count above the 12-bit range.
     #[error("BioTac message: `{field}` = {value} is above 4095")]
     Range {
@@ -97,114 +87,6 @@ pub fn to_json(r: &BioTacReading, meta: &BioTacMeta) -> Value {
     })
 }
 
-fn field<'a>(v: &'a Value, name: &'static str) -> Result<&'a Value, BioTacMsgError> {
-    v.get(name).ok_or(BioTacMsgError::Field {
-        field: name,
-        expected: "present",
-    })
-}
-
-fn count(v: &Value, name: &'static str) -> Result<u16, BioTacMsgError> {
-    let n = v.as_u64().ok_or(BioTacMsgError::Field {
-        field: name,
-        expected: "an unsigned integer",
-    })?;
-    if n > 4095 {
-        return Err(BioTacMsgError::Range {
-            field: name,
-            value: n,
-        });
-    }
-    Ok(n as u16)
-}
-
-fn counts<const N: usize>(v: &Value, name: &'static str) -> Result<[u16; N], BioTacMsgError> {
-    let a = v.as_array().ok_or(BioTacMsgError::Field {
-        field: name,
-        expected: "an array",
-    })?;
-    if a.len() != N {
-        return Err(BioTacMsgError::Length {
-            field: name,
-            found: a.len(),
-            expected: N,
-        });
-    }
-    let mut out = [0u16; N];
-    for (o, x) in out.iter_mut().zip(a) {
-        *o = count(x, name)?;
-    }
-    Ok(out)
-}
-
-/// The reading in a message; refuses missing fields, wrong lengths and
-/// counts above 4095.
-pub fn from_json(v: &Value) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
-    let header = field(v, "header")?;
-    let stamp = field(header, "stamp")?;
-    let int = |v: &Value, name: &'static str| {
-        v.get(name)
-            .and_then(Value::as_u64)
-            .ok_or(BioTacMsgError::Field {
-                field: name,
-                expected: "an unsigned integer",
-            })
-    };
-    let sec = i32::try_from(int(stamp, "sec")?).map_err(|_| BioTacMsgError::Field {
-        field: "sec",
-        expected: "a 32-bit integer",
-    })?;
-    let nanosec = u32::try_from(int(stamp, "nanosec")?).map_err(|_| BioTacMsgError::Field {
-        field: "nanosec",
-        expected: "a 32-bit integer",
-    })?;
-    let string = |v: &Value, name: &'static str| {
-        v.get(name)
-            .and_then(Value::as_str)
-            .map(str::to_string)
-            .ok_or(BioTacMsgError::Field {
-                field: name,
-                expected: "a string",
-            })
-    };
-    let seq = u16::try_from(int(v, "seq")?).map_err(|_| BioTacMsgError::Field {
-        field: "seq",
-        expected: "a 16-bit integer",
-    })?;
-    let sensor_index =
-        u8::try_from(int(v, "sensor_index")?).map_err(|_| BioTacMsgError::Field {
-            field: "sensor_index",
-            expected: "an 8-bit integer",
-        })?;
-    let invalid = field(v, "invalid_channels")?
-        .as_array()
-        .and_then(|a| {
-            a.iter()
-                .map(|s| s.as_str().map(str::to_string))
-                .collect::<Option<Vec<_>>>()
-        })
-        .ok_or(BioTacMsgError::Field {
-            field: "invalid_channels",
-            expected: "an array of strings",
-        })?;
-    let reading = BioTacReading {
-        seq,
-        stamp_s: join_stamp(sec, nanosec),
-        electrodes: counts::<N_ELECTRODES>(field(v, "electrodes")?, "electrodes")?,
-        pdc: count(field(v, "pdc")?, "pdc")?,
-        pac: counts::<N_PAC>(field(v, "pac")?, "pac")?,
-        tdc: count(field(v, "tdc")?, "tdc")?,
-        tac: count(field(v, "tac")?, "tac")?,
-    };
-    let meta = BioTacMeta {
-        frame_id: string(header, "frame_id")?,
-        serial: string(v, "serial")?,
-        sensor_index,
-        invalid_channels: invalid,
-    };
-    Ok((reading, meta))
-}
-
 /// The message's fields in CDR order (`msg/msg/BioTac.msg`).
 #[derive(serde::Serialize, serde::Deserialize)]
 struct CdrBioTac {
@@ -222,12 +104,70 @@ struct CdrBioTac {
     invalid_channels: Vec<String>,
 }
 
+/// Checks every string and sequence length in `bytes` against the bytes
+/// that follow it. The `cdr` crate reserves memory for a stated length
+/// before it reads the bytes, so a few bytes claiming a 4 GB string would
+/// cost 4 GB; this walk over the message's layout refuses them first.
+fn check_lengths(bytes: &[u8]) -> Result<(), BioTacMsgError> {
+    let bad = |what: &str| BioTacMsgError::Cdr(what.to_string());
+    // The encapsulation header: [0, 0] big-endian CDR, [0, 1] little-endian.
+    let little = match bytes.get(..2) {
+        Some([0, 0]) => false,
+        Some([0, 1]) => true,
+        _ => return Err(bad("not a CDR encapsulation header")),
+    };
+    let body = &bytes[4.min(bytes.len())..];
+    // Alignment counts from the end of the header.
+    let mut at = 0usize;
+    let length = |at: &mut usize| -> Result<usize, BioTacMsgError> {
+        *at = at.next_multiple_of(4);
+        let word = body.get(*at..*at + 4).ok_or_else(|| bad("cut short"))?;
+        let word = <[u8; 4]>::try_from(word).map_err(|_| bad("cut short"))?;
+        *at += 4;
+        let n = if little {
+            u32::from_le_bytes(word)
+        } else {
+            u32::from_be_bytes(word)
+        };
+        Ok(n as usize)
+    };
+    let string = |at: &mut usize| -> Result<(), BioTacMsgError> {
+        let n = length(at)?;
+        if n > body.len().saturating_sub(*at) {
+            return Err(bad("a string longer than the message"));
+        }
+        *at += n;
+        Ok(())
+    };
+    at += 8; // stamp: sec, nanosec
+    string(&mut at)?; // frame_id
+    string(&mut at)?; // serial
+    at += 1; // sensor_index
+    at = at.next_multiple_of(2) + 2 * (1 + N_ELECTRODES + 1 + N_PAC + 2); // seq .. tac
+    let channels = length(&mut at)?;
+    // Each name takes at least its 4-byte length.
+    if channels > body.len().saturating_sub(at) / 4 {
+        return Err(bad("more invalid channels than the message holds"));
+    }
+    for _ in 0..channels {
+        string(&mut at)?;
+    }
+    Ok(())
+}
+
 /// The reading in a serialized message (CDR, with its encapsulation
-/// header, as DDS delivers it); refuses bytes that do not decode and counts
-/// above 4095.
+/// header, as DDS delivers it); refuses bytes that do not decode, stamps
+/// that are not times and counts above 4095.
 pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
+    check_lengths(bytes)?;
     let m: CdrBioTac = cdr::deserialize(bytes).map_err(|e| BioTacMsgError::Cdr(e.to_string()))?;
-    let range = |field: &'static str, values: &[u16]| match values.iter().find(|v| **v > 4095) {
+    if m.sec < 0 || m.nanosec >= 1_000_000_000 {
+        return Err(BioTacMsgError::Stamp {
+            sec: m.sec,
+            nanosec: m.nanosec,
+        });
+    }
+    let range = |field: &'static str, values: &[u16]| match values.iter().find(|v| **v > ADC_MAX) {
         Some(v) => Err(BioTacMsgError::Range {
             field,
             value: u64::from(*v),
@@ -332,33 +272,6 @@ mod tests {
             Some(N_ELECTRODES)
         );
         assert_eq!(fields.iter().find(|f| f.0 == "pac").unwrap().2, Some(N_PAC));
-        let (r, m) = from_json(&v).unwrap();
-        assert_eq!(r, reading());
-        assert_eq!(m, meta);
-    }
-
-    #[test]
-    fn bad_messages_are_refused_not_panicked_on() {
-        let good = to_json(&reading(), &BioTacMeta::default());
-        let mut short = good.clone();
-        short["electrodes"] = json!([1, 2, 3]);
-        assert!(matches!(
-            from_json(&short),
-            Err(BioTacMsgError::Length { found: 3, .. })
-        ));
-        let mut high = good.clone();
-        high["pdc"] = json!(5000);
-        assert!(matches!(
-            from_json(&high),
-            Err(BioTacMsgError::Range { .. })
-        ));
-        let mut nan = good.clone();
-        nan["tdc"] = json!(f64::NAN); // serde_json writes null
-        assert!(from_json(&nan).is_err());
-        let mut neg = good;
-        neg["header"]["stamp"]["sec"] = json!(-1);
-        assert!(from_json(&neg).is_err());
-        assert!(from_json(&json!("no")).is_err());
     }
 
     #[test]
@@ -397,9 +310,49 @@ mod tests {
         // A message cut short (an electrode array of 10 values, say).
         let err = from_cdr(&bytes[..40]).unwrap_err();
         assert!(matches!(err, BioTacMsgError::Cdr(_)), "{err}");
+        // Big-endian CDR decodes too.
+        let be = cdr::serialize::<_, _, cdr::CdrBe>(&m, cdr::Infinite).unwrap();
+        assert_eq!(from_cdr(&be).unwrap().0, r);
         m.pac[3] = 5000;
         let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
         let err = from_cdr(&bytes).unwrap_err().to_string();
         assert!(err.contains("pac") && err.contains("5000"), "{err}");
+        m.pac[3] = 0;
+        m.nanosec = 1_000_000_000;
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
+        assert!(matches!(
+            from_cdr(&bytes),
+            Err(BioTacMsgError::Stamp { .. })
+        ));
+    }
+
+    #[test]
+    fn a_stated_length_beyond_the_bytes_is_refused_before_anything_is_reserved() {
+        // Header, stamp, then a frame_id claiming 0xF000_0000 bytes.
+        let mut bytes = vec![0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0];
+        bytes.extend(0xF000_0000u32.to_le_bytes());
+        let err = from_cdr(&bytes).unwrap_err().to_string();
+        assert!(err.contains("longer than the message"), "{err}");
+        // So many invalid channels that their lengths alone cannot fit.
+        let m = CdrBioTac {
+            sec: 1,
+            nanosec: 0,
+            frame_id: String::new(),
+            serial: String::new(),
+            sensor_index: 0,
+            seq: 0,
+            electrodes: [0; N_ELECTRODES],
+            pdc: 0,
+            pac: [0; N_PAC],
+            tdc: 0,
+            tac: 0,
+            invalid_channels: vec![],
+        };
+        let mut bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
+        let n = bytes.len();
+        bytes[n - 4..].copy_from_slice(&u32::MAX.to_le_bytes());
+        let err = from_cdr(&bytes).unwrap_err().to_string();
+        assert!(err.contains("more invalid channels"), "{err}");
+        assert!(from_cdr(&[1, 2, 3]).is_err() && from_cdr(&[]).is_err());
     }
 }

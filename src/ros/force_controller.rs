@@ -62,6 +62,8 @@ struct Shared {
     base: ControllerParams,
     /// The task running: the parameter's, or guarded after a goal.
     task: TaskKind,
+    /// A guarded_move goal is running (a task switch then is refused).
+    goal_active: bool,
     pdc: Option<FluidPressure>,
     /// The newest mean and std not yet stepped on.
     mean: Option<WrenchStamped>,
@@ -91,6 +93,12 @@ fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> R
     };
     let task: TaskKind = name.parse().map_err(|e: ParamsError| e.to_string())?;
     let mut g = lock(s);
+    if g.goal_active {
+        return Err("a guarded_move goal is running: cancel it first".into());
+    }
+    if task == g.task {
+        return Ok(()); // nothing to change (a stopped task stays stopped)
+    }
     let c = ForceController::switched(&g.base, task).map_err(|e| e.to_string())?;
     if apply {
         g.controller = c;
@@ -135,6 +143,7 @@ pub async fn run() -> Result<(), RosError> {
     let shared = Arc::new(Mutex::new(Shared {
         controller,
         task: base.task,
+        goal_active: false,
         delays: LoopDelayMonitor::new(base.loop_delays.transport_delay_s),
         base,
         pdc: None,
@@ -206,7 +215,9 @@ pub async fn run() -> Result<(), RosError> {
     let mut report = tokio::time::interval(Duration::from_secs(1));
     let mut delay_warned = false;
     loop {
-        let out = tokio::select! {
+        // Each step stores its output under the lock it ran in, so that a
+        // goal or a task switch in between cannot see the old one.
+        let qdot = tokio::select! {
             part = estimates.next() => {
                 let Some(part) = part else { return Ok(()) };
                 let mut g = lock(&shared);
@@ -214,12 +225,15 @@ pub async fn run() -> Result<(), RosError> {
                 let now = clock.now_s();
                 g.delays.record(stamp_s, now);
                 deadline = tokio::time::Instant::now() + wait;
-                g.controller.tick(now)
+                let out = g.controller.tick(now);
+                keep(&mut g, out)
             }
             // No estimate for 1.5 periods: zero velocity, every period.
             _ = tokio::time::sleep_until(deadline) => {
                 deadline = tokio::time::Instant::now() + period;
-                lock(&shared).controller.estimate_late(clock.now_s(), wait.as_secs_f64())
+                let mut g = lock(&shared);
+                let out = g.controller.estimate_late(clock.now_s(), wait.as_secs_f64());
+                keep(&mut g, out)
             }
             _ = report.tick() => {
                 let msg = diagnostics_msg(&mut lock(&shared), clock.now_s(), &mut delay_warned);
@@ -229,10 +243,33 @@ pub async fn run() -> Result<(), RosError> {
                 continue;
             }
         };
-        if let Err(e) = commands.publish(&convert::commands_msg(&out.qdot)) {
+        if let Err(e) = commands.publish(&convert::commands_msg(&qdot)) {
             tracing::warn!("velocity_controller/commands: {e}");
         }
-        lock(&shared).last = Some(out);
+    }
+}
+
+/// Logs what changed and keeps `out` as the last output; its velocities.
+fn keep(g: &mut Shared, out: ControlOutput) -> crate::kinematics::JointVector {
+    log_change(g.last.as_ref(), &out);
+    let qdot = out.qdot;
+    g.last = Some(out);
+    qdot
+}
+
+/// Logs a new phase (with the stop reason), a halt and the end of a halt.
+fn log_change(before: Option<&ControlOutput>, now: &ControlOutput) {
+    let Some(before) = before else { return };
+    if before.phase != now.phase {
+        match now.reason {
+            Some(r) => tracing::info!("phase {}: {}", now.phase.name(), r.name()),
+            None => tracing::info!("phase {}", now.phase.name()),
+        }
+    }
+    match (&before.halt, &now.halt) {
+        (None, Some(h)) => tracing::warn!("halted, zero velocity: {h}"),
+        (Some(_), None) => tracing::info!("inputs back: the task goes on"),
+        _ => {}
     }
 }
 
@@ -278,10 +315,7 @@ fn diagnostics_msg(g: &mut Shared, now: f64, warned: &mut bool) -> DiagnosticArr
             }
         }
     }
-    values.push((
-        "rejected",
-        (g.rejected + g.controller.rejected()).to_string(),
-    ));
+    values.push(("rejected", g.rejected.to_string()));
     convert::diagnostics_msg(now, level, "force_controller", message, "", values)
 }
 
@@ -293,7 +327,9 @@ enum EstimatePart {
 
 /// Stores `part`; once the mean and the std of one reading are both in,
 /// hands the estimate to the controller and returns its reading's stamp
-/// (time to step).
+/// (time to step); None while waiting for the other half, and for an
+/// estimate the controller refuses (no step: if none follows, the
+/// late-estimate halt stops the arm).
 fn take_estimate(g: &mut Shared, part: EstimatePart) -> Option<f64> {
     match part {
         EstimatePart::Mean(m) => g.mean = Some(m),
@@ -312,9 +348,12 @@ fn take_estimate(g: &mut Shared, part: EstimatePart) -> Option<f64> {
             g.force = e.mean.force;
             g.controller.on_estimate(e).map_err(|e| e.to_string())
         });
-    if let Err(e) = ok {
-        g.rejected += 1;
-        tracing::debug!("biotac/wrench refused: {e}");
+    match ok {
+        Ok(()) => Some(stamp_s),
+        Err(e) => {
+            g.rejected += 1;
+            tracing::debug!("biotac/wrench refused: {e}");
+            None
+        }
     }
-    Some(stamp_s)
 }

@@ -50,20 +50,25 @@ pub fn attach(node: &mut r2r::Node) -> Result<(), r2r::Error> {
     Ok(())
 }
 
-/// Publishes a record on `/rosout` (info and above; a failure is dropped:
-/// logging it would recurse).
+thread_local! {
+    /// Set while this thread publishes on `/rosout`: r2r logs a failed
+    /// publish itself, and that record must not come back here.
+    static PUBLISHING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Publishes a record on `/rosout` (info and above).
 fn rosout(level: u8, logger: &str, msg: &str, file: &str, line: u32) {
     let Some(publisher) = ROSOUT.get() else {
         return;
     };
+    if PUBLISHING.with(|p| p.replace(true)) {
+        return;
+    }
     let now = SystemTime::now()
         .duration_since(UNIX_EPOCH)
-        .unwrap_or_default();
+        .map_or(f64::NAN, |d| d.as_secs_f64());
     let record = Log {
-        stamp: r2r::builtin_interfaces::msg::Time {
-            sec: now.as_secs() as i32,
-            nanosec: now.subsec_nanos(),
-        },
+        stamp: super::convert::time_msg(now),
         level,
         name: logger.into(),
         msg: msg.into(),
@@ -73,6 +78,7 @@ fn rosout(level: u8, logger: &str, msg: &str, file: &str, line: u32) {
     };
     let publisher = publisher.lock().unwrap_or_else(|e| e.into_inner());
     let _ = publisher.publish(&record);
+    PUBLISHING.with(|p| p.set(false));
 }
 
 struct RosLog {

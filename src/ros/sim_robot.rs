@@ -35,6 +35,9 @@ use crate::params::layered_flat_params;
 use crate::params::node_params;
 use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
 
+/// The fastest simulated time: a period of 0.1 ms of wall clock at 100 Hz.
+const MAX_REAL_TIME_FACTOR: f64 = 100.0;
+
 /// The arm of config/pa10.yaml (the simulated arm is the PA10-7C).
 #[derive(Deserialize)]
 struct Arm {
@@ -85,11 +88,11 @@ pub async fn run() -> Result<(), RosError> {
         1.0,
         "Simulated seconds per wall-clock second (with use_sim_time:=true); at least 1.",
     )?;
-    if !(speed >= 1.0 && (sim_time || speed == 1.0)) {
+    if !((1.0..=MAX_REAL_TIME_FACTOR).contains(&speed) && (sim_time || speed == 1.0)) {
         return Err(RosError::Setup(format!(
-            "real_time_factor = {speed}: expected 1, or more than 1 with use_sim_time:=true \
-             (stamps on the system clock cannot run faster than it; slower than real time \
-             the controller would take each estimate for late)"
+            "real_time_factor = {speed}: expected 1, or up to {MAX_REAL_TIME_FACTOR} with \
+             use_sim_time:=true (stamps on the system clock cannot run faster than it; \
+             slower than real time the controller would take each estimate for late)"
         )));
     }
     let p: SimRobotParams = super::node_params(
@@ -112,6 +115,7 @@ pub async fn run() -> Result<(), RosError> {
             "system time".to_string()
         }
     );
+    let p_unit = p.sensor_unit_seed;
     let mut sim = SimRobot::new(p, robot, &BioTacSimConfig::default(), seed)?;
 
     let joints = node.create_publisher::<JointStateMsg>("joint_states", QosProfile::default())?;
@@ -144,7 +148,8 @@ pub async fn run() -> Result<(), RosError> {
     });
     let meta = BioTacMeta {
         frame_id: frame_id.clone(),
-        serial: "simulated".into(),
+        // Each simulated unit its own serial (a saved tare is per sensor).
+        serial: format!("simulated unit {}", p_unit),
         ..BioTacMeta::default()
     };
     let period = std::time::Duration::from_secs_f64(sim.period_s() / speed);

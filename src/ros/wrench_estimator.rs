@@ -67,7 +67,7 @@ pub async fn run() -> Result<(), RosError> {
     let tare_max_age_s = super::own_f64(
         &node,
         "tare_max_age_s",
-        600.0,
+        60.0,
         "A saved tare younger than this is taken up at start (s); 0: always tare anew.",
     )?;
     let skip = [
@@ -118,17 +118,21 @@ pub async fn run() -> Result<(), RosError> {
         .and_then(|e| e.with_stale_timeout(stale_s))
         .map_err(|e| RosError::Setup(e.to_string()))?;
     let tare_path = match tare_file.as_str() {
-        "" => crate::learn::default_model::cache_dir()
-            .unwrap_or_default()
-            .join("wrench_estimator_tare.json"),
-        f => PathBuf::from(f),
+        "" => {
+            crate::learn::default_model::cache_dir().map(|d| d.join("wrench_estimator_tare.json"))
+        }
+        f => Some(PathBuf::from(f)),
     };
-    let mut saved = match SavedTare::load(&tare_path) {
-        Ok(s) => s.filter(|s| unix_s() - s.taken_unix_s <= tare_max_age_s),
-        Err(e) => {
+    if tare_path.is_none() {
+        tracing::info!("no cache folder ($HOME unset) and no tare_file: the tare is not saved");
+    }
+    let mut saved = match tare_path.as_deref().map(SavedTare::load) {
+        Some(Ok(s)) => s.filter(|s| (0.0..=tare_max_age_s).contains(&(unix_s() - s.taken_unix_s))),
+        Some(Err(e)) => {
             tracing::warn!("{e}; taking a new tare");
             None
         }
+        None => None,
     };
 
     let mut readings = node.subscribe_raw(
@@ -146,6 +150,7 @@ pub async fn run() -> Result<(), RosError> {
     super::spin(node);
 
     let mut report = tokio::time::interval(Duration::from_secs(1));
+    let mut reported = estimator.dropped();
     loop {
         let msg = tokio::select! {
             m = readings.next() => match m {
@@ -154,6 +159,18 @@ pub async fn run() -> Result<(), RosError> {
             },
             _ = report.tick() => {
                 let d = estimator.dropped();
+                if d.total() > reported.total() {
+                    tracing::warn!(
+                        "dropped {} readings in the last second: {} undecodable, {} with \
+                         invalid channels, {} stale, {} non-finite",
+                        d.total() - reported.total(),
+                        d.refused - reported.refused,
+                        d.invalid - reported.invalid,
+                        d.stale - reported.stale,
+                        d.non_finite - reported.non_finite,
+                    );
+                }
+                reported = d;
                 let (level, message) = match (estimator.is_tared(), d.total()) {
                     (false, _) => (WARN, "taring".to_string()),
                     (true, 0) => (OK, "estimating".to_string()),
@@ -189,10 +206,9 @@ pub async fn run() -> Result<(), RosError> {
         if let Some(s) = saved.take() {
             if s.serial == meta.serial && !estimator.is_tared() {
                 tracing::info!(
-                    "taking up the tare saved {:.0} s ago in {} (same sensor, \"{}\"): \
+                    "taking up the tare saved {:.0} s ago (same sensor, \"{}\"): \
                      the skin may be pressed now; tare_max_age_s:=0 tares anew",
                     unix_s() - s.taken_unix_s,
-                    tare_path.display(),
                     s.serial,
                 );
                 estimator.set_tare(s.tare);
@@ -202,13 +218,13 @@ pub async fn run() -> Result<(), RosError> {
         let estimate = estimator.on_received(&reading, clock.now_s());
         if !was_tared && estimator.is_tared() {
             tracing::info!("tared on {} readings", estimator.tare_samples());
-            if let Some(tare) = estimator.tare() {
+            if let (Some(tare), Some(path)) = (estimator.tare(), &tare_path) {
                 let s = SavedTare {
                     serial: meta.serial.clone(),
                     taken_unix_s: unix_s(),
                     tare: tare.clone(),
                 };
-                if let Err(e) = s.save(&tare_path) {
+                if let Err(e) = s.save(path) {
                     tracing::warn!("tare not saved: {e}");
                 }
             }

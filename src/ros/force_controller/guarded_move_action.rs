@@ -23,10 +23,12 @@ pub(super) async fn serve(
             goal.start(&g.base).map(|c| {
                 g.controller = c;
                 g.task = TaskKind::Guarded;
+                g.goal_active = true;
                 g.last = None;
             })
         };
         let Ok((mut handle, mut cancel)) = req.accept() else {
+            lock(&shared).goal_active = false;
             continue;
         };
         if let Err(e) = started {
@@ -78,5 +80,6 @@ pub(super) async fn serve(
                 break;
             }
         }
+        lock(&shared).goal_active = false;
     }
 }
