@@ -6,10 +6,12 @@ independent rclpy peer that checks them from the topics and the action.
   1 N, measured on ft_sensor/wrench: overshoot <= 0.1 N, steady-state error
   <= 0.05 N over the last second, standard deviation <= 0.02 N over the last
   2 s.
-- On the wooden box, GuardedMove goals: the parameters' values end with
-  `hold`; a goal canceled on its way ends `canceled`; moving away with
-  nothing to touch ends with `timeout`; 0.2 m/s, past the safety envelope, is aborted with a
-  reason naming the limit. While it holds: the latency from a reading's stamp
+- Each object again, the move started by a GuardedMove goal (after one that
+  moves away): it ends `hold` and meets the same bounds.
+- On the wooden box, GuardedMove goals: a goal canceled on its way ends
+  `canceled`; moving away with nothing to touch ends with `timeout`; 2.99 N
+  under the 3 N limit ends `force_limit`; 0.2 m/s, past the safety envelope,
+  is aborted with a reason naming the limit. While it holds: the latency from a reading's stamp
   to the command that follows it, and the CPU of each node.
 - On the wooden box, parameters while running: `task` to guided is refused
   (beyond the safety envelope of a wooden box), so are an unknown task and a
@@ -299,6 +301,8 @@ def guarded(object_name, speed=None, label=None):
                 ratio = (peer.ft_stamped[-1][0] - t0) / (time.monotonic() - wall0)
                 check(f"{label}: simulated time runs at {speed}x", abs(ratio / speed - 1) <= 0.2,
                       f"{ratio:.2f} simulated s per wall-clock s")
+        if touched and not speed:
+            by_goal(label, peer)
         if touched and object_name == "wooden_box" and not speed:
             startup_logs(peer)
             holding(n, peer)
@@ -340,12 +344,26 @@ def holding(n, peer):
     print(f"     CPU of one core while holding: {cpu}", flush=True)
 
 
-def goals(peer):
-    check("action server", peer.client.wait_for_server(timeout_sec=10), "force_controller/guarded_move")
+def by_goal(label, peer):
+    """Away from the object, then the guarded move again, started by a goal
+    with the parameters' values: it ends `hold`, and holds as at launch."""
+    if not peer.client.wait_for_server(timeout_sec=10):
+        check(f"{label}: action server", False, "force_controller/guarded_move")
+        return
+    away = GuardedMove.Goal(max_distance_m=0.01)
+    away.direction.z = 1.0  # the pad faces -z
+    peer.goal(away, 20)
+    t_goal = peer.ft_stamped[-1][0]
     res, why = peer.goal(GuardedMove.Goal(), 30)
     ok = res is not None and res.status == GoalStatus.STATUS_SUCCEEDED and res.result.reason == "hold"
-    check("goal ends holding", ok, why or f"status {res.status}, reason {res.result.reason!r}, "
+    check(f"{label}: a goal ends holding", ok, why or f"status {res.status}, reason {res.result.reason!r}, "
           f"force {res.result.force_n:.3f} N")
+    t0 = next((t for t, f in peer.ft_stamped if t > t_goal and abs(f) > CONTACT_N), None)
+    if t0 is not None:
+        check_hold(f"{label}, by a goal", peer, t0, 6.0, 30)
+
+
+def goals(peer):
     # Away from the box (+z: the pad faces -z), with nothing to touch.
     away = GuardedMove.Goal(max_distance_m=0.02)
     away.direction.z = 1.0
@@ -355,6 +373,12 @@ def goals(peer):
     res, why = peer.goal(away, 20)
     ok = res is not None and res.status == GoalStatus.STATUS_ABORTED and res.result.reason == "timeout"
     check("nothing within 20 mm: timeout", ok, why or f"status {res.status}, reason {res.result.reason!r}")
+    # Back to the box, to hold 2.99 N under the 3 N force limit: the
+    # overshoot passes the limit, the arm retracts and stops.
+    res, why = peer.goal(GuardedMove.Goal(target_force_n=2.99), 30)
+    ok = res is not None and res.status == GoalStatus.STATUS_ABORTED and res.result.reason == "force_limit"
+    check("2.99 N under a 3 N limit: force_limit", ok,
+          why or f"status {res.status}, reason {res.result.reason!r}, force {res.result.force_n:.3f} N")
     res, why = peer.goal(GuardedMove.Goal(speed_mps=0.2), 10)
     reason = "" if res is None else res.result.reason
     ok = (res is not None and res.status == GoalStatus.STATUS_ABORTED
