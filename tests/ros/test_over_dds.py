@@ -504,33 +504,38 @@ def holding_on(peer):
     return ok
 
 
-def off_axis_ratio(arm, finger):
+def off_axis_ratio(arm, finger, since):
     """The largest arm speed along an axis the finger does not push, over
-    the peak speed of the finger's push (as `demo` reports it): pushes are
-    the runs of finger motion between its waits; an axis is pushed when the
+    the peak speed of the finger's push (as `demo` reports it), and where:
+    pushes are the runs of finger motion above 1 mm/s between its waits,
+    counted when they begin at `since` or later; an axis is pushed when the
     finger moves along it in that run. arm, finger: {stamp: (vx, vy, vz)}."""
     stamps = sorted(t for t in finger if t in arm)
+    speed = lambda v: sum(x * x for x in v) ** 0.5  # noqa: E731
     runs, run = [], []
-    for t in stamps:
-        if max(abs(v) for v in finger[t]) > 1e-6:
+    for t in stamps + [None]:
+        if t is not None and speed(finger[t]) > 1e-3:
             run.append(t)
         elif run:
             runs, run = runs + [run], []
-    worst = 0.0
-    for run in runs + ([run] if run else []):
-        peak = max(sum(v * v for v in finger[t]) ** 0.5 for t in run)
+    worst, where = 0.0, "no push"
+    for run in (r for r in runs if r[0] >= since):
+        peak = max(speed(finger[t]) for t in run)
         pushed = [max(abs(finger[t][i]) for t in run) > 0.01 * peak for i in range(3)]
         for t in run:
             off = max((abs(arm[t][i]) for i in range(3) if not pushed[i]), default=0.0)
-            worst = max(worst, off / peak)
-    return worst
+            if off / peak > worst:
+                worst = off / peak
+                where = (f"push of {len(run)} samples, peak {1e3 * peak:.1f} mm/s, pushed {pushed}; "
+                         f"arm {tuple(round(1e3 * v, 1) for v in arm[t])} mm/s")
+    return worst, where
 
 
 def guided():
     n = Nodes("guided_move.yaml", "fingertip")
     peer = Peer(n.domain)
     arm, finger = {}, {}
-    stamp = lambda m: (m.header.stamp.sec, m.header.stamp.nanosec)  # noqa: E731
+    stamp = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec  # noqa: E731
     linear = lambda m: (m.twist.linear.x, m.twist.linear.y, m.twist.linear.z)  # noqa: E731
     peer.node.create_subscription(TwistStamped, "sim_robot/biotac_twist",
                                   lambda m: arm.__setitem__(stamp(m), linear(m)), 100)
@@ -549,9 +554,14 @@ def guided():
             rms = [(sum((f[i] - targets[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
             check("guided: RMS force error <= 0.3 N per axis", max(rms) <= 0.3,
                   "fx %.3f, fy %.3f, fz %.3f N" % tuple(rms))
-            ratio = off_axis_ratio(arm, finger)
+            # The finger's path runs from the start of sim_robot: when the
+            # first estimates come late (DDS discovery, the tare), its first
+            # push can begin before the arm has touched the finger, while
+            # it still approaches along z. Pushes from 1 s after contact.
+            touch = next(t for t, f in peer.ft_stamped if abs(f) > CONTACT_N)
+            ratio, where = off_axis_ratio(arm, finger, touch + 1.0)
             check("guided: off-axis speed <= 10 % of the finger's", ratio <= 0.10,
-                  f"{100 * ratio:.1f} % at most ({len(finger)} finger samples)")
+                  f"{100 * ratio:.1f} % at most ({where})")
         for task in ("guarded", "guided"):
             done, why = peer.set_param("force_controller", "task", task)
             running = peer.diagnostic("force_controller", "task")
