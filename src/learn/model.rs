@@ -415,10 +415,21 @@ impl WrenchGp {
     }
 }
 
+/// A model fitted with the default settings and one restart (quick), for tests.
+#[cfg(test)]
+pub(crate) fn quick_fit(data: &Dataset, tare: TareSpec) -> WrenchGp {
+    let params = super::gp::GpParams {
+        restarts: 1,
+        ..Default::default()
+    }
+    .validate()
+    .expect("default GP parameters");
+    WrenchGp::train(data, tare, &params, &mut |_, _| {}).expect("a small test model fits")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::gp::GpParams;
     use ndarray::Array2;
 
     fn small_model() -> WrenchGp {
@@ -437,13 +448,7 @@ mod tests {
             samples: 5,
             mean_baseline: vec![1.0, 2.0, 3.0],
         };
-        let params = GpParams {
-            restarts: 1,
-            ..GpParams::default()
-        }
-        .validate()
-        .unwrap();
-        WrenchGp::train(&data, tare, &params, &mut |_, _| {}).unwrap()
+        quick_fit(&data, tare)
     }
 
     fn load_text(text: &str) -> Result<WrenchGp, ModelError> {

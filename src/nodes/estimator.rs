@@ -254,7 +254,6 @@ impl EstimatorNode {
 mod tests {
     use super::*;
     use crate::learn::dataset::Dataset;
-    use crate::learn::gp::GpParams;
     use crate::learn::model::TareSpec;
     use ndarray::Array2;
 
@@ -275,13 +274,7 @@ mod tests {
             samples: 3,
             mean_baseline: vec![2000.0; 19],
         };
-        let params = GpParams {
-            restarts: 1,
-            ..GpParams::default()
-        }
-        .validate()
-        .unwrap();
-        WrenchGp::train(&data, tare, &params, &mut |_, _| {}).unwrap()
+        crate::learn::model::quick_fit(&data, tare)
     }
 
     fn reading(stamp_s: f64, pressed: u16) -> BioTacReading {
