@@ -195,9 +195,28 @@ fn wrong_type(name: &str, expected: &str, found: &r2r::ParameterValue) -> RosErr
 }
 
 /// Spins the node on a blocking task until the process ends.
+///
+/// A wait set that stays ready makes `spin_once` return at once, over and
+/// over: r2r 0.9.7 never expires an action server's finished goals
+/// (r2r issue #136), so from the goal's result timeout on (10 s in Jazzy)
+/// the force controller's spin would take a core. After ten spins in a row
+/// that return at once, each next one waits 1 ms first (a message then
+/// waits up to 1 ms more) until a spin blocks again.
 pub fn spin(mut node: r2r::Node) -> tokio::task::JoinHandle<()> {
-    tokio::task::spawn_blocking(move || loop {
-        node.spin_once(Duration::from_millis(5));
+    tokio::task::spawn_blocking(move || {
+        let mut at_once = 0u32;
+        loop {
+            let start = std::time::Instant::now();
+            node.spin_once(Duration::from_millis(5));
+            if start.elapsed() < Duration::from_micros(100) {
+                at_once = at_once.saturating_add(1);
+            } else {
+                at_once = 0;
+            }
+            if at_once >= 10 {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        }
     })
 }
 
