@@ -176,7 +176,7 @@ pub async fn run() -> Result<(), RosError> {
         }),
     );
     let clock = super::serve_parameters(&mut node, live)?;
-    super::spin(node);
+    super::spin_with_action_server(node);
 
     // Callbacks only check and store (STYLE 3); the loop below runs the pipeline.
     let s = shared.clone();
