@@ -1,10 +1,11 @@
 //! `tactile_force_msgs/msg/BioTac` <-> [`BioTacReading`]: to the JSON value
 //! r2r's untyped publishers carry, from the CDR bytes a raw subscription
-//! delivers (`msg/msg/BioTac.msg`).
+//! delivers or a rosbag2 MCAP file holds (`msg/msg/BioTac.msg`).
 //!
 //! Under r2r's `doc-only` build there are no Rust types for our own
 //! interface package, so the BioTac topic is untyped: this module is the one
-//! place that knows its field names. It needs no ROS installation. The
+//! place that knows its field names. It needs no ROS installation: the ROS
+//! adapters and the bag reader ([`crate::learn::bag`]) both use it. The
 //! tests read `msg/msg/BioTac.msg` and check every field name, type and
 //! array length against it.
 
@@ -231,6 +232,28 @@ pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgEr
         invalid_channels: m.invalid_channels,
     };
     Ok((reading, meta))
+}
+
+/// A reading as a serialized message (little-endian CDR with its
+/// encapsulation header), for the tests of the readers.
+#[cfg(test)]
+pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
+    let (sec, nanosec) = split_stamp(r.stamp_s);
+    let m = CdrBioTac {
+        sec,
+        nanosec,
+        frame_id: meta.frame_id.clone(),
+        serial: meta.serial.clone(),
+        sensor_index: meta.sensor_index,
+        seq: r.seq,
+        electrodes: r.electrodes,
+        pdc: r.pdc,
+        pac: r.pac,
+        tdc: r.tdc,
+        tac: r.tac,
+        invalid_channels: meta.invalid_channels.clone(),
+    };
+    cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).expect("CDR of a BioTac message")
 }
 
 #[cfg(test)]
