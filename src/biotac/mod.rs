@@ -1,9 +1,10 @@
-//! The BioTac fingertip: reading type, tare, serial wire codec and driver, a
-//! bridge emulator, and a simulator (forward model).
+//! The BioTac fingertip: reading type, its ROS message, tare, serial wire
+//! codec and driver, a bridge emulator, and a simulator (forward model).
 
 pub mod driver;
 pub mod emulator;
 pub mod geometry;
+pub mod msg;
 pub mod reading;
 pub mod sim;
 pub mod tare;

@@ -1,6 +1,8 @@
-//! Learning a wrench from BioTac signals: data sets, Gaussian processes, the
-//! baseline neural network, metrics and the model file.
+//! Learning a wrench from BioTac signals: data sets (CSV files and rosbag2
+//! MCAP bags), Gaussian processes, the baseline neural network, metrics and
+//! the model file.
 
+pub mod bag;
 pub mod dataset;
 pub mod default_model;
 pub mod evaluate;

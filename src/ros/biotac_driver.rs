@@ -10,11 +10,11 @@
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::QosProfile;
 
-use super::biotac_msg::{self, BioTacMeta, BIOTAC_MSG_TYPE};
 use super::convert::level::{ERROR, OK, WARN};
 use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::driver::{Driver, DriverConfig, DriverEvent};
+use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {

@@ -9,7 +9,7 @@ use r2r::geometry_msgs::msg::{Twist, TwistStamped, Vector3, Wrench as WrenchMsg,
 use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
 
-use super::biotac_msg::{join_stamp, split_stamp};
+use crate::biotac::msg::{join_stamp, split_stamp};
 use crate::kinematics::{JointVector, N_JOINTS};
 use crate::nodes::{JointState, WrenchEstimate};
 use crate::wrench::Wrench;

@@ -13,7 +13,6 @@
 //! - [`sim_robot`]: simulated arm, object or finger, F/T sensor and BioTac.
 
 pub mod biotac_driver;
-pub mod biotac_msg;
 pub mod convert;
 pub mod force_controller;
 pub mod log;

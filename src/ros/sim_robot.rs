@@ -23,10 +23,10 @@ use r2r::QosProfile;
 use serde::Deserialize;
 use std::sync::{Arc, Mutex};
 
-use super::biotac_msg::{self, BioTacMeta, BIOTAC_MSG_TYPE};
 use super::force_controller::PA10_JOINTS;
 use super::params::RuntimeParams;
 use super::{convert, RosError};
+use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacSimConfig;
 use crate::kinematics::robot::PA10_YAML;
 use crate::kinematics::{JointVector, RobotParams};

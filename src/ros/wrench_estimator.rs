@@ -19,10 +19,10 @@ use r2r::geometry_msgs::msg::WrenchStamped;
 use r2r::sensor_msgs::msg::FluidPressure;
 use r2r::QosProfile;
 
-use super::biotac_msg::{self, BIOTAC_MSG_TYPE};
 use super::convert::level::{OK, WARN};
 use super::params::RuntimeParams;
 use super::{convert, RosError};
+use crate::biotac::msg::{self as biotac_msg, BIOTAC_MSG_TYPE};
 use crate::biotac::tare::SavedTare;
 use crate::kinematics::robot::PA10_YAML;
 use crate::learn::model::WrenchGp;

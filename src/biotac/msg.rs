@@ -1,11 +1,13 @@
 //! `tactile_force_msgs/msg/BioTac` <-> [`BioTacReading`]: to the JSON value
 //! r2r's untyped publishers carry, from the CDR bytes a raw subscription
-//! delivers (`msg/msg/BioTac.msg`).
+//! delivers or a rosbag2 MCAP file holds (`msg/msg/BioTac.msg`).
 //!
 //! Under r2r's `doc-only` build there are no Rust types for our own
 //! interface package, so the BioTac topic is untyped: this module is the one
-//! place that knows its field names. The tests read `msg/msg/BioTac.msg`
-//! and check every field name, type and array length against it.
+//! place that knows its field names. It needs no ROS installation: the ROS
+//! adapters and the bag reader ([`crate::learn::bag`]) both use it. The
+//! tests read `msg/msg/BioTac.msg` and check every field name, type and
+//! array length against it.
 
 use serde_json::{json, Value};
 
@@ -104,55 +106,90 @@ struct CdrBioTac {
     invalid_channels: Vec<String>,
 }
 
-/// Checks every string and sequence length in `bytes` against the bytes
+/// A walk over the strings and sequences of a CDR message (after its
+/// encapsulation header) that checks each stated length against the bytes
 /// that follow it. The `cdr` crate reserves memory for a stated length
 /// before it reads the bytes, so a few bytes claiming a 4 GB string would
-/// cost 4 GB; this walk over the message's layout refuses them first.
-fn check_lengths(bytes: &[u8]) -> Result<(), BioTacMsgError> {
-    let bad = |what: &str| BioTacMsgError::Cdr(what.to_string());
-    // The encapsulation header: [0, 0] big-endian CDR, [0, 1] little-endian.
-    let little = match bytes.get(..2) {
-        Some([0, 0]) => false,
-        Some([0, 1]) => true,
-        _ => return Err(bad("not a CDR encapsulation header")),
-    };
-    let body = &bytes[4.min(bytes.len())..];
-    // Alignment counts from the end of the header.
-    let mut at = 0usize;
-    let length = |at: &mut usize| -> Result<usize, BioTacMsgError> {
-        *at = at.next_multiple_of(4);
-        let word = body.get(*at..*at + 4).ok_or_else(|| bad("cut short"))?;
-        let word = <[u8; 4]>::try_from(word).map_err(|_| bad("cut short"))?;
-        *at += 4;
-        let n = if little {
+/// cost 4 GB; a decoder walks its message's layout with this first.
+pub(crate) struct CdrLengths<'a> {
+    body: &'a [u8],
+    little: bool,
+    /// Offset in `body`; alignment counts from the end of the header.
+    at: usize,
+}
+
+impl<'a> CdrLengths<'a> {
+    /// Starts after the encapsulation header: `[0, 0]` big-endian CDR,
+    /// `[0, 1]` little-endian.
+    pub(crate) fn new(bytes: &'a [u8]) -> Result<Self, &'static str> {
+        let little = match bytes.get(..2) {
+            Some([0, 0]) => false,
+            Some([0, 1]) => true,
+            _ => return Err("not a CDR encapsulation header"),
+        };
+        Ok(CdrLengths {
+            body: &bytes[4.min(bytes.len())..],
+            little,
+            at: 0,
+        })
+    }
+
+    /// Steps over `n` bytes of fixed-size fields, aligned to `align`.
+    pub(crate) fn skip(&mut self, align: usize, n: usize) {
+        self.at = self.at.next_multiple_of(align).saturating_add(n);
+    }
+
+    /// Reads a sequence or string length.
+    pub(crate) fn length(&mut self) -> Result<usize, &'static str> {
+        self.at = self.at.next_multiple_of(4);
+        let word = self
+            .body
+            .get(self.at..self.at.saturating_add(4))
+            .and_then(|w| <[u8; 4]>::try_from(w).ok())
+            .ok_or("cut short")?;
+        self.at += 4;
+        let n = if self.little {
             u32::from_le_bytes(word)
         } else {
             u32::from_be_bytes(word)
         };
         Ok(n as usize)
-    };
-    let string = |at: &mut usize| -> Result<(), BioTacMsgError> {
-        let n = length(at)?;
-        if n > body.len().saturating_sub(*at) {
-            return Err(bad("a string longer than the message"));
+    }
+
+    /// Bytes after the current offset.
+    pub(crate) fn left(&self) -> usize {
+        self.body.len().saturating_sub(self.at)
+    }
+
+    /// Steps over a string, refusing one longer than the bytes left.
+    pub(crate) fn string(&mut self) -> Result<(), &'static str> {
+        let n = self.length()?;
+        if n > self.left() {
+            return Err("a string longer than the message");
         }
-        *at += n;
+        self.at += n;
         Ok(())
+    }
+}
+
+/// Checks every string and sequence length of a BioTac message in `bytes`
+/// ([`CdrLengths`]).
+fn check_lengths(bytes: &[u8]) -> Result<(), BioTacMsgError> {
+    let walk = || -> Result<(), &'static str> {
+        let mut cdr = CdrLengths::new(bytes)?;
+        cdr.skip(4, 8); // stamp: sec, nanosec
+        cdr.string()?; // frame_id
+        cdr.string()?; // serial
+        cdr.skip(1, 1); // sensor_index
+        cdr.skip(2, 2 * (1 + N_ELECTRODES + 1 + N_PAC + 2)); // seq .. tac
+        let channels = cdr.length()?;
+        // Each name takes at least its 4-byte length.
+        if channels > cdr.left() / 4 {
+            return Err("more invalid channels than the message holds");
+        }
+        (0..channels).try_for_each(|_| cdr.string())
     };
-    at += 8; // stamp: sec, nanosec
-    string(&mut at)?; // frame_id
-    string(&mut at)?; // serial
-    at += 1; // sensor_index
-    at = at.next_multiple_of(2) + 2 * (1 + N_ELECTRODES + 1 + N_PAC + 2); // seq .. tac
-    let channels = length(&mut at)?;
-    // Each name takes at least its 4-byte length.
-    if channels > body.len().saturating_sub(at) / 4 {
-        return Err(bad("more invalid channels than the message holds"));
-    }
-    for _ in 0..channels {
-        string(&mut at)?;
-    }
-    Ok(())
+    walk().map_err(|what| BioTacMsgError::Cdr(what.to_string()))
 }
 
 /// The reading in a serialized message (CDR, with its encapsulation
@@ -195,6 +232,28 @@ pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgEr
         invalid_channels: m.invalid_channels,
     };
     Ok((reading, meta))
+}
+
+/// A reading as a serialized message (little-endian CDR with its
+/// encapsulation header), for the tests of the readers.
+#[cfg(test)]
+pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
+    let (sec, nanosec) = split_stamp(r.stamp_s);
+    let m = CdrBioTac {
+        sec,
+        nanosec,
+        frame_id: meta.frame_id.clone(),
+        serial: meta.serial.clone(),
+        sensor_index: meta.sensor_index,
+        seq: r.seq,
+        electrodes: r.electrodes,
+        pdc: r.pdc,
+        pac: r.pac,
+        tdc: r.tdc,
+        tac: r.tac,
+        invalid_channels: meta.invalid_channels.clone(),
+    };
+    cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).expect("CDR of a BioTac message")
 }
 
 #[cfg(test)]

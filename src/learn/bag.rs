@@ -1,0 +1,684 @@
+//! A rosbag2 MCAP file as one session of training data: BioTac readings
+//! (`tactile_force_msgs/msg/BioTac`) paired by header stamp with the F/T
+//! sensor's wrenches (`geometry_msgs/msg/WrenchStamped`).
+//!
+//! The file is streamed once with the `mcap` crate; messages of other topics
+//! are skipped. A bag is one session and one trial: its first rows are out
+//! of contact and tare it, as in a collected CSV.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{BufReader, Read, Seek};
+use std::path::Path;
+
+use mcap::sans_io::LinearReaderOptions;
+use mcap::{Channel, McapError};
+use nalgebra::Vector3;
+
+use crate::biotac::msg::{from_cdr, join_stamp, CdrLengths, BIOTAC_MSG_TYPE};
+use crate::biotac::BioTacReading;
+use crate::learn::dataset::Record;
+use crate::wrench::Wrench;
+
+/// The ROS type name of the F/T sensor's topic.
+pub const WRENCH_STAMPED_TYPE: &str = "geometry_msgs/msg/WrenchStamped";
+
+/// The message encoding rosbag2 records ROS 2 messages in.
+pub const MESSAGE_ENCODING: &str = "cdr";
+
+/// Longest step forward between the header stamps of two consecutive
+/// messages of a topic (s); a longer one is a clock jump or a lost stretch.
+pub const MAX_GAP_S: f64 = 1.0;
+
+/// Which topics to read and how close two stamps must be to pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BagTopics {
+    /// The BioTac readings topic.
+    pub biotac: String,
+    /// The F/T sensor's wrench topic.
+    pub ft: String,
+    /// Largest stamp difference between a reading and its wrench (s).
+    pub tolerance_s: f64,
+}
+
+impl Default for BagTopics {
+    /// `/biotac/readings`, `/ft_sensor/wrench`, 5 ms (half a 100 Hz period).
+    fn default() -> Self {
+        BagTopics {
+            biotac: "/biotac/readings".into(),
+            ft: "/ft_sensor/wrench".into(),
+            tolerance_s: 0.005,
+        }
+    }
+}
+
+/// The records of a bag and what was left out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bag {
+    /// One record per paired reading, in stamp order; set 1, trial 1, `t`
+    /// from the first paired reading, the wrench as recorded (F/T frame).
+    pub records: Vec<Record>,
+    /// Readings with no wrench within the tolerance (left out).
+    pub unpaired_readings: usize,
+    /// Wrenches that are no reading's nearest within the tolerance.
+    pub unpaired_wrenches: usize,
+}
+
+/// Why a bag could not be read into records.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BagError {
+    /// The file could not be opened or read.
+    #[error("{path}: cannot read: {source}")]
+    Open {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The file does not start with the MCAP magic bytes.
+    #[error("{path}: not an MCAP file")]
+    NotMcap {
+        /// File path.
+        path: String,
+    },
+    /// The MCAP structure is broken: the file is cut short or damaged.
+    #[error("{path}: truncated or corrupt MCAP file after {messages} messages: {source}")]
+    Corrupt {
+        /// File path.
+        path: String,
+        /// Messages read before the error.
+        messages: usize,
+        /// The `mcap` crate's error.
+        source: McapError,
+    },
+    /// No message on a topic.
+    #[error("{path}: no message on topic {topic} (topics with messages: {found})")]
+    MissingTopic {
+        /// File path.
+        path: String,
+        /// The topic asked for.
+        topic: String,
+        /// The topics found, each with its type.
+        found: String,
+    },
+    /// A topic's channel carries another message type or encoding.
+    #[error("{path}: topic {topic} carries {found}, expected {expected} in {MESSAGE_ENCODING}")]
+    WrongType {
+        /// File path.
+        path: String,
+        /// The topic.
+        topic: String,
+        /// The type expected.
+        expected: &'static str,
+        /// The schema name and message encoding found.
+        found: String,
+    },
+    /// A message that does not decode as its type.
+    #[error(
+        "{path}: topic {topic}, message {index} (log time {}.{:09} s) does not decode: {reason}",
+        log_time_ns / 1_000_000_000,
+        log_time_ns % 1_000_000_000
+    )]
+    Decode {
+        /// File path.
+        path: String,
+        /// The topic.
+        topic: String,
+        /// 1-based number of the message on its topic.
+        index: usize,
+        /// The message's log time (ns).
+        log_time_ns: u64,
+        /// The decode error.
+        reason: String,
+    },
+    /// The header stamps of a topic step back by more than the tolerance,
+    /// or forward by more than [`MAX_GAP_S`].
+    #[error(
+        "{path}: topic {topic}, message {index}: header stamp {stamp_s:.6} s follows \
+         {previous_s:.6} s ({:+.6} s): a clock jump or a gap",
+        stamp_s - previous_s
+    )]
+    ClockJump {
+        /// File path.
+        path: String,
+        /// The topic.
+        topic: String,
+        /// 1-based number of the message on its topic.
+        index: usize,
+        /// The previous message's stamp (s).
+        previous_s: f64,
+        /// This message's stamp (s).
+        stamp_s: f64,
+    },
+    /// No reading has a wrench within the tolerance.
+    #[error(
+        "{path}: no reading on {biotac} has a wrench on {ft} within {tolerance_s} s (readings \
+         stamped {:.6}..{:.6} s, wrenches {:.6}..{:.6} s)",
+        readings_s.0, readings_s.1, wrenches_s.0, wrenches_s.1
+    )]
+    NoPairs {
+        /// File path.
+        path: String,
+        /// The readings topic.
+        biotac: String,
+        /// The wrench topic.
+        ft: String,
+        /// The tolerance (s).
+        tolerance_s: f64,
+        /// First and last reading stamp (s).
+        readings_s: (f64, f64),
+        /// First and last wrench stamp (s).
+        wrenches_s: (f64, f64),
+    },
+}
+
+/// Largest record the reader takes, decompressed (bytes): 32 times the
+/// file, at least 16 MiB and at most 1 GiB, so that a damaged length field
+/// is refused instead of allocated.
+fn record_limit(file_len: u64) -> usize {
+    let len = usize::try_from(file_len).unwrap_or(usize::MAX);
+    len.saturating_mul(32).clamp(16 << 20, 1 << 30)
+}
+
+/// Reads the readings and wrenches of `topics` from the MCAP file at
+/// `path` and pairs each reading with the wrench of nearest stamp.
+pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
+    let p = path.display().to_string();
+    let io_err = |source| BagError::Open {
+        path: p.clone(),
+        source,
+    };
+    let mut file = File::open(path).map_err(io_err)?;
+    let mut magic = [0u8; 8];
+    match file.read_exact(&mut magic) {
+        Ok(()) if magic == mcap::MAGIC => {}
+        Err(e) if e.kind() != std::io::ErrorKind::UnexpectedEof => return Err(io_err(e)),
+        _ => return Err(BagError::NotMcap { path: p }),
+    }
+    file.rewind().map_err(io_err)?;
+    let options = LinearReaderOptions::default()
+        .with_validate_chunk_crcs(true)
+        .with_record_length_limit(record_limit(file.metadata().map_err(io_err)?.len()));
+    let stream = mcap::io::MessageReader::new_with_options(BufReader::new(file), options);
+
+    let mut readings = Series::new(&p, &topics.biotac);
+    let mut wrenches = Series::new(&p, &topics.ft);
+    // The role of each channel id, checked once; the topics found.
+    let mut roles: HashMap<u16, Role> = HashMap::new();
+    let mut found: BTreeMap<String, String> = BTreeMap::new();
+    for (messages, message) in stream.enumerate() {
+        let message = message.map_err(|source| BagError::Corrupt {
+            path: p.clone(),
+            messages,
+            source,
+        })?;
+        let channel = &message.channel;
+        let role = match roles.get(&channel.id) {
+            Some(role) => *role,
+            None => {
+                let role = Role::of(channel, topics).map_err(|(expected, found_type)| {
+                    BagError::WrongType {
+                        path: p.clone(),
+                        topic: channel.topic.clone(),
+                        expected,
+                        found: found_type,
+                    }
+                })?;
+                found.insert(channel.topic.clone(), type_name(channel));
+                roles.insert(channel.id, role);
+                role
+            }
+        };
+        let (log_time_ns, tolerance_s) = (message.log_time, topics.tolerance_s);
+        match role {
+            Role::Readings => readings.push(&message.data, log_time_ns, tolerance_s, |b| {
+                let reading = from_cdr(b).map_err(|e| e.to_string())?.0;
+                Ok((reading.stamp_s, reading))
+            })?,
+            Role::Wrenches => {
+                wrenches.push(&message.data, log_time_ns, tolerance_s, wrench_from_cdr)?
+            }
+            Role::Other => {}
+        }
+    }
+
+    let missing = if readings.items.is_empty() {
+        Some(&topics.biotac)
+    } else if wrenches.items.is_empty() {
+        Some(&topics.ft)
+    } else {
+        None
+    };
+    if let Some(topic) = missing {
+        let list: Vec<String> = found.iter().map(|(t, ty)| format!("{t} ({ty})")).collect();
+        return Err(BagError::MissingTopic {
+            path: p,
+            topic: topic.clone(),
+            found: if list.is_empty() {
+                "none".into()
+            } else {
+                list.join(", ")
+            },
+        });
+    }
+    pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s).ok_or_else(|| {
+        BagError::NoPairs {
+            path: p.clone(),
+            biotac: topics.biotac.clone(),
+            ft: topics.ft.clone(),
+            tolerance_s: topics.tolerance_s,
+            readings_s: readings.span(),
+            wrenches_s: wrenches.span(),
+        }
+    })
+}
+
+/// What a channel's messages are to the reader.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    Readings,
+    Wrenches,
+    Other,
+}
+
+impl Role {
+    /// The channel's role; (type expected, type and encoding found) when
+    /// a topic asked for carries another type or encoding.
+    fn of(channel: &Channel, topics: &BagTopics) -> Result<Role, (&'static str, String)> {
+        let (role, expected) = if channel.topic == topics.biotac {
+            (Role::Readings, BIOTAC_MSG_TYPE)
+        } else if channel.topic == topics.ft {
+            (Role::Wrenches, WRENCH_STAMPED_TYPE)
+        } else {
+            return Ok(Role::Other);
+        };
+        let name = channel.schema.as_ref().map(|s| s.name.as_str());
+        if name == Some(expected) && channel.message_encoding == MESSAGE_ENCODING {
+            return Ok(role);
+        }
+        let encoding = match channel.message_encoding.as_str() {
+            "" => "no encoding",
+            e => e,
+        };
+        Err((expected, format!("{} in {encoding}", type_name(channel))))
+    }
+}
+
+/// The schema name of a channel, or "no schema".
+fn type_name(channel: &Channel) -> String {
+    match &channel.schema {
+        Some(s) if !s.name.is_empty() => s.name.clone(),
+        _ => "no schema".into(),
+    }
+}
+
+/// The decoded messages of one topic, (header stamp in s, value), in the
+/// order read.
+struct Series<'a, T> {
+    path: &'a str,
+    topic: &'a str,
+    items: Vec<(f64, T)>,
+}
+
+impl<'a, T> Series<'a, T> {
+    fn new(path: &'a str, topic: &'a str) -> Self {
+        Series {
+            path,
+            topic,
+            items: Vec::new(),
+        }
+    }
+
+    /// Decodes a message and checks its stamp against the previous one's.
+    fn push(
+        &mut self,
+        bytes: &[u8],
+        log_time_ns: u64,
+        tolerance_s: f64,
+        decode: impl FnOnce(&[u8]) -> Result<(f64, T), String>,
+    ) -> Result<(), BagError> {
+        let index = self.items.len() + 1;
+        let (stamp_s, value) = decode(bytes).map_err(|reason| BagError::Decode {
+            path: self.path.into(),
+            topic: self.topic.into(),
+            index,
+            log_time_ns,
+            reason,
+        })?;
+        if let Some(&(previous_s, _)) = self.items.last() {
+            if previous_s - stamp_s > tolerance_s || stamp_s - previous_s > MAX_GAP_S {
+                return Err(BagError::ClockJump {
+                    path: self.path.into(),
+                    topic: self.topic.into(),
+                    index,
+                    previous_s,
+                    stamp_s,
+                });
+            }
+        }
+        self.items.push((stamp_s, value));
+        Ok(())
+    }
+
+    /// The items in stamp order (steps back within the tolerance undone).
+    fn sorted(&mut self) -> &[(f64, T)] {
+        self.items.sort_by(|a, b| a.0.total_cmp(&b.0));
+        &self.items
+    }
+
+    /// First and last stamp (s), once sorted.
+    fn span(&self) -> (f64, f64) {
+        let stamp = |item: Option<&(f64, T)>| item.map_or(f64::NAN, |i| i.0);
+        (stamp(self.items.first()), stamp(self.items.last()))
+    }
+}
+
+/// Pairs each reading with the wrench of nearest stamp within
+/// `tolerance_s`; both in stamp order. None when no reading pairs.
+fn pair(
+    readings: &[(f64, BioTacReading)],
+    wrenches: &[(f64, Wrench)],
+    tolerance_s: f64,
+) -> Option<Bag> {
+    let mut used = vec![false; wrenches.len()];
+    let mut records = Vec::new();
+    let mut t0 = None;
+    for &(stamp_s, reading) in readings {
+        let gap = |j: usize| (wrenches[j].0 - stamp_s).abs();
+        let after = wrenches.partition_point(|w| w.0 < stamp_s);
+        let nearest = (after.saturating_sub(1)..wrenches.len().min(after + 1))
+            .min_by(|&a, &b| gap(a).total_cmp(&gap(b)))
+            .filter(|&j| gap(j) <= tolerance_s);
+        if let Some(j) = nearest {
+            used[j] = true;
+            let t0 = *t0.get_or_insert(stamp_s);
+            records.push(Record {
+                t: stamp_s - t0,
+                set: 1,
+                trial: 1,
+                reading,
+                wrench: wrenches[j].1,
+            });
+        }
+    }
+    (!records.is_empty()).then(|| Bag {
+        unpaired_readings: readings.len() - records.len(),
+        unpaired_wrenches: used.iter().filter(|u| !**u).count(),
+        records,
+    })
+}
+
+/// `geometry_msgs/msg/WrenchStamped` in CDR order.
+#[derive(serde::Deserialize)]
+struct CdrWrenchStamped {
+    sec: i32,
+    nanosec: u32,
+    // Read to reach the wrench; the caller applies the frame transform.
+    _frame_id: String,
+    force: [f64; 3],
+    torque: [f64; 3],
+}
+
+/// (header stamp in s, wrench) of a serialized WrenchStamped (CDR with its
+/// encapsulation header); refuses stamps that are not times and values
+/// that are not finite.
+fn wrench_from_cdr(bytes: &[u8]) -> Result<(f64, Wrench), String> {
+    let mut lengths = CdrLengths::new(bytes)?;
+    lengths.skip(4, 8); // stamp: sec, nanosec
+    lengths.string()?; // frame_id
+    let m: CdrWrenchStamped = cdr::deserialize(bytes).map_err(|e| e.to_string())?;
+    if m.sec < 0 || m.nanosec >= 1_000_000_000 {
+        return Err(format!("stamp {} s {} ns is not a time", m.sec, m.nanosec));
+    }
+    if !m.force.iter().chain(&m.torque).all(|v| v.is_finite()) {
+        return Err("a force or torque component is not finite".into());
+    }
+    let wrench = Wrench::new(Vector3::from(m.force), Vector3::from(m.torque));
+    Ok((join_stamp(m.sec, m.nanosec), wrench))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
+    use crate::biotac::{N_ELECTRODES, N_PAC};
+    use std::io::{Cursor, Write};
+
+    #[derive(serde::Serialize)]
+    struct WrenchMsg {
+        sec: i32,
+        nanosec: u32,
+        frame_id: String,
+        force: [f64; 3],
+        torque: [f64; 3],
+    }
+
+    fn wrench_cdr(stamp_s: f64, fx: f64) -> Vec<u8> {
+        let (sec, nanosec) = split_stamp(stamp_s);
+        let m = WrenchMsg {
+            sec,
+            nanosec,
+            frame_id: "ft_sensor".into(),
+            force: [fx, -2.0, 3.5],
+            torque: [0.01, -0.02, 0.03],
+        };
+        cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap()
+    }
+
+    fn reading_cdr(stamp_s: f64, e1: u16) -> Vec<u8> {
+        let mut electrodes = [3000; N_ELECTRODES];
+        electrodes[0] = e1;
+        let r = BioTacReading {
+            seq: e1,
+            stamp_s,
+            electrodes,
+            pdc: 2100,
+            pac: [2048; N_PAC],
+            tdc: 1800,
+            tac: 2000,
+        };
+        to_cdr(&r, &BioTacMeta::default())
+    }
+
+    /// A bag written with the mcap crate: channels by (topic, schema name,
+    /// message encoding), messages as (channel, log time in s, bytes).
+    fn bag(channels: &[(&str, &str, &str)], messages: &[(usize, f64, Vec<u8>)]) -> Vec<u8> {
+        let mut w = mcap::Writer::new(Cursor::new(Vec::new())).unwrap();
+        let ids: Vec<u16> = channels
+            .iter()
+            .map(|(topic, schema, encoding)| {
+                let schema = w.add_schema(schema, "ros2msg", b"# test").unwrap();
+                w.add_channel(schema, topic, encoding, &BTreeMap::new())
+                    .unwrap()
+            })
+            .collect();
+        for (seq, (channel, log_time_s, data)) in messages.iter().enumerate() {
+            let header = mcap::records::MessageHeader {
+                channel_id: ids[*channel],
+                sequence: seq as u32,
+                log_time: (log_time_s * 1e9).round() as u64,
+                publish_time: (log_time_s * 1e9).round() as u64,
+            };
+            w.write_to_known_channel(&header, data).unwrap();
+        }
+        w.finish().unwrap();
+        w.into_inner().into_inner()
+    }
+
+    const BIOTAC: (&str, &str, &str) = ("/biotac/readings", BIOTAC_MSG_TYPE, "cdr");
+    const FT: (&str, &str, &str) = ("/ft_sensor/wrench", WRENCH_STAMPED_TYPE, "cdr");
+
+    /// Readings at 100 Hz from 10 s (e1 = row), wrenches 2 ms after them
+    /// (fx = row), each on channel 0 and 1.
+    fn session(rows: usize) -> Vec<(usize, f64, Vec<u8>)> {
+        let mut m = Vec::new();
+        for i in 0..rows {
+            let t = 10.0 + 0.01 * i as f64;
+            m.push((0, t + 0.001, reading_cdr(t, i as u16)));
+            m.push((1, t + 0.003, wrench_cdr(t + 0.002, i as f64)));
+        }
+        m
+    }
+
+    fn read(bytes: &[u8]) -> Result<Bag, BagError> {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        f.write_all(bytes).unwrap();
+        read_bag(f.path(), &BagTopics::default())
+    }
+
+    #[test]
+    fn readings_pair_with_the_nearest_wrench_within_the_tolerance() {
+        let mut m = session(10);
+        // No wrench near readings 0 and 1: they are left out.
+        m.retain(|(c, _, data)| *c == 0 || wrench_from_cdr(data).unwrap().1.force.x >= 2.0);
+        // A second wrench 4 ms after reading 5: farther than the one at 2 ms.
+        let fx = |m: &(usize, f64, Vec<u8>)| wrench_from_cdr(&m.2).map(|w| w.1.force.x);
+        let at = m.iter().position(|m| m.0 == 1 && fx(m) == Ok(5.0)).unwrap();
+        m.insert(at + 1, (1, 10.056, wrench_cdr(10.054, 99.0)));
+        // A wrench 25 ms after the last reading; another topic.
+        m.push((1, 10.12, wrench_cdr(10.115, 98.0)));
+        m.push((2, 10.12, b"not CDR".to_vec()));
+        let other = ("/rosout", "rcl_interfaces/msg/Log", "cdr");
+        let b = read(&bag(&[BIOTAC, FT, other], &m)).unwrap();
+        assert_eq!((b.unpaired_readings, b.unpaired_wrenches), (2, 2));
+        assert_eq!(b.records.len(), 8);
+        for (k, r) in b.records.iter().enumerate() {
+            let row = k + 2;
+            assert!((r.t - 0.01 * k as f64).abs() < 1e-9, "{}", r.t);
+            assert_eq!((r.set, r.trial), (1, 1));
+            assert_eq!(r.reading.electrodes[0], row as u16);
+            assert_eq!(r.wrench.force, Vector3::new(row as f64, -2.0, 3.5));
+            assert_eq!(r.wrench.torque, Vector3::new(0.01, -0.02, 0.03));
+        }
+    }
+
+    #[test]
+    fn a_bag_without_a_topic_names_it_and_lists_the_topics_found() {
+        let readings_only: Vec<_> = session(5).into_iter().filter(|m| m.0 == 0).collect();
+        let err = read(&bag(&[BIOTAC, FT], &readings_only)).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, BagError::MissingTopic { .. }), "{text}");
+        assert!(
+            text.contains("no message on topic /ft_sensor/wrench")
+                && text.contains("/biotac/readings (tactile_force_msgs/msg/BioTac)"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn a_topic_of_another_type_or_encoding_is_refused() {
+        for ft in [
+            ("/ft_sensor/wrench", "geometry_msgs/msg/Wrench", "cdr"),
+            ("/ft_sensor/wrench", WRENCH_STAMPED_TYPE, "json"),
+        ] {
+            let err = read(&bag(&[BIOTAC, ft], &session(3))).unwrap_err();
+            let text = err.to_string();
+            assert!(matches!(err, BagError::WrongType { .. }), "{text}");
+            assert!(
+                text.contains("topic /ft_sensor/wrench carries")
+                    && text.contains(&format!("{} in {}", ft.1, ft.2))
+                    && text.contains("expected geometry_msgs/msg/WrenchStamped in cdr"),
+                "{text}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_message_that_does_not_decode_is_named_by_topic_number_and_log_time() {
+        let mut m = session(5);
+        // The third reading: cut short.
+        m[4].2.truncate(30);
+        let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, BagError::Decode { index: 3, .. }), "{text}");
+        assert!(
+            text.contains("topic /biotac/readings, message 3 (log time 10.021")
+                && text.contains("not decodable as CDR"),
+            "{text}"
+        );
+        // A wrench whose frame_id claims 4 GB.
+        let mut m = session(5);
+        m[3].2[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+        let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err().to_string();
+        assert!(
+            err.contains("topic /ft_sensor/wrench, message 2")
+                && err.contains("a string longer than the message"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn stamps_that_jump_back_or_leave_a_gap_are_refused() {
+        let mut m = session(8);
+        // Reading 6 (message 6 of the topic) stamped 0.1 s before reading 5.
+        m[10].2 = reading_cdr(9.95, 5);
+        let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            matches!(err, BagError::ClockJump { index: 6, .. }),
+            "{text}"
+        );
+        assert!(
+            text.contains("topic /biotac/readings, message 6")
+                && text.contains("9.950000 s follows 10.040000 s"),
+            "{text}"
+        );
+        // A step back within the tolerance is taken (and sorted).
+        let mut m = session(8);
+        m[10].2 = reading_cdr(10.046, 5);
+        assert_eq!(read(&bag(&[BIOTAC, FT], &m)).unwrap().records.len(), 8);
+        // A wrench 1.5 s after the one before.
+        let mut m = session(8);
+        m[7].2 = wrench_cdr(11.532, 3.0);
+        let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err().to_string();
+        assert!(
+            err.contains("topic /ft_sensor/wrench, message 4") && err.contains("(+1.510000 s)"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn no_pair_within_the_tolerance_says_the_tolerance_and_both_spans() {
+        let m: Vec<_> = session(5)
+            .into_iter()
+            .map(|(c, t, data)| match c {
+                1 => (c, t, wrench_cdr(t + 0.5, 0.0)),
+                _ => (c, t, data),
+            })
+            .collect();
+        let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, BagError::NoPairs { .. }), "{text}");
+        assert!(
+            text.contains("within 0.005 s")
+                && text.contains("readings stamped 10.000000..10.040000 s")
+                && text.contains("wrenches 10.503000..10.543000 s"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn a_file_that_is_not_mcap_or_cut_short_gives_an_error_not_a_panic() {
+        let err = read(b"t,set,trial\n").unwrap_err();
+        assert!(matches!(err, BagError::NotMcap { .. }), "{err}");
+        assert!(matches!(read(b"").unwrap_err(), BagError::NotMcap { .. }));
+        let missing = read_bag(Path::new("/nonexistent/x.mcap"), &BagTopics::default());
+        assert!(matches!(missing, Err(BagError::Open { .. })));
+
+        let good = bag(&[BIOTAC, FT], &session(40));
+        assert_eq!(read(&good).unwrap().records.len(), 40);
+        let err = read(&good[..good.len() / 2]).unwrap_err();
+        assert!(matches!(err, BagError::Corrupt { .. }), "{err}");
+        assert!(err.to_string().contains("truncated or corrupt"), "{err}");
+        // Every cut fails; no flipped byte panics.
+        for cut in (8..good.len()).step_by(13) {
+            assert!(read(&good[..cut]).is_err(), "cut at {cut}");
+        }
+        for at in (0..good.len()).step_by(7) {
+            let mut bad = good.clone();
+            bad[at] ^= 0xA5;
+            let _ = read(&bad);
+        }
+    }
+}

@@ -1,0 +1,93 @@
+//! `learn::bag` against MCAP files from an independent writer (Python's
+//! mcap-ros2-support, serialising from the .msg definitions). The bags and
+//! the CSV they were made from come from `tests/bag/run.sh`, which runs
+//! these tests with `--ignored`.
+
+use std::path::PathBuf;
+
+use tactile_force::learn::bag::{read_bag, Bag, BagError, BagTopics};
+use tactile_force::learn::dataset::{electrode_columns, Dataset};
+use tactile_force::wrench::{Axis, AxisSet};
+
+/// The directory of the bags; fails when unset, so that run.sh's
+/// `--ignored` run cannot pass without them.
+fn bags() -> PathBuf {
+    match std::env::var_os("TACTILE_FORCE_TEST_BAGS") {
+        Some(dir) => PathBuf::from(dir),
+        None => panic!(
+            "TACTILE_FORCE_TEST_BAGS is not set: run tests/bag/run.sh, which writes the bags \
+             (Python mcap writer) and runs these tests"
+        ),
+    }
+}
+
+fn read(name: &str) -> Result<Bag, BagError> {
+    read_bag(&bags().join(name), &BagTopics::default())
+}
+
+#[test]
+#[ignore = "needs tests/bag/run.sh (Python mcap writer)"]
+fn the_good_bag_gives_every_csv_row_with_its_values() {
+    let mut features = electrode_columns();
+    features.extend(["pdc", "tdc", "tac", "pac_mean"].map(String::from));
+    let axes = AxisSet::new(Axis::ALL.to_vec()).unwrap();
+    let csv = Dataset::read_csv(&bags().join("session.csv"), &features, &axes).unwrap();
+    let bag = read("good.mcap").unwrap();
+    assert_eq!(bag.records.len(), csv.len());
+    assert_eq!((bag.unpaired_readings, bag.unpaired_wrenches), (0, 0));
+    for (i, r) in bag.records.iter().enumerate() {
+        let x = csv.x.row(i);
+        let counts: Vec<f64> = (r.reading.electrodes.iter())
+            .chain([&r.reading.pdc, &r.reading.tdc, &r.reading.tac])
+            .map(|&v| f64::from(v))
+            .collect();
+        assert_eq!(counts, x.as_slice().unwrap()[..counts.len()], "row {i}");
+        let pac_mean = x[features.len() - 1];
+        assert!(r
+            .reading
+            .pac
+            .iter()
+            .all(|&p| (f64::from(p) - pac_mean).abs() <= 0.5));
+        for (j, &axis) in Axis::ALL.iter().enumerate() {
+            let (got, want) = (r.wrench.get(axis), csv.y[[i, j]]);
+            assert!((got - want).abs() < 1e-6, "row {i} {axis}: {got} vs {want}");
+        }
+        assert!((r.t - 0.01 * i as f64).abs() < 1e-6, "row {i}: t = {}", r.t);
+        assert_eq!((r.set, r.trial), (1, 1));
+    }
+}
+
+#[test]
+#[ignore = "needs tests/bag/run.sh (Python mcap writer)"]
+fn each_bad_bag_gives_its_error_naming_the_topic() {
+    let err = read("truncated.mcap").unwrap_err();
+    assert!(
+        matches!(err, BagError::Corrupt { messages, .. } if messages > 0),
+        "{err}"
+    );
+
+    let err = read("wrong_type.mcap").unwrap_err();
+    assert!(
+        matches!(&err, BagError::WrongType { topic, expected, .. }
+            if topic == "/ft_sensor/wrench" && *expected == "geometry_msgs/msg/WrenchStamped"),
+        "{err}"
+    );
+    assert!(
+        err.to_string().contains("geometry_msgs/msg/Wrench in cdr"),
+        "{err}"
+    );
+
+    let err = read("no_ft.mcap").unwrap_err();
+    assert!(
+        matches!(&err, BagError::MissingTopic { topic, .. } if topic == "/ft_sensor/wrench"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("/biotac/readings"), "{err}");
+
+    let err = read("clock_jump.mcap").unwrap_err();
+    assert!(
+        matches!(&err, BagError::ClockJump { topic, stamp_s, previous_s, .. }
+            if topic == "/biotac/readings" && (previous_s - stamp_s - 4.99).abs() < 1e-6),
+        "{err}"
+    );
+}
