@@ -26,7 +26,7 @@ const M: usize = 200;
 
 /// The tared `collect --seed 1` data set.
 fn data() -> Dataset {
-    let records = collect(&CollectConfig::default(), &BioTacSimConfig::default(), 1);
+    let records = collect(&CollectConfig::default(), &BioTacSimConfig::default(), 1, 1);
     let file = tempfile::NamedTempFile::new().expect("temp file");
     write_csv(file.path(), &records).expect("write CSV");
     let mut ds = Dataset::read_csv(

@@ -12,16 +12,20 @@ use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
+use nalgebra::Vector3;
+use tactile_force::biotac::reading::FRAME_PERIOD_S;
 use tactile_force::biotac::sim::BioTacSimConfig;
-use tactile_force::learn::dataset::{electrode_columns, write_csv, Dataset};
+use tactile_force::learn::bag::{read_bag, BagTopics};
+use tactile_force::learn::dataset::{channel_columns, write_csv, Channel, Dataset};
 use tactile_force::learn::evaluate::{
-    cross_validate, score_model, train_test, EvalOptions, Evaluation, Progress, Scores,
+    cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
+    FoldScores, Progress, Scores,
 };
 use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
-use tactile_force::learn::model::{TareSpec, WrenchGp};
+use tactile_force::learn::model::{AdaptedFrom, TareSpec, WrenchGp};
 use tactile_force::learn::nn::NnParams;
 use tactile_force::sim::collect::{collect, CollectConfig};
-use tactile_force::wrench::{Axis, AxisSet};
+use tactile_force::wrench::{Axis, AxisSet, FrameTransform, Wrench};
 
 #[derive(Parser)]
 #[command(
@@ -42,6 +46,9 @@ enum Command {
     Train(TrainArgs),
     /// Cross-validate (or train/test) the GP against the baseline network.
     Eval(EvalArgs),
+    /// Adapt a trained model to another sensor unit, session or person from
+    /// a short recording of it (e.g. 80 s: `collect --trials 1`).
+    Adapt(AdaptArgs),
     /// Run the closed loop in simulation: a guarded or a guided move.
     Demo(commands::demo::DemoArgs),
     /// Emulate a BioTac serial bridge: simulated frames to a serial port.
@@ -58,9 +65,15 @@ struct CollectArgs {
     /// Output CSV (header: t,set,trial,e1..e19,pdc,pac_mean,tdc,tac,fx,fy,fz,tx,ty,tz).
     #[arg(long)]
     out: PathBuf,
-    /// Seed of the simulated sensor unit, pushes and noise.
+    /// The simulated sensor unit (its electrode gains and baselines).
+    #[arg(long, default_value_t = 1)]
+    unit: u64,
+    /// The session: temperature, how the finger is mounted, the pushes and the noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Trials per set (default: the protocol's 10; 1 trial per set is 80 s of data).
+    #[arg(long)]
+    trials: Option<u32>,
     /// Simulator and protocol parameters (YAML); default: the shipped config/biotac_sim.yaml.
     #[arg(long)]
     config: Option<PathBuf>,
@@ -72,6 +85,12 @@ struct FitArgs {
     /// Wrench axes to learn: any subset of fx,fy,fz,tx,ty,tz.
     #[arg(long, default_value = "fx,fy,fz")]
     axes: AxisSet,
+    /// BioTac channels the model takes as features, comma-separated: any of
+    /// electrodes (e1..e19), pdc, tdc, tac; each tared per trial. The
+    /// default was chosen by leave-one-out results on simulated and real
+    /// data (README, "Sensor units and sessions").
+    #[arg(long, value_delimiter = ',', default_value = "electrodes,pdc")]
+    channels: Vec<Channel>,
     /// Largest training set of the exact GP (a subset beyond it, see --subset): time grows as n^3.
     #[arg(long, default_value_t = 2000)]
     max_train: usize,
@@ -100,13 +119,35 @@ struct FitArgs {
     /// Seed of subsets and optimiser starts.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    #[command(flatten)]
+    source: SourceArgs,
+}
+
+/// Where the data files' wrenches come from: topics of a ROS bag (MCAP)
+/// and the F/T sensor's frame.
+#[derive(Args)]
+struct SourceArgs {
+    /// BioTac readings topic (tactile_force_msgs/msg/BioTac) in MCAP files.
+    #[arg(long, default_value = "/biotac/readings")]
+    biotac_topic: String,
+    /// F/T sensor topic (geometry_msgs/msg/WrenchStamped) in MCAP files.
+    #[arg(long, default_value = "/ft_sensor/wrench")]
+    ft_topic: String,
+    /// Largest header-stamp difference between a reading and its wrench in MCAP files (s).
+    #[arg(long, default_value_t = 0.005)]
+    pair_tolerance_s: f64,
+    /// Where the F/T sensor sits in the BioTac frame, `roll,pitch,yaw,x,y,z`
+    /// (deg, fixed-axis x-y-z; m): its wrenches are moved to the BioTac frame
+    /// and origin. Default: the files are in the BioTac frame already.
+    #[arg(long, allow_hyphen_values = true)]
+    ft_to_biotac: Option<FrameTransform>,
 }
 
 #[derive(Args)]
 struct TrainArgs {
-    /// Training CSV.
-    #[arg(long)]
-    data: PathBuf,
+    /// Training files, comma-separated: each a session, tared on its own.
+    #[arg(long, value_delimiter = ',', required = true)]
+    data: Vec<PathBuf>,
     /// Model file to write (JSON).
     #[arg(long)]
     out: PathBuf,
@@ -117,17 +158,21 @@ struct TrainArgs {
 #[derive(Args)]
 struct EvalArgs {
     /// Data for trial-wise k-fold cross-validation.
-    #[arg(long, conflicts_with_all = ["train", "test", "model"], required_unless_present_any = ["train", "model"])]
+    #[arg(long, conflicts_with_all = ["train", "test", "model", "sessions"], required_unless_present_any = ["train", "model", "sessions"])]
     data: Option<PathBuf>,
     /// Number of folds (per set, consecutive blocks of trials are held out).
     #[arg(long, default_value_t = 5)]
     folds: usize,
-    /// Training CSV (with --test).
-    #[arg(long, requires = "test", conflicts_with = "model")]
-    train: Option<PathBuf>,
-    /// Test CSV (with --train or --model).
-    #[arg(long)]
-    test: Option<PathBuf>,
+    /// Training files, comma-separated: each a session, tared on its own (with --test).
+    #[arg(long, value_delimiter = ',', requires = "test", conflicts_with_all = ["model", "sessions"])]
+    train: Vec<PathBuf>,
+    /// Test files, comma-separated, scored one by one (with --train or --model).
+    #[arg(long, value_delimiter = ',')]
+    test: Vec<PathBuf>,
+    /// Leave one session out: each file, comma-separated, tested on a model
+    /// trained on the others.
+    #[arg(long, value_delimiter = ',', conflicts_with_all = ["test", "model"])]
+    sessions: Vec<PathBuf>,
     /// A trained model file to score on --test (no training; GP only).
     #[arg(long, requires = "test")]
     model: Option<PathBuf>,
@@ -139,6 +184,31 @@ struct EvalArgs {
     json: bool,
     #[command(flatten)]
     fit: FitArgs,
+}
+
+#[derive(Args)]
+struct AdaptArgs {
+    /// The trained model to adapt (from `train`).
+    #[arg(long)]
+    model: PathBuf,
+    /// The short recording(s) of the new unit, comma-separated; tared as the
+    /// base model's data were.
+    #[arg(long, value_delimiter = ',', required = true)]
+    data: Vec<PathBuf>,
+    /// The adapted model file to write (JSON).
+    #[arg(long)]
+    out: PathBuf,
+    /// Largest number of rows the correction GP trains on (a random subset beyond it).
+    #[arg(long, default_value_t = 2000)]
+    max_train: usize,
+    /// Optimiser starts of the hyperparameter fit.
+    #[arg(long, default_value_t = 3)]
+    restarts: usize,
+    /// Seed of the subset and the optimiser starts.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    #[command(flatten)]
+    source: SourceArgs,
 }
 
 fn main() -> ExitCode {
@@ -162,6 +232,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Collect(a) => run_collect(a),
         Command::Train(a) => run_train(a),
         Command::Eval(a) => run_eval(a),
+        Command::Adapt(a) => run_adapt(a),
         Command::Demo(a) => commands::demo::run_demo(a),
         Command::BiotacEmulator(a) => commands::serial::run_emulator(a),
         Command::BiotacMonitor(a) => commands::serial::run_monitor(a),
@@ -174,13 +245,19 @@ fn run_collect(a: CollectArgs) -> Result<()> {
         Some(p) => (BioTacSimConfig::from_file(p)?, CollectConfig::from_file(p)?),
         None => (BioTacSimConfig::default(), CollectConfig::default()),
     };
-    let records = collect(&protocol, &sensor, a.seed);
+    let protocol = match a.trials {
+        Some(n) => protocol.with_trials(n).context("--trials")?,
+        None => protocol,
+    };
+    let records = collect(&protocol, &sensor, a.unit, a.seed);
     write_csv(&a.out, &records)?;
     let noise = protocol.params().ft_noise_std;
     println!(
-        "wrote {} rows to {} (seed {}); F/T reference noise std: force {:?} N, torque {:?} Nm",
+        "wrote {} rows ({:.0} s) to {} (unit {}, session {}); F/T reference noise std: force {:?} N, torque {:?} Nm",
         records.len(),
+        records.len() as f64 / protocol.params().rate_hz,
         a.out.display(),
+        a.unit,
         a.seed,
         noise.force_n,
         noise.torque_nm
@@ -188,21 +265,120 @@ fn run_collect(a: CollectArgs) -> Result<()> {
     Ok(())
 }
 
-/// Reads a CSV's electrode features and `axes` targets and tares each trial
-/// on its first `tare_samples` rows (0: already tared).
-fn load_tared(path: &Path, axes: &AxisSet, tare_samples: usize) -> Result<(Dataset, TareSpec)> {
-    let mut ds = Dataset::read_csv(path, &electrode_columns(), axes)?;
-    let mean_baseline = match tare_samples {
+/// Reads one session's `features` and `axes` targets and tares each trial
+/// on its first `tare_samples` rows (0: already tared); returns the
+/// baselines too.
+fn load_session(
+    path: &Path,
+    features: &[String],
+    axes: &AxisSet,
+    tare_samples: usize,
+    source: &SourceArgs,
+) -> Result<(Dataset, Vec<f64>)> {
+    let mut ds = read_data(path, features, axes, source)?;
+    let baseline = match tare_samples {
         0 => vec![0.0; ds.features.len()],
-        n => ds.tare_per_trial(n)?,
+        n => ds
+            .tare_per_trial(n)
+            .with_context(|| format!("taring {}", path.display()))?,
     };
-    Ok((
-        ds,
-        TareSpec {
-            samples: tare_samples,
-            mean_baseline,
-        },
-    ))
+    Ok((ds, baseline))
+}
+
+/// Reads a CSV or, by its `.mcap` extension, a ROS bag; wrenches moved to
+/// the BioTac frame when `--ft-to-biotac` says where the F/T sensor is.
+fn read_data(
+    path: &Path,
+    features: &[String],
+    axes: &AxisSet,
+    source: &SourceArgs,
+) -> Result<Dataset> {
+    let name = path.display().to_string();
+    let to_biotac = |w: Wrench| source.ft_to_biotac.map_or(w, |t| t.apply(&w));
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+    {
+        let topics = BagTopics {
+            biotac: source.biotac_topic.clone(),
+            ft: source.ft_topic.clone(),
+            tolerance_s: source.pair_tolerance_s,
+        };
+        let mut bag = read_bag(path, &topics)?;
+        eprintln!(
+            "{name}: {} readings paired with a wrench; unpaired: {} readings, {} wrenches",
+            bag.records.len(),
+            bag.unpaired_readings,
+            bag.unpaired_wrenches
+        );
+        for r in &mut bag.records {
+            r.wrench = to_biotac(r.wrench);
+        }
+        return Ok(Dataset::from_records(&bag.records, features, axes, &name)?);
+    }
+    if source.ft_to_biotac.is_none() {
+        return Ok(Dataset::read_csv(path, features, axes)?);
+    }
+    // Every BioTac-frame component needs the whole force (and torque).
+    let torques = axes.axes().iter().any(|a| a.index() >= 3);
+    let read: AxisSet = if torques {
+        "fx,fy,fz,tx,ty,tz"
+    } else {
+        "fx,fy,fz"
+    }
+    .parse()?;
+    let mut ds = Dataset::read_csv(path, features, &read)?;
+    let y = ndarray::Array2::from_shape_fn((ds.len(), axes.len()), |(i, j)| {
+        let row = ds.y.row(i);
+        let torque = if torques {
+            Vector3::new(row[3], row[4], row[5])
+        } else {
+            Vector3::zeros()
+        };
+        to_biotac(Wrench::new(Vector3::new(row[0], row[1], row[2]), torque)).get(axes.axes()[j])
+    });
+    ds.y = y;
+    ds.axes = axes.clone();
+    Ok(ds)
+}
+
+/// Reads sessions, each tared on its own: their rows, and the tare spec a
+/// model trained on them records (the baselines averaged over sessions).
+fn load_sessions(
+    paths: &[PathBuf],
+    features: &[String],
+    axes: &AxisSet,
+    tare_samples: usize,
+    source: &SourceArgs,
+) -> Result<(Vec<Dataset>, TareSpec)> {
+    let mut sessions = Vec::with_capacity(paths.len());
+    let mut mean_baseline = vec![0.0; features.len()];
+    for p in paths {
+        let (ds, base) = load_session(p, features, axes, tare_samples, source)?;
+        for (m, b) in mean_baseline.iter_mut().zip(base) {
+            *m += b / paths.len() as f64;
+        }
+        sessions.push(ds);
+    }
+    let tare = TareSpec {
+        samples: tare_samples,
+        mean_baseline,
+    };
+    Ok((sessions, tare))
+}
+
+/// [`load_sessions`] with the rows of every session in one data set.
+fn load_pooled(
+    paths: &[PathBuf],
+    features: &[String],
+    axes: &AxisSet,
+    tare_samples: usize,
+    source: &SourceArgs,
+) -> Result<(Dataset, TareSpec)> {
+    let (sessions, tare) = load_sessions(paths, features, axes, tare_samples, source)?;
+    let refs: Vec<&Dataset> = sessions.iter().collect();
+    let pooled = Dataset::concat(&refs).context("no data file given")?;
+    Ok((pooled, tare))
 }
 
 fn gp_params(fit: &FitArgs) -> Result<tactile_force::learn::gp::ValidGpParams> {
@@ -244,7 +420,13 @@ fn show(bar: &ProgressBar, p: Progress) {
 }
 
 fn run_train(a: TrainArgs) -> Result<()> {
-    let (ds, tare) = load_tared(&a.data, &a.fit.axes, a.fit.tare_samples)?;
+    let (ds, tare) = load_pooled(
+        &a.data,
+        &channel_columns(&a.fit.channels),
+        &a.fit.axes,
+        a.fit.tare_samples,
+        &a.fit.source,
+    )?;
     let params = gp_params(&a.fit)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
@@ -274,9 +456,53 @@ fn run_train(a: TrainArgs) -> Result<()> {
     Ok(())
 }
 
+fn run_adapt(a: AdaptArgs) -> Result<()> {
+    let base = WrenchGp::load(&a.model)?;
+    let (data, tare) = load_pooled(
+        &a.data,
+        base.features(),
+        base.axes(),
+        base.tare().samples,
+        &a.source,
+    )?;
+    let params = GpParams {
+        restarts: a.restarts,
+        max_train: a.max_train,
+        seed: a.seed,
+        ..GpParams::default()
+    }
+    .validate()?;
+    let seconds = data.len() as f64 * FRAME_PERIOD_S;
+    let from = AdaptedFrom {
+        model: a.model.display().to_string(),
+        data: a.data.iter().map(|p| p.display().to_string()).collect(),
+        seconds,
+    };
+    let bar = progress_bar();
+    let t0 = std::time::Instant::now();
+    let adapted = base.adapt(&data, tare, from, &params, &mut |axis, p| {
+        show(&bar, Progress::Gp(axis, p))
+    })?;
+    let fit_s = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    adapted
+        .save(&a.out)
+        .with_context(|| format!("saving the model to {}", a.out.display()))?;
+    println!(
+        "adapted {} ({}) with {:.0} s of data ({} rows) in {:.2} s; model written to {}",
+        a.model.display(),
+        base.axes(),
+        seconds,
+        data.len(),
+        fit_s,
+        a.out.display()
+    );
+    Ok(())
+}
+
 fn run_eval(a: EvalArgs) -> Result<()> {
-    if let (Some(model), Some(test)) = (&a.model, &a.test) {
-        return run_score(model, test, a.json);
+    if let Some(model) = &a.model {
+        return run_score(model, &a.test, &a.fit.source, a.json);
     }
     let opts = EvalOptions {
         max_train: a.fit.max_train,
@@ -290,41 +516,73 @@ fn run_eval(a: EvalArgs) -> Result<()> {
     };
     let bar = progress_bar();
     let mut on_progress = |p| show(&bar, p);
-    let eval = match (&a.data, &a.train, &a.test) {
-        (Some(data), _, _) => {
-            let (ds, tare) = load_tared(data, &a.fit.axes, a.fit.tare_samples)?;
-            cross_validate(&ds, a.folds, &tare, &opts, &mut on_progress)?
+    let (features, axes, n) = (
+        channel_columns(&a.fit.channels),
+        &a.fit.axes,
+        a.fit.tare_samples,
+    );
+    let (eval, labels) = if let Some(data) = &a.data {
+        let (ds, tare) = load_pooled(
+            std::slice::from_ref(data),
+            &features,
+            axes,
+            n,
+            &a.fit.source,
+        )?;
+        let eval = cross_validate(&ds, a.folds, &tare, &opts, &mut on_progress)?;
+        let labels = (1..=a.folds).map(|f| f.to_string()).collect();
+        (eval, labels)
+    } else if !a.sessions.is_empty() {
+        if a.sessions.len() < 2 {
+            anyhow::bail!("--sessions needs at least two files (one is left out in turn)");
         }
-        (None, Some(train), Some(test)) => {
-            let (train, tare) = load_tared(train, &a.fit.axes, a.fit.tare_samples)?;
-            let (test, _) = load_tared(test, &a.fit.axes, a.fit.tare_samples)?;
-            train_test(&train, &test, &tare, &opts, &mut on_progress)?
-        }
-        _ => {
-            anyhow::bail!("give --data FILE, --train FILE --test FILE, or --model FILE --test FILE")
-        }
+        let (sessions, tare) = load_sessions(&a.sessions, &features, axes, n, &a.fit.source)?;
+        let eval = leave_one_session_out(&sessions, &tare, &opts, &mut on_progress)?;
+        (eval, file_labels(&a.sessions))
+    } else if !a.train.is_empty() && !a.test.is_empty() {
+        let (train, tare) = load_pooled(&a.train, &features, axes, n, &a.fit.source)?;
+        let (tests, _) = load_sessions(&a.test, &features, axes, n, &a.fit.source)?;
+        let eval = train_test(&train, &tests, &tare, &opts, &mut on_progress)?;
+        (eval, file_labels(&a.test))
+    } else {
+        anyhow::bail!(
+            "give --data FILE, --train FILES --test FILES, --sessions FILES, or --model FILE --test FILES"
+        )
     };
     bar.finish_and_clear();
-    print_table(&a.fit.axes, &eval);
+    print_table(&a.fit.axes, &eval, &labels);
     if a.json {
         println!("{}", serde_json::to_string(&eval)?);
     }
     Ok(())
 }
 
-fn run_score(model: &Path, test: &Path, json: bool) -> Result<()> {
+fn run_score(model: &Path, tests: &[PathBuf], source: &SourceArgs, json: bool) -> Result<()> {
     let model = WrenchGp::load(model)?;
-    let mut ds = Dataset::read_csv(test, model.features(), model.axes())?;
-    if model.tare().samples > 0 {
-        ds.tare_per_trial(model.tare().samples)?;
+    let (sessions, _) = load_sessions(
+        tests,
+        model.features(),
+        model.axes(),
+        model.tare().samples,
+        source,
+    )?;
+    let refs: Vec<&Dataset> = sessions.iter().collect();
+    let pooled = Dataset::concat(&refs).context("give --test FILES")?;
+    let mut folds = Vec::with_capacity(sessions.len());
+    for (i, ds) in sessions.iter().enumerate() {
+        folds.push(FoldScores {
+            fold: i + 1,
+            n_test: ds.len(),
+            gp: score_model(&model, ds)?,
+            nn: None,
+        });
     }
-    let gp = score_model(&model, &ds)?;
     let eval = Evaluation {
-        folds: Vec::new(),
-        gp,
+        folds,
+        gp: score_model(&model, &pooled)?,
         nn: None,
     };
-    print_table(model.axes(), &eval);
+    print_table(model.axes(), &eval, &file_labels(tests));
     if json {
         println!("{}", serde_json::to_string(&eval)?);
     }
@@ -351,9 +609,22 @@ fn axis_scores(axes: &AxisSet, rmse: &BTreeMap<Axis, f64>, r2: &BTreeMap<Axis, f
     vals.join("  ")
 }
 
-fn print_table(axes: &AxisSet, eval: &Evaluation) {
+/// The files' names without directory and extension: a table's row labels.
+fn file_labels(paths: &[PathBuf]) -> Vec<String> {
+    paths
+        .iter()
+        .map(|p| {
+            p.file_stem()
+                .map_or_else(|| p.display().to_string(), |s| s.to_string_lossy().into())
+        })
+        .collect()
+}
+
+/// The scores per fold (labelled by `labels`, e.g. session files) and overall.
+fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) {
+    let width = labels.iter().map(String::len).max().unwrap_or(0).max(8);
     println!(
-        "{:<8} {:<5} {}  {:>8} {:>7}",
+        "{:<width$} {:<5} {}  {:>8} {:>7}",
         "fold",
         "model",
         axis_headers(axes),
@@ -362,17 +633,17 @@ fn print_table(axes: &AxisSet, eval: &Evaluation) {
     );
     let row = |fold: &str, model: &str, s: &Scores| {
         println!(
-            "{fold:<8} {model:<5} {}  {:>8.2} {:>7}",
+            "{fold:<width$} {model:<5} {}  {:>8.2} {:>7}",
             axis_scores(axes, &s.rmse, &s.r2),
             s.fit_s,
             s.n_train
         );
     };
     if eval.folds.len() > 1 {
-        for f in &eval.folds {
-            row(&f.fold.to_string(), "GP", &f.gp);
+        for (f, label) in eval.folds.iter().zip(labels) {
+            row(label, "GP", &f.gp);
             if let Some(nn) = &f.nn {
-                row(&f.fold.to_string(), "NN", nn);
+                row(label, "NN", nn);
             }
         }
     }

@@ -170,6 +170,49 @@ impl fmt::Display for AxisSet {
     }
 }
 
+/// Where the F/T sensor sits in the BioTac frame: a wrench it measures,
+/// expressed in the BioTac frame about the BioTac origin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameTransform {
+    /// Rotation from the F/T frame to the BioTac frame.
+    pub rotation: nalgebra::Rotation3<f64>,
+    /// The F/T frame's origin in the BioTac frame (m).
+    pub origin_m: Vector3<f64>,
+}
+
+impl FrameTransform {
+    /// The wrench `w` (F/T frame, about its origin) in the BioTac frame,
+    /// about the BioTac origin: `F = R f`, `T = R t + p x F`.
+    pub fn apply(&self, w: &Wrench) -> Wrench {
+        let force = self.rotation * w.force;
+        Wrench::new(
+            force,
+            self.rotation * w.torque + self.origin_m.cross(&force),
+        )
+    }
+}
+
+impl FromStr for FrameTransform {
+    type Err = String;
+    /// `roll,pitch,yaw,x,y,z`: the F/T frame's orientation in the BioTac
+    /// frame (deg, fixed-axis x-y-z) and its origin (m).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|p| p.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+            .collect::<Option<_>>()
+            .filter(|v: &Vec<f64>| v.len() == 6)
+            .ok_or_else(|| {
+                format!("{s:?}: expected six finite numbers roll,pitch,yaw (deg),x,y,z (m)")
+            })?;
+        let [r, p, y] = [v[0], v[1], v[2]].map(f64::to_radians);
+        Ok(FrameTransform {
+            rotation: nalgebra::Rotation3::from_euler_angles(r, p, y),
+            origin_m: Vector3::new(v[3], v[4], v[5]),
+        })
+    }
+}
+
 /// A force (N) and a torque (Nm) in one frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Wrench {
@@ -213,6 +256,27 @@ impl Wrench {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ft_wrench_moves_to_the_biotac_frame() {
+        // Turned half a turn about x, 20 mm below the BioTac origin along its z.
+        let t: FrameTransform = "180,0,0,0,0,-0.02".parse().unwrap();
+        let w = Wrench::new(Vector3::new(0.5, 0.0, -2.0), Vector3::new(0.01, 0.0, 0.0));
+        let b = t.apply(&w);
+        assert!(
+            (b.force - Vector3::new(0.5, 0.0, 2.0)).norm() < 1e-12,
+            "{b:?}"
+        );
+        // T = R t + p x F = (0.01, 0, 0) + (0, 0, -0.02) x (0.5, 0, 2) = (0.01, -0.01, 0).
+        assert!(
+            (b.torque - Vector3::new(0.01, -0.01, 0.0)).norm() < 1e-12,
+            "{b:?}"
+        );
+        for bad in ["180,0,0", "a,0,0,0,0,0", "0,0,0,0,0,nan"] {
+            let e = bad.parse::<FrameTransform>().unwrap_err();
+            assert!(e.contains("six finite numbers"), "{e}");
+        }
+    }
 
     #[test]
     fn axis_set_parses_sorts_and_rejects_bad_lists() {

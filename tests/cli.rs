@@ -276,12 +276,138 @@ fn too_few_folds_or_trials_are_refused() {
     }
 }
 
+/// `collect --unit U --seed S --trials 1` (80 s) into `dir`.
+fn collect_short(dir: &Path, unit: &str, seed: &str) -> String {
+    let data = dir.join(format!("u{unit}s{seed}.csv"));
+    let d = data.to_str().unwrap();
+    let o = run(&[
+        "collect", "--unit", unit, "--seed", seed, "--trials", "1", "--out", d,
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains(&format!(
+            "wrote 8000 rows (80 s) to {d} (unit {unit}, session {seed})"
+        )),
+        "{out}"
+    );
+    d.to_string()
+}
+
+/// The GP's pooled fx and fz RMSE from `eval ... --json`.
+fn gp_rmse(args: &[&str]) -> ([f64; 2], serde_json::Value, String) {
+    let o = run(args);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let j = last_json(&out);
+    let rmse = ["fx", "fz"].map(|a| j["gp"]["rmse"][a].as_f64().unwrap_or(f64::NAN));
+    (rmse, j, out)
+}
+
+#[test]
+fn a_new_unit_is_adapted_to_and_sessions_are_left_out_in_turn() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (
+        collect_short(dir.path(), "1", "1"),
+        collect_short(dir.path(), "1", "2"),
+    );
+    let (new, test) = (
+        collect_short(dir.path(), "2", "2"),
+        collect_short(dir.path(), "2", "3"),
+    );
+    let base = dir.path().join("base.json");
+    let base = base.to_str().unwrap();
+    let o = run(&[
+        "train",
+        "--data",
+        &format!("{a},{b}"),
+        "--axes",
+        "fx,fz",
+        "--max-train",
+        "600",
+        "--out",
+        base,
+    ]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(text(&o).0.contains("on 16000 samples"), "{:?}", text(&o));
+
+    let adapted = dir.path().join("adapted.json");
+    let adapted = adapted.to_str().unwrap();
+    let o = run(&[
+        "adapt",
+        "--model",
+        base,
+        "--data",
+        &new,
+        "--max-train",
+        "600",
+        "--out",
+        adapted,
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("with 80 s of data (8000 rows)"), "{out}");
+    let file: serde_json::Value = serde_json::from_slice(&std::fs::read(adapted).unwrap()).unwrap();
+    assert_eq!(file["prior"]["from"]["model"], base);
+    assert_eq!(file["prior"]["from"]["data"][0], new.as_str());
+
+    // Another unit: the base model is off along x (the electrodes' gains
+    // differ; PDC does not tell x); adapted on 80 s of the unit, much less so.
+    let (before, _, _) = gp_rmse(&["eval", "--model", base, "--test", &test, "--json"]);
+    let (after, _, _) = gp_rmse(&["eval", "--model", adapted, "--test", &test, "--json"]);
+    assert!(
+        after[0] < 0.6 * before[0],
+        "fx RMSE {before:?} -> {after:?}"
+    );
+    assert!(
+        after[1] < 1.1 * before[1],
+        "fz RMSE {before:?} -> {after:?}"
+    );
+
+    // Each session tested on a model of the others, one row per file.
+    let sessions = format!("{a},{b},{new}");
+    let args = [
+        "eval",
+        "--sessions",
+        &sessions,
+        "--axes",
+        "fx",
+        "--max-train",
+        "300",
+        "--no-nn",
+        "--json",
+    ];
+    let (_, j, out) = gp_rmse(&args);
+    assert_eq!(j["folds"].as_array().unwrap().len(), 3);
+    for label in ["u1s1 ", "u1s2 ", "u2s2 "] {
+        assert!(out.contains(label), "{out}");
+    }
+    for f in j["folds"].as_array().unwrap() {
+        let rmse = f["gp"]["rmse"]["fx"].as_f64().unwrap();
+        assert!(f["n_test"] == 8000 && rmse > 0.0 && rmse < 1.0, "{j}");
+    }
+
+    // A missing recording is named.
+    let o = run(&[
+        "adapt",
+        "--model",
+        base,
+        "--data",
+        "/no/such.csv",
+        "--out",
+        adapted,
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("/no/such.csv"), "{:?}", text(&o));
+}
+
 #[test]
 fn every_subcommand_has_help() {
     for sub in [
         "collect",
         "train",
         "eval",
+        "adapt",
         "demo",
         "biotac-emulator",
         "biotac-monitor",

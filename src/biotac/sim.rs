@@ -401,6 +401,7 @@ pub struct BioTacSim {
     pac_baseline: f64,
     tac_baseline: f64,
     tdc: f64,
+    sensitivity: f64,
     last_normal_n: f64,
     last_rate_n_per_s: f64,
     seq: u16,
@@ -437,6 +438,7 @@ impl BioTacSim {
             tdc: uniform(&mut rng, p.tdc.initial_counts),
             electrodes,
             params: p,
+            sensitivity: 1.0,
             last_normal_n: 0.0,
             last_rate_n_per_s: 0.0,
             seq: 0,
@@ -460,6 +462,13 @@ impl BioTacSim {
     /// thermal formula.
     pub fn set_temperature(&mut self, tdc_counts: f64) {
         self.tdc = tdc_counts;
+    }
+
+    /// Scales every electrode's impedance change with contact (1 = as the
+    /// unit was drawn): how a session's mounting and fluid fill change what
+    /// the electrodes see for the same force.
+    pub fn set_sensitivity(&mut self, factor: f64) {
+        self.sensitivity = factor;
     }
 
     /// Thermal coefficients of E1..E19 of this unit.
@@ -493,6 +502,7 @@ impl BioTacSim {
         });
         let slope = ep.compression_max_kohm / ep.compression_sat_n;
         self.electrodes.map(|e| {
+            let gain = e.gain * self.sensitivity;
             let e0 = self.baseline(&e);
             let z0 = READOUT_KOHM * (ADC / e0 - 1.0);
             let Some((c, normal_n, tangential_n)) = load else {
@@ -505,12 +515,12 @@ impl BioTacSim {
             let u = normal_n * (-d2 / (2.0 * wp * wp)).exp()
                 + ep.shear_gain * tangential_n.dot(&d) / ws * (-d2 / (2.0 * ws * ws)).exp();
             let dz = if u >= 0.0 {
-                e.gain * ep.compression_max_kohm * (u / ep.compression_sat_n).tanh()
+                gain * ep.compression_max_kohm * (u / ep.compression_sat_n).tanh()
             } else {
                 // Same slope at u = 0, but the impedance can only fall by a
                 // fraction of its baseline (the skin lifts off, fluid fills in).
                 let floor = ep.release_max_fraction * z0;
-                -floor * (e.gain * slope * -u / floor).tanh()
+                -floor * (gain * slope * -u / floor).tanh()
             };
             ADC / (1.0 + (z0 + dz) / READOUT_KOHM)
         })

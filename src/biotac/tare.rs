@@ -7,6 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::reading::Column;
 use super::{BioTacReading, N_ELECTRODES};
 
 /// Why a tare could not be taken.
@@ -31,13 +32,21 @@ pub enum TareError {
     },
 }
 
-/// Mean out-of-contact electrode values and PDC (ADC counts).
+/// Mean out-of-contact values of every channel (ADC counts).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Tare {
     /// Mean of E1..E19 out of contact (counts).
     electrodes: [f64; N_ELECTRODES],
     /// Mean PDC out of contact (counts).
     pdc: f64,
+    /// Mean of the PAC samples, TDC and TAC out of contact (counts); absent
+    /// from tares saved before they were kept.
+    #[serde(default)]
+    pac_mean: f64,
+    #[serde(default)]
+    tdc: f64,
+    #[serde(default)]
+    tac: f64,
 }
 
 impl Tare {
@@ -47,17 +56,13 @@ impl Tare {
             return Err(TareError::Empty);
         }
         let n = readings.len() as f64;
-        let mut electrodes = [0.0; N_ELECTRODES];
-        let mut pdc = 0.0;
-        for r in readings {
-            for (sum, &v) in electrodes.iter_mut().zip(&r.electrodes) {
-                *sum += f64::from(v);
-            }
-            pdc += f64::from(r.pdc);
-        }
+        let mean = |c: Column| readings.iter().map(|r| c.value(r)).sum::<f64>() / n;
         Ok(Tare {
-            electrodes: electrodes.map(|s| s / n),
-            pdc: pdc / n,
+            electrodes: std::array::from_fn(|i| mean(Column::Electrode(i))),
+            pdc: mean(Column::Pdc),
+            pac_mean: mean(Column::PacMean),
+            tdc: mean(Column::Tdc),
+            tac: mean(Column::Tac),
         })
     }
 
@@ -109,6 +114,18 @@ impl Tare {
     /// negative values, ~0 out of contact.
     pub fn tared(&self, r: &BioTacReading) -> [f64; N_ELECTRODES] {
         std::array::from_fn(|i| f64::from(r.electrodes[i]) - self.electrodes[i])
+    }
+
+    /// `column`'s value in `r` minus its baseline (counts).
+    pub fn tared_column(&self, column: Column, r: &BioTacReading) -> f64 {
+        column.value(r)
+            - match column {
+                Column::Electrode(i) => self.electrodes[i],
+                Column::Pdc => self.pdc,
+                Column::PacMean => self.pac_mean,
+                Column::Tdc => self.tdc,
+                Column::Tac => self.tac,
+            }
     }
 
     /// PDC minus the baseline (counts): positive in contact.

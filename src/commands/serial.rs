@@ -30,9 +30,9 @@ pub struct EmulatorArgs {
     /// Fault probability per SPI word (parity error) and per byte (bit flip or drop).
     #[arg(long, default_value_t = 0.0)]
     fault_rate: f64,
-    /// The simulated unit is the one `collect --seed N` records.
+    /// The simulated sensor unit, numbered as `collect --unit` numbers them.
     #[arg(long, default_value_t = 1)]
-    unit_seed: u64,
+    unit: u64,
     /// Seed of the noise and of the faults.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -86,7 +86,7 @@ pub fn run_emulator(a: EmulatorArgs) -> Result<()> {
         press_peak_n: a.press_peak_n,
         ..EmulatorConfig::default()
     };
-    let mut emulator = Emulator::new(config, &BioTacSimConfig::default(), unit_seed(a.unit_seed));
+    let mut emulator = Emulator::new(config, &BioTacSimConfig::default(), unit_seed(a.unit));
     // The slave end of a created pty stays open so the pair lives.
     let (mut port, _slave): (Box<dyn SerialPort>, Option<TTYPort>) = match &a.port {
         Some(path) => {

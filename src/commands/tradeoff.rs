@@ -13,7 +13,7 @@ use tactile_force::learn::tradeoff::{pareto_front, tradeoff, Row, TradeoffOption
 use tactile_force::report::plot;
 use tactile_force::wrench::AxisSet;
 
-use crate::{axis_headers, axis_scores, load_tared, progress_bar};
+use crate::{axis_headers, axis_scores, load_pooled, progress_bar, SourceArgs};
 
 #[derive(Args)]
 pub struct TradeoffArgs {
@@ -53,13 +53,22 @@ pub struct TradeoffArgs {
     /// Seed of subsets, optimiser starts and the network.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    #[command(flatten)]
+    source: SourceArgs,
 }
 
 pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
     if a.folds < 2 {
         anyhow::bail!("--folds {}: at least 2 (one fold is held out)", a.folds);
     }
-    let (data, tare) = load_tared(&a.data, &a.axes, a.tare_samples)?;
+    let features = tactile_force::learn::dataset::electrode_columns();
+    let (data, tare) = load_pooled(
+        std::slice::from_ref(&a.data),
+        &features,
+        &a.axes,
+        a.tare_samples,
+        &a.source,
+    )?;
     let (train_rows, test_rows) = trialwise_folds(&data, a.folds).swap_remove(0);
     if train_rows.is_empty() || test_rows.is_empty() {
         anyhow::bail!(

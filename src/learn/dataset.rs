@@ -23,6 +23,7 @@ use std::path::Path;
 
 use ndarray::{Array2, Axis as NdAxis};
 
+use crate::biotac::reading::Column;
 use crate::biotac::{BioTacReading, N_ELECTRODES};
 use crate::wrench::{Axis, AxisSet, Wrench};
 
@@ -109,6 +110,47 @@ pub enum DatasetError {
 /// Names of the 19 electrode columns, `e1..e19`: the GP's features.
 pub fn electrode_columns() -> Vec<String> {
     (1..=N_ELECTRODES).map(|i| format!("e{i}")).collect()
+}
+
+/// A group of BioTac channels a model may take as features.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Channel {
+    /// The 19 impedance electrodes, `e1..e19`.
+    Electrodes,
+    /// Static pressure, `pdc`.
+    Pdc,
+    /// Temperature, `tdc`.
+    Tdc,
+    /// Heat flow, `tac`.
+    Tac,
+}
+
+impl std::str::FromStr for Channel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "electrodes" => Ok(Channel::Electrodes),
+            "pdc" => Ok(Channel::Pdc),
+            "tdc" => Ok(Channel::Tdc),
+            "tac" => Ok(Channel::Tac),
+            other => Err(format!(
+                "unknown channel {other:?}: expected electrodes, pdc, tdc or tac"
+            )),
+        }
+    }
+}
+
+/// The feature columns of `channels`, in the order given.
+pub fn channel_columns(channels: &[Channel]) -> Vec<String> {
+    channels
+        .iter()
+        .flat_map(|c| match c {
+            Channel::Electrodes => electrode_columns(),
+            Channel::Pdc => vec!["pdc".into()],
+            Channel::Tdc => vec!["tdc".into()],
+            Channel::Tac => vec!["tac".into()],
+        })
+        .collect()
 }
 
 /// The full header of a collected file.
@@ -250,24 +292,46 @@ impl Dataset {
         })
     }
 
-    /// The electrode features and `axes` targets of collected records, as
-    /// [`Dataset::read_csv`] reads them back from [`write_csv`]'s file.
-    pub fn from_records(records: &[Record], axes: &AxisSet) -> Self {
+    /// The `features` (columns of [`csv_header`]: e1..e19, pdc, pac_mean,
+    /// tdc, tac) and `axes` targets of records, as [`Dataset::read_csv`]
+    /// reads them back from [`write_csv`]'s file; `source` names the
+    /// records in an error.
+    pub fn from_records(
+        records: &[Record],
+        features: &[String],
+        axes: &AxisSet,
+        source: &str,
+    ) -> Result<Self, DatasetError> {
+        let columns = features
+            .iter()
+            .map(|f| {
+                Column::from_name(f).ok_or_else(|| DatasetError::MissingColumn {
+                    path: source.to_string(),
+                    column: f.clone(),
+                    header: csv_header().join(","),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         let n = records.len();
-        let x = Array2::from_shape_fn((n, N_ELECTRODES), |(i, j)| {
-            f64::from(records[i].reading.electrodes[j])
+        if n == 0 {
+            return Err(DatasetError::Empty {
+                path: source.to_string(),
+            });
+        }
+        let x = Array2::from_shape_fn((n, columns.len()), |(i, j)| {
+            columns[j].value(&records[i].reading)
         });
         let y = Array2::from_shape_fn((n, axes.len()), |(i, j)| {
             records[i].wrench.get(axes.axes()[j])
         });
-        Dataset {
-            features: electrode_columns(),
+        Ok(Dataset {
+            features: features.to_vec(),
             x,
             axes: axes.clone(),
             y,
             set: records.iter().map(|r| r.set).collect(),
             trial: records.iter().map(|r| r.trial).collect(),
-        }
+        })
     }
 
     /// At most `n` rows, drawn at random without replacement and kept in
@@ -315,10 +379,11 @@ impl Dataset {
             .collect()
     }
 
-    /// Subtracts from every feature its mean over the first `samples` rows
-    /// of the same trial (taken out of contact), as the BioTac is tared
-    /// before each trial. A file without set/trial columns is one trial.
-    /// Returns the baselines averaged over the trials.
+    /// Subtracts from every feature and target its mean over the first
+    /// `samples` rows of the same trial (taken out of contact), as the
+    /// BioTac and the F/T sensor are tared before each trial. A file without
+    /// set/trial columns is one trial. Returns the feature baselines
+    /// averaged over the trials.
     pub fn tare_per_trial(&mut self, samples: usize) -> Result<Vec<f64>, DatasetError> {
         let trials = self.trials();
         let mut mean_base = vec![0.0; self.x.ncols()];
@@ -337,15 +402,43 @@ impl Dataset {
                 .select(NdAxis(0), &rows[..samples])
                 .mean_axis(NdAxis(0))
                 .expect("at least one row");
+            let offset = self
+                .y
+                .select(NdAxis(0), &rows[..samples])
+                .mean_axis(NdAxis(0))
+                .expect("at least one row");
             for &r in rows {
                 let mut row = self.x.row_mut(r);
                 row -= &base;
+                let mut target = self.y.row_mut(r);
+                target -= &offset;
             }
             for (m, b) in mean_base.iter_mut().zip(&base) {
                 *m += b / trials.len() as f64;
             }
         }
         Ok(mean_base)
+    }
+
+    /// The rows of `parts` one after the other; None when they differ in
+    /// features or axes, or there are none.
+    pub fn concat(parts: &[&Dataset]) -> Option<Dataset> {
+        let first = parts.first()?;
+        if parts
+            .iter()
+            .any(|p| p.features != first.features || p.axes != first.axes)
+        {
+            return None;
+        }
+        let stack = |m: Vec<ndarray::ArrayView2<f64>>| ndarray::concatenate(NdAxis(0), &m).ok();
+        Some(Dataset {
+            features: first.features.clone(),
+            x: stack(parts.iter().map(|p| p.x.view()).collect())?,
+            axes: first.axes.clone(),
+            y: stack(parts.iter().map(|p| p.y.view()).collect())?,
+            set: parts.iter().flat_map(|p| p.set.iter().copied()).collect(),
+            trial: parts.iter().flat_map(|p| p.trial.iter().copied()).collect(),
+        })
     }
 
     /// The rows `idx`, in that order.
@@ -419,13 +512,26 @@ mod tests {
     fn records_in_memory_equal_records_read_back_from_csv() {
         use crate::biotac::sim::BioTacSimConfig;
         use crate::sim::collect::{collect, CollectConfig};
-        let records = &collect(&CollectConfig::default(), &BioTacSimConfig::default(), 3)[..300];
+        let records = &collect(&CollectConfig::default(), &BioTacSimConfig::default(), 3, 3)[..300];
         let f = tempfile::NamedTempFile::new().unwrap();
         write_csv(f.path(), records).unwrap();
         let axes = AxisSet::forces();
-        let read = Dataset::read_csv(f.path(), &electrode_columns(), &axes).unwrap();
-        let mem = Dataset::from_records(records, &axes);
+        let all = [
+            Channel::Electrodes,
+            Channel::Pdc,
+            Channel::Tdc,
+            Channel::Tac,
+        ];
+        let features = channel_columns(&all);
+        assert_eq!(features.len(), 22);
+        let read = Dataset::read_csv(f.path(), &features, &axes).unwrap();
+        let mem = Dataset::from_records(records, &features, &axes, "memory").unwrap();
         assert_eq!((mem.x, mem.set, mem.trial), (read.x, read.set, read.trial));
+        let err = Dataset::from_records(records, &["pressure".into()], &axes, "memory");
+        assert!(err
+            .unwrap_err()
+            .to_string()
+            .contains("missing column \"pressure\""));
         // The file keeps targets to the precision it writes them with.
         let worst = (&mem.y - &read.y)
             .mapv(f64::abs)

@@ -14,7 +14,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::dataset::{Dataset, DatasetError};
+use super::dataset::{electrode_columns, Dataset, DatasetError};
 use super::gp::{GpParams, Subset};
 use super::model::{ModelError, TareSpec, WrenchGp};
 use crate::biotac::sim::DEFAULT_CONFIG_YAML;
@@ -22,8 +22,8 @@ use crate::biotac::BioTacSimConfig;
 use crate::sim::collect::{collect, CollectConfig};
 use crate::wrench::AxisSet;
 
-/// Seed of the simulated data set; the demos' BioTac is this seed's unit
-/// (`sim_robot.sensor_unit_seed`).
+/// Unit and session of the simulated data set; the demos' BioTac is this
+/// unit (`sim_robot.sensor_unit`). Also the seed of the fit.
 pub const DATA_SEED: u64 = 1;
 /// Out-of-contact rows per trial for the tare.
 pub const TARE_SAMPLES: usize = 50;
@@ -118,8 +118,8 @@ pub enum DefaultModelError {
 /// The simulated data set with `axes` as targets, tared per trial.
 pub fn training_data(axes: &AxisSet) -> Result<(Dataset, TareSpec), DefaultModelError> {
     let sensor = BioTacSimConfig::default();
-    let records = collect(&CollectConfig::default(), &sensor, DATA_SEED);
-    let mut data = Dataset::from_records(&records, axes);
+    let records = collect(&CollectConfig::default(), &sensor, DATA_SEED, DATA_SEED);
+    let mut data = Dataset::from_records(&records, &electrode_columns(), axes, "simulated data")?;
     let mean_baseline = data.tare_per_trial(TARE_SAMPLES)?;
     let tare = TareSpec {
         samples: TARE_SAMPLES,

@@ -194,50 +194,117 @@ pub fn cross_validate(
     if let Some((&set, &trials)) = per_set.iter().find(|(_, &t)| t < folds) {
         return Err(EvalError::TooFewTrials { folds, set, trials });
     }
-    let k = data.axes.len();
-    let n = data.len();
-    let mut pooled_gp = Array2::zeros((n, k));
-    let mut pooled_nn = Array2::zeros((n, k));
-    let mut results = Vec::with_capacity(folds);
+    let splits = trialwise_folds(data, folds)
+        .into_iter()
+        .map(|(train, test)| (data.select(&train), vec![data.select(&test)]));
+    evaluate_splits(splits, folds, tare, opts, progress)
+}
+
+/// Leave one session out: each session (a file, tared on its own) is
+/// tested on a model trained on all the others; one fold per session.
+pub fn leave_one_session_out(
+    sessions: &[Dataset],
+    tare: &TareSpec,
+    opts: &EvalOptions,
+    progress: &mut (dyn FnMut(Progress) + Send),
+) -> Result<Evaluation, EvalError> {
+    if sessions.len() < 2 {
+        return Err(EvalError::Folds(sessions.len()));
+    }
+    let splits = (0..sessions.len()).map(|i| {
+        let others: Vec<&Dataset> = (0..sessions.len())
+            .filter(|&j| j != i)
+            .map(|j| &sessions[j])
+            .collect();
+        let train = Dataset::concat(&others).unwrap_or_else(|| sessions[i].clone());
+        (train, vec![sessions[i].clone()])
+    });
+    evaluate_splits(splits, sessions.len(), tare, opts, progress)
+}
+
+/// Trains once on `train` and scores on each test set (each a session,
+/// already tared): one fold per test set.
+pub fn train_test(
+    train: &Dataset,
+    tests: &[Dataset],
+    tare: &TareSpec,
+    opts: &EvalOptions,
+    progress: &mut (dyn FnMut(Progress) + Send),
+) -> Result<Evaluation, EvalError> {
+    let split = std::iter::once((train.clone(), tests.to_vec()));
+    evaluate_splits(split, 1, tare, opts, progress)
+}
+
+/// Fits on each split's training set and scores each of its test sets (one
+/// fold per test set, numbered in order); pooled scores over every test row.
+fn evaluate_splits(
+    splits: impl Iterator<Item = (Dataset, Vec<Dataset>)>,
+    n_splits: usize,
+    tare: &TareSpec,
+    opts: &EvalOptions,
+    progress: &mut (dyn FnMut(Progress) + Send),
+) -> Result<Evaluation, EvalError> {
+    let mut results = Vec::new();
+    let (mut ys, mut gps, mut nns) = (Vec::new(), Vec::new(), Vec::new());
     let (mut gp_time, mut nn_time, mut n_train) = (0.0, 0.0, 0);
-    for (f, (train_rows, test_rows)) in trialwise_folds(data, folds).into_iter().enumerate() {
-        progress(Progress::Fold(f + 1, folds));
-        let (train, test) = (data.select(&train_rows), data.select(&test_rows));
+    let mut axes = None;
+    for (s, (train, tests)) in splits.enumerate() {
+        progress(Progress::Fold(s + 1, n_splits));
+        let refs: Vec<&Dataset> = tests.iter().collect();
+        let test = Dataset::concat(&refs)
+            .filter(|t| t.features == train.features && t.axes == train.axes)
+            .ok_or_else(|| {
+                EvalError::Mismatch(format!(
+                    "training features {:?} / axes {}; every test set must have them",
+                    train.features, train.axes
+                ))
+            })?;
         let pred = fit_and_predict(&train, &test, tare, opts, progress)?;
-        for (r, &row) in test_rows.iter().enumerate() {
-            pooled_gp.row_mut(row).assign(&pred.gp.row(r));
-            if let Some((nn, _)) = &pred.nn {
-                pooled_nn.row_mut(row).assign(&nn.row(r));
-            }
-        }
         gp_time += pred.gp_fit_s;
         n_train = pred.n_train;
-        let nn = pred.nn.as_ref().map(|(p, t)| {
+        let mut from = 0;
+        for t in &tests {
+            let rows = from..from + t.len();
+            from += t.len();
+            let score = |p: &Array2<f64>, fit_s| {
+                let p = p.slice(ndarray::s![rows.clone(), ..]);
+                scores(&t.axes, t.y.view(), p, fit_s, pred.n_train)
+            };
+            results.push(FoldScores {
+                fold: results.len() + 1,
+                n_test: t.len(),
+                gp: score(&pred.gp, pred.gp_fit_s),
+                nn: pred.nn.as_ref().map(|(p, fit_s)| score(p, *fit_s)),
+            });
+        }
+        if let Some((p, t)) = &pred.nn {
             nn_time += t;
-            scores(&data.axes, test.y.view(), p.view(), *t, pred.n_train)
-        });
-        results.push(FoldScores {
-            fold: f + 1,
-            n_test: test.len(),
-            gp: scores(
-                &data.axes,
-                test.y.view(),
-                pred.gp.view(),
-                pred.gp_fit_s,
-                pred.n_train,
-            ),
-            nn,
-        });
+            nns.push(p.clone());
+        }
+        ys.push(test.y);
+        gps.push(pred.gp);
+        axes = Some(test.axes);
     }
-    let nf = folds as f64;
-    let y = data.y.view();
+    let axes = axes.ok_or(EvalError::Folds(0))?;
+    let stack = |m: &[Array2<f64>]| {
+        let views: Vec<_> = m.iter().map(|a| a.view()).collect();
+        ndarray::concatenate(ndarray::Axis(0), &views)
+            .map_err(|e| EvalError::Mismatch(e.to_string()))
+    };
+    let (y, nf) = (stack(&ys)?, n_splits as f64);
     Ok(Evaluation {
         folds: results,
-        gp: scores(&data.axes, y, pooled_gp.view(), gp_time / nf, n_train),
-        nn: opts
-            .nn
-            .as_ref()
-            .map(|_| scores(&data.axes, y, pooled_nn.view(), nn_time / nf, n_train)),
+        gp: scores(&axes, y.view(), stack(&gps)?.view(), gp_time / nf, n_train),
+        nn: match opts.nn {
+            Some(_) => Some(scores(
+                &axes,
+                y.view(),
+                stack(&nns)?.view(),
+                nn_time / nf,
+                n_train,
+            )),
+            None => None,
+        },
     })
 }
 
@@ -260,42 +327,4 @@ pub fn score_model(model: &WrenchGp, test: &Dataset) -> Result<Scores, EvalError
         0.0,
         model.n_train(),
     ))
-}
-
-/// Trains on `train` and scores on `test` (both already tared).
-pub fn train_test(
-    train: &Dataset,
-    test: &Dataset,
-    tare: &TareSpec,
-    opts: &EvalOptions,
-    progress: &mut (dyn FnMut(Progress) + Send),
-) -> Result<Evaluation, EvalError> {
-    if train.features != test.features || train.axes != test.axes {
-        return Err(EvalError::Mismatch(format!(
-            "features {:?} / axes {} vs features {:?} / axes {}",
-            train.features, train.axes, test.features, test.axes
-        )));
-    }
-    let pred = fit_and_predict(train, test, tare, opts, progress)?;
-    let gp = scores(
-        &test.axes,
-        test.y.view(),
-        pred.gp.view(),
-        pred.gp_fit_s,
-        pred.n_train,
-    );
-    let nn = pred
-        .nn
-        .as_ref()
-        .map(|(p, t)| scores(&test.axes, test.y.view(), p.view(), *t, pred.n_train));
-    Ok(Evaluation {
-        folds: vec![FoldScores {
-            fold: 1,
-            n_test: test.len(),
-            gp: gp.clone(),
-            nn: nn.clone(),
-        }],
-        gp,
-        nn,
-    })
 }

@@ -24,9 +24,10 @@ use crate::wrench::{Axis, AxisSet};
 
 /// The `format` field of every model file.
 pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
-/// The model-file version this build writes and reads (2: the GP of an axis
-/// is tagged exact or sparse).
-pub const MODEL_VERSION: u32 = 2;
+/// The model-file version this build writes (2: the GP of an axis is tagged
+/// exact or sparse; 3: an adapted model holds the model it was adapted
+/// from). It reads versions 2 and 3.
+pub const MODEL_VERSION: u32 = 3;
 
 /// Errors saving, loading or using a model.
 #[derive(Debug, thiserror::Error)]
@@ -57,7 +58,7 @@ pub enum ModelError {
         found: String,
     },
     /// A model-file version this build cannot read.
-    #[error("{path}: model file version {found}, this build reads version {MODEL_VERSION}")]
+    #[error("{path}: model file version {found}, this build reads versions 2 to {MODEL_VERSION}")]
     UnsupportedVersion {
         /// File path.
         path: String,
@@ -87,6 +88,14 @@ pub enum ModelError {
         expected: usize,
         /// Features given.
         found: usize,
+    },
+    /// Adaptation data whose features or axes are not the base model's.
+    #[error("cannot adapt: the base model has features {base:?}, the data {data:?}")]
+    AdaptMismatch {
+        /// The base model's features and axes.
+        base: String,
+        /// The data's.
+        data: String,
     },
     /// Training or rebuilding a GP failed.
     #[error(transparent)]
@@ -123,6 +132,26 @@ struct AxisModel<G> {
     gp: G,
 }
 
+/// Where an adapted model came from (`adapt`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptedFrom {
+    /// The base model file, as given.
+    pub model: String,
+    /// The recordings it was adapted with, as given.
+    pub data: Vec<String>,
+    /// Seconds of adaptation data (rows / 100 Hz).
+    pub seconds: f64,
+}
+
+/// An adapted model's base: its estimate is the prior mean of the GPs.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Prior<G> {
+    from: AdaptedFrom,
+    base: Box<ModelFile<G>>,
+}
+
 /// The model file; `G` is [`Gp`] once checked, [`GpData`] as parsed.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -135,21 +164,73 @@ struct ModelFile<G> {
     input: Standardizer,
     n_train: usize,
     outputs: Vec<AxisModel<G>>,
+    #[serde(default = "no_prior", skip_serializing_if = "Option::is_none")]
+    prior: Option<Prior<G>>,
 }
 
-impl<G> ModelFile<G> {
-    /// The same file with other outputs.
-    fn with_outputs<H>(self, outputs: Vec<AxisModel<H>>) -> ModelFile<H> {
-        ModelFile {
-            format: self.format,
-            version: self.version,
-            features: self.features,
-            axes: self.axes,
-            tare: self.tare,
-            input: self.input,
-            n_train: self.n_train,
-            outputs,
+fn no_prior<G>() -> Option<Prior<G>> {
+    None
+}
+
+impl ModelFile<Gp> {
+    fn workspace(&self) -> EstimatorWorkspace {
+        let largest = self.outputs.iter().max_by_key(|o| o.gp.size());
+        EstimatorWorkspace {
+            z: vec![0.0; self.features.len()],
+            gp: largest.map_or_else(|| GpWorkspace::new(0, 0), |o| o.gp.workspace()),
+            prior: self.prior.as_ref().map(|p| {
+                Box::new((
+                    p.base.workspace(),
+                    vec![Estimate::default(); p.base.outputs.len()],
+                ))
+            }),
         }
+    }
+
+    /// [`WrenchGp::predict_one`] once the feature count is checked.
+    fn predict_one(
+        &self,
+        features: &[f64],
+        ws: &mut EstimatorWorkspace,
+        with_std: bool,
+        out: &mut [Estimate],
+    ) {
+        self.input
+            .transform_into(ndarray::ArrayView1::from(features), &mut ws.z);
+        // Sequential on purpose: a thread pool would halve the latency of the
+        // variance but allocates now and then (tests/predict_no_alloc.rs).
+        for (o, e) in self.outputs.iter().zip(out.iter_mut()) {
+            let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
+            e.mean = m * o.target_scale + o.target_mean;
+            e.std = v.sqrt() * o.target_scale;
+        }
+        // The prior mean: the base's estimate (same features and axes, checked
+        // on load), into scratch allocated with the workspace.
+        if let (Some(p), Some((pws, pout))) = (&self.prior, ws.prior.as_deref_mut()) {
+            p.base.predict_one(features, pws, false, pout);
+            for (e, b) in out.iter_mut().zip(pout.iter()) {
+                e.mean += b.mean;
+            }
+        }
+    }
+
+    /// [`WrenchGp::predict`] once the feature count is checked.
+    fn predict(&self, x: ArrayView2<f64>, with_std: bool) -> (Array2<f64>, Array2<f64>) {
+        let z: Vec<f64> = self.input.transform(x).iter().copied().collect();
+        let (n, k) = (x.nrows(), self.outputs.len());
+        let mut mean = Array2::zeros((n, k));
+        let mut std = Array2::zeros((n, k));
+        for (j, o) in self.outputs.iter().enumerate() {
+            let (m, v) = o.gp.predict(&z, with_std);
+            for i in 0..n {
+                mean[[i, j]] = m[i] * o.target_scale + o.target_mean;
+                std[[i, j]] = v[i].sqrt() * o.target_scale;
+            }
+        }
+        if let Some(p) = &self.prior {
+            mean += &p.base.predict(x, false).0;
+        }
+        (mean, std)
     }
 }
 
@@ -163,6 +244,7 @@ pub struct WrenchGp(ModelFile<Gp>);
 pub struct EstimatorWorkspace {
     z: Vec<f64>,
     gp: GpWorkspace,
+    prior: Option<Box<(EstimatorWorkspace, Vec<Estimate>)>>,
 }
 
 impl WrenchGp {
@@ -228,7 +310,45 @@ impl WrenchGp {
             input,
             n_train: data.len(),
             outputs,
+            prior: None,
         }))
+    }
+
+    /// Adapts `self` to another sensor unit, session or person from a short
+    /// recording `data` (features tared as `tare` says): GPs on what the
+    /// recording's reference differs from this model's estimate, with this
+    /// model's estimate as their prior mean. Where the recording says
+    /// nothing new, the adapted model estimates as this one does.
+    pub fn adapt(
+        &self,
+        data: &Dataset,
+        tare: TareSpec,
+        from: AdaptedFrom,
+        params: &ValidGpParams,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<Self, ModelError> {
+        if data.features != self.0.features || data.axes != self.0.axes {
+            return Err(ModelError::AdaptMismatch {
+                base: format!("{:?}, axes {}", self.0.features, self.0.axes),
+                data: format!("{:?}, axes {}", data.features, data.axes),
+            });
+        }
+        let (base_mean, _) = self.predict(data.x.view(), false)?;
+        let residual = Dataset {
+            y: &data.y - &base_mean,
+            ..data.clone()
+        };
+        let mut adapted = Self::train(&residual, tare, params, progress)?;
+        adapted.0.prior = Some(Prior {
+            from,
+            base: Box::new(self.0.clone()),
+        });
+        Ok(adapted)
+    }
+
+    /// What the model was adapted from, when it was (`adapt`).
+    pub fn adapted_from(&self) -> Option<&AdaptedFrom> {
+        self.0.prior.as_ref().map(|p| &p.from)
     }
 
     /// Feature names, in input order.
@@ -259,16 +379,14 @@ impl WrenchGp {
 
     /// Scratch for [`WrenchGp::predict_one`].
     pub fn workspace(&self) -> EstimatorWorkspace {
-        let largest = self.0.outputs.iter().max_by_key(|o| o.gp.size());
-        EstimatorWorkspace {
-            z: vec![0.0; self.0.features.len()],
-            gp: largest.map_or_else(|| GpWorkspace::new(0, 0), |o| o.gp.workspace()),
-        }
+        self.0.workspace()
     }
 
     /// Estimates every axis from one row of tared features, without
     /// allocating. `with_std = false` skips the variance (std = 0), which
     /// costs O(n^2) per axis for the exact GP and O(m^2) for the sparse one.
+    /// An adapted model's std is that of its own GPs: how far the row is
+    /// from what the adaptation recording covered.
     pub fn predict_one(
         &self,
         features: &[f64],
@@ -282,16 +400,7 @@ impl WrenchGp {
                 found: features.len(),
             });
         }
-        self.0
-            .input
-            .transform_into(ndarray::ArrayView1::from(features), &mut ws.z);
-        // Sequential on purpose: a thread pool would halve the latency of the
-        // variance but allocates now and then (tests/predict_no_alloc.rs).
-        for (o, e) in self.0.outputs.iter().zip(out.iter_mut()) {
-            let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
-            e.mean = m * o.target_scale + o.target_mean;
-            e.std = v.sqrt() * o.target_scale;
-        }
+        self.0.predict_one(features, ws, with_std, out);
         Ok(())
     }
 
@@ -307,18 +416,7 @@ impl WrenchGp {
                 found: x.ncols(),
             });
         }
-        let z: Vec<f64> = self.0.input.transform(x).iter().copied().collect();
-        let (n, k) = (x.nrows(), self.0.outputs.len());
-        let mut mean = Array2::zeros((n, k));
-        let mut std = Array2::zeros((n, k));
-        for (j, o) in self.0.outputs.iter().enumerate() {
-            let (m, v) = o.gp.predict(&z, with_std);
-            for i in 0..n {
-                mean[[i, j]] = m[i] * o.target_scale + o.target_mean;
-                std[[i, j]] = v[i].sqrt() * o.target_scale;
-            }
-        }
-        Ok((mean, std))
+        Ok(self.0.predict(x, with_std))
     }
 
     /// Writes the model file.
@@ -351,7 +449,7 @@ impl WrenchGp {
             });
         }
         let version = value.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
-        if version != u64::from(MODEL_VERSION) {
+        if !(2..=u64::from(MODEL_VERSION)).contains(&version) {
             return Err(ModelError::UnsupportedVersion {
                 path: p,
                 found: version,
@@ -362,69 +460,99 @@ impl WrenchGp {
                 path: p.clone(),
                 source,
             })?;
-        Self::from_file(file, &p)
-    }
-
-    fn from_file(mut file: ModelFile<GpData>, path: &str) -> Result<Self, ModelError> {
-        let bad = |what: String| {
-            Err(ModelError::Inconsistent {
-                path: path.into(),
-                what,
-            })
-        };
-        let d = file.features.len();
-        if file.input.dim() != d
-            || file.input.scale.len() != d
-            || file.tare.mean_baseline.len() != d
-        {
-            return bad(format!(
-                "{d} features, but {} input means, {} input scales and {} tare baselines",
-                file.input.dim(),
-                file.input.scale.len(),
-                file.tare.mean_baseline.len()
-            ));
-        }
-        let axes: Vec<Axis> = file.outputs.iter().map(|o| o.axis).collect();
-        if axes != file.axes.axes() {
-            return bad(format!("axes {} but outputs for {axes:?}", file.axes));
-        }
-        let mut outputs = Vec::with_capacity(file.outputs.len());
-        for o in std::mem::take(&mut file.outputs) {
-            if o.gp.dim() != d {
-                return bad(format!(
-                    "axis {}: GP of dimension {}, expected {d}",
-                    o.axis,
-                    o.gp.dim()
-                ));
-            }
-            if !(o.target_scale > 0.0 && o.target_scale.is_finite() && o.target_mean.is_finite()) {
-                return bad(format!(
-                    "axis {}: target scale {} / mean {}",
-                    o.axis, o.target_scale, o.target_mean
-                ));
-            }
-            outputs.push(AxisModel {
-                axis: o.axis,
-                target_mean: o.target_mean,
-                target_scale: o.target_scale,
-                fit: o.fit,
-                gp: Gp::try_from(o.gp)?,
-            });
-        }
-        Ok(WrenchGp(file.with_outputs(outputs)))
+        Ok(WrenchGp(checked(file, &p)?))
     }
 }
 
-/// A model fitted with the default settings and one restart (quick), for tests.
+/// The file's GPs rebuilt, and its parts checked against each other (an
+/// adapted model's base too).
+fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, ModelError> {
+    let bad = |what: String| {
+        Err(ModelError::Inconsistent {
+            path: path.into(),
+            what,
+        })
+    };
+    let d = file.features.len();
+    if file.input.dim() != d || file.input.scale.len() != d || file.tare.mean_baseline.len() != d {
+        return bad(format!(
+            "{d} features, but {} input means, {} input scales and {} tare baselines",
+            file.input.dim(),
+            file.input.scale.len(),
+            file.tare.mean_baseline.len()
+        ));
+    }
+    let axes: Vec<Axis> = file.outputs.iter().map(|o| o.axis).collect();
+    if axes != file.axes.axes() {
+        return bad(format!("axes {} but outputs for {axes:?}", file.axes));
+    }
+    let prior = match file.prior.take() {
+        None => None,
+        Some(Prior { from, base }) => {
+            let base = checked(*base, path)?;
+            if base.features != file.features || base.axes != file.axes {
+                return bad(format!(
+                    "adapted from a model of features {:?} and axes {}, but has {:?} and {}",
+                    base.features, base.axes, file.features, file.axes
+                ));
+            }
+            Some(Prior {
+                from,
+                base: Box::new(base),
+            })
+        }
+    };
+    let mut outputs = Vec::with_capacity(file.outputs.len());
+    for o in std::mem::take(&mut file.outputs) {
+        if o.gp.dim() != d {
+            return bad(format!(
+                "axis {}: GP of dimension {}, expected {d}",
+                o.axis,
+                o.gp.dim()
+            ));
+        }
+        if !(o.target_scale > 0.0 && o.target_scale.is_finite() && o.target_mean.is_finite()) {
+            return bad(format!(
+                "axis {}: target scale {} / mean {}",
+                o.axis, o.target_scale, o.target_mean
+            ));
+        }
+        outputs.push(AxisModel {
+            axis: o.axis,
+            target_mean: o.target_mean,
+            target_scale: o.target_scale,
+            fit: o.fit,
+            gp: Gp::try_from(o.gp)?,
+        });
+    }
+    Ok(ModelFile {
+        format: file.format,
+        version: file.version,
+        features: file.features,
+        axes: file.axes,
+        tare: file.tare,
+        input: file.input,
+        n_train: file.n_train,
+        outputs,
+        prior,
+    })
+}
+
+/// The default settings with one restart (quick), for tests.
 #[cfg(test)]
-pub(crate) fn quick_fit(data: &Dataset, tare: TareSpec) -> WrenchGp {
-    let params = super::gp::GpParams {
+pub(crate) fn quick_params() -> ValidGpParams {
+    super::gp::GpParams {
         restarts: 1,
         ..Default::default()
     }
     .validate()
-    .expect("default GP parameters");
-    WrenchGp::train(data, tare, &params, &mut |_, _| {}).expect("a small test model fits")
+    .expect("default GP parameters")
+}
+
+/// A model fitted with [`quick_params`], for tests.
+#[cfg(test)]
+pub(crate) fn quick_fit(data: &Dataset, tare: TareSpec) -> WrenchGp {
+    WrenchGp::train(data, tare, &quick_params(), &mut |_, _| {}).expect("a small test model fits")
 }
 
 #[cfg(test)]
@@ -432,23 +560,26 @@ mod tests {
     use super::*;
     use ndarray::Array2;
 
-    fn small_model() -> WrenchGp {
+    fn small_model_data() -> Dataset {
         let n = 40;
         let x = Array2::from_shape_fn((n, 3), |(i, j)| ((i * 7 + j * 3) % 11) as f64 - 5.0);
         let y = Array2::from_shape_fn((n, 2), |(i, j)| x[[i, 0]] * (j as f64 + 1.0) + x[[i, 1]]);
-        let data = Dataset {
+        Dataset {
             features: vec!["e1".into(), "e2".into(), "e3".into()],
             x,
             axes: "fx,fz".parse().unwrap(),
             y,
             set: vec![1; n],
             trial: vec![1; n],
-        };
+        }
+    }
+
+    fn small_model() -> WrenchGp {
         let tare = TareSpec {
             samples: 5,
             mean_baseline: vec![1.0, 2.0, 3.0],
         };
-        quick_fit(&data, tare)
+        quick_fit(&small_model_data(), tare)
     }
 
     fn load_text(text: &str) -> Result<WrenchGp, ModelError> {
@@ -484,6 +615,65 @@ mod tests {
     }
 
     #[test]
+    fn an_adapted_model_adds_a_correction_to_its_base_and_loads_back() {
+        let base = small_model();
+        let mut data = Dataset {
+            // Another unit: the base's targets plus an offset growing with e1.
+            y: base.predict(small_model_data().x.view(), false).unwrap().0,
+            ..small_model_data()
+        };
+        for (i, mut row) in data.y.rows_mut().into_iter().enumerate() {
+            row += 0.5 * data.x[[i, 0]];
+        }
+        let from = AdaptedFrom {
+            model: "base.json".into(),
+            data: vec!["new.csv".into()],
+            seconds: 0.4,
+        };
+        let tare = base.tare().clone();
+        let adapted = base
+            .adapt(
+                &data,
+                tare.clone(),
+                from.clone(),
+                &quick_params(),
+                &mut |_, _| {},
+            )
+            .unwrap();
+        assert_eq!(adapted.adapted_from(), Some(&from));
+        let x = [2.0, -1.0, 1.0];
+        let (mut b, mut a) = ([Estimate::default(); 2], [Estimate::default(); 2]);
+        base.predict_one(&x, &mut base.workspace(), true, &mut b)
+            .unwrap();
+        adapted
+            .predict_one(&x, &mut adapted.workspace(), true, &mut a)
+            .unwrap();
+        for (a, b) in a.iter().zip(&b) {
+            assert!((a.mean - b.mean - 0.5 * x[0]).abs() < 0.1, "{a:?} {b:?}");
+        }
+        // The batch prediction agrees with the single one.
+        let (batch, _) = adapted.predict(ndarray::aview2(&[x]), false).unwrap();
+        assert!((batch[[0, 1]] - a[1].mean).abs() < 1e-9);
+        let f = tempfile::NamedTempFile::new().unwrap();
+        adapted.save(f.path()).unwrap();
+        let back = WrenchGp::load(f.path()).unwrap();
+        let mut c = [Estimate::default(); 2];
+        back.predict_one(&x, &mut back.workspace(), true, &mut c)
+            .unwrap();
+        assert_eq!(a, c);
+        assert_eq!(back.adapted_from(), Some(&from));
+
+        let other = Dataset {
+            features: vec!["e1".into(), "e2".into(), "pdc".into()],
+            ..data
+        };
+        let err = base
+            .adapt(&other, tare, from, &quick_params(), &mut |_, _| {})
+            .unwrap_err();
+        assert!(matches!(err, ModelError::AdaptMismatch { .. }), "{err}");
+    }
+
+    #[test]
     fn broken_model_files_give_clear_errors() {
         let json = serde_json::to_string(&small_model()).unwrap();
         let err = load_text(&json[..json.len() / 2]).unwrap_err();
@@ -493,7 +683,7 @@ mod tests {
         let err = load_text("{\"format\": \"something else\"}").unwrap_err();
         assert!(matches!(err, ModelError::WrongFormat { .. }), "{err}");
 
-        let v1 = json.replace("\"version\":2", "\"version\":1");
+        let v1 = json.replace("\"version\":3", "\"version\":1");
         let err = load_text(&v1).unwrap_err();
         assert!(
             matches!(err, ModelError::UnsupportedVersion { found: 1, .. }),

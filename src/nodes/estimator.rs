@@ -5,8 +5,8 @@
 
 use serde::Deserialize;
 
+use crate::biotac::reading::Column;
 use crate::biotac::{BioTacReading, Tare};
-use crate::learn::dataset::electrode_columns;
 use crate::learn::default_model::Recipe;
 use crate::learn::model::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
 use crate::wrench::Wrench;
@@ -78,8 +78,11 @@ impl Dropped {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum EstimatorError {
-    /// The model was trained on other features than the 19 electrodes.
-    #[error("the model's features are {found:?}; this node feeds the 19 electrodes e1..e19")]
+    /// The model takes a feature that is not a BioTac channel.
+    #[error(
+        "the model's features are {found:?}; this node feeds BioTac channels: e1..e19, pdc, \
+         pac_mean, tdc, tac"
+    )]
     Features {
         /// The model's features.
         found: Vec<String>,
@@ -96,6 +99,8 @@ pub enum EstimatorError {
 #[derive(Debug, Clone)]
 pub struct EstimatorNode {
     model: WrenchGp,
+    columns: Vec<Column>,
+    features: Vec<f64>,
     ws: EstimatorWorkspace,
     with_std: bool,
     tare_samples: usize,
@@ -110,16 +115,21 @@ pub struct EstimatorNode {
 impl EstimatorNode {
     /// A node for `model`; `with_std = false` skips the variance (cheaper).
     pub fn new(model: WrenchGp, with_std: bool) -> Result<Self, EstimatorError> {
-        if model.features() != electrode_columns().as_slice() {
-            return Err(EstimatorError::Features {
+        let columns = model
+            .features()
+            .iter()
+            .map(|f| Column::from_name(f))
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| EstimatorError::Features {
                 found: model.features().to_vec(),
-            });
-        }
+            })?;
         let tare_samples = match model.tare().samples {
             0 => DEFAULT_TARE_SAMPLES,
             n => n,
         };
         Ok(EstimatorNode {
+            features: vec![0.0; columns.len()],
+            columns,
             ws: model.workspace(),
             out: vec![Estimate::default(); model.axes().len()],
             model,
@@ -228,9 +238,11 @@ impl EstimatorNode {
             }
             return Ok(None);
         };
-        let features = tare.tared(r);
+        for (f, c) in self.features.iter_mut().zip(&self.columns) {
+            *f = tare.tared_column(*c, r);
+        }
         self.model
-            .predict_one(&features, &mut self.ws, self.with_std, &mut self.out)?;
+            .predict_one(&self.features, &mut self.ws, self.with_std, &mut self.out)?;
         let mut mean = Wrench::default();
         let mut std = Wrench::default();
         let mut estimated = [false; 6];
@@ -253,7 +265,7 @@ impl EstimatorNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::dataset::Dataset;
+    use crate::learn::dataset::{electrode_columns, Dataset};
     use crate::learn::model::TareSpec;
     use ndarray::Array2;
 
@@ -325,5 +337,42 @@ mod tests {
         let after = restarted.on_received(&pressed, 5.0).unwrap();
         assert_eq!(after.mean, before.mean);
         assert!(before.mean.force.z > 3.0, "{:?}", before.mean);
+    }
+
+    /// A model on `features`, fz = the first feature / 100.
+    fn model_on(features: &[&str]) -> WrenchGp {
+        let n = 30;
+        let d = features.len();
+        let x = Array2::from_shape_fn((n, d), |(i, j)| ((i * 7 + j * 3) % 11) as f64 * 10.0);
+        let y = Array2::from_shape_fn((n, 1), |(i, _)| x[[i, 0]] / 100.0);
+        let data = Dataset {
+            features: features.iter().map(|f| f.to_string()).collect(),
+            x,
+            axes: "fz".parse().unwrap(),
+            y,
+            set: vec![1; n],
+            trial: vec![1; n],
+        };
+        let tare = TareSpec {
+            samples: 3,
+            mean_baseline: vec![0.0; d],
+        };
+        crate::learn::model::quick_fit(&data, tare)
+    }
+
+    #[test]
+    fn models_on_other_channels_are_fed_those_channels_tared() {
+        let mut node = EstimatorNode::new(model_on(&["pdc", "e1"]), false).unwrap();
+        for i in 0..3 {
+            node.on_received(&reading(i as f64, 0), i as f64);
+        }
+        // PDC 50 counts above its tare: about 0.5 N.
+        let e = node.on_received(&reading(5.0, 50), 5.0).unwrap();
+        assert!((e.mean.force.z - 0.5).abs() < 0.1, "{:?}", e.mean);
+        let err = EstimatorNode::new(model_on(&["pdc", "pressure"]), false).unwrap_err();
+        assert!(
+            err.to_string().contains("\"pressure\"]; this node feeds"),
+            "{err}"
+        );
     }
 }

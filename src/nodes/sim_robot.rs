@@ -61,8 +61,8 @@ pub struct SimRobotParams {
     pub ft_noise_n: f64,
     /// F/T noise per physics step, torques (Nm, std).
     pub ft_noise_nm: f64,
-    /// The simulated BioTac is the unit that `collect --seed N` records.
-    pub sensor_unit_seed: u64,
+    /// The simulated BioTac unit, numbered as `collect --unit` numbers them.
+    pub sensor_unit: u64,
     /// Length of a run (s).
     pub duration_s: f64,
     /// Jitter of the control period: each period lasts a uniformly drawn
@@ -125,7 +125,7 @@ pub struct SimRobot {
 
 impl SimRobot {
     /// Checks the parameters and builds the world at rest; `seed` drives
-    /// every noise (F/T and BioTac), the BioTac unit is `sensor_unit_seed`'s.
+    /// every noise (F/T and BioTac), the BioTac is unit `sensor_unit` (as `collect --unit` numbers them).
     pub fn new(
         p: SimRobotParams,
         robot: Robot,
@@ -195,7 +195,7 @@ impl SimRobot {
         let pad_tool = SurfacePoint::at(p.contact_x_mm, 0.0).point_mm * 1e-3;
         let normal = start.rotation * Vector3::z();
         let plane0 = start * nalgebra::Point3::from(pad_tool) - normal * p.object_gap_mm * 1e-3;
-        let mut biotac = BioTacSim::new(sensor, unit_seed(p.sensor_unit_seed));
+        let mut biotac = BioTacSim::new(sensor, unit_seed(p.sensor_unit));
         biotac.reseed_noise(seed);
         let steps = ratio.round() as usize;
         Ok(SimRobot {

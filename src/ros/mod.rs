@@ -255,7 +255,7 @@ pub fn describe_shared(name: &str) -> &'static str {
         "finger_path" => "The guided move's finger path (wait/push/circle lines).",
         "ft_noise_n" => "F/T noise per physics step, forces (N, std).",
         "ft_noise_nm" => "F/T noise per physics step, torques (Nm, std).",
-        "sensor_unit_seed" => "The simulated BioTac unit.",
+        "sensor_unit" => "The simulated BioTac unit.",
         "duration_s" => "Length of a simulated run (s); the node keeps running after it.",
         "with_std" => {
             "Publish the posterior std (the out-of-range check reads it); false: mean only."

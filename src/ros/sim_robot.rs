@@ -107,7 +107,7 @@ pub async fn run() -> Result<(), RosError> {
     tracing::info!(
         "object {}, BioTac unit {}, noise seed {seed}, period {} s, {}",
         p.object,
-        p.sensor_unit_seed,
+        p.sensor_unit,
         p.control_period_s,
         if sim_time {
             format!("simulated time on /clock, {speed}x real time")
@@ -115,7 +115,7 @@ pub async fn run() -> Result<(), RosError> {
             "system time".to_string()
         }
     );
-    let p_unit = p.sensor_unit_seed;
+    let p_unit = p.sensor_unit;
     let mut sim = SimRobot::new(p, robot, &BioTacSimConfig::default(), seed)?;
 
     let joints = node.create_publisher::<JointStateMsg>("joint_states", QosProfile::default())?;

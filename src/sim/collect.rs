@@ -103,6 +103,19 @@ pub struct FtNoiseStd {
     pub torque_nm: [f64; 3],
 }
 
+/// What changes between two sessions of the same unit (`protocol.session`):
+/// each drawn once per session.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionParams {
+    /// Shift of every contact along the axis after re-mounting (mm), range.
+    pub mount_offset_x_mm: [f64; 2],
+    /// Rotation of every contact about +x after re-mounting (deg), range.
+    pub mount_offset_angle_deg: [f64; 2],
+    /// Relative change of the electrodes' response to contact (1 +- this).
+    pub sensitivity_spread: f64,
+}
+
 /// The protocol parameters as written in the `protocol:` section.
 /// Validate them with [`ProtocolParams::validate`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -128,6 +141,8 @@ pub struct ProtocolParams {
     pub tdc_drift_per_trial_counts: f64,
     /// Std of the F/T reference noise per axis.
     pub ft_noise_std: FtNoiseStd,
+    /// What differs between sessions of one unit.
+    pub session: SessionParams,
     /// The four sets.
     pub sets: SetSpecs,
 }
@@ -165,6 +180,7 @@ impl ProtocolParams {
             ("protocol.ft_noise_std.torque_nm[0]", t[0], 0.0, 10.0),
             ("protocol.ft_noise_std.torque_nm[1]", t[1], 0.0, 10.0),
             ("protocol.ft_noise_std.torque_nm[2]", t[2], 0.0, 10.0),
+            ("protocol.session.sensitivity_spread", self.session.sensitivity_spread, 0.0, 0.5),
         ];
         for (key, value, min, max) in values {
             check_value(key, value, min, max)?;
@@ -174,6 +190,8 @@ impl ProtocolParams {
         let ranges = [
             ("protocol.contact_x_mm", self.contact_x_mm, -30.0, SKIN_RADIUS_MM),
             ("protocol.contact_angle_deg", self.contact_angle_deg, -90.0, 90.0),
+            ("protocol.session.mount_offset_x_mm", self.session.mount_offset_x_mm, -10.0, 10.0),
+            ("protocol.session.mount_offset_angle_deg", self.session.mount_offset_angle_deg, -45.0, 45.0),
         ];
         for (key, range, min, max) in ranges {
             check_range(key, range, min, max)?;
@@ -250,6 +268,15 @@ impl CollectConfig {
         &self.params
     }
 
+    /// The same protocol with `trials` trials per set (at least 1).
+    pub fn with_trials(&self, trials: u32) -> Result<Self, ConfigError> {
+        ProtocolParams {
+            trials_per_set: trials,
+            ..self.params.clone()
+        }
+        .validate()
+    }
+
     /// Samples per trial: `round(trial_duration_s * rate_hz)`.
     pub fn samples_per_trial(&self) -> usize {
         (self.params.trial_duration_s * self.params.rate_hz).round() as usize
@@ -294,9 +321,9 @@ struct TrialPlan {
 }
 
 impl TrialPlan {
-    fn sample(p: &ProtocolParams, set: &SetSpec, rng: &mut impl Rng) -> Self {
-        let x_mm = uniform(rng, p.contact_x_mm);
-        let angle_rad = uniform(rng, p.contact_angle_deg).to_radians();
+    fn sample(p: &ProtocolParams, set: &SetSpec, mount: &Mount, rng: &mut impl Rng) -> Self {
+        let x_mm = uniform(rng, p.contact_x_mm) + mount.x_mm;
+        let angle_rad = (uniform(rng, p.contact_angle_deg) + mount.angle_deg).to_radians();
         let n = set.pushes as usize;
         let durations: Vec<f64> = (0..n).map(|_| uniform(rng, set.push_duration_s)).collect();
         // n + 1 rests (after the tare, between pushes, at the end) share the slack.
@@ -362,27 +389,51 @@ impl TrialPlan {
     }
 }
 
-/// The seed of the simulated BioTac unit that `collect(.., seed)` records:
-/// a model trained on those data fits `BioTacSim::new(config, unit_seed(seed))`.
-pub fn unit_seed(seed: u64) -> u64 {
-    ChaCha8Rng::seed_from_u64(seed).random()
+/// How the finger sits in its mount in one session.
+#[derive(Debug, Clone, Copy)]
+struct Mount {
+    x_mm: f64,
+    angle_deg: f64,
 }
 
-/// Runs the protocol on one simulated BioTac unit: sets 1..=4, trials
-/// 1..=`trials_per_set`, `samples_per_trial` rows each, in that order.
+/// The seed of simulated BioTac unit `unit`: `collect(.., unit, ..)`
+/// records `BioTacSim::new(config, unit_seed(unit))`.
+pub fn unit_seed(unit: u64) -> u64 {
+    ChaCha8Rng::seed_from_u64(unit).random()
+}
+
+/// Runs the protocol on simulated BioTac unit `unit` in session `session`:
+/// sets 1..=4, trials 1..=`trials_per_set`, `samples_per_trial` rows each,
+/// in that order.
+///
+/// The unit fixes the sensor's constants (per-electrode gains and thermal
+/// baselines, PDC/PAC/TAC baselines: `sensor:` in the config). The session
+/// draws, once, the temperature at its start, the mount (every contact
+/// shifted and rotated by `protocol.session`'s offsets) and the electrodes'
+/// sensitivity; then the pushes of every trial and all noise.
 ///
 /// Each record holds the time since the trial start, the reading, and the
 /// F/T reference: the true contact wrench ([`Contact::wrench`], about the
 /// BioTac origin, in the BioTac frame) plus per-axis Gaussian noise of
 /// [`CollectConfig::ft_noise_std`]. The temperature rises by
-/// `tdc_drift_per_trial_counts` per trial, linearly within a trial. Everything
-/// is determined by `seed`.
-pub fn collect(config: &CollectConfig, sim_config: &BioTacSimConfig, seed: u64) -> Vec<Record> {
+/// `tdc_drift_per_trial_counts` per trial, linearly within a trial.
+pub fn collect(
+    config: &CollectConfig,
+    sim_config: &BioTacSimConfig,
+    unit: u64,
+    session: u64,
+) -> Vec<Record> {
     let p = &config.params;
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    // The first draw of the stream is the unit: see `unit_seed`.
-    let mut sim = BioTacSim::new(sim_config, rng.random());
-    let tdc0 = sim.temperature();
+    let mut sim = BioTacSim::new(sim_config, unit_seed(unit));
+    let mut rng = ChaCha8Rng::seed_from_u64(session);
+    sim.reseed_noise(rng.random());
+    let tdc0 = uniform(&mut rng, sim_config.params().tdc.initial_counts);
+    let spread = p.session.sensitivity_spread;
+    sim.set_sensitivity(uniform(&mut rng, [1.0 - spread, 1.0 + spread]));
+    let mount = Mount {
+        x_mm: uniform(&mut rng, p.session.mount_offset_x_mm),
+        angle_deg: uniform(&mut rng, p.session.mount_offset_angle_deg),
+    };
     let dt = 1.0 / p.rate_hz;
     let n = config.samples_per_trial();
     let noise = config.ft_noise_std();
@@ -390,7 +441,7 @@ pub fn collect(config: &CollectConfig, sim_config: &BioTacSimConfig, seed: u64) 
     let mut trial_index = 0.0;
     for (set, _, spec) in p.sets.numbered() {
         for trial in 1..=p.trials_per_set {
-            let plan = TrialPlan::sample(p, spec, &mut rng);
+            let plan = TrialPlan::sample(p, spec, &mount, &mut rng);
             for k in 0..n {
                 let t = k as f64 * dt;
                 let progress = trial_index + t / p.trial_duration_s;
@@ -452,19 +503,57 @@ mod tests {
         );
     }
 
+    /// Mean electrode values and TDC over the tare window of the first trial.
+    fn first_baselines(records: &[Record], n: usize) -> ([f64; 19], f64) {
+        let mean = |f: &dyn Fn(&Record) -> f64| records[..n].iter().map(f).sum::<f64>() / n as f64;
+        let e = std::array::from_fn(|i| mean(&|r| f64::from(r.reading.electrodes[i])));
+        (e, mean(&|r| f64::from(r.reading.tdc)))
+    }
+
     #[test]
-    fn unit_seed_names_the_unit_collect_records() {
-        let (c, s) = (CollectConfig::default(), BioTacSimConfig::default());
-        let first = collect(&c, &s, 5)[0].reading;
-        let mut unit = BioTacSim::new(&s, unit_seed(5));
-        // Same unit and noise stream: the first out-of-contact frame matches.
-        assert_eq!(unit.step(None, 0.01).electrodes, first.electrodes);
+    fn the_unit_fixes_the_sensor_and_the_session_the_day() {
+        let c = CollectConfig::default().with_trials(1).expect("valid");
+        let s = BioTacSimConfig::default();
+        let n = c.params().tare_samples as usize;
+        let largest_gap = |unit: u64, records: &[Record]| {
+            let (measured, tdc) = first_baselines(records, n);
+            let mut sim = BioTacSim::new(&s, unit_seed(unit));
+            sim.set_temperature(tdc);
+            let expected = sim.electrode_baselines();
+            (0..19)
+                .map(|i| (measured[i] - expected[i]).abs())
+                .fold(0.0, f64::max)
+        };
+        let (day1, day2) = (collect(&c, &s, 5, 1), collect(&c, &s, 5, 2));
+        // Unit 5's baselines, within the noise of a 50-sample mean, on any day.
+        assert!(largest_gap(5, &day1) < 3.0, "{}", largest_gap(5, &day1));
+        assert!(largest_gap(5, &day2) < 3.0, "{}", largest_gap(5, &day2));
+        assert!(largest_gap(6, &day1) > 20.0, "unit 6 is another sensor");
+        // Another day: another temperature, other pushes.
+        assert!((first_baselines(&day1, n).1 - first_baselines(&day2, n).1).abs() > 1.0);
+        assert!(day1[500].wrench != day2[500].wrench);
+        assert!(
+            collect(&c, &s, 5, 1) == day1,
+            "same unit and session, same records"
+        );
+    }
+
+    #[test]
+    fn trials_shortens_the_protocol_and_refuses_zero() {
+        let c = CollectConfig::default();
+        let one = c.with_trials(1).expect("valid");
+        assert_eq!(one.params().trials_per_set, 1);
+        // Four sets of one 20 s trial: 80 s.
+        let records = collect(&one, &BioTacSimConfig::default(), 1, 1);
+        assert_eq!(records.len(), 4 * 2000);
+        let e = c.with_trials(0).expect_err("no trial").to_string();
+        assert!(e.contains("protocol.trials_per_set = 0"), "{e}");
     }
 
     #[test]
     fn collect_is_4_sets_of_10_trials_of_2000_rows_and_deterministic() {
         let (c, s) = (CollectConfig::default(), BioTacSimConfig::default());
-        let a = collect(&c, &s, 42);
+        let a = collect(&c, &s, 1, 42);
         assert_eq!(a.len(), 4 * 10 * 2000);
         for set in 1..=4 {
             for t in 1..=10 {
@@ -474,8 +563,8 @@ mod tests {
                 assert!((rows[1999].t - 19.99).abs() < 1e-9);
             }
         }
-        assert!(a == collect(&c, &s, 42), "same seed, same records");
-        let b = collect(&c, &s, 43);
+        assert!(a == collect(&c, &s, 1, 42), "same seed, same records");
+        let b = collect(&c, &s, 1, 43);
         assert!(a[0].reading != b[0].reading && a[500].wrench != b[500].wrench);
     }
 
@@ -483,10 +572,12 @@ mod tests {
     fn each_set_pushes_mainly_along_its_axis_within_the_configured_bounds() {
         let c = CollectConfig::default();
         let p = c.params();
-        let records = collect(&c, &BioTacSimConfig::default(), 7);
+        let records = collect(&c, &BioTacSimConfig::default(), 1, 7);
         let slack = 5.0 * 0.02;
-        // The contact angle tilts the normal by at most 4 deg into y.
-        let tilt = p.contact_angle_deg[1].to_radians().sin();
+        // The contact angle and the mount tilt the normal by at most 7 deg into y.
+        let tilt = (p.contact_angle_deg[1] + p.session.mount_offset_angle_deg[1])
+            .to_radians()
+            .sin();
         for (set, name, spec) in p.sets.numbered() {
             let max = |axis: Axis| {
                 records
@@ -517,7 +608,7 @@ mod tests {
     fn trials_start_with_tare_samples_and_end_out_of_contact() {
         let c = noise_free_reference();
         let config = BioTacSimConfig::default();
-        let records = collect(&c, &config, 3);
+        let records = collect(&c, &config, 1, 3);
         let tare_n = c.params().tare_samples as usize;
         let noise = config.params().electrodes.noise_counts;
         for set in 1..=4 {
@@ -546,7 +637,13 @@ mod tests {
     fn reference_torque_is_r_cross_f_for_a_point_on_the_pad() {
         let c = noise_free_reference();
         let p = c.params();
-        let records = collect(&c, &BioTacSimConfig::default(), 5);
+        let records = collect(&c, &BioTacSimConfig::default(), 1, 5);
+        let m = &p.session;
+        let (x0, x1) = (
+            p.contact_x_mm[0] + m.mount_offset_x_mm[0],
+            p.contact_x_mm[1] + m.mount_offset_x_mm[1],
+        );
+        let angle_max = p.contact_angle_deg[1] + m.mount_offset_angle_deg[1];
         let mut checked = 0;
         for r in records.iter().filter(|r| r.wrench.force.norm() > 0.5) {
             let (f, tau) = (r.wrench.force, r.wrench.torque * 1e3); // torque in N mm
@@ -571,11 +668,8 @@ mod tests {
                     }
                 });
             let angle = hit.y.atan2(-hit.z).to_degrees();
-            assert!(
-                hit.x > p.contact_x_mm[0] - 1e-6 && hit.x < p.contact_x_mm[1] + 1e-6,
-                "{hit:?}"
-            );
-            assert!(angle.abs() <= p.contact_angle_deg[1] + 1e-6, "{angle}");
+            assert!(hit.x > x0 - 1e-6 && hit.x < x1 + 1e-6, "{hit:?}");
+            assert!(angle.abs() <= angle_max + 1e-6, "{angle}");
             checked += 1;
         }
         assert!(checked > 40_000, "{checked} rows in contact");
@@ -586,9 +680,13 @@ mod tests {
         let c = CollectConfig::default();
         let p = c.params();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mount = Mount {
+            x_mm: 1.0,
+            angle_deg: -3.0,
+        };
         for (_, _, spec) in p.sets.numbered() {
             for _ in 0..50 {
-                let plan = TrialPlan::sample(p, spec, &mut rng);
+                let plan = TrialPlan::sample(p, spec, &mount, &mut rng);
                 let last = plan.pushes.last().expect("pushes >= 1");
                 assert!(last.start_s + last.duration_s <= p.trial_duration_s - p.min_rest_s + 1e-9);
                 assert!(plan.pushes[0].start_s >= 0.5 + p.min_rest_s - 1e-9);

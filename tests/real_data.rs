@@ -1,0 +1,83 @@
+//! A real BioTac recording (`../shared/data/biotac_foam_bar_real.csv`, see
+//! the README there: a Shadow hand's BioTac pressing a foam bar three
+//! times, with a reference F/T sensor): leave one press out, fz, features
+//! and forces tared per press on its first 50 rows. The file is found next
+//! to the repository, or at `TACTILE_FORCE_REAL_DATA`.
+
+use std::path::PathBuf;
+
+use tactile_force::learn::dataset::{channel_columns, Channel, Dataset};
+use tactile_force::learn::evaluate::{cross_validate, EvalOptions};
+use tactile_force::learn::gp::GpParams;
+use tactile_force::learn::model::TareSpec;
+use tactile_force::wrench::{Axis, AxisSet, FrameTransform, Wrench};
+
+fn recording() -> PathBuf {
+    let path = std::env::var_os("TACTILE_FORCE_REAL_DATA").map_or_else(
+        || {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../shared/data/biotac_foam_bar_real.csv")
+        },
+        PathBuf::from,
+    );
+    assert!(
+        path.exists(),
+        "{}: the real BioTac recording is missing; set TACTILE_FORCE_REAL_DATA to its path",
+        path.display()
+    );
+    path
+}
+
+/// Per press and overall: (RMSE, R2) of the GP on fz, each press tested on
+/// a model of the other two.
+fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
+    let features = channel_columns(channels);
+    let mut ds = Dataset::read_csv(&recording(), &features, &AxisSet::forces()).unwrap();
+    // The F/T sensor presses along its -z; the BioTac frame has the press along +z.
+    let to_biotac: FrameTransform = "180,0,0,0,0,0".parse().unwrap();
+    let fz: Vec<f64> =
+        ds.y.rows()
+            .into_iter()
+            .map(|f| {
+                to_biotac
+                    .apply(&Wrench::new([f[0], f[1], f[2]].into(), Default::default()))
+                    .force
+                    .z
+            })
+            .collect();
+    ds.y = ndarray::Array2::from_shape_vec((fz.len(), 1), fz).unwrap();
+    ds.axes = "fz".parse().unwrap();
+    let mean_baseline = ds.tare_per_trial(50).unwrap();
+    let tare = TareSpec {
+        samples: 50,
+        mean_baseline,
+    };
+    let opts = EvalOptions {
+        max_train: 2000,
+        gp: GpParams::default().validate().unwrap(),
+        nn: None,
+        seed: 0,
+    };
+    let eval = cross_validate(&ds, 3, &tare, &opts, &mut |_| {}).unwrap();
+    let fig = |s: &tactile_force::learn::evaluate::Scores| (s.rmse[&Axis::Fz], s.r2[&Axis::Fz]);
+    (
+        eval.folds.iter().map(|f| fig(&f.gp)).collect(),
+        fig(&eval.gp),
+    )
+}
+
+#[test]
+fn electrodes_with_pdc_estimate_every_press_of_a_real_biotac() {
+    let (presses, (rmse, r2)) = leave_one_press_out(&[Channel::Electrodes, Channel::Pdc]);
+    println!("electrodes + pdc: per press {presses:?}, overall RMSE {rmse:.4} N, R2 {r2:.4}");
+    assert_eq!(presses.len(), 3);
+    assert!(rmse <= 0.03, "RMSE {rmse} N");
+    for (k, (_, r2)) in presses.iter().enumerate() {
+        assert!(*r2 >= 0.99, "press {}: R2 {r2}", k + 1);
+    }
+    // The electrodes alone miss the press that goes beyond the others (the
+    // third): why PDC is in the default features.
+    let (presses, (rmse_e, _)) = leave_one_press_out(&[Channel::Electrodes]);
+    println!("electrodes: per press {presses:?}, overall RMSE {rmse_e:.4} N");
+    assert!(presses[2].1 < 0.97 && rmse_e > 2.0 * rmse, "{presses:?}");
+}
