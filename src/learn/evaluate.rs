@@ -211,15 +211,16 @@ pub fn leave_one_session_out(
     if sessions.len() < 2 {
         return Err(EvalError::Folds(sessions.len()));
     }
-    let splits = (0..sessions.len()).map(|i| {
-        let others: Vec<&Dataset> = (0..sessions.len())
-            .filter(|&j| j != i)
-            .map(|j| &sessions[j])
+    let mut splits = Vec::with_capacity(sessions.len());
+    for (i, test) in sessions.iter().enumerate() {
+        let others: Vec<&Dataset> = (sessions.iter().enumerate())
+            .filter_map(|(j, s)| (j != i).then_some(s))
             .collect();
-        let train = Dataset::concat(&others).unwrap_or_else(|| sessions[i].clone());
-        (train, vec![sessions[i].clone()])
-    });
-    evaluate_splits(splits, sessions.len(), tare, opts, progress)
+        let train = Dataset::concat(&others)
+            .ok_or_else(|| EvalError::Mismatch("the sessions differ in features or axes".into()))?;
+        splits.push((train, vec![test.clone()]));
+    }
+    evaluate_splits(splits.into_iter(), sessions.len(), tare, opts, progress)
 }
 
 /// Trains once on `train` and scores on each test set (each a session,
