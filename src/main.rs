@@ -24,6 +24,7 @@ use tactile_force::learn::evaluate::{
 use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
 use tactile_force::learn::model::{AdaptedFrom, TareSpec, WrenchGp};
 use tactile_force::learn::nn::NnParams;
+use tactile_force::learn::scale::InputScaling;
 use tactile_force::sim::collect::{collect, CollectConfig};
 use tactile_force::wrench::{Axis, AxisSet, FrameTransform, Wrench};
 
@@ -91,6 +92,11 @@ struct FitArgs {
     /// data (README, "Sensor units and sessions").
     #[arg(long, value_delimiter = ',', default_value = "electrodes,pdc")]
     channels: Vec<Channel>,
+    /// How the tared features reach the GP: standard (each standardised),
+    /// raw (counts as they are) or pattern (the electrodes over their norm,
+    /// plus the norm; then standardised).
+    #[arg(long, default_value = "standard")]
+    input: InputScaling,
     /// Largest training set of the exact GP (a subset beyond it, see --subset): time grows as n^3.
     #[arg(long, default_value_t = 2000)]
     max_train: usize,
@@ -430,7 +436,7 @@ fn run_train(a: TrainArgs) -> Result<()> {
     let params = gp_params(&a.fit)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
-    let model = WrenchGp::train(&ds, tare, &params, &mut |axis, p| {
+    let model = WrenchGp::train_scaled(&ds, tare, a.fit.input, &params, &mut |axis, p| {
         show(&bar, Progress::Gp(axis, p))
     })?;
     let fit_s = t0.elapsed().as_secs_f64();
@@ -505,6 +511,7 @@ fn run_eval(a: EvalArgs) -> Result<()> {
         return run_score(model, &a.test, &a.fit.source, a.json);
     }
     let opts = EvalOptions {
+        scaling: a.fit.input,
         max_train: a.fit.max_train,
         gp: gp_params(&a.fit)?,
         nn: if a.no_nn {

@@ -53,6 +53,7 @@ fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
         mean_baseline,
     };
     let opts = EvalOptions {
+        scaling: Default::default(),
         max_train: 2000,
         gp: GpParams::default().validate().unwrap(),
         nn: None,

@@ -144,7 +144,7 @@ fn demo_model(path: Option<&Path>, recipe: &Recipe) -> Result<WrenchGp> {
     let (model, origin) = default_model::load_or_train(recipe, &mut || {
         eprintln!(
             "no --model given: training the default model of the scene ({}) on \
-             simulated data (collect --seed {}), once; this takes about 10-20 s",
+             simulated data (collect --unit {1} --seed {1}), once; this takes about 10-20 s",
             recipe.describe(),
             default_model::DATA_SEED,
         )

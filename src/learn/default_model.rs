@@ -1,5 +1,5 @@
 //! The default estimator for the demos: trained on first use from simulated
-//! data (`collect --seed 1` on the shipped sensor model) with the recipe the
+//! data (`collect --unit 1 --seed 1` on the shipped sensor model) with the recipe the
 //! scene names (`wrench_estimator: default_model:` in config/guarded_move.yaml
 //! and config/guided_move.yaml: the task's axes and the GP) and cached, so the
 //! demos work on a fresh machine without a `train` step.

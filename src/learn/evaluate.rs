@@ -16,6 +16,7 @@ use super::gp::ValidGpParams;
 use super::metrics::{r2_columns, rmse_columns};
 use super::model::{ModelError, TareSpec, WrenchGp};
 use super::nn::{Mlp, NnError, ValidNnParams};
+use super::scale::InputScaling;
 use crate::wrench::{Axis, AxisSet};
 
 /// Errors of an evaluation.
@@ -53,6 +54,8 @@ pub struct EvalOptions {
     pub max_train: usize,
     /// GP options.
     pub gp: ValidGpParams,
+    /// How the GP's inputs are presented.
+    pub scaling: InputScaling,
     /// Network options; `None` skips the network.
     pub nn: Option<ValidNnParams>,
     /// Seed of the training subsets.
@@ -152,7 +155,7 @@ fn fit_and_predict(
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let train = train.random_rows(opts.max_train, &mut rng);
     let t0 = Instant::now();
-    let gp = WrenchGp::train(&train, tare.clone(), &opts.gp, &mut |a, p| {
+    let gp = WrenchGp::train_scaled(&train, tare.clone(), opts.scaling, &opts.gp, &mut |a, p| {
         progress(Progress::Gp(a, p))
     })?;
     let gp_fit_s = t0.elapsed().as_secs_f64();

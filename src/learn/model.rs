@@ -19,7 +19,8 @@ use std::sync::Mutex;
 use super::dataset::Dataset;
 use super::gp::fit::FitProgress;
 use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, ValidGpParams};
-use super::scale::Standardizer;
+use super::scale::{InputScaling, Standardizer};
+use crate::biotac::reading::Column;
 use crate::wrench::{Axis, AxisSet};
 
 /// The `format` field of every model file.
@@ -161,11 +162,23 @@ struct ModelFile<G> {
     features: Vec<String>,
     axes: AxisSet,
     tare: TareSpec,
+    /// How the tared features are presented (absent in files before it: standard).
+    #[serde(default)]
+    scaling: InputScaling,
     input: Standardizer,
     n_train: usize,
     outputs: Vec<AxisModel<G>>,
     #[serde(default = "no_prior", skip_serializing_if = "Option::is_none")]
     prior: Option<Prior<G>>,
+    /// Which features are electrodes (for the pattern), from their names.
+    #[serde(skip)]
+    electrode: Vec<bool>,
+}
+
+/// Which of `features` are electrodes.
+fn electrode_mask(features: &[String]) -> Vec<bool> {
+    let is_electrode = |f: &String| matches!(Column::from_name(f), Some(Column::Electrode(_)));
+    features.iter().map(is_electrode).collect()
 }
 
 fn no_prior<G>() -> Option<Prior<G>> {
@@ -176,7 +189,8 @@ impl ModelFile<Gp> {
     fn workspace(&self) -> EstimatorWorkspace {
         let largest = self.outputs.iter().max_by_key(|o| o.gp.size());
         EstimatorWorkspace {
-            z: vec![0.0; self.features.len()],
+            represented: vec![0.0; self.input.dim()],
+            z: vec![0.0; self.input.dim()],
             gp: largest.map_or_else(|| GpWorkspace::new(0, 0), |o| o.gp.workspace()),
             prior: self.prior.as_ref().map(|p| {
                 Box::new((
@@ -195,8 +209,11 @@ impl ModelFile<Gp> {
         with_std: bool,
         out: &mut [Estimate],
     ) {
+        let row = ndarray::ArrayView1::from(features);
+        self.scaling
+            .represent_into(&self.electrode, row, &mut ws.represented);
         self.input
-            .transform_into(ndarray::ArrayView1::from(features), &mut ws.z);
+            .transform_into(ndarray::ArrayView1::from(&ws.represented), &mut ws.z);
         // Sequential on purpose: a thread pool would halve the latency of the
         // variance but allocates now and then (tests/predict_no_alloc.rs).
         for (o, e) in self.outputs.iter().zip(out.iter_mut()) {
@@ -216,7 +233,13 @@ impl ModelFile<Gp> {
 
     /// [`WrenchGp::predict`] once the feature count is checked.
     fn predict(&self, x: ArrayView2<f64>, with_std: bool) -> (Array2<f64>, Array2<f64>) {
-        let z: Vec<f64> = self.input.transform(x).iter().copied().collect();
+        let represented = self.scaling.represent(&self.electrode, x);
+        let z: Vec<f64> = self
+            .input
+            .transform(represented.view())
+            .iter()
+            .copied()
+            .collect();
         let (n, k) = (x.nrows(), self.outputs.len());
         let mut mean = Array2::zeros((n, k));
         let mut std = Array2::zeros((n, k));
@@ -242,18 +265,30 @@ pub struct WrenchGp(ModelFile<Gp>);
 /// Scratch for [`WrenchGp::predict_one`], allocated once per estimator.
 #[derive(Debug, Clone)]
 pub struct EstimatorWorkspace {
+    represented: Vec<f64>,
     z: Vec<f64>,
     gp: GpWorkspace,
     prior: Option<Box<(EstimatorWorkspace, Vec<Estimate>)>>,
 }
 
 impl WrenchGp {
-    /// Trains one GP per axis of `data` (features already tared), the axes
-    /// in parallel. `progress` is told the axis and the fit's progress after
-    /// every evaluation.
+    /// Trains one GP per axis of `data` (features already tared, presented
+    /// standardised), the axes in parallel. `progress` is told the axis and
+    /// the fit's progress after every evaluation.
     pub fn train(
         data: &Dataset,
         tare: TareSpec,
+        params: &ValidGpParams,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<Self, ModelError> {
+        Self::train_scaled(data, tare, InputScaling::Standard, params, progress)
+    }
+
+    /// [`WrenchGp::train`] with the features presented as `scaling` says.
+    pub fn train_scaled(
+        data: &Dataset,
+        tare: TareSpec,
+        scaling: InputScaling,
         params: &ValidGpParams,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
@@ -273,9 +308,12 @@ impl WrenchGp {
                 .into());
             }
         }
-        let input = Standardizer::fit(data.x.view());
-        let z = input.transform(data.x.view());
+        let electrode = electrode_mask(&data.features);
+        let represented = scaling.represent(&electrode, data.x.view());
+        let input = scaling.fit(represented.view());
+        let z = input.transform(represented.view());
         let x: Vec<f64> = z.iter().copied().collect();
+        let d = input.dim();
         let targets = Standardizer::fit(data.y.view());
         let progress = Mutex::new(progress);
         let outputs = data
@@ -307,10 +345,12 @@ impl WrenchGp {
             features: data.features.clone(),
             axes: data.axes.clone(),
             tare,
+            scaling,
             input,
             n_train: data.len(),
             outputs,
             prior: None,
+            electrode,
         }))
     }
 
@@ -338,7 +378,7 @@ impl WrenchGp {
             y: &data.y - &base_mean,
             ..data.clone()
         };
-        let mut adapted = Self::train(&residual, tare, params, progress)?;
+        let mut adapted = Self::train_scaled(&residual, tare, self.0.scaling, params, progress)?;
         adapted.0.prior = Some(Prior {
             from,
             base: Box::new(self.0.clone()),
@@ -473,10 +513,16 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
             what,
         })
     };
-    let d = file.features.len();
-    if file.input.dim() != d || file.input.scale.len() != d || file.tare.mean_baseline.len() != d {
+    let electrode = electrode_mask(&file.features);
+    let d = file.scaling.dim(&electrode);
+    if file.input.dim() != d
+        || file.input.scale.len() != d
+        || file.tare.mean_baseline.len() != file.features.len()
+    {
         return bad(format!(
-            "{d} features, but {} input means, {} input scales and {} tare baselines",
+            "{} features ({d} inputs, {:?}), but {} input means, {} input scales and {} tare baselines",
+            file.features.len(),
+            file.scaling,
             file.input.dim(),
             file.input.scale.len(),
             file.tare.mean_baseline.len()
@@ -531,10 +577,12 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         features: file.features,
         axes: file.axes,
         tare: file.tare,
+        scaling: file.scaling,
         input: file.input,
         n_train: file.n_train,
         outputs,
         prior,
+        electrode,
     })
 }
 
@@ -671,6 +719,46 @@ mod tests {
             .adapt(&other, tare, from, &quick_params(), &mut |_, _| {})
             .unwrap_err();
         assert!(matches!(err, ModelError::AdaptMismatch { .. }), "{err}");
+    }
+
+    #[test]
+    fn a_pattern_model_predicts_the_same_after_loading_and_checks_its_inputs() {
+        let data = small_model_data();
+        let tare = TareSpec {
+            samples: 5,
+            mean_baseline: vec![0.0; 3],
+        };
+        let model = WrenchGp::train_scaled(
+            &data,
+            tare,
+            InputScaling::Pattern,
+            &quick_params(),
+            &mut |_, _| {},
+        )
+        .unwrap();
+        // Three electrodes: the pattern and its magnitude, four inputs.
+        assert!(model.fits().all(|(_, gp, _)| gp.dim() == 4));
+        let f = tempfile::NamedTempFile::new().unwrap();
+        model.save(f.path()).unwrap();
+        let back = WrenchGp::load(f.path()).unwrap();
+        let x = [3.0, -2.0, 1.0];
+        let (mut a, mut b) = ([Estimate::default(); 2], [Estimate::default(); 2]);
+        model
+            .predict_one(&x, &mut model.workspace(), true, &mut a)
+            .unwrap();
+        back.predict_one(&x, &mut back.workspace(), true, &mut b)
+            .unwrap();
+        assert_eq!(a, b);
+        let (batch, _) = back.predict(ndarray::aview2(&[x]), false).unwrap();
+        assert!((batch[[0, 0]] - a[0].mean).abs() < 1e-9);
+        // The same file said to be standardised: three features, four inputs.
+        let json = std::fs::read_to_string(f.path()).unwrap();
+        let err = load_text(&json.replace("\"scaling\":\"pattern\"", "\"scaling\":\"standard\""));
+        let err = err.unwrap_err().to_string();
+        assert!(
+            err.contains("3 features (3 inputs, Standard), but 4 input means"),
+            "{err}"
+        );
     }
 
     #[test]

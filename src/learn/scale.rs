@@ -71,6 +71,95 @@ impl Standardizer {
     }
 }
 
+/// Norm of the tared electrodes below which the pattern is not normalised
+/// (counts): about 6x the norm of the electrode noise out of contact (19
+/// electrodes at ~2 counts std, config/biotac_sim.yaml), so that noise is not
+/// blown up into a full-size pattern.
+pub const PATTERN_FLOOR_COUNTS: f64 = 50.0;
+
+/// How tared features are presented to the GP (`train --input`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InputScaling {
+    /// Each feature standardised with the training set's mean and spread.
+    #[default]
+    Standard,
+    /// The tared counts as they are (one length-scale in counts).
+    Raw,
+    /// The electrodes as a pattern `e / max(|e|, floor)` plus its magnitude
+    /// `|e|` as one more feature (last), the other channels as they are;
+    /// then standardised. A change of the electrodes' common sensitivity
+    /// moves only the magnitude.
+    Pattern,
+}
+
+impl std::str::FromStr for InputScaling {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "standard" => Ok(InputScaling::Standard),
+            "raw" => Ok(InputScaling::Raw),
+            "pattern" => Ok(InputScaling::Pattern),
+            other => Err(format!(
+                "unknown input scaling {other:?}: expected standard, raw or pattern"
+            )),
+        }
+    }
+}
+
+impl InputScaling {
+    /// Columns of the GP's input for features of which `electrode[j]` says
+    /// which are electrodes.
+    pub fn dim(self, electrode: &[bool]) -> usize {
+        let magnitude = self == InputScaling::Pattern && electrode.contains(&true);
+        electrode.len() + usize::from(magnitude)
+    }
+
+    /// The representation of one row of tared features, into `out` (of
+    /// length [`InputScaling::dim`]); without allocating.
+    pub fn represent_into(self, electrode: &[bool], row: ArrayView1<f64>, out: &mut [f64]) {
+        for (o, v) in out.iter_mut().zip(row) {
+            *o = *v;
+        }
+        if self != InputScaling::Pattern || !electrode.contains(&true) {
+            return;
+        }
+        let norm = (row.iter().zip(electrode))
+            .filter(|(_, &e)| e)
+            .map(|(v, _)| v * v)
+            .sum::<f64>()
+            .sqrt();
+        let divisor = norm.max(PATTERN_FLOOR_COUNTS);
+        for (o, _) in out.iter_mut().zip(electrode).filter(|(_, &e)| e) {
+            *o /= divisor;
+        }
+        out[electrode.len()] = norm;
+    }
+
+    /// [`InputScaling::represent_into`] for every row of `x`.
+    pub fn represent(self, electrode: &[bool], x: ArrayView2<f64>) -> Array2<f64> {
+        let mut out = Array2::zeros((x.nrows(), self.dim(electrode)));
+        for (row, mut o) in x.rows().into_iter().zip(out.rows_mut()) {
+            if let Some(o) = o.as_slice_mut() {
+                self.represent_into(electrode, row, o);
+            }
+        }
+        out
+    }
+
+    /// The standardisation fitted on represented training inputs `z`: the
+    /// identity for raw counts.
+    pub fn fit(self, z: ArrayView2<f64>) -> Standardizer {
+        match self {
+            InputScaling::Raw => Standardizer {
+                mean: vec![0.0; z.ncols()],
+                scale: vec![1.0; z.ncols()],
+            },
+            InputScaling::Standard | InputScaling::Pattern => Standardizer::fit(z),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -89,5 +178,39 @@ mod tests {
         }
         assert!(z.column(1).iter().all(|&v| v == 0.0));
         assert!((s.inverse(0, z[[2, 0]]) - 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_pattern_is_the_electrodes_over_their_norm_plus_the_norm() {
+        let electrode = [true, true, false];
+        let p = InputScaling::Pattern;
+        assert_eq!(p.dim(&electrode), 4);
+        let mut out = [0.0; 4];
+        p.represent_into(&electrode, ndarray::aview1(&[-60.0, -80.0, 7.0]), &mut out);
+        assert_eq!(out, [-0.6, -0.8, 7.0, 100.0]);
+        // Twice the sensitivity: the same pattern, twice the magnitude.
+        p.represent_into(
+            &electrode,
+            ndarray::aview1(&[-120.0, -160.0, 7.0]),
+            &mut out,
+        );
+        assert_eq!(out, [-0.6, -0.8, 7.0, 200.0]);
+        // Noise out of contact stays small.
+        p.represent_into(&electrode, ndarray::aview1(&[3.0, -4.0, 0.0]), &mut out);
+        assert_eq!(out, [0.06, -0.08, 0.0, 5.0]);
+        // Without electrodes, or raw: the features as they are.
+        assert_eq!(p.dim(&[false]), 1);
+        let raw = InputScaling::Raw.represent(&electrode, ndarray::aview2(&[[1.0, 2.0, 3.0]]));
+        assert_eq!(raw, ndarray::aview2(&[[1.0, 2.0, 3.0]]));
+        let identity = InputScaling::Raw.fit(raw.view());
+        assert_eq!(
+            (identity.mean, identity.scale),
+            (vec![0.0; 3], vec![1.0; 3])
+        );
+        assert_eq!("pattern".parse::<InputScaling>(), Ok(InputScaling::Pattern));
+        assert!("whitened"
+            .parse::<InputScaling>()
+            .unwrap_err()
+            .contains("expected standard"));
     }
 }
