@@ -18,7 +18,7 @@ use tactile_force::runtime::demo::{
 };
 use tactile_force::runtime::{Pacing, Scene};
 
-use crate::progress_bar;
+use super::output::progress_bar;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum DemoTask {

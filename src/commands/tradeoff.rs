@@ -13,7 +13,8 @@ use tactile_force::learn::tradeoff::{pareto_front, tradeoff, Row, TradeoffOption
 use tactile_force::report::plot;
 use tactile_force::wrench::AxisSet;
 
-use crate::{axis_headers, axis_scores, load_pooled, progress_bar, SourceArgs};
+use super::data::{load_pooled, SourceArgs};
+use super::output::{axis_headers, axis_scores, progress_bar};
 
 #[derive(Args)]
 pub struct TradeoffArgs {

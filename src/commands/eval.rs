@@ -1,0 +1,145 @@
+//! `eval`: cross-validation, train/test per session, leave one session
+//! out, or a saved model scored.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Args;
+
+use tactile_force::learn::dataset::{channel_columns, Dataset};
+use tactile_force::learn::evaluate::{
+    cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
+    FoldScores,
+};
+use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::nn::NnParams;
+
+use super::data::{load_pooled, load_sessions, SourceArgs};
+use super::output::{file_labels, print_table, progress_bar, show};
+use super::train::{gp_params, FitArgs};
+
+#[derive(Args)]
+pub(crate) struct EvalArgs {
+    /// Data for trial-wise k-fold cross-validation.
+    #[arg(long, conflicts_with_all = ["train", "test", "model", "sessions"], required_unless_present_any = ["train", "model", "sessions"])]
+    data: Option<PathBuf>,
+    /// Number of folds (per set, consecutive blocks of trials are held out).
+    #[arg(long, default_value_t = 5)]
+    folds: usize,
+    /// Training files, comma-separated: each a session, tared on its own (with --test).
+    #[arg(long, value_delimiter = ',', requires = "test", conflicts_with_all = ["model", "sessions"])]
+    train: Vec<PathBuf>,
+    /// Test files, comma-separated, scored one by one (with --train or --model).
+    #[arg(long, value_delimiter = ',')]
+    test: Vec<PathBuf>,
+    /// Leave one session out: each file, comma-separated, tested on a model
+    /// trained on the others.
+    #[arg(long, value_delimiter = ',', conflicts_with_all = ["test", "model"])]
+    sessions: Vec<PathBuf>,
+    /// A trained model file to score on --test (no training; GP only).
+    #[arg(long, requires = "test")]
+    model: Option<PathBuf>,
+    /// Skip the baseline network.
+    #[arg(long)]
+    no_nn: bool,
+    /// Print the result as one JSON object on the last line.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
+    if let Some(model) = &a.model {
+        return run_score(model, &a.test, &a.fit.source, a.json);
+    }
+    let opts = EvalOptions {
+        scaling: a.fit.input,
+        max_train: a.fit.max_train,
+        gp: gp_params(&a.fit)?,
+        nn: if a.no_nn {
+            None
+        } else {
+            Some(NnParams::default().validate()?)
+        },
+        seed: a.fit.seed,
+    };
+    let bar = progress_bar();
+    let mut on_progress = |p| show(&bar, p);
+    let (features, axes, n) = (
+        channel_columns(&a.fit.channels),
+        &a.fit.axes,
+        a.fit.tare_samples,
+    );
+    let (eval, labels) = if let Some(data) = &a.data {
+        let (ds, tare) = load_pooled(
+            std::slice::from_ref(data),
+            &features,
+            axes,
+            n,
+            &a.fit.source,
+        )?;
+        let eval = cross_validate(&ds, a.folds, &tare, &opts, &mut on_progress)?;
+        let labels = (1..=a.folds).map(|f| f.to_string()).collect();
+        (eval, labels)
+    } else if !a.sessions.is_empty() {
+        if a.sessions.len() < 2 {
+            anyhow::bail!("--sessions needs at least two files (one is left out in turn)");
+        }
+        let (sessions, tare) = load_sessions(&a.sessions, &features, axes, n, &a.fit.source)?;
+        let eval = leave_one_session_out(&sessions, &tare, &opts, &mut on_progress)?;
+        (eval, file_labels(&a.sessions))
+    } else if !a.train.is_empty() && !a.test.is_empty() {
+        let (train, tare) = load_pooled(&a.train, &features, axes, n, &a.fit.source)?;
+        let (tests, _) = load_sessions(&a.test, &features, axes, n, &a.fit.source)?;
+        let eval = train_test(&train, &tests, &tare, &opts, &mut on_progress)?;
+        (eval, file_labels(&a.test))
+    } else {
+        anyhow::bail!(
+            "give --data FILE, --train FILES --test FILES, --sessions FILES, or --model FILE --test FILES"
+        )
+    };
+    bar.finish_and_clear();
+    print_table(&a.fit.axes, &eval, &labels);
+    if a.json {
+        println!("{}", serde_json::to_string(&eval)?);
+    }
+    Ok(())
+}
+
+pub(crate) fn run_score(
+    model: &Path,
+    tests: &[PathBuf],
+    source: &SourceArgs,
+    json: bool,
+) -> Result<()> {
+    let model = WrenchGp::load(model)?;
+    let (sessions, _) = load_sessions(
+        tests,
+        model.features(),
+        model.axes(),
+        model.tare().samples,
+        source,
+    )?;
+    let refs: Vec<&Dataset> = sessions.iter().collect();
+    let pooled = Dataset::concat(&refs).context("give --test FILES")?;
+    let mut folds = Vec::with_capacity(sessions.len());
+    for (i, ds) in sessions.iter().enumerate() {
+        folds.push(FoldScores {
+            fold: i + 1,
+            n_test: ds.len(),
+            gp: score_model(&model, ds)?,
+            nn: None,
+        });
+    }
+    let eval = Evaluation {
+        folds,
+        gp: score_model(&model, &pooled)?,
+        nn: None,
+    };
+    print_table(model.axes(), &eval, &file_labels(tests));
+    if json {
+        println!("{}", serde_json::to_string(&eval)?);
+    }
+    Ok(())
+}

@@ -1,0 +1,102 @@
+//! What the learning subcommands print: the progress line and score tables.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
+use tactile_force::wrench::{Axis, AxisSet};
+
+pub(crate) fn progress_bar() -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(120));
+    bar
+}
+
+pub(crate) fn show(bar: &ProgressBar, p: Progress) {
+    match p {
+        Progress::Fold(f, k) => bar.println(format!("fold {f}/{k}")),
+        Progress::Gp(axis, g) => bar.set_message(format!(
+            "GP {axis}: start {}, {} likelihood evaluations, -log p(y)/n = {:.4}",
+            g.start + 1,
+            g.evaluations,
+            g.neg_lml_per_sample
+        )),
+        Progress::Nn => bar.set_message("neural network: training"),
+    }
+}
+
+/// The "RMSE R2" column headers of a score table, one pair per axis.
+pub(crate) fn axis_headers(axes: &AxisSet) -> String {
+    let cols: Vec<String> = axes
+        .axes()
+        .iter()
+        .map(|a| format!("{:>9} {:>7}", format!("{a} RMSE"), "R2"))
+        .collect();
+    cols.join("  ")
+}
+
+/// One row's RMSE and R2 under [`axis_headers`].
+pub(crate) fn axis_scores(
+    axes: &AxisSet,
+    rmse: &BTreeMap<Axis, f64>,
+    r2: &BTreeMap<Axis, f64>,
+) -> String {
+    let vals: Vec<String> = axes
+        .axes()
+        .iter()
+        .map(|a| format!("{:>9.4} {:>7.4}", rmse[a], r2[a]))
+        .collect();
+    vals.join("  ")
+}
+
+/// The files' names without directory and extension: a table's row labels.
+pub(crate) fn file_labels(paths: &[PathBuf]) -> Vec<String> {
+    paths
+        .iter()
+        .map(|p| {
+            p.file_stem()
+                .map_or_else(|| p.display().to_string(), |s| s.to_string_lossy().into())
+        })
+        .collect()
+}
+
+/// The scores per fold (labelled by `labels`, e.g. session files) and overall.
+pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) {
+    let width = labels.iter().map(String::len).max().unwrap_or(0).max(8);
+    println!(
+        "{:<width$} {:<5} {}  {:>8} {:>7}",
+        "fold",
+        "model",
+        axis_headers(axes),
+        "fit s",
+        "n_train"
+    );
+    let row = |fold: &str, model: &str, s: &Scores| {
+        println!(
+            "{fold:<width$} {model:<5} {}  {:>8.2} {:>7}",
+            axis_scores(axes, &s.rmse, &s.r2),
+            s.fit_s,
+            s.n_train
+        );
+    };
+    if eval.folds.len() > 1 {
+        for (f, label) in eval.folds.iter().zip(labels) {
+            row(label, "GP", &f.gp);
+            if let Some(nn) = &f.nn {
+                row(label, "NN", nn);
+            }
+        }
+    }
+    row("overall", "GP", &eval.gp);
+    if let Some(nn) = &eval.nn {
+        row("overall", "NN", nn);
+    }
+    println!("RMSE in N (forces) and Nm (torques); overall = all test rows pooled; fit s = mean per fold.");
+}

@@ -1,0 +1,129 @@
+//! `train`: fit the GP wrench estimator on sessions and write a model file.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+
+use tactile_force::learn::dataset::{channel_columns, Channel};
+use tactile_force::learn::evaluate::Progress;
+use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
+use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::scale::InputScaling;
+use tactile_force::wrench::AxisSet;
+
+use super::data::{load_pooled, SourceArgs};
+use super::output::{progress_bar, show};
+
+/// Options shared by `train` and `eval`.
+#[derive(Args)]
+pub(crate) struct FitArgs {
+    /// Wrench axes to learn: any subset of fx,fy,fz,tx,ty,tz.
+    #[arg(long, default_value = "fx,fy,fz")]
+    pub(crate) axes: AxisSet,
+    /// BioTac channels the model takes as features, comma-separated: any of
+    /// electrodes (e1..e19), pdc, tdc, tac; each tared per trial. The
+    /// default was chosen by leave-one-out results on simulated and real
+    /// data (README, "Sensor units and sessions").
+    #[arg(long, value_delimiter = ',', default_value = "electrodes,pdc")]
+    pub(crate) channels: Vec<Channel>,
+    /// How the tared features reach the GP: standard (each standardised),
+    /// raw (counts as they are) or pattern (the electrodes over their norm,
+    /// plus the norm; then standardised).
+    #[arg(long, default_value = "standard")]
+    pub(crate) input: InputScaling,
+    /// Largest training set of the exact GP (a subset beyond it, see --subset): time grows as n^3.
+    #[arg(long, default_value_t = 2000)]
+    pub(crate) max_train: usize,
+    /// How the exact GP's subset is chosen: random, or farthest (spread over the inputs).
+    #[arg(long, default_value = "random")]
+    pub(crate) subset: Subset,
+    /// Train a sparse GP with this many inducing points on every row instead
+    /// of the exact GP (`train` only; `eval` trains on --max-train rows).
+    #[arg(long)]
+    pub(crate) inducing: Option<usize>,
+    /// GP kernel: iso (one length-scale) or ard (one length-scale per electrode).
+    #[arg(long, default_value = "iso")]
+    pub(crate) kernel: KernelKind,
+    /// Optimiser starts of the hyperparameter fit.
+    #[arg(long, default_value_t = 3)]
+    pub(crate) restarts: usize,
+    /// Size of the random training subset each optimiser start runs on.
+    #[arg(long, default_value_t = 500)]
+    pub(crate) restart_subset: usize,
+    /// L-BFGS iterations of the polish on all points (0: keep the subset's hyperparameters).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) polish_iters: u64,
+    /// Out-of-contact rows at the start of each trial used to tare it (0: the CSV is already tared).
+    #[arg(long, default_value_t = 50)]
+    pub(crate) tare_samples: usize,
+    /// Seed of subsets and optimiser starts.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    #[command(flatten)]
+    pub(crate) source: SourceArgs,
+}
+
+#[derive(Args)]
+pub(crate) struct TrainArgs {
+    /// Training files, comma-separated: each a session, tared on its own.
+    #[arg(long, value_delimiter = ',', required = true)]
+    data: Vec<PathBuf>,
+    /// Model file to write (JSON).
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+pub(crate) fn gp_params(fit: &FitArgs) -> Result<tactile_force::learn::gp::ValidGpParams> {
+    Ok(GpParams {
+        kernel: fit.kernel,
+        restarts: fit.restarts,
+        restart_subset: fit.restart_subset,
+        polish_iters: fit.polish_iters,
+        max_train: fit.max_train,
+        subset: fit.subset,
+        inducing: fit.inducing,
+        seed: fit.seed,
+        ..GpParams::default()
+    }
+    .validate()?)
+}
+
+pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
+    let (ds, tare) = load_pooled(
+        &a.data,
+        &channel_columns(&a.fit.channels),
+        &a.fit.axes,
+        a.fit.tare_samples,
+        &a.fit.source,
+    )?;
+    let params = gp_params(&a.fit)?;
+    let bar = progress_bar();
+    let t0 = std::time::Instant::now();
+    let model = WrenchGp::train_scaled(&ds, tare, a.fit.input, &params, &mut |axis, p| {
+        show(&bar, Progress::Gp(axis, p))
+    })?;
+    let fit_s = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    model
+        .save(&a.out)
+        .with_context(|| format!("saving the model to {}", a.out.display()))?;
+    for (axis, gp, info) in model.fits() {
+        let h = gp.hyper();
+        println!(
+            "{axis}: {}, {} evaluations ({} on all points), -log p(y)/n = {:.4}, signal var {:.3}, noise var {:.2e}",
+            gp.describe(), info.evaluations, info.full_evaluations, info.neg_lml_per_sample, h.signal_var, h.noise_var
+        );
+    }
+    println!(
+        "trained {} axes ({}) on {} samples in {:.2} s; model written to {}",
+        model.axes().len(),
+        model.axes(),
+        model.n_train(),
+        fit_s,
+        a.out.display()
+    );
+    Ok(())
+}
