@@ -49,11 +49,13 @@
 #![deny(missing_docs)]
 
 pub mod biotac;
+pub mod contact;
 pub mod control;
 pub mod kinematics;
 pub mod learn;
 pub mod nodes;
 pub mod params;
+pub mod record;
 pub mod report;
 #[cfg(feature = "ros2")]
 pub mod ros;

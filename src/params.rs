@@ -5,6 +5,13 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+/// The shipped world file.
+pub const WORLD_YAML: &str = include_str!("../config/world.yaml");
+/// The shipped guarded-move scene.
+pub const GUARDED_YAML: &str = include_str!("../config/guarded_move.yaml");
+/// The shipped guided-move scene.
+pub const GUIDED_YAML: &str = include_str!("../config/guided_move.yaml");
+
 /// Errors reading a parameter file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -184,6 +191,33 @@ pub fn read_node_params<T: DeserializeOwned>(path: &Path, node: &str) -> Result<
         source,
     })?;
     node_params(&yaml, node)
+}
+
+/// `v` finite and > 0, or an error naming `key`.
+pub(crate) fn positive(key: &str, v: f64) -> Result<(), ParamsError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "a finite value > 0"))
+    }
+}
+
+/// `v` finite and >= 0, or an error naming `key`.
+pub(crate) fn non_negative(key: &str, v: f64) -> Result<(), ParamsError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "a finite value >= 0"))
+    }
+}
+
+/// The error for `key` = `v`, which is not `expected`.
+pub(crate) fn invalid(key: &str, v: f64, expected: &str) -> ParamsError {
+    ParamsError::Invalid {
+        key: key.into(),
+        value: v.to_string(),
+        expected: expected.into(),
+    }
 }
 
 #[cfg(test)]

@@ -47,8 +47,9 @@
 
 use serde::Deserialize;
 
+use crate::contact::SkinParams;
+use crate::params::positive;
 use crate::params::ParamsError;
-use crate::sim::contact::{positive, SkinParams};
 
 /// What the envelope assumes of the bodies (`force_controller.safety` in
 /// the scene files); the loop's delays are [`crate::control::LoopDelays`].

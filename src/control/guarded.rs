@@ -19,7 +19,7 @@ use serde::Deserialize;
 use super::pd::{LoopDelays, PdAxis, PdParams};
 use super::{Phase, StopReason};
 use crate::params::ParamsError;
-use crate::sim::contact::{invalid, non_negative, positive};
+use crate::params::{invalid, non_negative, positive};
 
 /// Guarded-move settings (`force_controller.guarded` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]

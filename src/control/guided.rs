@@ -13,7 +13,7 @@ use serde::Deserialize;
 use super::pd::{LoopDelays, PdAxis, PdParams};
 use super::{Phase, StopReason};
 use crate::params::ParamsError;
-use crate::sim::contact::{invalid, non_negative};
+use crate::params::{invalid, non_negative};
 
 /// Guided-move settings (`force_controller.guided` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]

@@ -16,7 +16,7 @@
 //! stable only for `a < a_max(d) = 2 sin(pi / (2 (2 d + 1)))` (architecture
 //! page, "Force control facts"). So `K = a / (k T)` with `k` the effective
 //! stiffness (the BioTac skin at the target force in series with the
-//! object, [`crate::sim::contact::series_stiffness`]) and
+//! object, [`crate::contact::series_stiffness`]) and
 //! `a = min(gain_ratio, 0.9 a_max(d))`, `d` the whole loop delay in periods
 //! ([`LoopDelays`]): the parameter (default 0.4), lowered when the loop is
 //! slower than it allows (0.4 is 0.9 a_max(3), the 30 ms of the embedded
@@ -31,7 +31,7 @@
 use serde::Deserialize;
 
 use crate::params::ParamsError;
-use crate::sim::contact::{invalid, non_negative, positive};
+use crate::params::{invalid, non_negative, positive};
 
 /// Fraction of the delay's stability bound the gain ratio may reach.
 const STABILITY_FRACTION: f64 = 0.9;

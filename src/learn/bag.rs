@@ -17,7 +17,7 @@ use nalgebra::Vector3;
 
 use crate::biotac::msg::{from_cdr, join_stamp, CdrLengths, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacReading;
-use crate::learn::dataset::Record;
+use crate::record::Record;
 use crate::wrench::Wrench;
 
 /// The ROS type name of the F/T sensor's topic.

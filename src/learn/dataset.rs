@@ -24,23 +24,9 @@ use std::path::Path;
 use ndarray::{Array2, Axis as NdAxis};
 
 use crate::biotac::reading::Column;
-use crate::biotac::{BioTacReading, N_ELECTRODES};
-use crate::wrench::{Axis, AxisSet, Wrench};
-
-/// One row of a collected data set: a reading and the reference wrench.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Record {
-    /// Time since the start of the trial (s).
-    pub t: f64,
-    /// Data set number (1 = mainly x, 2 = mainly y, 3 = mainly z, 4 = combined).
-    pub set: u32,
-    /// Trial number within the set (1-based).
-    pub trial: u32,
-    /// The raw BioTac frame.
-    pub reading: BioTacReading,
-    /// Reference wrench from the F/T sensor, in the BioTac frame (N, Nm).
-    pub wrench: Wrench,
-}
+use crate::biotac::N_ELECTRODES;
+use crate::record::Record;
+use crate::wrench::{Axis, AxisSet};
 
 /// Errors reading or writing data sets.
 #[derive(Debug, thiserror::Error)]

@@ -12,16 +12,15 @@ use nalgebra::{Isometry3, Vector3};
 use serde::Deserialize;
 
 use super::{JointState, WrenchEstimate};
+use crate::contact::{object_body, series_stiffness, shear_stiffness, BodyParams, SkinParams};
 use crate::control::guarded::GuardedInput;
 use crate::control::{
     Envelope, GuardedMove, GuardedParams, GuidedMove, GuidedParams, Halt, LoopDelays, PdParams,
     Phase, SafetyParams, StopReason, Watchdog, UNKNOWN_OBJECT,
 };
 use crate::kinematics::{joint_velocities, JointVector, Robot, RobotParams, Twist};
+use crate::params::positive;
 use crate::params::ParamsError;
-use crate::sim::contact::{
-    object_body, positive, series_stiffness, shear_stiffness, BodyParams, SkinParams,
-};
 use crate::wrench::{Axis, AxisSet};
 
 /// Which task the controller runs.

@@ -21,13 +21,13 @@ use super::JointState;
 use crate::biotac::geometry::SurfacePoint;
 use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
 use crate::biotac::BioTacReading;
+use crate::contact::{object_body, BodyParams, SkinParams};
 use crate::kinematics::{JointVector, Robot, N_JOINTS};
 use crate::params::ParamsError;
+use crate::params::{invalid, non_negative, positive};
 use crate::sim::arm::ArmPlant;
 use crate::sim::collect::unit_seed;
-use crate::sim::contact::{
-    invalid, non_negative, object_body, positive, BodyParams, PlaneContact, SkinParams,
-};
+use crate::sim::contact::PlaneContact;
 use crate::sim::finger::{FingerPath, FingerState, Segment};
 use crate::wrench::Wrench;
 

@@ -14,6 +14,9 @@ use crate::kinematics::{JointVector, N_JOINTS};
 use crate::nodes::{JointState, WrenchEstimate};
 use crate::wrench::Wrench;
 
+/// The PA10-7C's joint names (S1 S2 S3 E1 E2 W1 W2), the default of `joint_names`.
+pub const PA10_JOINTS: [&str; 7] = ["S1", "S2", "S3", "E1", "E2", "W1", "W2"];
+
 /// Why a message was refused (the adapters count these and drop the message).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]

@@ -40,6 +40,7 @@ use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 
 use super::convert::level::{OK, WARN};
+use super::convert::PA10_JOINTS;
 use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::kinematics::robot::PA10_YAML;
@@ -47,10 +48,7 @@ use crate::nodes::controller::TaskKind;
 use crate::nodes::loop_delay::LoopDelayMonitor;
 use crate::nodes::{ControlOutput, ControllerParams, ForceController};
 use crate::params::{layered_flat_params, FlatParams, ParamsError};
-use crate::runtime::scene::{GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
-
-/// The PA10-7C's joint names (S1 S2 S3 E1 E2 W1 W2), the default of `joint_names`.
-pub const PA10_JOINTS: [&str; 7] = ["S1", "S2", "S3", "E1", "E2", "W1", "W2"];
+use crate::params::{GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
 
 fn lock(s: &Mutex<Shared>) -> std::sync::MutexGuard<'_, Shared> {
     s.lock().unwrap_or_else(|e| e.into_inner())

@@ -23,7 +23,7 @@ use r2r::QosProfile;
 use serde::Deserialize;
 use std::sync::{Arc, Mutex};
 
-use super::force_controller::PA10_JOINTS;
+use super::convert::PA10_JOINTS;
 use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
@@ -33,7 +33,7 @@ use crate::kinematics::{JointVector, RobotParams};
 use crate::nodes::{JointState, SimRobot, SimRobotParams};
 use crate::params::layered_flat_params;
 use crate::params::node_params;
-use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
+use crate::params::{GUARDED_YAML, WORLD_YAML};
 
 /// The fastest simulated time: a period of 0.1 ms of wall clock at 100 Hz.
 const MAX_REAL_TIME_FACTOR: f64 = 100.0;

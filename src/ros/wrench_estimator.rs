@@ -29,7 +29,7 @@ use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::EstimatorParams;
 use crate::nodes::EstimatorNode;
 use crate::params::layered_flat_params;
-use crate::runtime::scene::{GUARDED_YAML, WORLD_YAML};
+use crate::params::{GUARDED_YAML, WORLD_YAML};
 
 fn unix_s() -> f64 {
     SystemTime::now()

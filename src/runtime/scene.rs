@@ -13,17 +13,10 @@ use crate::learn::model::WrenchGp;
 use crate::nodes::controller::TaskKind;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
-use crate::params::{layered_node_params, ParamsError};
+use crate::params::{layered_node_params, ParamsError, GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
 use crate::runtime::lockstep::Link;
 use crate::runtime::Nodes;
 use crate::wrench::AxisSet;
-
-/// The shipped world file.
-pub const WORLD_YAML: &str = include_str!("../../config/world.yaml");
-/// The shipped guarded-move scene.
-pub const GUARDED_YAML: &str = include_str!("../../config/guarded_move.yaml");
-/// The shipped guided-move scene.
-pub const GUIDED_YAML: &str = include_str!("../../config/guided_move.yaml");
 
 /// Errors building a run from a scene.
 #[derive(Debug, thiserror::Error)]

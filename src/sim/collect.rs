@@ -35,7 +35,7 @@ use crate::biotac::sim::{
     check_range, check_value, gaussian, read_config, uniform, BioTacSim, BioTacSimConfig,
     ConfigError, Contact, DEFAULT_CONFIG_YAML,
 };
-use crate::learn::dataset::Record;
+use crate::record::Record;
 use crate::wrench::Wrench;
 
 /// One set of trials (`protocol.sets.<name>`).

@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 
 use crate::params::ParamsError;
-use crate::sim::contact::{invalid, positive};
+use crate::params::{invalid, positive};
 
 /// Peak over mean speed of the minimum-jerk profile.
 const MIN_JERK_PEAK: f64 = 1.875;

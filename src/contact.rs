@@ -1,0 +1,101 @@
+//! The contact law shared by the controller (gains, safety envelope) and the
+//! simulator (sim/contact.rs integrates it): the BioTac skin
+//! `F = A (exp(x / x0) - 1)` in series with a compliant body (an object, or
+//! a person's fingertip). The modelling reasons are in sim/contact.rs.
+//!
+//! Units: metres, newtons, seconds.
+
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+
+use crate::params::{non_negative, positive, ParamsError};
+
+/// Largest exponent of the skin law (the skin has bottomed out long before).
+const MAX_SKIN_EXPONENT: f64 = 30.0;
+
+/// The BioTac skin law (`/**.skin` in the scene files).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkinParams {
+    /// Force scale A of `F = A (exp(x / x0) - 1)` (N).
+    pub force_scale_n: f64,
+    /// Length scale x0 (mm).
+    pub length_scale_mm: f64,
+    /// Shear stiffness of a stuck contact through the skin (N/m).
+    pub shear_stiffness_n_per_m: f64,
+}
+
+impl SkinParams {
+    /// Checks the values; `key` is the parameter's dotted name.
+    pub fn validate(&self, key: &str) -> Result<(), ParamsError> {
+        positive(&format!("{key}.force_scale_n"), self.force_scale_n)?;
+        positive(&format!("{key}.length_scale_mm"), self.length_scale_mm)?;
+        positive(
+            &format!("{key}.shear_stiffness_n_per_m"),
+            self.shear_stiffness_n_per_m,
+        )
+    }
+
+    /// Skin force for a compression of `x_m` metres (0 when not compressed).
+    pub fn force(&self, x_m: f64) -> f64 {
+        if x_m <= 0.0 {
+            return 0.0;
+        }
+        let e = (x_m / (self.length_scale_mm * 1e-3)).min(MAX_SKIN_EXPONENT);
+        self.force_scale_n * e.exp_m1()
+    }
+
+    /// Skin stiffness dF/dx at a force of `f` newtons (N/m).
+    pub fn stiffness_at(&self, f: f64) -> f64 {
+        (f.max(0.0) + self.force_scale_n) / (self.length_scale_mm * 1e-3)
+    }
+}
+
+/// A compliant body: an object or a fingertip.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyParams {
+    /// Normal stiffness (N/m).
+    pub stiffness_n_per_m: f64,
+    /// Normal damping (N s/m).
+    pub damping_n_s_per_m: f64,
+    /// Coulomb friction coefficient against the skin.
+    pub friction: f64,
+}
+
+impl BodyParams {
+    /// Checks the values; `key` is the parameter's dotted name.
+    pub fn validate(&self, key: &str) -> Result<(), ParamsError> {
+        positive(&format!("{key}.stiffness_n_per_m"), self.stiffness_n_per_m)?;
+        non_negative(&format!("{key}.damping_n_s_per_m"), self.damping_n_s_per_m)?;
+        non_negative(&format!("{key}.friction"), self.friction)
+    }
+}
+
+/// The checked body named `name` among `objects` (the `objects` and `object`
+/// parameters shared by the controller and the simulated robot).
+pub fn object_body(
+    objects: &BTreeMap<String, BodyParams>,
+    name: &str,
+) -> Result<BodyParams, ParamsError> {
+    let body = *objects.get(name).ok_or_else(|| ParamsError::Invalid {
+        key: "object".into(),
+        value: name.into(),
+        expected: format!("one of {:?}", objects.keys().collect::<Vec<_>>()),
+    })?;
+    body.validate(&format!("objects.{name}"))?;
+    Ok(body)
+}
+
+/// Stiffness of the skin (at force `f`) in series with `body` (N/m): the
+/// effective stiffness that sets a force controller's gain.
+pub fn series_stiffness(skin: &SkinParams, body: &BodyParams, f: f64) -> f64 {
+    1.0 / (1.0 / skin.stiffness_at(f) + 1.0 / body.stiffness_n_per_m)
+}
+
+/// Stiffness of a stuck contact across the pad: the skin's shear stiffness
+/// in series with `body` (N/m).
+pub fn shear_stiffness(skin: &SkinParams, body: &BodyParams) -> f64 {
+    1.0 / (1.0 / skin.shear_stiffness_n_per_m + 1.0 / body.stiffness_n_per_m)
+}
