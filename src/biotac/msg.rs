@@ -238,22 +238,30 @@ pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgEr
 /// encapsulation header), for the tests of the readers.
 #[cfg(test)]
 pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
-    let (sec, nanosec) = split_stamp(r.stamp_s);
-    let m = CdrBioTac {
-        sec,
-        nanosec,
-        frame_id: meta.frame_id.clone(),
-        serial: meta.serial.clone(),
-        sensor_index: meta.sensor_index,
-        seq: r.seq,
-        electrodes: r.electrodes,
-        pdc: r.pdc,
-        pac: r.pac,
-        tdc: r.tdc,
-        tac: r.tac,
-        invalid_channels: meta.invalid_channels.clone(),
-    };
-    cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).expect("CDR of a BioTac message")
+    cdr::serialize::<_, _, cdr::CdrLe>(&CdrBioTac::new(r, meta), cdr::Infinite)
+        .expect("CDR of a BioTac message")
+}
+
+#[cfg(test)]
+impl CdrBioTac {
+    /// The message's fields for `r` and `meta`.
+    fn new(r: &BioTacReading, meta: &BioTacMeta) -> Self {
+        let (sec, nanosec) = split_stamp(r.stamp_s);
+        CdrBioTac {
+            sec,
+            nanosec,
+            frame_id: meta.frame_id.clone(),
+            serial: meta.serial.clone(),
+            sensor_index: meta.sensor_index,
+            seq: r.seq,
+            electrodes: r.electrodes,
+            pdc: r.pdc,
+            pac: r.pac,
+            tdc: r.tdc,
+            tac: r.tac,
+            invalid_channels: meta.invalid_channels.clone(),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -344,22 +352,14 @@ mod tests {
     #[test]
     fn cdr_bytes_decode_and_short_or_out_of_range_ones_are_refused() {
         let r = reading();
-        let (sec, nanosec) = split_stamp(r.stamp_s);
-        let mut m = CdrBioTac {
-            sec,
-            nanosec,
+        let meta = BioTacMeta {
             frame_id: "biotac".into(),
             serial: "BT-1".into(),
             sensor_index: 1,
-            seq: r.seq,
-            electrodes: r.electrodes,
-            pdc: r.pdc,
-            pac: r.pac,
-            tdc: r.tdc,
-            tac: r.tac,
             invalid_channels: vec!["e3".into()],
         };
-        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
+        let mut m = CdrBioTac::new(&r, &meta);
+        let bytes = to_cdr(&r, &meta);
         let (back, meta) = from_cdr(&bytes).unwrap();
         assert_eq!(back, r);
         assert_eq!(
