@@ -28,9 +28,9 @@ use nalgebra::Vector3;
 use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::biotac::BioTacReading;
 use tactile_force::control::Phase;
+use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model::{self, Recipe};
 use tactile_force::learn::model::WrenchGp;
-use tactile_force::nodes::controller::TaskKind;
 use tactile_force::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
 use tactile_force::runtime::{Nodes, Scene};
 use tactile_force::wrench::{Axis, AxisSet};
@@ -64,6 +64,7 @@ impl Run {
         ready: fn(&SimSample, &ControlOutput) -> bool,
     ) -> Self {
         let mut nodes = Scene::builtin(task)
+            .unwrap()
             .build(model, &BioTacSimConfig::default(), SEED)
             .expect("shipped scene");
         let mut readings = Vec::new();
@@ -175,8 +176,8 @@ fn train(name: &str, recipe: &Recipe) -> WrenchGp {
 fn benches(c: &mut Criterion) {
     let recipe = |task| {
         Scene::builtin(task)
-            .estimator_params()
             .expect("shipped scene")
+            .estimator
             .default_model
     };
     let fz = train("guarded scene", &recipe(TaskKind::Guarded));

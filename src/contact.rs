@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 
 use serde::Deserialize;
 
-use crate::params::{non_negative, positive, ParamsError};
+use crate::params::{non_negative, positive, Check, Checked, ParamsError};
 
 /// Largest exponent of the skin law (the skin has bottomed out long before).
 const MAX_SKIN_EXPONENT: f64 = 30.0;
@@ -26,17 +26,19 @@ pub struct SkinParams {
     pub shear_stiffness_n_per_m: f64,
 }
 
-impl SkinParams {
-    /// Checks the values; `key` is the parameter's dotted name.
-    pub fn validate(&self, key: &str) -> Result<(), ParamsError> {
+impl Check for SkinParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
         positive(&format!("{key}.force_scale_n"), self.force_scale_n)?;
         positive(&format!("{key}.length_scale_mm"), self.length_scale_mm)?;
         positive(
             &format!("{key}.shear_stiffness_n_per_m"),
             self.shear_stiffness_n_per_m,
-        )
+        )?;
+        Ok(self)
     }
+}
 
+impl SkinParams {
     /// Skin force for a compression of `x_m` metres (0 when not compressed).
     pub fn force(&self, x_m: f64) -> f64 {
         if x_m <= 0.0 {
@@ -64,12 +66,12 @@ pub struct BodyParams {
     pub friction: f64,
 }
 
-impl BodyParams {
-    /// Checks the values; `key` is the parameter's dotted name.
-    pub fn validate(&self, key: &str) -> Result<(), ParamsError> {
+impl Check for BodyParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
         positive(&format!("{key}.stiffness_n_per_m"), self.stiffness_n_per_m)?;
         non_negative(&format!("{key}.damping_n_s_per_m"), self.damping_n_s_per_m)?;
-        non_negative(&format!("{key}.friction"), self.friction)
+        non_negative(&format!("{key}.friction"), self.friction)?;
+        Ok(self)
     }
 }
 
@@ -78,14 +80,13 @@ impl BodyParams {
 pub fn object_body(
     objects: &BTreeMap<String, BodyParams>,
     name: &str,
-) -> Result<BodyParams, ParamsError> {
+) -> Result<Checked<BodyParams>, ParamsError> {
     let body = *objects.get(name).ok_or_else(|| ParamsError::Invalid {
         key: "object".into(),
         value: name.into(),
         expected: format!("one of {:?}", objects.keys().collect::<Vec<_>>()),
     })?;
-    body.validate(&format!("objects.{name}"))?;
-    Ok(body)
+    body.checked(&format!("objects.{name}"))
 }
 
 /// Stiffness of the skin (at force `f`) in series with `body` (N/m): the

@@ -1,5 +1,6 @@
 //! The `tactile_force` command line: parses the subcommand and hands it to
-//! its module under `commands/`. Errors go to stderr with exit code 1.
+//! its module under `commands/`. Errors go to stderr; the exit code tells
+//! refused input (2) from a failure while working (1).
 
 mod commands;
 
@@ -14,7 +15,10 @@ use commands::{adapt, collect, demo, eval, serial, tradeoff, train};
 #[command(
     name = "tactile_force",
     version,
-    about = "Feel with a BioTac fingertip: GP wrench estimation for guarded and guided moves"
+    about = "Feel with a BioTac fingertip: GP wrench estimation for guarded and guided moves",
+    after_help = "Exit codes: 0 done; 2 the input was refused before any work (an argument, \
+                  a parameter or scene file, a data, bag or model file); 1 the work failed \
+                  (a file not written, a serial link, a fit)."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -54,7 +58,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            ExitCode::from(commands::exit_code(&e))
         }
     }
 }

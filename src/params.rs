@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+/// The shipped PA10-7C parameter file.
+pub const PA10_YAML: &str = include_str!("../config/pa10.yaml");
 /// The shipped world file.
 pub const WORLD_YAML: &str = include_str!("../config/world.yaml");
 /// The shipped guarded-move scene.
@@ -191,6 +193,32 @@ pub fn read_node_params<T: DeserializeOwned>(path: &Path, node: &str) -> Result<
         source,
     })?;
     node_params(&yaml, node)
+}
+
+/// Parameters whose values passed their range check: made only by
+/// [`Check::checked`], so a function taking `Checked<T>` needs no check of
+/// its own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Checked<T>(T);
+
+impl<T> std::ops::Deref for Checked<T> {
+    type Target = T;
+
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+/// Parameters with a range check.
+pub trait Check: Sized {
+    /// Checks the values (`key`: the section's dotted name, which errors
+    /// name) and may normalise them.
+    fn check(self, key: &str) -> Result<Self, ParamsError>;
+
+    /// The checked parameters, or the first value out of range.
+    fn checked(self, key: &str) -> Result<Checked<Self>, ParamsError> {
+        self.check(key).map(Checked)
+    }
 }
 
 /// `v` finite and > 0, or an error naming `key`.

@@ -133,6 +133,23 @@ fn collect_train_eval_round_trip() {
 }
 
 #[test]
+fn a_file_that_cannot_be_written_is_a_failure_not_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("no-such-dir").join("d.csv");
+    let o = run(&["collect", "--trials", "1", "--out", out.to_str().unwrap()]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("cannot write") && err.contains("d.csv"),
+        "{err}"
+    );
+    let o = run(&["--help"]);
+    assert!(text(&o)
+        .0
+        .contains("Exit codes: 0 done; 2 the input was refused"));
+}
+
+#[test]
 fn a_missing_column_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("bad.csv");
@@ -154,7 +171,7 @@ fn a_missing_column_is_named() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
     let (_, err) = text(&o);
     assert!(err.contains("missing column \"e7\""), "{err}");
     assert!(!out.exists());
@@ -182,7 +199,7 @@ fn a_corrupt_or_foreign_model_file_is_refused_clearly() {
             "--test",
             test.to_str().unwrap(),
         ]);
-        assert_eq!(o.status.code(), Some(1));
+        assert_eq!(o.status.code(), Some(2));
         let (_, err) = text(&o);
         assert!(err.contains(expected), "{err}");
     }
@@ -271,7 +288,7 @@ fn too_few_folds_or_trials_are_refused() {
         ("6", "6 folds need at least 6 trials per set; set 1 has 5"),
     ] {
         let o = run(&["eval", "--data", d, "--folds", folds, "--no-nn"]);
-        assert_eq!(o.status.code(), Some(1));
+        assert_eq!(o.status.code(), Some(2));
         assert!(text(&o).1.contains(expected), "{:?}", text(&o));
     }
 }
@@ -479,7 +496,7 @@ fn demo_refuses_bad_requests_before_any_training() {
     let dir = tempfile::tempdir().unwrap();
     let o = run_cached(&["demo", "guarded", "--object", "teapot"], dir.path());
     let (_, err) = text(&o);
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
     assert!(
         err.contains("teapot") && err.contains("stuffed_animal"),
         "{err}"
@@ -496,7 +513,7 @@ fn demo_refuses_bad_requests_before_any_training() {
     for speed in ["0.2", "5"] {
         let o = run_cached(&["demo", "guarded", "--speed", speed], dir.path());
         let (_, err) = text(&o);
-        assert_eq!(o.status.code(), Some(1), "{speed}: {err}");
+        assert_eq!(o.status.code(), Some(2), "{speed}: {err}");
         assert!(
             err.contains("guarded.approach_speed_mps") && err.contains("at most 0.0512 m/s"),
             "{speed}: {err}"
@@ -513,7 +530,7 @@ fn demo_refuses_bad_requests_before_any_training() {
             dir.path(),
         );
         let (_, err) = text(&o);
-        assert_eq!(o.status.code(), Some(1), "{speed}: {err}");
+        assert_eq!(o.status.code(), Some(2), "{speed}: {err}");
         assert!(err.contains("guarded.approach_speed_mps"), "{speed}: {err}");
     }
     let o = run_cached(&["demo", "guarded", "--speed", "5"], dir.path());
@@ -648,4 +665,5 @@ fn monitor_without_a_bridge_gives_up_with_the_reason() {
     );
     let o = run(&["biotac-emulator", "--pty", "--fault-rate", "2"]);
     assert!(text(&o).1.contains("--fault-rate 2"), "{:?}", text(&o));
+    assert_eq!(o.status.code(), Some(2), "a refused argument");
 }

@@ -5,8 +5,8 @@
 
 use nalgebra::Vector3;
 
+use tactile_force::control::TaskKind;
 use tactile_force::control::{Phase, StopReason};
-use tactile_force::nodes::controller::TaskKind;
 use tactile_force::report::TraceRow;
 use tactile_force::runtime::demo::{run_scene, DemoRun};
 use tactile_force::runtime::{Nodes, Pacing, Scene};
@@ -16,8 +16,10 @@ use common::{model, scene_model};
 
 fn guarded(object: &str, speed: f64) -> Scene {
     Scene::builtin(TaskKind::Guarded)
+        .unwrap()
         .with_object(object)
         .with_approach_speed(speed)
+        .unwrap()
 }
 
 fn run(scene: &Scene, seed: u64) -> DemoRun {
@@ -51,8 +53,8 @@ fn guarded_move_holds_1n_on_every_object_without_overshoot() {
 fn a_mean_only_estimator_still_holds_1n() {
     // `with_std: false`: no variance is computed (std 0), so the
     // out-of-range check rests on PDC alone; the task is unchanged.
-    let scene = guarded("wooden_box", 0.01)
-        .with_layer("wrench_estimator:\n  ros__parameters:\n    with_std: false\n".into());
+    let mut scene = guarded("wooden_box", 0.01);
+    scene.estimator.with_std = false;
     let r = run(&scene, 1);
     let s = &r.summary;
     assert!(s.overshoot_n <= 0.1 && s.final_phase == "hold", "{s:?}");
@@ -69,8 +71,10 @@ fn a_fast_approach_on_a_hard_object_overshoots_as_physics_says() {
     // 80 mm/s, alone in its scene, the stuffed animal does not.
     let hard = run(&guarded("wooden_box", 0.05), 1).summary;
     let soft = Scene::builtin(TaskKind::Guarded)
+        .unwrap()
         .with_only_object("stuffed_animal")
-        .with_approach_speed(0.08);
+        .with_approach_speed(0.08)
+        .unwrap();
     let soft = run(&soft, 1).summary;
     assert!(
         hard.overshoot_n > 0.3 && hard.peak_force_n < 3.0,
@@ -81,7 +85,7 @@ fn a_fast_approach_on_a_hard_object_overshoots_as_physics_says() {
 
 #[test]
 fn guided_move_follows_the_finger() {
-    let s = run(&Scene::builtin(TaskKind::Guided), 1).summary;
+    let s = run(&Scene::builtin(TaskKind::Guided).unwrap(), 1).summary;
     assert_eq!(s.rms_force_error_by_axis_n.len(), 3, "{s:?}");
     assert!(
         s.rms_force_error_by_axis_n.values().all(|&e| e <= 0.3),
@@ -95,7 +99,7 @@ fn guided_move_follows_the_finger() {
 
 #[test]
 fn the_arm_follows_the_finger_to_where_it_went() {
-    let rows = run(&Scene::builtin(TaskKind::Guided), 2).rows;
+    let rows = run(&Scene::builtin(TaskKind::Guided).unwrap(), 2).rows;
     // The finger pushes +30 mm along x from t = 2 s; 1 s later the arm is there.
     let at = |t: f64| rows.iter().find(|r| r.t >= t).unwrap();
     let r = at(3.5);
@@ -106,8 +110,8 @@ fn the_arm_follows_the_finger_to_where_it_went() {
 
 #[test]
 fn nothing_touched_within_the_distance_is_a_timeout_and_the_arm_stops() {
-    let far = guarded("wooden_box", 0.02)
-        .with_layer("sim_robot:\n  ros__parameters:\n    object_gap_mm: 80.0\n".into());
+    let mut far = guarded("wooden_box", 0.02);
+    far.sim.object_gap_mm = 80.0;
     let run = run(&far, 1);
     let s = &run.summary;
     assert_eq!(
@@ -135,11 +139,11 @@ fn over_force_retracts_in_the_same_cycle_then_stops() {
     // which the controller was told is a stuffed animal: its envelope
     // accepts 80 mm/s, the wooden box's would not (the one way past it is a
     // wrong declaration of what is touched).
-    let scene = guarded("wooden_box", 0.08).with_layer(
-        "force_controller:\n  ros__parameters:\n    object: stuffed_animal\n    \
-         safety:\n      objects: [stuffed_animal]\n    guarded:\n      force_limit_n: 1.2\n"
-            .into(),
-    );
+    let mut scene = guarded("wooden_box", 0.08);
+    let c = &mut scene.controller;
+    c.object = "stuffed_animal".into();
+    c.safety.objects = vec!["stuffed_animal".into()];
+    c.guarded.as_mut().unwrap().force_limit_n = 1.2;
     let run = run(&scene, 1);
     assert_eq!(run.summary.reason, Some("force_limit"), "{:?}", run.summary);
     assert!(run.summary.aborted);
@@ -223,8 +227,8 @@ fn runs_are_deterministic_from_the_seed() {
 
 #[test]
 fn realtime_pacing_keeps_pace_with_the_wall_clock() {
-    let short = guarded("wooden_box", 0.01)
-        .with_layer("sim_robot:\n  ros__parameters:\n    duration_s: 0.3\n".into());
+    let mut short = guarded("wooden_box", 0.01);
+    short.sim.duration_s = 0.3;
     let t0 = std::time::Instant::now();
     let run = run_scene(&short, model(), 1, Pacing::Realtime, &mut |_| {}).unwrap();
     assert!(t0.elapsed().as_secs_f64() >= 0.29, "{:?}", t0.elapsed());
@@ -236,12 +240,14 @@ fn a_model_without_the_axes_the_task_controls_is_refused() {
     let fz = scene_model(TaskKind::Guarded);
     assert_eq!(fz.axes().to_string(), "fz");
     let err = Scene::builtin(TaskKind::Guided)
+        .unwrap()
         .build(fz.clone(), &Default::default(), 1)
         .unwrap_err()
         .to_string();
     assert!(err.contains("fz") && err.contains("fx,fy,fz"), "{err}");
     // The guarded scene needs fz only.
     assert!(Scene::builtin(TaskKind::Guarded)
+        .unwrap()
         .build(fz, &Default::default(), 1)
         .is_ok());
 }

@@ -4,13 +4,14 @@
 //! run must stay finite and bounded, and end holding or stopped safely.
 
 use tactile_force::biotac::{BioTacReading, ADC_MAX};
-use tactile_force::control::{Phase, StopReason};
-use tactile_force::nodes::controller::TaskKind;
+use tactile_force::contact::BodyParams;
+use tactile_force::control::{Phase, StopReason, TaskKind};
 use tactile_force::report::summary::{summarize, RunInfo, Summary};
 use tactile_force::report::TraceRow;
 use tactile_force::runtime::demo::{run_scene, DemoRun};
 use tactile_force::runtime::lockstep::ReadingTamper;
 use tactile_force::runtime::{Pacing, Scene};
+use tactile_force::sim::finger::Segment;
 
 /// `pd.max_speed_mps` of config/world.yaml: no command is faster.
 const MAX_SPEED: f64 = 0.08;
@@ -35,7 +36,7 @@ fn run_faulty(scene: &Scene, fault: ReadingTamper) -> DemoRun {
             period.expect("the model takes 19 electrodes").row()
         })
         .collect();
-    let info = RunInfo::new(&scene.controller_params().expect("valid parameters"));
+    let info = RunInfo::new(&scene.controller);
     DemoRun {
         summary: summarize(&info, &rows),
         gains: nodes.controller.gains(),
@@ -76,11 +77,14 @@ fn assert_sane(rows: &[TraceRow], max_mps: f64) {
 }
 
 fn object(stiffness: f64) -> Scene {
+    let body = BodyParams {
+        stiffness_n_per_m: stiffness,
+        damping_n_s_per_m: 1.0,
+        friction: 0.5,
+    };
     Scene::builtin(TaskKind::Guarded)
-        .with_layer(format!(
-            "/**:\n  ros__parameters:\n    objects:\n      test: \
-         {{stiffness_n_per_m: {stiffness:e}, damping_n_s_per_m: 1.0, friction: 0.5}}\n"
-        ))
+        .unwrap()
+        .with_body("test", body)
         .with_only_object("test")
 }
 
@@ -108,8 +112,12 @@ fn contact_stiffness_from_10_to_1e6_n_per_m() {
 
 #[test]
 fn a_control_period_jittering_by_30_percent() {
-    let jitter = "sim_robot:\n  ros__parameters:\n    period_jitter_fraction: 0.3\n";
-    let r = run(Scene::builtin(TaskKind::Guarded).with_layer(jitter.into()));
+    let jitter = |task| {
+        let mut scene = Scene::builtin(task).unwrap();
+        scene.sim.period_jitter_fraction = 0.3;
+        scene
+    };
+    let r = run(jitter(TaskKind::Guarded));
     assert_sane(&r.rows, MAX_SPEED);
     assert!(holds(&r.summary), "{:?}", r.summary);
     let gaps: Vec<f64> = r.rows.windows(2).map(|w| w[1].t - w[0].t).collect();
@@ -121,7 +129,7 @@ fn a_control_period_jittering_by_30_percent() {
         "the period really jitters: {lo} {hi}"
     );
 
-    let r = run(Scene::builtin(TaskKind::Guided).with_layer(jitter.into()));
+    let r = run(jitter(TaskKind::Guided));
     assert_sane(&r.rows, MAX_SPEED);
     let s = &r.summary;
     assert!(
@@ -135,11 +143,12 @@ fn a_control_period_jittering_by_30_percent() {
 fn a_singular_pose_at_the_start_gives_slow_bounded_motion() {
     // Arm stretched upright, wrist bent 90 deg: moving along the pad normal
     // is a singular direction; damping keeps joint speeds bounded.
-    let scene = Scene::builtin(TaskKind::Guarded).with_layer(
-        "sim_robot:\n  ros__parameters:\n    start_joints_deg: [0.0, 0.0, 0.0, 0.0, 0.0, 90.0, 0.0]\n"
-            .into(),
-    );
-    let r = run(scene);
+    let start = |deg: [f64; 7]| {
+        let mut scene = Scene::builtin(TaskKind::Guarded).unwrap();
+        scene.sim.start_joints_deg = deg.to_vec();
+        scene
+    };
+    let r = run(start([0.0, 0.0, 0.0, 0.0, 0.0, 90.0, 0.0]));
     assert_sane(&r.rows, MAX_SPEED);
     let s = &r.summary;
     assert!(!s.aborted && s.peak_force_n < 0.1, "{s:?}");
@@ -151,11 +160,7 @@ fn a_singular_pose_at_the_start_gives_slow_bounded_motion() {
         last.offset
     );
     // Straight up is singular too, but there the pad direction is free.
-    let upright = Scene::builtin(TaskKind::Guarded).with_layer(
-        "sim_robot:\n  ros__parameters:\n    start_joints_deg: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\n"
-            .into(),
-    );
-    let r = run(upright);
+    let r = run(start([0.0; 7]));
     assert_sane(&r.rows, MAX_SPEED);
     assert!(holds(&r.summary), "{:?}", r.summary);
 }
@@ -165,12 +170,11 @@ fn pushing_harder_than_the_training_data_stops_on_the_estimators_doubt() {
     // The training data reach ~11 N. Asked for 25 N (limit 40 N), the move
     // must not trust an estimate that falls behind the true force: the GP's
     // standard deviation and PDC saturation stop it well before.
-    let scene = Scene::builtin(TaskKind::Guarded).with_layer(
-        "force_controller:\n  ros__parameters:\n    guarded:\n      \
-         target_force_n: 25.0\n      force_limit_n: 40.0\n"
-            .into(),
-    );
-    let r = run(scene);
+    let r = run(with_forces(
+        Scene::builtin(TaskKind::Guarded).unwrap(),
+        25.0,
+        40.0,
+    ));
     assert_sane(&r.rows, MAX_SPEED);
     let s = &r.summary;
     assert_eq!((s.reason, s.aborted), (Some("out_of_range"), true), "{s:?}");
@@ -182,14 +186,28 @@ fn pushing_harder_than_the_training_data_stops_on_the_estimators_doubt() {
     );
 }
 
+/// `scene` with the guarded move's target force and force limit (N).
+fn with_forces(mut scene: Scene, target_n: f64, limit_n: f64) -> Scene {
+    let g = scene.controller.guarded.as_mut().unwrap();
+    g.target_force_n = target_n;
+    g.force_limit_n = limit_n;
+    scene
+}
+
 /// The guided move with a short finger path: it waits 2 s, then pushes
 /// 30 mm along +x.
 fn short_guided() -> Scene {
-    Scene::builtin(TaskKind::Guided).with_layer(
-        "sim_robot:\n  ros__parameters:\n    finger_path: [wait 2.0, push 30 0 0 0.05, wait 1.0]\n    \
-         duration_s: 4.2\n"
-            .into(),
-    )
+    let mut scene = Scene::builtin(TaskKind::Guided).unwrap();
+    scene.sim.finger_path = Some(vec![
+        Segment::Wait(2.0),
+        Segment::Push {
+            mm: [30.0, 0.0, 0.0],
+            peak_speed_mps: 0.05,
+        },
+        Segment::Wait(1.0),
+    ]);
+    scene.sim.duration_s = 4.2;
+    scene
 }
 
 /// Largest measured force magnitude (N).
@@ -209,7 +227,7 @@ fn drop_readings_for_half_a_second(scene: &Scene, from: f64) -> DemoRun {
         }
     });
     let rows = &r.rows;
-    let p = scene.controller_params().unwrap();
+    let p = scene.controller.clone();
     let (first, back) = (at(rows, from), at(rows, to));
     let last_reading = rows[first - 1].t;
     let halt = first + rows[first..].iter().position(|r| r.halted).unwrap();
@@ -229,7 +247,7 @@ fn drop_readings_for_half_a_second(scene: &Scene, from: f64) -> DemoRun {
 #[test]
 fn a_sensor_dropout_of_half_a_second_halts_the_arm_and_the_task_resumes() {
     // Guarded move, holding 1 N on the wooden box from ~1.8 s.
-    let r = drop_readings_for_half_a_second(&Scene::builtin(TaskKind::Guarded), 3.0);
+    let r = drop_readings_for_half_a_second(&Scene::builtin(TaskKind::Guarded).unwrap(), 3.0);
     assert_sane(&r.rows, MAX_SPEED);
     let s = &r.summary;
     // The halted arm keeps the force: 1.00..1.04 N measured while blind.
@@ -278,8 +296,8 @@ fn saturate(
 
 #[test]
 fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
-    let scene = Scene::builtin(TaskKind::Guarded);
-    let limits = scene.controller_params().unwrap().out_of_range;
+    let scene = Scene::builtin(TaskKind::Guarded).unwrap();
+    let limits = scene.controller.clone().out_of_range;
     // (what, electrodes, PDC, until): the fault starts at 3 s, mid-hold.
     let cases = [
         ("E17..E19 stuck", 16..19, false, f64::INFINITY),
@@ -335,7 +353,7 @@ fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
     );
     assert_sane(&r.rows, MAX_SPEED);
     let stop = at(&r.rows, 1.0);
-    let limit = short_guided().controller_params().unwrap().guided.unwrap();
+    let limit = short_guided().controller.guided.unwrap();
     let mean = r.rows[stop].estimate.unwrap().0;
     assert!(mean.norm() > limit.force_limit_n, "{mean}");
     assert_eq!(r.rows[stop - 1].phase, Phase::Follow);
@@ -346,8 +364,8 @@ fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
 
 #[test]
 fn a_single_saturated_reading_gives_a_finite_doubtful_estimate() {
-    let scene = Scene::builtin(TaskKind::Guarded);
-    let limits = scene.controller_params().unwrap().out_of_range;
+    let scene = Scene::builtin(TaskKind::Guarded).unwrap();
+    let limits = scene.controller.clone().out_of_range;
     let mut n = scene.build(model(), &Default::default(), 1).unwrap();
     // Out of contact: the estimator tares on its first readings.
     while !n.estimator.is_tared() {
@@ -379,26 +397,26 @@ fn the_force_limit_hit_during_the_approach_retracts_in_the_same_cycle() {
     // envelope accepts 80 mm/s against a 0.3 N limit: the wooden box's
     // would refuse it (the one way past the envelope is a wrong declaration).
     let fast = |gap_mm: f64| {
-        Scene::builtin(TaskKind::Guarded)
-            .with_layer(
-                "force_controller:\n  ros__parameters:\n    object: sponge\n    objects:\n      \
-                 sponge: {stiffness_n_per_m: 10.0, damping_n_s_per_m: 0.1, friction: 0.5}\n    \
-                 safety:\n      objects: [sponge]\n"
-                    .into(),
-            )
+        let mut scene = Scene::builtin(TaskKind::Guarded)
+            .unwrap()
             .with_approach_speed(0.08)
-            .with_layer(format!(
-                "sim_robot:\n  ros__parameters:\n    object_gap_mm: {gap_mm}\n"
-            ))
+            .unwrap();
+        let sponge = BodyParams {
+            stiffness_n_per_m: 10.0,
+            damping_n_s_per_m: 0.1,
+            friction: 0.5,
+        };
+        let c = &mut scene.controller;
+        c.objects.insert("sponge".into(), sponge);
+        c.object = "sponge".into();
+        c.safety.objects = vec!["sponge".into()];
+        scene.sim.object_gap_mm = gap_mm;
+        scene
     };
     let free = run(fast(80.0));
     let tick = free.rows.iter().find(|r| r.offset.z < -0.010).unwrap();
     let gap_mm = -tick.offset.z * 1e3 - 0.7;
-    let r = run(fast(gap_mm).with_layer(
-        "force_controller:\n  ros__parameters:\n    guarded:\n      \
-         target_force_n: 0.2\n      force_limit_n: 0.3\n"
-            .into(),
-    ));
+    let r = run(with_forces(fast(gap_mm), 0.2, 0.3));
     assert_sane(&r.rows, MAX_SPEED);
     let over = r
         .rows

@@ -134,7 +134,7 @@ fn the_cli_trains_on_a_bag_and_names_what_is_wrong_with_a_bad_one() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.contains("/ft_sensor/wrench") && err.contains("no_ft.mcap"),
         "{err}"

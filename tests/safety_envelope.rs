@@ -7,7 +7,8 @@
 //! limit named, and the delayed loop still meets the guarded and guided
 //! bounds. Figures from the measured (F/T) force.
 
-use tactile_force::nodes::controller::{task_envelope, TaskKind};
+use tactile_force::control::TaskKind;
+use tactile_force::nodes::controller::task_envelope;
 use tactile_force::nodes::ForceController;
 use tactile_force::report::summary::Summary;
 use tactile_force::runtime::demo::run_scene;
@@ -27,22 +28,20 @@ fn run(scene: &Scene, seed: u64) -> Summary {
 /// Estimates reach the controller in the `periods`-th period after their
 /// reading (1 ms of transport plus up to 9 ms of jitter beyond whole
 /// periods), and the controller's gains and envelope assume as much.
-fn with_transport_delay(scene: Scene, periods: u32) -> Scene {
+fn with_transport_delay(mut scene: Scene, periods: u32) -> Scene {
     if periods == 0 {
         return scene;
     }
-    let delay = 0.001 + 0.01 * f64::from(periods - 1);
-    let assumed = 0.01 * f64::from(periods);
-    scene.with_layer(format!(
-        "sim_robot:\n  ros__parameters:\n    transport_delay_s: {delay}\n    \
-         transport_jitter_s: 0.009\n\
-         force_controller:\n  ros__parameters:\n    loop_delays:\n      \
-         transport_delay_s: {assumed}\n"
-    ))
+    scene.sim.transport_delay_s = 0.001 + 0.01 * f64::from(periods - 1);
+    scene.sim.transport_jitter_s = 0.009;
+    scene.controller.loop_delays.transport_delay_s = 0.01 * f64::from(periods);
+    scene
 }
 
 fn guarded_alone(object: &str) -> Scene {
-    Scene::builtin(TaskKind::Guarded).with_only_object(object)
+    Scene::builtin(TaskKind::Guarded)
+        .unwrap()
+        .with_only_object(object)
 }
 
 #[test]
@@ -50,15 +49,13 @@ fn every_accepted_speed_peaks_within_the_force_limit() {
     for periods in [0, 1, 2] {
         for object in OBJECTS {
             let scene = with_transport_delay(guarded_alone(object), periods);
-            let envelope = task_envelope(&scene.controller_params().unwrap())
-                .unwrap()
-                .envelope;
+            let envelope = task_envelope(&scene.controller).unwrap().envelope;
             let limit = envelope.max_speed_mps();
             let mut worst = (0.0f64, 0.0);
             for fraction in [0.25, 0.5, 0.75, 1.0] {
                 let speed = fraction * limit;
                 for seed in [1, 2, 3] {
-                    let s = run(&scene.clone().with_approach_speed(speed), seed);
+                    let s = run(&scene.clone().with_approach_speed(speed).unwrap(), seed);
                     let predicted = envelope.peak_force_n(speed);
                     let what = format!("{object}, {periods} periods, {speed} m/s, seed {seed}");
                     assert!(s.peak_force_n <= envelope.limit_n, "{what}: {s:?}");
@@ -91,8 +88,9 @@ fn every_accepted_speed_peaks_within_the_force_limit() {
 fn a_ros_like_transport_delay_still_holds_1n_without_oscillating() {
     for periods in [1, 2] {
         for object in OBJECTS {
-            let scene =
-                with_transport_delay(guarded_alone(object), periods).with_approach_speed(0.01);
+            let scene = with_transport_delay(guarded_alone(object), periods)
+                .with_approach_speed(0.01)
+                .unwrap();
             let s = run(&scene, 1);
             let what = format!("{object}, {periods} periods");
             assert!(s.overshoot_n <= 0.1, "{what}: {s:?}");
@@ -107,7 +105,7 @@ fn a_ros_like_transport_delay_still_holds_1n_without_oscillating() {
 fn a_ros_like_transport_delay_still_follows_the_finger() {
     for periods in [1, 2] {
         let s = run(
-            &with_transport_delay(Scene::builtin(TaskKind::Guided), periods),
+            &with_transport_delay(Scene::builtin(TaskKind::Guided).unwrap(), periods),
             1,
         );
         assert!(
@@ -120,7 +118,7 @@ fn a_ros_like_transport_delay_still_follows_the_finger() {
 }
 
 fn refusal(scene: Scene) -> String {
-    ForceController::new(scene.controller_params().unwrap())
+    ForceController::new(scene.controller)
         .expect_err("refused")
         .to_string()
 }
@@ -130,33 +128,40 @@ fn the_stiffest_permitted_object_sets_the_limit() {
     // The stuffed animal alone accepts 60 mm/s; in the guarded scene, which
     // also permits the wooden box, the box's 51 mm/s applies.
     let soft = Scene::builtin(TaskKind::Guarded)
+        .unwrap()
         .with_object("stuffed_animal")
-        .with_approach_speed(0.06);
+        .with_approach_speed(0.06)
+        .unwrap();
     let e = refusal(soft.clone());
     assert!(
         e.contains("at most 0.0512 m/s") && e.contains("wooden_box"),
         "{e}"
     );
-    ForceController::new(
-        soft.with_only_object("stuffed_animal")
-            .controller_params()
-            .unwrap(),
-    )
-    .expect("alone, the stuffed animal takes 60 mm/s");
+    ForceController::new(soft.with_only_object("stuffed_animal").controller)
+        .expect("alone, the stuffed animal takes 60 mm/s");
     // A longer loop lowers the limit: one period of transport, 41 mm/s.
-    let e =
-        refusal(with_transport_delay(guarded_alone("wooden_box"), 1).with_approach_speed(0.045));
+    let e = refusal(
+        with_transport_delay(guarded_alone("wooden_box"), 1)
+            .with_approach_speed(0.045)
+            .unwrap(),
+    );
     assert!(
         e.contains("at most 0.0410 m/s") && e.contains("50 ms"),
         "{e}"
     );
     // An unknown body takes the worst-case stiffness (1e6 N/m): the skin alone.
-    let unknown = Scene::builtin(TaskKind::Guarded).with_only_object("unknown");
-    let speed = task_envelope(&unknown.controller_params().unwrap()).unwrap();
+    let unknown = Scene::builtin(TaskKind::Guarded)
+        .unwrap()
+        .with_only_object("unknown");
+    let speed = task_envelope(&unknown.controller).unwrap();
     assert_eq!(speed.envelope.stiffness_n_per_m, 1e6);
     assert!((speed.envelope.max_speed_mps() - 0.0505).abs() < 5e-4);
     // A body the scene does not permit.
-    let e = refusal(Scene::builtin(TaskKind::Guarded).with_object("fingertip"));
+    let e = refusal(
+        Scene::builtin(TaskKind::Guarded)
+            .unwrap()
+            .with_object("fingertip"),
+    );
     assert!(
         e.contains("safety.objects") && e.contains("fingertip"),
         "{e}"
@@ -167,8 +172,8 @@ fn the_stiffest_permitted_object_sets_the_limit() {
 fn the_guided_moves_largest_speed_is_held_to_the_envelope_too() {
     // Against the fingertip (300 N/m) the normal axis allows 352 mm/s from
     // 1.2 N (target + deadband) to the 5 N limit; 0.5 m/s is refused.
-    let guided = Scene::builtin(TaskKind::Guided);
-    let speed = task_envelope(&guided.controller_params().unwrap()).unwrap();
+    let guided = Scene::builtin(TaskKind::Guided).unwrap();
+    let speed = task_envelope(&guided.controller).unwrap();
     assert_eq!(
         (speed.key, speed.body.as_str()),
         ("pd.max_speed_mps", "fingertip")
@@ -177,9 +182,9 @@ fn the_guided_moves_largest_speed_is_held_to_the_envelope_too() {
         (speed.envelope.max_speed_mps() - 0.352).abs() < 1e-3,
         "{speed:?}"
     );
-    let e = refusal(guided.with_layer(
-        "force_controller:\n  ros__parameters:\n    pd:\n      max_speed_mps: 0.5\n".into(),
-    ));
+    let mut fast = guided;
+    fast.controller.pd.max_speed_mps = 0.5;
+    let e = refusal(fast);
     assert!(
         e.contains("pd.max_speed_mps") && e.contains("at most 0.3519 m/s"),
         "{e}"
@@ -188,15 +193,15 @@ fn the_guided_moves_largest_speed_is_held_to_the_envelope_too() {
 
 #[test]
 fn a_controller_assuming_a_faster_loop_than_the_simulation_is_refused() {
-    let slow_transport = Scene::builtin(TaskKind::Guarded)
-        .with_layer("sim_robot:\n  ros__parameters:\n    transport_delay_s: 0.015\n".into());
+    let mut slow_transport = Scene::builtin(TaskKind::Guarded).unwrap();
+    slow_transport.sim.transport_delay_s = 0.015;
     let e = slow_transport.check().unwrap_err().to_string();
     assert!(
         e.contains("loop_delays.transport_delay_s") && e.contains("at least 0.02 s"),
         "{e}"
     );
-    let slow_arm = Scene::builtin(TaskKind::Guarded)
-        .with_layer("sim_robot:\n  ros__parameters:\n    velocity_lag_s: 0.05\n".into());
+    let mut slow_arm = Scene::builtin(TaskKind::Guarded).unwrap();
+    slow_arm.sim.velocity_lag_s = 0.05;
     let e = slow_arm.check().unwrap_err().to_string();
     assert!(e.contains("loop_delays.arm_lag_s"), "{e}");
 }

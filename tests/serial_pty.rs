@@ -253,18 +253,18 @@ fn a_lost_port_goes_stale_and_the_stream_resumes_when_it_returns() {
 
 #[test]
 fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
+    use tactile_force::control::TaskKind;
     use tactile_force::learn::default_model;
-    use tactile_force::nodes::controller::TaskKind;
     use tactile_force::nodes::{EstimatorNode, ForceController, JointState};
     use tactile_force::runtime::Scene;
 
-    let scene = Scene::builtin(TaskKind::Guarded);
-    let params = scene.controller_params().unwrap();
+    let scene = Scene::builtin(TaskKind::Guarded).unwrap();
+    let params = scene.controller.clone();
     let mut controller = ForceController::new(params).unwrap();
-    let q0 = scene.sim_params().unwrap().start_joints_deg;
+    let q0 = scene.sim.clone().start_joints_deg;
     let q =
         tactile_force::kinematics::JointVector::from_iterator(q0.iter().map(|d| d.to_radians()));
-    let recipe = scene.estimator_params().unwrap().default_model;
+    let recipe = scene.estimator.clone().default_model;
     let model = default_model::train(&recipe).unwrap();
     let mut estimator = EstimatorNode::new(model, false).unwrap();
 

@@ -4,12 +4,13 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model::{self, Origin, Recipe};
 use tactile_force::learn::model::WrenchGp;
-use tactile_force::nodes::controller::TaskKind;
 use tactile_force::report::plot::{self, SweepSeries};
 use tactile_force::report::summary::Summary;
 use tactile_force::report::TraceRow;
@@ -19,19 +20,16 @@ use tactile_force::runtime::demo::{
 use tactile_force::runtime::{Pacing, Scene};
 
 use super::output::progress_bar;
-
-#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum DemoTask {
-    /// Approach an object, stop on contact, hold 1 N.
-    Guarded,
-    /// Follow a person's finger like a joystick (1 N along z, 0 N along x/y).
-    Guided,
-}
+use super::BadArgument;
 
 #[derive(Args)]
 pub struct DemoArgs {
-    /// The task.
-    task: DemoTask,
+    /// The task: guarded (approach an object, stop on contact, hold 1 N) or
+    /// guided (follow a person's finger like a joystick: 1 N along z, 0 N
+    /// along x/y).
+    #[arg(value_parser = PossibleValuesParser::new(TaskKind::ALL.map(TaskKind::name))
+        .try_map(|s| s.parse::<TaskKind>()))]
+    task: TaskKind,
     /// Object to touch (a name from the scene's `objects`; e.g. wooden_box,
     /// carton_box, stuffed_animal). Default: the scene's.
     #[arg(long)]
@@ -88,30 +86,29 @@ pub struct DemoArgs {
 const OVERSHOOT_BOUND_N: f64 = 0.1;
 
 pub fn run_demo(a: DemoArgs) -> Result<()> {
-    let task = match a.task {
-        DemoTask::Guarded => TaskKind::Guarded,
-        DemoTask::Guided => TaskKind::Guided,
-    };
+    let task = a.task;
     if task == TaskKind::Guided && (a.sweep_speed || a.speed.is_some()) {
-        anyhow::bail!("--speed and --sweep-speed are for the guarded move");
+        return Err(
+            BadArgument("--speed and --sweep-speed are for the guarded move".into()).into(),
+        );
     }
     let mut scene = match &a.scene {
         Some(path) => Scene::from_file(path)?,
-        None => Scene::builtin(task),
+        None => Scene::builtin(task)?,
     };
     if let Some(o) = &a.object {
         scene = scene.with_object(o);
     }
     if let Some(v) = a.speed {
-        scene = scene.with_approach_speed(v);
+        scene = scene.with_approach_speed(v)?;
     }
     // Check the scene before a possibly long training.
     scene.check()?;
-    let model = demo_model(a.model.as_deref(), &scene.estimator_params()?.default_model)?;
+    let model = demo_model(a.model.as_deref(), &scene.estimator.default_model)?;
     if a.sweep_speed {
         return run_sweep(&a, &scene, &model);
     }
-    let bar = status_line(&scene)?;
+    let bar = status_line(&scene);
     let pacing = if a.realtime {
         Pacing::Realtime
     } else {
@@ -168,15 +165,15 @@ fn shown_path(path: &Path) -> String {
 }
 
 /// A one-line live status on a terminal (hidden otherwise).
-fn status_line(scene: &Scene) -> Result<ProgressBar> {
-    let p = scene.sim_params()?;
+fn status_line(scene: &Scene) -> ProgressBar {
+    let p = &scene.sim;
     let periods = (p.duration_s / p.control_period_s).round() as u64;
     let bar = ProgressBar::new(periods);
     bar.set_style(
         ProgressStyle::with_template("{bar:20} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    Ok(bar)
+    bar
 }
 
 fn show_status(bar: &ProgressBar, r: &TraceRow) {
@@ -240,7 +237,8 @@ fn print_summary(s: &Summary, gains: &[Option<f64>; 3]) {
 fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
     let speeds: Vec<f64> = a.speeds_mm_s.iter().map(|v| v * 1e-3).collect();
     if let Some(bad) = speeds.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
-        anyhow::bail!("--speeds-mm-s: {} is not a positive speed", bad * 1e3);
+        let msg = format!("--speeds-mm-s: {} is not a positive speed", bad * 1e3);
+        return Err(BadArgument(msg).into());
     }
     let bar = progress_bar();
     bar.set_message(format!(

@@ -17,6 +17,7 @@ use tactile_force::learn::nn::NnParams;
 use super::data::{load_pooled, load_sessions, SourceArgs};
 use super::output::{file_labels, print_table, progress_bar, show};
 use super::train::{gp_params, FitArgs};
+use super::BadArgument;
 
 #[derive(Args)]
 pub(crate) struct EvalArgs {
@@ -84,7 +85,8 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
         (eval, labels)
     } else if !a.sessions.is_empty() {
         if a.sessions.len() < 2 {
-            anyhow::bail!("--sessions needs at least two files (one is left out in turn)");
+            let msg = "--sessions needs at least two files (one is left out in turn)";
+            return Err(BadArgument(msg.into()).into());
         }
         let (sessions, tare) = load_sessions(&a.sessions, &features, axes, n, &a.fit.source)?;
         let eval = leave_one_session_out(&sessions, &tare, &opts, &mut on_progress)?;
@@ -95,9 +97,12 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
         let eval = train_test(&train, &tests, &tare, &opts, &mut on_progress)?;
         (eval, file_labels(&a.test))
     } else {
-        anyhow::bail!(
-            "give --data FILE, --train FILES --test FILES, --sessions FILES, or --model FILE --test FILES"
+        return Err(BadArgument(
+            "give --data FILE, --train FILES --test FILES, --sessions FILES, or --model FILE \
+             --test FILES"
+                .into(),
         )
+        .into());
     };
     bar.finish_and_clear();
     print_table(&a.fit.axes, &eval, &labels);

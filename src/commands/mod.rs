@@ -1,5 +1,5 @@
 //! The subcommands, one module each, and what they share: the data files
-//! (`data`) and the printed output (`output`).
+//! (`data`), the printed output (`output`) and the exit codes.
 
 pub mod adapt;
 pub mod collect;
@@ -10,3 +10,54 @@ pub mod output;
 pub mod serial;
 pub mod tradeoff;
 pub mod train;
+
+use tactile_force::biotac::sim::ConfigError;
+use tactile_force::learn::bag::BagError;
+use tactile_force::learn::dataset::DatasetError;
+use tactile_force::learn::evaluate::EvalError;
+use tactile_force::learn::model::ModelError;
+use tactile_force::params::ParamsError;
+use tactile_force::runtime::scene::SceneError;
+use tactile_force::wrench::AxisSetError;
+
+/// Exit code when the input was refused before any work: an argument, a
+/// parameter or scene file, a data, bag or model file (clap's usage errors
+/// exit with 2 too).
+pub const EXIT_BAD_INPUT: u8 = 2;
+
+/// Exit code when the work failed: a file that could not be written, a
+/// serial link, a fit that failed.
+pub const EXIT_FAILURE: u8 = 1;
+
+/// An argument a command refuses.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadArgument(pub String);
+
+/// The exit code of a failed command: [`EXIT_BAD_INPUT`] when any cause in
+/// the error's chain is refused input, else [`EXIT_FAILURE`].
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    let refused = e.chain().any(|c| {
+        c.is::<BadArgument>()
+            || c.is::<ParamsError>()
+            || c.is::<SceneError>()
+            || c.is::<ConfigError>()
+            || c.is::<AxisSetError>()
+            || c.is::<BagError>()
+            || c.downcast_ref::<DatasetError>()
+                .is_some_and(|d| !matches!(d, DatasetError::Write { .. }))
+            || c.downcast_ref::<ModelError>()
+                .is_some_and(|m| !matches!(m, ModelError::Write { .. } | ModelError::Gp(_)))
+            || c.downcast_ref::<EvalError>().is_some_and(|e| {
+                matches!(
+                    e,
+                    EvalError::Mismatch(_) | EvalError::Folds(_) | EvalError::TooFewTrials { .. }
+                )
+            })
+    });
+    if refused {
+        EXIT_BAD_INPUT
+    } else {
+        EXIT_FAILURE
+    }
+}

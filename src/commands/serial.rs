@@ -16,6 +16,8 @@ use tactile_force::biotac::wire::{DecodedFrame, DEFAULT_BAUD};
 use tactile_force::biotac::BioTacSimConfig;
 use tactile_force::sim::collect::unit_seed;
 
+use super::BadArgument;
+
 #[derive(Args)]
 pub struct EmulatorArgs {
     /// Serial port to write to (e.g. one end of `socat -d -d pty,raw,echo=0 pty,raw,echo=0`).
@@ -68,16 +70,18 @@ pub struct MonitorArgs {
 
 pub fn run_emulator(a: EmulatorArgs) -> Result<()> {
     if !(0.0..=1.0).contains(&a.fault_rate) {
-        bail!(
+        let msg = format!(
             "--fault-rate {}: expected a probability in 0..=1",
             a.fault_rate
         );
+        return Err(BadArgument(msg).into());
     }
     if a.sensor > 2 {
-        bail!(
+        let msg = format!(
             "--sensor {}: the wire format carries sensors 0..=2",
             a.sensor
         );
+        return Err(BadArgument(msg).into());
     }
     let config = EmulatorConfig {
         sensor: a.sensor,

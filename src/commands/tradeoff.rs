@@ -15,6 +15,7 @@ use tactile_force::wrench::AxisSet;
 
 use super::data::{load_pooled, SourceArgs};
 use super::output::{axis_headers, axis_scores, progress_bar};
+use super::BadArgument;
 
 #[derive(Args)]
 pub struct TradeoffArgs {
@@ -60,7 +61,8 @@ pub struct TradeoffArgs {
 
 pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
     if a.folds < 2 {
-        anyhow::bail!("--folds {}: at least 2 (one fold is held out)", a.folds);
+        let msg = format!("--folds {}: at least 2 (one fold is held out)", a.folds);
+        return Err(BadArgument(msg).into());
     }
     let features = tactile_force::learn::dataset::electrode_columns();
     let (data, tare) = load_pooled(
@@ -72,11 +74,12 @@ pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
     )?;
     let (train_rows, test_rows) = trialwise_folds(&data, a.folds).swap_remove(0);
     if train_rows.is_empty() || test_rows.is_empty() {
-        anyhow::bail!(
+        let msg = format!(
             "{}: too few trials to hold one fold of {} out",
             a.data.display(),
             a.folds
         );
+        return Err(BadArgument(msg).into());
     }
     let (train, test) = (data.select(&train_rows), data.select(&test_rows));
     let opts = TradeoffOptions {

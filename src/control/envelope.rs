@@ -48,8 +48,7 @@
 use serde::Deserialize;
 
 use crate::contact::SkinParams;
-use crate::params::positive;
-use crate::params::ParamsError;
+use crate::params::{positive, Check, ParamsError};
 
 /// What the envelope assumes of the bodies (`force_controller.safety` in
 /// the scene files); the loop's delays are [`crate::control::LoopDelays`].
@@ -67,21 +66,20 @@ pub struct SafetyParams {
 /// touching whatever is there): `safety.worst_case_stiffness_n_per_m`.
 pub const UNKNOWN_OBJECT: &str = "unknown";
 
-impl SafetyParams {
-    /// Checks the values.
-    pub fn validate(&self) -> Result<(), ParamsError> {
+impl Check for SafetyParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
         positive(
-            "safety.worst_case_stiffness_n_per_m",
+            &format!("{key}.worst_case_stiffness_n_per_m"),
             self.worst_case_stiffness_n_per_m,
         )?;
         if self.objects.is_empty() {
             return Err(ParamsError::Invalid {
-                key: "safety.objects".into(),
+                key: format!("{key}.objects"),
                 value: "[]".into(),
                 expected: "the bodies this scene may touch".into(),
             });
         }
-        Ok(())
+        Ok(self)
     }
 }
 
@@ -272,13 +270,13 @@ mod tests {
             objects: vec!["wooden_box".into()],
             worst_case_stiffness_n_per_m: -1.0,
         };
-        let e = p.validate().unwrap_err().to_string();
+        let e = p.checked("safety").unwrap_err().to_string();
         assert!(e.contains("safety.worst_case_stiffness_n_per_m"), "{e}");
         let e = SafetyParams {
             objects: vec![],
             worst_case_stiffness_n_per_m: 1e6,
         }
-        .validate()
+        .checked("safety")
         .unwrap_err()
         .to_string();
         assert!(e.contains("safety.objects"), "{e}");

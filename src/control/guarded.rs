@@ -18,8 +18,7 @@ use serde::Deserialize;
 
 use super::pd::{LoopDelays, PdAxis, PdParams};
 use super::{Phase, StopReason};
-use crate::params::ParamsError;
-use crate::params::{invalid, non_negative, positive};
+use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
 
 /// Guarded-move settings (`force_controller.guarded` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -50,37 +49,38 @@ pub struct GuardedParams {
     pub settle_time_s: f64,
 }
 
-impl GuardedParams {
-    /// Checks the values and normalises the direction.
-    pub fn validate(mut self) -> Result<Self, ParamsError> {
+/// Normalises the direction.
+impl Check for GuardedParams {
+    fn check(mut self, key: &str) -> Result<Self, ParamsError> {
+        let name = |field: &str| format!("{key}.{field}");
         let d = Vector3::from(self.direction);
         let n = d.norm();
         if !(n.is_finite() && n > 0.0) {
-            return Err(invalid("guarded.direction", n, "a finite non-zero vector"));
+            return Err(invalid(&name("direction"), n, "a finite non-zero vector"));
         }
         self.direction = (d / n).into();
-        positive("guarded.approach_speed_mps", self.approach_speed_mps)?;
-        positive("guarded.contact_force_n", self.contact_force_n)?;
-        positive("guarded.contact_pdc_counts", self.contact_pdc_counts)?;
+        positive(&name("approach_speed_mps"), self.approach_speed_mps)?;
+        positive(&name("contact_force_n"), self.contact_force_n)?;
+        positive(&name("contact_pdc_counts"), self.contact_pdc_counts)?;
         if self.target_force_n.is_nan() || self.target_force_n <= self.contact_force_n {
             return Err(invalid(
-                "guarded.target_force_n",
+                &name("target_force_n"),
                 self.target_force_n,
-                "above guarded.contact_force_n",
+                &format!("above {}", name("contact_force_n")),
             ));
         }
         if self.force_limit_n.is_nan() || self.force_limit_n <= self.target_force_n {
             return Err(invalid(
-                "guarded.force_limit_n",
+                &name("force_limit_n"),
                 self.force_limit_n,
-                "above guarded.target_force_n",
+                &format!("above {}", name("target_force_n")),
             ));
         }
-        positive("guarded.max_distance_m", self.max_distance_m)?;
-        positive("guarded.retract_speed_mps", self.retract_speed_mps)?;
-        non_negative("guarded.retract_distance_m", self.retract_distance_m)?;
-        positive("guarded.settle_band_n", self.settle_band_n)?;
-        non_negative("guarded.settle_time_s", self.settle_time_s)?;
+        positive(&name("max_distance_m"), self.max_distance_m)?;
+        positive(&name("retract_speed_mps"), self.retract_speed_mps)?;
+        non_negative(&name("retract_distance_m"), self.retract_distance_m)?;
+        positive(&name("settle_band_n"), self.settle_band_n)?;
+        non_negative(&name("settle_time_s"), self.settle_time_s)?;
         Ok(self)
     }
 }
@@ -116,15 +116,15 @@ impl GuardedMove {
     /// stiffness `stiffness` (N/m) at control period `period_s` in a loop
     /// with these delays ([`PdAxis::new`]).
     pub fn new(
-        p: GuardedParams,
-        pd: &PdParams,
+        p: Checked<GuardedParams>,
+        pd: &Checked<PdParams>,
         stiffness: f64,
         period_s: f64,
-        delays: &LoopDelays,
+        delays: &Checked<LoopDelays>,
     ) -> Self {
         GuardedMove {
             pd: PdAxis::new(pd, stiffness, period_s, 0.0, delays),
-            p,
+            p: *p,
             phase: Phase::Approach,
             reason: None,
             in_band_s: 0.0,
@@ -237,7 +237,7 @@ impl GuardedMove {
 mod tests {
     use super::*;
 
-    pub(crate) fn params() -> GuardedParams {
+    fn params() -> GuardedParams {
         GuardedParams {
             direction: [0.0, 0.0, -2.0],
             approach_speed_mps: 0.01,
@@ -251,16 +251,22 @@ mod tests {
             settle_band_n: 0.05,
             settle_time_s: 0.1,
         }
-        .validate()
-        .unwrap()
     }
 
-    fn pd() -> PdParams {
-        PdParams {
+    /// A move with [`params`] against a contact of 1000 N/m.
+    fn guarded() -> GuardedMove {
+        let pd = PdParams {
             gain_ratio: 0.4,
             derivative_filter_s: 0.02,
             max_speed_mps: 0.05,
-        }
+        };
+        GuardedMove::new(
+            params().checked("guarded").unwrap(),
+            &pd.checked("pd").unwrap(),
+            1000.0,
+            0.01,
+            &LoopDelays::default().checked("loop_delays").unwrap(),
+        )
     }
 
     fn input(force_n: f64, travelled_m: f64) -> GuardedInput {
@@ -275,7 +281,7 @@ mod tests {
 
     #[test]
     fn approach_contact_regulate_hold_on_a_spring() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+        let mut g = guarded();
         assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
         // Object 5 mm away, stiffness 1000 N/m, ideal velocity tracking.
         let mut x: f64 = 0.0;
@@ -296,7 +302,7 @@ mod tests {
 
     #[test]
     fn pdc_alone_detects_contact() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+        let mut g = guarded();
         g.step(&GuardedInput {
             pdc_rise: 40.0,
             ..input(0.0, 0.001)
@@ -306,7 +312,7 @@ mod tests {
 
     #[test]
     fn timeout_stops_at_the_distance() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+        let mut g = guarded();
         assert_eq!(g.step(&input(0.0, 0.049)), 0.01);
         assert_eq!(g.step(&input(0.0, 0.05)), 0.0);
         assert_eq!(
@@ -318,7 +324,7 @@ mod tests {
 
     #[test]
     fn a_stopped_move_stays_still() {
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+        let mut g = guarded();
         assert_eq!(g.step(&input(0.0, 0.0)), 0.01);
         g.stop();
         assert_eq!(g.step(&input(0.0, 0.001)), 0.0);
@@ -329,7 +335,7 @@ mod tests {
     fn regulating_never_goes_past_the_approach_distance() {
         // A PDC rise from a touch behind the pad: contact, but the force
         // along the approach direction stays below the target.
-        let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+        let mut g = guarded();
         let touch = |travelled_m| GuardedInput {
             pdc_rise: 100.0,
             ..input(-1.0, travelled_m)
@@ -347,7 +353,7 @@ mod tests {
     #[test]
     fn over_force_retracts_in_the_same_cycle_then_stops() {
         for start in [Phase::Approach, Phase::Regulate] {
-            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+            let mut g = guarded();
             if start == Phase::Regulate {
                 g.step(&input(0.5, 0.010));
             }
@@ -366,7 +372,7 @@ mod tests {
     fn out_of_range_input_retracts_like_over_force() {
         // Even over the limit (3 N): the estimate is not trusted.
         for force_n in [1.0, 3.5] {
-            let mut g = GuardedMove::new(params(), &pd(), 1000.0, 0.01, &LoopDelays::default());
+            let mut g = guarded();
             g.step(&input(0.5, 0.010));
             let v = g.step(&GuardedInput {
                 out_of_range: true,
@@ -381,10 +387,11 @@ mod tests {
     fn bad_parameters_are_named() {
         let mut p = params();
         p.force_limit_n = 0.5;
-        let e = p.validate().unwrap_err().to_string();
+        let e = p.checked("guarded").unwrap_err().to_string();
         assert!(e.contains("guarded.force_limit_n"), "{e}");
         p = params();
         p.direction = [0.0; 3];
-        assert!(p.validate().unwrap_err().to_string().contains("direction"));
+        let e = p.checked("guarded").unwrap_err().to_string();
+        assert!(e.contains("guarded.direction"), "{e}");
     }
 }

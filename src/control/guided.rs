@@ -12,8 +12,7 @@ use serde::Deserialize;
 
 use super::pd::{LoopDelays, PdAxis, PdParams};
 use super::{Phase, StopReason};
-use crate::params::ParamsError;
-use crate::params::{invalid, non_negative};
+use crate::params::{invalid, non_negative, Check, Checked, ParamsError};
 
 /// Guided-move settings (`force_controller.guided` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -27,17 +26,17 @@ pub struct GuidedParams {
     pub force_limit_n: f64,
 }
 
-impl GuidedParams {
-    /// Checks the values.
-    pub fn validate(self) -> Result<Self, ParamsError> {
+impl Check for GuidedParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
         let t = Vector3::from(self.target_force_n);
         if !t.iter().all(|v| v.is_finite()) {
-            return Err(invalid("guided.target_force_n", t.norm(), "finite values"));
+            let key = format!("{key}.target_force_n");
+            return Err(invalid(&key, t.norm(), "finite values"));
         }
-        non_negative("guided.deadband_n", self.deadband_n)?;
+        non_negative(&format!("{key}.deadband_n"), self.deadband_n)?;
         if self.force_limit_n.is_nan() || self.force_limit_n <= t.norm() {
             return Err(invalid(
-                "guided.force_limit_n",
+                &format!("{key}.force_limit_n"),
                 self.force_limit_n,
                 "above the target force's magnitude",
             ));
@@ -60,16 +59,16 @@ impl GuidedMove {
     /// effective contact stiffness along x, y, z) at control period
     /// `period_s` in a loop with these delays ([`PdAxis::new`]).
     pub fn new(
-        p: GuidedParams,
-        pd: &PdParams,
+        p: Checked<GuidedParams>,
+        pd: &Checked<PdParams>,
         stiffness: [Option<f64>; 3],
         period_s: f64,
-        delays: &LoopDelays,
+        delays: &Checked<LoopDelays>,
     ) -> Self {
         let axis = |k| PdAxis::new(pd, k, period_s, p.deadband_n, delays);
         GuidedMove {
             pd: stiffness.map(|k| k.map(axis)),
-            p,
+            p: *p,
             phase: Phase::Follow,
             reason: None,
         }
@@ -146,20 +145,18 @@ mod tests {
             target_force_n: [0.0, 0.0, 1.0],
             deadband_n: 0.2,
             force_limit_n: 5.0,
-        }
-        .validate()
-        .unwrap();
+        };
         let pd = PdParams {
             gain_ratio: 0.4,
             derivative_filter_s: 0.02,
             max_speed_mps: 0.1,
         };
         GuidedMove::new(
-            p,
-            &pd,
+            p.checked("guided").unwrap(),
+            &pd.checked("pd").unwrap(),
             [Some(500.0), Some(500.0), Some(300.0)],
             0.01,
-            &LoopDelays::default(),
+            &LoopDelays::default().checked("loop_delays").unwrap(),
         )
     }
 

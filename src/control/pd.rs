@@ -30,8 +30,7 @@
 
 use serde::Deserialize;
 
-use crate::params::ParamsError;
-use crate::params::{invalid, non_negative, positive};
+use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
 
 /// Fraction of the delay's stability bound the gain ratio may reach.
 const STABILITY_FRACTION: f64 = 0.9;
@@ -53,14 +52,16 @@ pub struct LoopDelays {
     pub arm_lag_s: f64,
 }
 
-impl LoopDelays {
-    /// Checks the values.
-    pub fn validate(&self) -> Result<(), ParamsError> {
-        non_negative("loop_delays.transport_delay_s", self.transport_delay_s)?;
-        non_negative("loop_delays.command_latency_s", self.command_latency_s)?;
-        non_negative("loop_delays.arm_lag_s", self.arm_lag_s)
+impl Check for LoopDelays {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
+        non_negative(&format!("{key}.transport_delay_s"), self.transport_delay_s)?;
+        non_negative(&format!("{key}.command_latency_s"), self.command_latency_s)?;
+        non_negative(&format!("{key}.arm_lag_s"), self.arm_lag_s)?;
+        Ok(self)
     }
+}
 
+impl LoopDelays {
     /// The whole delay (s).
     pub fn total_s(&self) -> f64 {
         self.transport_delay_s + self.arm_s()
@@ -90,14 +91,18 @@ pub struct PdParams {
     pub max_speed_mps: f64,
 }
 
-impl PdParams {
-    /// Checks the values.
-    pub fn validate(&self) -> Result<(), ParamsError> {
+impl Check for PdParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
         if !(self.gain_ratio > 0.0 && self.gain_ratio < 1.0) {
-            return Err(invalid("pd.gain_ratio", self.gain_ratio, "0 < a < 1"));
+            let key = format!("{key}.gain_ratio");
+            return Err(invalid(&key, self.gain_ratio, "0 < a < 1"));
         }
-        non_negative("pd.derivative_filter_s", self.derivative_filter_s)?;
-        positive("pd.max_speed_mps", self.max_speed_mps)
+        non_negative(
+            &format!("{key}.derivative_filter_s"),
+            self.derivative_filter_s,
+        )?;
+        positive(&format!("{key}.max_speed_mps"), self.max_speed_mps)?;
+        Ok(self)
     }
 }
 
@@ -118,11 +123,11 @@ impl PdAxis {
     /// control period `period_s`, with a deadband (N), in a loop with these
     /// delays.
     pub fn new(
-        p: &PdParams,
+        p: &Checked<PdParams>,
         stiffness: f64,
         period_s: f64,
         deadband_n: f64,
-        delays: &LoopDelays,
+        delays: &Checked<LoopDelays>,
     ) -> Self {
         let d = delays.total_s() / period_s;
         let a = p.gain_ratio.min(STABILITY_FRACTION * max_gain_ratio(d));
@@ -177,12 +182,18 @@ mod tests {
     use super::*;
 
     /// Delays of `n` periods of 10 ms in the arm, none in the transport.
-    fn arm_delay(n: usize) -> LoopDelays {
+    fn arm_delay(n: usize) -> Checked<LoopDelays> {
+        delays(0.0, n as f64 * 0.01)
+    }
+
+    fn delays(transport_delay_s: f64, command_latency_s: f64) -> Checked<LoopDelays> {
         LoopDelays {
-            transport_delay_s: 0.0,
-            command_latency_s: n as f64 * 0.01,
+            transport_delay_s,
+            command_latency_s,
             arm_lag_s: 0.0,
         }
+        .checked("loop_delays")
+        .unwrap()
     }
 
     fn params() -> PdParams {
@@ -193,8 +204,12 @@ mod tests {
         }
     }
 
+    fn checked(p: PdParams) -> Checked<PdParams> {
+        p.checked("pd").unwrap()
+    }
+
     /// Closes the loop on an ideal spring: F = k x, x += u T.
-    fn settle(p: &PdParams, k: f64, delay: usize) -> Vec<f64> {
+    fn settle(p: &Checked<PdParams>, k: f64, delay: usize) -> Vec<f64> {
         let t = 0.01;
         let mut pd = PdAxis::new(p, k, t, 0.0, &arm_delay(0));
         let (mut x, mut queue) = (0.0, vec![0.0; delay]);
@@ -212,7 +227,7 @@ mod tests {
     fn the_gain_ratio_sets_the_contraction_per_period() {
         // Without delay the error shrinks by (1 - a) per period, for any stiffness.
         for k in [1e2, 1e3, 1e5] {
-            let f = settle(&params(), k, 0);
+            let f = settle(&checked(params()), k, 0);
             let (e1, e2) = (1.0 - f[5], 1.0 - f[6]);
             assert!((e2 / e1 - 0.5).abs() < 1e-9, "k {k}: {e1} {e2}");
             assert!(f.iter().all(|&v| v <= 1.0 + 1e-12), "no overshoot");
@@ -222,11 +237,11 @@ mod tests {
     #[test]
     fn stability_bound_with_one_period_of_delay() {
         // a < 1 converges with one period of delay; a = 1.2 diverges.
-        let ok = settle(&params(), 1e3, 1);
+        let ok = settle(&checked(params()), 1e3, 1);
         assert!((ok[199] - 1.0).abs() < 1e-6);
         let mut high = params();
         high.gain_ratio = 0.999;
-        let mut pd = PdAxis::new(&high, 1e3, 0.01, 0.0, &arm_delay(0));
+        let mut pd = PdAxis::new(&checked(high), 1e3, 0.01, 0.0, &arm_delay(0));
         pd.gain *= 1.2;
         let (mut x, mut queue, mut last) = (0.0, vec![0.0], 0.0);
         for _ in 0..400 {
@@ -245,18 +260,14 @@ mod tests {
         // a_max: 1 period -> 1, 2 -> 0.618, 3 -> 0.445 (architecture page).
         assert!((max_gain_ratio(1.0) - 1.0).abs() < 1e-12);
         assert!((max_gain_ratio(2.0) - 0.618).abs() < 1e-3);
-        let p = PdParams {
+        let p = checked(PdParams {
             gain_ratio: 0.9,
             ..params()
-        };
+        });
         for delay in [1usize, 2, 4, 6] {
             let t = 0.01;
             // The transport's delay: no derivative, the gain alone.
-            let delays = LoopDelays {
-                transport_delay_s: delay as f64 * t,
-                ..arm_delay(0)
-            };
-            let mut pd = PdAxis::new(&p, 1e3, t, 0.0, &delays);
+            let mut pd = PdAxis::new(&p, 1e3, t, 0.0, &delays(delay as f64 * t, 0.0));
             assert_eq!(pd.derivative_time_s, 0.0);
             let a = pd.gain() * 1e3 * t;
             assert!(
@@ -277,7 +288,7 @@ mod tests {
     fn deadband_and_clamp() {
         let mut p = params();
         p.max_speed_mps = 0.01;
-        let mut pd = PdAxis::new(&p, 1e3, 0.01, 0.2, &arm_delay(0));
+        let mut pd = PdAxis::new(&checked(p), 1e3, 0.01, 0.2, &arm_delay(0));
         assert_eq!(pd.step(1.0, 0.85, 0.01), 0.0, "inside the deadband");
         let u = pd.step(1.0, 0.7, 0.01);
         assert!((u - 0.1 * pd.gain()).abs() < 1e-12, "width subtracted: {u}");
@@ -288,8 +299,8 @@ mod tests {
     #[test]
     fn the_derivative_brakes_a_rising_force() {
         // A 30 ms loop delay: a = min(0.5, 0.9 a_max(3)) = 0.4005, T_d = 30 ms.
-        let mut pd = PdAxis::new(&params(), 1e3, 0.01, 0.0, &arm_delay(3));
-        let mut plain = PdAxis::new(&params(), 1e3, 0.01, 0.0, &arm_delay(0));
+        let mut pd = PdAxis::new(&checked(params()), 1e3, 0.01, 0.0, &arm_delay(3));
+        let mut plain = PdAxis::new(&checked(params()), 1e3, 0.01, 0.0, &arm_delay(0));
         assert!((pd.gain() * 1e3 * 0.01 - 0.9 * max_gain_ratio(3.0)).abs() < 1e-12);
         let (mut u, mut v) = (0.0, 0.0);
         for k in 0..10 {
@@ -299,11 +310,12 @@ mod tests {
         }
         assert!(pd.force_rate() > 0.0 && u < v, "{u} {v}");
         assert_eq!(plain.gain() * 1e3 * 0.01, 0.5, "no delay: the parameter");
-        assert!(PdParams {
+        let e = PdParams {
             gain_ratio: 1.5,
             ..params()
         }
-        .validate()
-        .is_err());
+        .checked("pd")
+        .unwrap_err();
+        assert!(e.to_string().contains("pd.gain_ratio"), "{e}");
     }
 }

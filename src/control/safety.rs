@@ -3,6 +3,8 @@
 //! fresh, finite one arrives (MoveIt Servo halts on a stale command; FZI's
 //! controller drops NaN wrenches: architecture page, "anchors' safety habits").
 
+use crate::kinematics::KinematicsError;
+
 /// Why the controller commands zero velocity this cycle.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -25,7 +27,7 @@ pub enum Halt {
     NonFinite(&'static str),
     /// The inverse kinematics refused the motion.
     #[error("inverse kinematics: {0}")]
-    Kinematics(String),
+    Kinematics(#[from] KinematicsError),
 }
 
 /// Rejects inputs older than `max_age_s`.

@@ -51,7 +51,7 @@ pub struct Motion {
 }
 
 /// Inputs that the inverse cannot use.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, Clone, Copy, thiserror::Error, PartialEq)]
 #[non_exhaustive]
 pub enum KinematicsError {
     /// NaN or infinite values.

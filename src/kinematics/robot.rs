@@ -9,10 +9,7 @@ use serde::Deserialize;
 use super::chain::Link;
 use super::dls::{DlsParams, JointLimits};
 use super::{JointVector, SerialChain, N_JOINTS};
-use crate::params::{node_params, read_node_params, ParamsError};
-
-/// The shipped PA10-7C parameter file.
-pub const PA10_YAML: &str = include_str!("../../config/pa10.yaml");
+use crate::params::{node_params, read_node_params, ParamsError, PA10_YAML};
 
 /// Node whose parameters hold the robot.
 const NODE: &str = "force_controller";

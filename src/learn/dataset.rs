@@ -32,7 +32,15 @@ use crate::wrench::{Axis, AxisSet};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DatasetError {
-    /// The file could not be opened, read or written.
+    /// The file could not be written.
+    #[error("{path}: cannot write: {source}")]
+    Write {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: csv::Error,
+    },
+    /// The file could not be opened or read.
     #[error("{path}: {source}")]
     Io {
         /// File path.
@@ -151,7 +159,7 @@ pub fn csv_header() -> Vec<String> {
 /// Writes records as CSV with the header [`csv_header`].
 pub fn write_csv(path: &Path, records: &[Record]) -> Result<(), DatasetError> {
     let p = path.display().to_string();
-    let csv_err = |source| DatasetError::Csv {
+    let csv_err = |source| DatasetError::Write {
         path: p.clone(),
         source,
     };
@@ -171,8 +179,7 @@ pub fn write_csv(path: &Path, records: &[Record]) -> Result<(), DatasetError> {
         row.extend(Axis::ALL.iter().map(|&a| format!("{:.6}", r.wrench.get(a))));
         w.write_record(&row).map_err(csv_err)?;
     }
-    w.flush()
-        .map_err(|source| DatasetError::Io { path: p, source })
+    w.flush().map_err(|e| csv_err(e.into()))
 }
 
 /// Samples as rows: features, targets and the trial each row belongs to.

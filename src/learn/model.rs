@@ -34,9 +34,17 @@ pub const MODEL_VERSION: u32 = 3;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ModelError {
-    /// The file could not be read or written.
+    /// The file could not be read.
     #[error("{path}: {source}")]
     Io {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("{path}: cannot write: {source}")]
+    Write {
         /// File path.
         path: String,
         /// Underlying error.
@@ -461,7 +469,7 @@ impl WrenchGp {
 
     /// Writes the model file.
     pub fn save(&self, path: &Path) -> Result<(), ModelError> {
-        let io = |source| ModelError::Io {
+        let io = |source| ModelError::Write {
             path: path.display().to_string(),
             source,
         };

@@ -12,42 +12,15 @@ use nalgebra::{Isometry3, Vector3};
 use serde::Deserialize;
 
 use super::{JointState, WrenchEstimate};
-use crate::contact::{object_body, series_stiffness, shear_stiffness, BodyParams, SkinParams};
-use crate::control::guarded::GuardedInput;
+use crate::contact::{object_body, BodyParams, SkinParams};
+use crate::control::task::{missing_axis, TaskInput};
 use crate::control::{
-    Envelope, GuardedMove, GuardedParams, GuidedMove, GuidedParams, Halt, LoopDelays, PdParams,
-    Phase, SafetyParams, StopReason, Watchdog, UNKNOWN_OBJECT,
+    Envelope, GuardedParams, GuidedParams, Halt, LoopDelays, PdParams, Phase, SafetyParams,
+    StopReason, Task, TaskEnvelope, TaskKind, TaskLoop, TaskParams, Watchdog, UNKNOWN_OBJECT,
 };
 use crate::kinematics::{joint_velocities, JointVector, Robot, RobotParams, Twist};
-use crate::params::positive;
-use crate::params::ParamsError;
+use crate::params::{positive, Check, Checked, ParamsError};
 use crate::wrench::{Axis, AxisSet};
-
-/// Which task the controller runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TaskKind {
-    /// Approach, touch, hold a force.
-    Guarded,
-    /// Follow a person's finger.
-    Guided,
-}
-
-impl std::str::FromStr for TaskKind {
-    type Err = ParamsError;
-
-    fn from_str(s: &str) -> Result<Self, ParamsError> {
-        match s {
-            "guarded" => Ok(TaskKind::Guarded),
-            "guided" => Ok(TaskKind::Guided),
-            other => Err(ParamsError::Invalid {
-                key: "task".into(),
-                value: other.into(),
-                expected: "guarded or guided".into(),
-            }),
-        }
-    }
-}
 
 /// The `force_controller` parameters (robot file + scene file).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -99,13 +72,6 @@ pub struct OutOfRangeParams {
     pub max_pdc_rise_counts: f64,
 }
 
-/// The running task.
-#[derive(Debug, Clone, PartialEq)]
-enum Task {
-    Guarded(GuardedMove),
-    Guided(GuidedMove),
-}
-
 /// What the controller commands this tick.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControlOutput {
@@ -144,54 +110,22 @@ pub struct ForceController {
 impl ForceController {
     /// Checks the parameters and builds the controller.
     pub fn new(p: ControllerParams) -> Result<Self, ParamsError> {
-        positive("control_period_s", p.control_period_s)?;
         positive("stale_periods", p.stale_periods)?;
         positive("out_of_range.max_std_n", p.out_of_range.max_std_n)?;
         positive(
             "out_of_range.max_pdc_rise_counts",
             p.out_of_range.max_pdc_rise_counts,
         )?;
-        p.skin.validate("skin")?;
-        p.pd.validate()?;
-        p.loop_delays.validate()?;
-        let speed = task_envelope(&p)?;
+        let sections = Sections::check(&p)?;
+        let lp = sections.task_loop(&p);
+        let speed = sections.envelope(&p)?;
         speed.check()?;
-        let body = permitted_body(&p, &p.object)?;
-        let task = match p.task {
-            TaskKind::Guarded => {
-                let g = p
-                    .guarded
-                    .ok_or_else(|| missing(&p, "guarded"))?
-                    .validate()?;
-                let k = series_stiffness(&p.skin, &body, g.target_force_n);
-                Task::Guarded(GuardedMove::new(
-                    g,
-                    &p.pd,
-                    k,
-                    p.control_period_s,
-                    &p.loop_delays,
-                ))
-            }
-            TaskKind::Guided => {
-                let g = p.guided.ok_or_else(|| missing(&p, "guided"))?.validate()?;
-                let normal = series_stiffness(&p.skin, &body, g.target_force_n[2]);
-                let shear = shear_stiffness(&p.skin, &body);
-                let k = [shear, shear, normal];
-                let controlled = controlled_forces(&p.axes);
-                let k = std::array::from_fn(|i| controlled[i].then_some(k[i]));
-                Task::Guided(GuidedMove::new(
-                    g,
-                    &p.pd,
-                    k,
-                    p.control_period_s,
-                    &p.loop_delays,
-                ))
-            }
-        };
+        let body = permitted_body(&p, &sections.safety, &p.object)?;
+        let task = sections.task.build(&lp, &body);
         let robot = p.robot.validate()?;
-        let needed = needed_axes(&task);
+        let needed = task.force_axes();
         if let Some(axis) = needed.iter().find(|a| !p.axes.axes().contains(a)) {
-            return Err(invalid_axes(&p.axes, *axis));
+            return Err(missing_axis(&p.axes, *axis));
         }
         Ok(ForceController {
             robot,
@@ -238,15 +172,7 @@ impl ForceController {
     /// not controlled. For the guarded move, the gain along its direction is
     /// reported on the axis it mostly points along.
     pub fn gains(&self) -> [Option<f64>; 3] {
-        match &self.task {
-            Task::Guarded(g) => {
-                let d = g.direction();
-                let mut out = [None; 3];
-                out[d.iamax()] = Some(g.pd().gain());
-                out
-            }
-            Task::Guided(g) => g.gains(),
-        }
+        self.task.gains()
     }
 
     /// The safety envelope the task's speed was checked against: the
@@ -284,10 +210,7 @@ impl ForceController {
     /// Stops the task where it is (a canceled goal): every later tick
     /// commands zero velocity.
     pub fn stop(&mut self) {
-        match &mut self.task {
-            Task::Guarded(g) => g.stop(),
-            Task::Guided(g) => g.stop(),
-        }
+        self.task.stop();
     }
 
     /// One control cycle at time `now` (s).
@@ -315,10 +238,7 @@ impl ForceController {
     }
 
     fn halt(&mut self, halt: Halt) -> ControlOutput {
-        match &mut self.task {
-            Task::Guarded(g) => g.pause(),
-            Task::Guided(g) => g.pause(),
-        }
+        self.task.pause();
         self.output(JointVector::zeros(), Vector3::zeros(), Some(halt))
     }
 
@@ -331,27 +251,19 @@ impl ForceController {
         let out_of_range = self.is_out_of_range(&est);
         let pose = self.robot.chain.forward(&js.q);
         let start = *self.start.get_or_insert(pose);
-        let v_world = match &mut self.task {
-            Task::Guarded(g) => {
-                let d_tool = g.direction();
-                let d_world = start.rotation * d_tool;
-                let input = GuardedInput {
-                    force_n: -d_tool.dot(&est.mean.force),
-                    pdc_rise: est.pdc_rise,
-                    travelled_m: (pose.translation.vector - start.translation.vector).dot(&d_world),
-                    out_of_range,
-                    dt,
-                };
-                d_world * g.step(&input)
-            }
-            Task::Guided(g) => pose.rotation * g.step(&est.mean.force, out_of_range, dt),
-        };
+        let v_world = self.task.step(&TaskInput {
+            force: &est.mean.force,
+            pdc_rise: est.pdc_rise,
+            pose: &pose,
+            start: &start,
+            out_of_range,
+            dt,
+        });
         if v_world == Vector3::zeros() {
             return Ok((JointVector::zeros(), v_world));
         }
         let twist = Twist::new(v_world.x, v_world.y, v_world.z, 0.0, 0.0, 0.0);
-        let motion = joint_velocities(&self.robot, &js.q, &twist, None)
-            .map_err(|e| Halt::Kinematics(e.to_string()))?;
+        let motion = joint_velocities(&self.robot, &js.q, &twist, None)?;
         // What the arm will do after the speed scaling, in the start frame.
         let velocity = start.rotation.inverse() * v_world * motion.scale;
         Ok((motion.qdot, velocity))
@@ -373,127 +285,102 @@ impl ForceController {
         velocity: Vector3<f64>,
         halt: Option<Halt>,
     ) -> ControlOutput {
-        let (phase, reason, targets) = match &self.task {
-            Task::Guarded(g) => {
-                let d = g.direction();
-                let mut t = [None; 3];
-                t[d.iamax()] = Some(g.target_force_n() * -d[d.iamax()]);
-                (g.phase(), g.reason(), t)
-            }
-            Task::Guided(g) => (g.phase(), g.reason(), g.targets()),
-        };
         ControlOutput {
             qdot,
             velocity,
-            phase,
-            reason,
+            phase: self.task.phase(),
+            reason: self.task.reason(),
             halt,
-            targets,
+            targets: self.task.targets(),
         }
     }
 }
 
-/// A task's speed towards its bodies and the envelope it must stay in.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TaskEnvelope {
-    /// The envelope against the stiffest body the scene permits.
-    pub envelope: Envelope,
-    /// That body's name.
-    pub body: String,
-    /// The parameter that sets the speed.
-    pub key: &'static str,
-    /// The speed (m/s): the guarded move's approach, the guided move's
-    /// largest commanded speed.
-    pub speed_mps: f64,
-}
-
-impl TaskEnvelope {
-    /// Refuses a speed above the envelope's limit, naming it.
-    pub fn check(&self) -> Result<(), ParamsError> {
-        self.envelope.check(self.key, self.speed_mps, &self.body)
-    }
-}
-
-/// The safety envelope of the task of `p` (src/control/envelope.rs): the
-/// guarded move's approach against the stiffest permitted body, or the
-/// guided move's controlled axis that allows the slowest motion.
+/// The safety envelope of the task of `p` (src/control/envelope.rs)
+/// against the stiffest body the scene permits.
 pub fn task_envelope(p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
-    positive("control_period_s", p.control_period_s)?;
-    p.skin.validate("skin")?;
-    p.safety.validate()?;
-    p.loop_delays.validate()?;
-    permitted_body(p, &p.object)?;
-    let (body, name) = stiffest_permitted(p)?;
-    let reaction_s = p.control_period_s + p.loop_delays.total_s();
-    let (envelope, key, speed_mps) = match p.task {
-        TaskKind::Guarded => {
-            let g = p.guarded.ok_or_else(|| missing(p, "guarded"))?.validate()?;
-            let envelope = Envelope {
-                skin: p.skin,
-                stiffness_n_per_m: body.stiffness_n_per_m,
-                shear: false,
-                trigger_n: g.contact_force_n,
-                target_n: g.target_force_n,
-                limit_n: g.force_limit_n,
-                reaction_s,
-            };
-            (envelope, "guarded.approach_speed_mps", g.approach_speed_mps)
-        }
-        TaskKind::Guided => {
-            let g = p.guided.ok_or_else(|| missing(p, "guided"))?.validate()?;
-            let envelope = guided_envelope(p, &g, &body, reaction_s)
-                .ok_or_else(|| invalid_axes(&p.axes, Axis::Fz))?;
-            (envelope, "pd.max_speed_mps", p.pd.max_speed_mps)
-        }
-    };
-    Ok(TaskEnvelope {
-        envelope,
-        body: name,
-        key,
-        speed_mps,
-    })
+    Sections::check(p)?.envelope(p)
 }
 
-fn missing(p: &ControllerParams, section: &str) -> ParamsError {
-    ParamsError::Invalid {
-        key: section.into(),
-        value: "absent".into(),
-        expected: format!("a `{section}` section for the task {:?}", p.task),
+/// The checked sections of the parameters that the task is built from.
+struct Sections {
+    skin: Checked<SkinParams>,
+    pd: Checked<PdParams>,
+    delays: Checked<LoopDelays>,
+    safety: Checked<SafetyParams>,
+    task: TaskParams,
+}
+
+impl Sections {
+    fn check(p: &ControllerParams) -> Result<Self, ParamsError> {
+        positive("control_period_s", p.control_period_s)?;
+        let skin = p.skin.checked("skin")?;
+        let pd = p.pd.checked("pd")?;
+        let delays = p.loop_delays.checked("loop_delays")?;
+        let safety = p.safety.clone().checked("safety")?;
+        permitted_body(p, &safety, &p.object)?;
+        let task = TaskParams::select(p.task, p.guarded, p.guided)?;
+        Ok(Sections {
+            skin,
+            pd,
+            delays,
+            safety,
+            task,
+        })
     }
-}
 
-/// Which of x, y, z force the task controls.
-fn controlled_forces(axes: &AxisSet) -> [bool; 3] {
-    [Axis::Fx, Axis::Fy, Axis::Fz].map(|a| axes.axes().contains(&a))
+    fn task_loop<'a>(&'a self, p: &'a ControllerParams) -> TaskLoop<'a> {
+        TaskLoop {
+            skin: &self.skin,
+            pd: &self.pd,
+            delays: &self.delays,
+            period_s: p.control_period_s,
+            axes: &p.axes,
+        }
+    }
+
+    /// The task's envelope against the stiffest body the scene permits.
+    fn envelope(&self, p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
+        let (body, name) = stiffest_permitted(p, &self.safety)?;
+        self.task.envelope(&self.task_loop(p), &body, &name)
+    }
 }
 
 /// The body named `name`, which the scene must permit (`safety.objects`).
-fn permitted_body(p: &ControllerParams, name: &str) -> Result<BodyParams, ParamsError> {
-    if !p.safety.objects.iter().any(|o| o == name) {
+fn permitted_body(
+    p: &ControllerParams,
+    safety: &SafetyParams,
+    name: &str,
+) -> Result<BodyParams, ParamsError> {
+    if !safety.objects.iter().any(|o| o == name) {
         return Err(ParamsError::Invalid {
             key: "object".into(),
             value: name.into(),
             expected: format!(
                 "one of the bodies this scene may touch, safety.objects = {:?}",
-                p.safety.objects
+                safety.objects
             ),
         });
     }
     if name == UNKNOWN_OBJECT {
         return Ok(BodyParams {
-            stiffness_n_per_m: p.safety.worst_case_stiffness_n_per_m,
+            stiffness_n_per_m: safety.worst_case_stiffness_n_per_m,
             damping_n_s_per_m: 0.0,
             friction: 0.0,
         });
     }
-    object_body(&p.objects, name)
+    Ok(*object_body(&p.objects, name)?)
 }
 
-/// The stiffest body the scene permits, and its name.
-fn stiffest_permitted(p: &ControllerParams) -> Result<(BodyParams, String), ParamsError> {
+/// The stiffest body the scene permits, and its name (`safety.objects` is
+/// not empty: checked).
+fn stiffest_permitted(
+    p: &ControllerParams,
+    safety: &SafetyParams,
+) -> Result<(BodyParams, String), ParamsError> {
     let mut stiffest: Option<(BodyParams, String)> = None;
-    for name in &p.safety.objects {
-        let body = permitted_body(p, name)?;
+    for name in &safety.objects {
+        let body = permitted_body(p, safety, name)?;
         if stiffest
             .as_ref()
             .is_none_or(|(b, _)| body.stiffness_n_per_m > b.stiffness_n_per_m)
@@ -501,67 +388,11 @@ fn stiffest_permitted(p: &ControllerParams) -> Result<(BodyParams, String), Para
             stiffest = Some((body, name.clone()));
         }
     }
-    // `safety.objects` is not empty (checked).
     stiffest.ok_or_else(|| ParamsError::Invalid {
         key: "safety.objects".into(),
         value: "[]".into(),
         expected: "the bodies this scene may touch".into(),
     })
-}
-
-/// The guided move's envelope: the controlled axis that allows the slowest
-/// motion towards `body` (None when no force axis is controlled). On each axis the PD stops advancing past the
-/// target plus the deadband, and the axis may take what the force limit
-/// leaves beside the other axes' targets.
-fn guided_envelope(
-    p: &ControllerParams,
-    g: &GuidedParams,
-    body: &BodyParams,
-    reaction_s: f64,
-) -> Option<Envelope> {
-    let controlled = controlled_forces(&p.axes);
-    let t = g.target_force_n;
-    let total: f64 = t.iter().map(|v| v * v).sum();
-    (0..3)
-        .filter(|&i| controlled[i])
-        .map(|i| Envelope {
-            skin: p.skin,
-            stiffness_n_per_m: if i == 2 {
-                body.stiffness_n_per_m
-            } else {
-                shear_stiffness(&p.skin, body)
-            },
-            shear: i != 2,
-            trigger_n: t[i].abs() + g.deadband_n,
-            target_n: t[i].abs(),
-            limit_n: (g.force_limit_n.powi(2) - (total - t[i] * t[i])).sqrt(),
-            reaction_s,
-        })
-        .min_by(|a, b| a.max_speed_mps().total_cmp(&b.max_speed_mps()))
-}
-
-/// Force axes a task reads.
-fn needed_axes(task: &Task) -> Vec<Axis> {
-    let forces = [Axis::Fx, Axis::Fy, Axis::Fz];
-    match task {
-        Task::Guarded(g) => {
-            let d = g.direction();
-            forces.into_iter().filter(|a| d[a.index()] != 0.0).collect()
-        }
-        Task::Guided(g) => forces
-            .into_iter()
-            .zip(g.targets())
-            .filter_map(|(a, t)| t.map(|_| a))
-            .collect(),
-    }
-}
-
-fn invalid_axes(axes: &AxisSet, axis: Axis) -> ParamsError {
-    ParamsError::Invalid {
-        key: "axes".into(),
-        value: axes.to_string(),
-        expected: format!("a set including {axis}, which the task reads"),
-    }
 }
 
 #[cfg(test)]
@@ -572,12 +403,8 @@ mod tests {
     /// A scene's parameters with both tasks' sections, as the ROS node
     /// declares them.
     fn both_sections(task: TaskKind) -> ControllerParams {
-        let guarded = Scene::builtin(TaskKind::Guarded)
-            .controller_params()
-            .unwrap();
-        let guided = Scene::builtin(TaskKind::Guided)
-            .controller_params()
-            .unwrap();
+        let guarded = Scene::builtin(TaskKind::Guarded).unwrap().controller;
+        let guided = Scene::builtin(TaskKind::Guided).unwrap().controller;
         let mut p = if task == TaskKind::Guarded {
             guarded.clone()
         } else {
@@ -602,9 +429,7 @@ mod tests {
         assert!(c.gains()[2].is_some() && c.gains()[0].is_none());
         ForceController::switched(&guided, TaskKind::Guided).unwrap();
         // Without the other task's section the switch names what is missing.
-        let only = Scene::builtin(TaskKind::Guided)
-            .controller_params()
-            .unwrap();
+        let only = Scene::builtin(TaskKind::Guided).unwrap().controller;
         let err = ForceController::switched(&only, TaskKind::Guarded).unwrap_err();
         assert!(err.to_string().contains("guarded"), "{err}");
         // The guided move's speeds are beyond the envelope of a wooden box.
@@ -620,9 +445,9 @@ mod tests {
 
     #[test]
     fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
-        let scene = Scene::builtin(TaskKind::Guarded);
-        let mut c = ForceController::new(scene.controller_params().unwrap()).unwrap();
-        let deg = scene.sim_params().unwrap().start_joints_deg;
+        let scene = Scene::builtin(TaskKind::Guarded).unwrap();
+        let mut c = ForceController::new(scene.controller).unwrap();
+        let deg = scene.sim.start_joints_deg;
         let q = JointVector::from_iterator(deg.iter().map(|d| d.to_radians()));
         let inputs = |c: &mut ForceController, t: f64| {
             c.on_joint_state(JointState { stamp_s: t, q }).unwrap();

@@ -3,9 +3,8 @@
 //! parameters with the goal's fields applied, checked like any scene (the
 //! safety envelope included), and how the move ended, for the result.
 
-use super::controller::TaskKind;
 use super::{ControlOutput, ControllerParams, ForceController};
-use crate::control::{GuardedParams, Phase};
+use crate::control::{GuardedParams, Phase, TaskKind};
 use crate::params::ParamsError;
 
 /// A guarded-move goal; zero fields keep the parameter's value.
@@ -79,14 +78,10 @@ mod tests {
 
     #[test]
     fn a_goal_overrides_only_what_it_sets_and_is_checked() {
-        let base = Scene::builtin(TaskKind::Guided)
-            .controller_params()
-            .unwrap();
+        let base = Scene::builtin(TaskKind::Guided).unwrap().controller;
         // The guided scene has no guarded section: refused, named.
         assert!(goal(0.02).apply(&base).is_err());
-        let base = Scene::builtin(TaskKind::Guarded)
-            .controller_params()
-            .unwrap();
+        let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
         let p = goal(0.02).apply(&base).unwrap();
         let (g, b) = (p.guarded.as_ref().unwrap(), base.guarded.as_ref().unwrap());
         assert_eq!(g.approach_speed_mps, 0.02);
@@ -98,9 +93,7 @@ mod tests {
 
     #[test]
     fn a_goal_beyond_the_safety_envelope_is_refused_with_the_limit() {
-        let base = Scene::builtin(TaskKind::Guarded)
-            .controller_params()
-            .unwrap();
+        let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
         for speed in [0.2, 5.0] {
             let e = goal(speed).start(&base).unwrap_err().to_string();
             assert!(
@@ -119,11 +112,7 @@ mod tests {
     #[test]
     fn the_outcome_is_known_only_when_the_move_holds_or_stops() {
         let mut c = goal(0.0)
-            .start(
-                &Scene::builtin(TaskKind::Guarded)
-                    .controller_params()
-                    .unwrap(),
-            )
+            .start(&Scene::builtin(TaskKind::Guarded).unwrap().controller)
             .unwrap();
         let out = c.tick(0.0);
         assert!(out.halt.is_some(), "no input yet: the watchdog halts");

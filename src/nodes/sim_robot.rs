@@ -23,8 +23,7 @@ use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
 use crate::biotac::BioTacReading;
 use crate::contact::{object_body, BodyParams, SkinParams};
 use crate::kinematics::{JointVector, Robot, N_JOINTS};
-use crate::params::ParamsError;
-use crate::params::{invalid, non_negative, positive};
+use crate::params::{invalid, non_negative, positive, Check, ParamsError};
 use crate::sim::arm::ArmPlant;
 use crate::sim::collect::unit_seed;
 use crate::sim::contact::PlaneContact;
@@ -148,7 +147,7 @@ impl SimRobot {
                 "a fraction in 0..1",
             ));
         }
-        p.skin.validate("skin")?;
+        let skin = p.skin.checked("skin")?;
         let ratio = p.control_period_s * p.physics_rate_hz;
         if (ratio - ratio.round()).abs() > 1e-9 || ratio < 1.0 {
             return Err(invalid(
@@ -201,7 +200,7 @@ impl SimRobot {
         Ok(SimRobot {
             arm: ArmPlant::new(q0, &robot.limits, p.command_latency_s, p.velocity_lag_s),
             robot,
-            contact: PlaneContact::new(p.skin, body),
+            contact: PlaneContact::new(skin, body),
             biotac,
             path,
             contact_x_mm: p.contact_x_mm,

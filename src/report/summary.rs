@@ -17,7 +17,8 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::TraceRow;
-use crate::nodes::controller::{ControllerParams, TaskKind};
+use crate::control::TaskKind;
+use crate::nodes::controller::ControllerParams;
 use crate::wrench::Axis;
 
 /// Measured force that counts as contact (N): 8 sigma of the F/T noise
@@ -185,10 +186,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         .fold(0.0, f64::max);
     let reason = last.and_then(|r| r.reason);
     Summary {
-        task: match info.task {
-            TaskKind::Guarded => "guarded",
-            TaskKind::Guided => "guided",
-        },
+        task: info.task.name(),
         object: info.object.clone(),
         approach_speed_mps: info.approach_speed_mps,
         contact_time_s: contact.map(|i| rows[i].t),

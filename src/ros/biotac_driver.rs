@@ -146,5 +146,5 @@ pub async fn run() -> Result<(), RosError> {
             });
         }
     });
-    blocking.await.map_err(|e| RosError::Setup(e.to_string()))
+    Ok(blocking.await?)
 }

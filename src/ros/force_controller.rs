@@ -26,8 +26,10 @@
 //! interface package, so the action server is compiled only in a real ROS
 //! build (`cfg(not(feature = "ros2-doc-only"))`).
 
+mod estimates;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod guarded_move_action;
+mod status;
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -39,16 +41,15 @@ use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 
-use super::convert::level::{OK, WARN};
 use super::convert::PA10_JOINTS;
 use super::params::RuntimeParams;
 use super::{convert, RosError};
-use crate::kinematics::robot::PA10_YAML;
-use crate::nodes::controller::TaskKind;
+use crate::control::TaskKind;
 use crate::nodes::loop_delay::LoopDelayMonitor;
 use crate::nodes::{ControlOutput, ControllerParams, ForceController};
 use crate::params::{layered_flat_params, FlatParams, ParamsError};
-use crate::params::{GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
+use estimates::{take_estimate, EstimatePart};
+use status::{diagnostics_msg, keep};
 
 fn lock(s: &Mutex<Shared>) -> std::sync::MutexGuard<'_, Shared> {
     s.lock().unwrap_or_else(|e| e.into_inner())
@@ -74,20 +75,30 @@ struct Shared {
     delays: LoopDelayMonitor,
 }
 
-/// The shipped defaults, with both tasks' sections whatever the scene, so
-/// that `task` can switch while running.
+/// The shipped defaults of the guarded scene, with every task's section
+/// from its own scene, so that `task` can switch while running.
 fn defaults() -> Result<FlatParams, ParamsError> {
     let name = "force_controller";
-    let mut d = layered_flat_params(&[PA10_YAML, WORLD_YAML, GUARDED_YAML], name)?;
-    let guided = layered_flat_params(&[GUIDED_YAML], name)?;
-    d.extend(guided.into_iter().filter(|(k, _)| k.starts_with("guided.")));
+    let mut d = layered_flat_params(&TaskKind::Guarded.shipped_layers(), name)?;
+    for task in TaskKind::ALL {
+        let section = format!("{}.", task.name());
+        let own = layered_flat_params(&[task.scene_yaml()], name)?;
+        for (key, value) in own.into_iter().filter(|(k, _)| k.starts_with(&section)) {
+            if !d.iter().any(|(k, _)| *k == key) {
+                d.push((key, value));
+            }
+        }
+    }
     Ok(d)
 }
 
 /// Applies (or, `apply` false, checks) a new value of `task`.
 fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> Result<(), String> {
     let r2r::ParameterValue::String(name) = value else {
-        return Err(format!("{value:?}: expected the string guarded or guided"));
+        return Err(format!(
+            "{value:?}: expected the string {}",
+            TaskKind::names()
+        ));
     };
     let task: TaskKind = name.parse().map_err(|e: ParamsError| e.to_string())?;
     let mut g = lock(s);
@@ -102,7 +113,7 @@ fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> R
         g.controller = c;
         g.task = task;
         g.last = None;
-        tracing::info!("task switched to {name}");
+        tracing::info!("task switched to {task}");
     }
     Ok(())
 }
@@ -243,115 +254,6 @@ pub async fn run() -> Result<(), RosError> {
         };
         if let Err(e) = commands.publish(&convert::commands_msg(&qdot)) {
             tracing::warn!("velocity_controller/commands: {e}");
-        }
-    }
-}
-
-/// Logs what changed and keeps `out` as the last output; its velocities.
-fn keep(g: &mut Shared, out: ControlOutput) -> crate::kinematics::JointVector {
-    log_change(g.last.as_ref(), &out);
-    let qdot = out.qdot;
-    g.last = Some(out);
-    qdot
-}
-
-/// Logs a new phase (with the stop reason), a halt and the end of a halt.
-fn log_change(before: Option<&ControlOutput>, now: &ControlOutput) {
-    let Some(before) = before else { return };
-    if before.phase != now.phase {
-        match now.reason {
-            Some(r) => tracing::info!("phase {}: {}", now.phase.name(), r.name()),
-            None => tracing::info!("phase {}", now.phase.name()),
-        }
-    }
-    match (&before.halt, &now.halt) {
-        (None, Some(h)) => tracing::warn!("halted, zero velocity: {h}"),
-        (Some(_), None) => tracing::info!("inputs back: the task goes on"),
-        _ => {}
-    }
-}
-
-/// The controller's status: task, phase, halt, the loop delay it sees and
-/// what it refused. Warns once when the delay goes beyond what the gains
-/// assume, and once when it is back.
-fn diagnostics_msg(g: &mut Shared, now: f64, warned: &mut bool) -> DiagnosticArray {
-    let mut values = vec![("task", format!("{:?}", g.task).to_lowercase())];
-    let (mut level, mut message) = (OK, format!("{:?}", g.task).to_lowercase());
-    if let Some(out) = &g.last {
-        values.push(("phase", out.phase.name().to_string()));
-        message = format!("{message}, {}", out.phase.name());
-        if let Some(h) = &out.halt {
-            (level, message) = (WARN, format!("{message}, halted: {h}"));
-            values.push(("halt", h.to_string()));
-        }
-    }
-    if let Some(r) = g.delays.take_report() {
-        let ms = |s: f64| format!("{:.2}", s * 1e3);
-        values.extend([
-            ("loop_delay_steps", r.steps.to_string()),
-            ("loop_delay_p50_ms", ms(r.p50_s)),
-            ("loop_delay_p99_ms", ms(r.p99_s)),
-            ("loop_delay_max_ms", ms(r.max_s)),
-            ("loop_delay_assumed_ms", ms(r.assumed_s)),
-        ]);
-        if r.exceeds_assumed() {
-            level = WARN;
-            message = format!("{message}; loop delay beyond what the gains assume");
-        }
-        if r.exceeds_assumed() != *warned {
-            *warned = r.exceeds_assumed();
-            if *warned {
-                tracing::warn!(
-                    "estimates are {:.1} ms old (p99) when stepped on, beyond the {:.1} ms the \
-                     gains and the safety envelope assume (loop_delays.transport_delay_s): \
-                     the loop may ring; raise it to the delay of this deployment",
-                    r.p99_s * 1e3,
-                    r.assumed_s * 1e3
-                );
-            } else {
-                tracing::info!("loop delay back within what the gains assume");
-            }
-        }
-    }
-    values.push(("rejected", g.rejected.to_string()));
-    convert::diagnostics_msg(now, level, "force_controller", message, "", values)
-}
-
-/// One of the two messages of an estimate.
-enum EstimatePart {
-    Mean(WrenchStamped),
-    Std(WrenchStamped),
-}
-
-/// Stores `part`; once the mean and the std of one reading are both in,
-/// hands the estimate to the controller and returns its reading's stamp
-/// (time to step); None while waiting for the other half, and for an
-/// estimate the controller refuses (no step: if none follows, the
-/// late-estimate halt stops the arm).
-fn take_estimate(g: &mut Shared, part: EstimatePart) -> Option<f64> {
-    match part {
-        EstimatePart::Mean(m) => g.mean = Some(m),
-        EstimatePart::Std(m) => g.stddev = Some(m),
-    }
-    let paired =
-        matches!((&g.mean, &g.stddev), (Some(m), Some(s)) if m.header.stamp == s.header.stamp);
-    if !paired {
-        return None;
-    }
-    let (mean, std) = (g.mean.take()?, g.stddev.take()?);
-    let stamp_s = convert::time_s(&mean.header.stamp);
-    let ok = convert::estimate_from_msgs(&mean, Some(&std), g.pdc.as_ref())
-        .map_err(|e| e.to_string())
-        .and_then(|e| {
-            g.force = e.mean.force;
-            g.controller.on_estimate(e).map_err(|e| e.to_string())
-        });
-    match ok {
-        Ok(()) => Some(stamp_s),
-        Err(e) => {
-            g.rejected += 1;
-            tracing::debug!("biotac/wrench refused: {e}");
-            None
         }
     }
 }

@@ -23,6 +23,10 @@ pub mod wrench_estimator;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use crate::control::TaskKind;
+use crate::learn::default_model::DefaultModelError;
+use crate::learn::model::ModelError;
+use crate::nodes::estimator::EstimatorError;
 #[cfg(doc)]
 use crate::params::layered_flat_params;
 use crate::params::{FlatParams, ParamsError};
@@ -37,13 +41,13 @@ pub fn main(
 ) -> std::process::ExitCode {
     log::init(name);
     let ended = tokio::runtime::Runtime::new()
-        .map_err(|e| RosError::Setup(format!("tokio runtime: {e}")))
+        .map_err(RosError::Runtime)
         .and_then(|rt| rt.block_on(node));
     match ended {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             tracing::error!("{e}");
-            std::process::ExitCode::FAILURE
+            std::process::ExitCode::from(e.exit_code())
         }
     }
 }
@@ -58,9 +62,32 @@ pub enum RosError {
     /// A parameter is missing, unknown or out of range.
     #[error(transparent)]
     Params(#[from] ParamsError),
-    /// Anything else at start-up (model file, simulator), said in words.
-    #[error("{0}")]
-    Setup(String),
+    /// The model file cannot be read or is not a model.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// The default model could not be made.
+    #[error(transparent)]
+    DefaultModel(#[from] DefaultModelError),
+    /// The model cannot serve the estimator.
+    #[error(transparent)]
+    Estimator(#[from] EstimatorError),
+    /// The tokio runtime could not start.
+    #[error("tokio runtime: {0}")]
+    Runtime(std::io::Error),
+    /// A task of the node ended abnormally.
+    #[error("node task: {0}")]
+    Join(#[from] tokio::task::JoinError),
+}
+
+impl RosError {
+    /// The process's exit code: 2 when the node's parameters or model were
+    /// refused (nothing started), 1 for a failure while starting or running.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            RosError::Params(_) | RosError::Model(_) | RosError::Estimator(_) => 2,
+            _ => 1,
+        }
+    }
 }
 
 /// Creates the node `name`; r2r reads `--ros-args` (parameter files,
@@ -107,10 +134,7 @@ pub fn node_params<T: serde::de::DeserializeOwned>(
     skip: &[&str],
     describe: fn(&str) -> &'static str,
 ) -> Result<T, RosError> {
-    let mut p = node
-        .params
-        .lock()
-        .map_err(|_| RosError::Setup("parameter lock poisoned".into()))?;
+    let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
     params::declare(&mut p, &defaults, describe);
     Ok(params::read(&p, skip, name)?)
 }
@@ -123,10 +147,7 @@ pub fn own_param(
     default: r2r::ParameterValue,
     description: &'static str,
 ) -> Result<r2r::ParameterValue, RosError> {
-    let mut p = node
-        .params
-        .lock()
-        .map_err(|_| RosError::Setup("parameter lock poisoned".into()))?;
+    let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
     let entry = p.entry(name.to_string()).or_insert(r2r::Parameter {
         value: default,
         description,
@@ -227,7 +248,11 @@ pub fn spin_with_action_server(mut node: r2r::Node) -> tokio::task::JoinHandle<(
 
 /// The description of a parameter loaded from the shared config files.
 pub fn describe_shared(name: &str) -> &'static str {
-    match name.split('.').next().unwrap_or("") {
+    let section = name.split('.').next().unwrap_or("");
+    if section.parse::<TaskKind>().is_ok() {
+        return "Settings of the task of this name (config/<task>_move.yaml).";
+    }
+    match section {
         "control_period_s" => "Sensing and control period (s).",
         "skin" => "BioTac skin law (config/world.yaml).",
         "objects" => "Objects the arm may touch, by name (config/world.yaml).",
@@ -235,7 +260,7 @@ pub fn describe_shared(name: &str) -> &'static str {
         "robot" => "The arm: DH parameters, limits, tool (config/pa10.yaml).",
         "stale_periods" => "Inputs older than this many periods stop the arm.",
         "axes" => "Wrench axes the task controls.",
-        "task" => "guarded or guided; may be changed while running (switches mode).",
+        "task" => "The task (guarded or guided); may be changed while running.",
         "pd" => "PD force law (config/world.yaml).",
         "loop_delays" => {
             "Delays of the force loop: they set the gains and the safety envelope (s)."
@@ -244,8 +269,6 @@ pub fn describe_shared(name: &str) -> &'static str {
         "out_of_range" => "Limits of what the estimator knows (std, PDC rise); beyond: stop.",
         "transport_delay_s" | "transport_jitter_s" => "Embedded runtime only (s).",
         "period_jitter_fraction" => "Jitter of the simulated control period (fraction).",
-        "guarded" => "Guarded-move settings (config/guarded_move.yaml).",
-        "guided" => "Guided-move settings (config/guided_move.yaml).",
         "physics_rate_hz" => "Physics rate of the simulation (Hz).",
         "command_latency_s" => "Delay before a joint velocity command acts (s).",
         "velocity_lag_s" => "Time constant of the joints' velocity tracking (s).",

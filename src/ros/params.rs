@@ -181,16 +181,16 @@ impl r2r::RosParams for RuntimeParams {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::nodes::controller::TaskKind;
+    use crate::control::TaskKind;
     use crate::params::layered_flat_params;
     use crate::runtime::scene::Scene;
 
     #[test]
     fn every_shipped_parameter_survives_the_trip_through_ros_values() {
         for task in [TaskKind::Guarded, TaskKind::Guided] {
-            let scene = Scene::builtin(task);
+            let scene = Scene::builtin(task).unwrap();
             for node in ["force_controller", "sim_robot", "wrench_estimator"] {
-                let defaults = layered_flat_params(&scene.texts(), node).unwrap();
+                let defaults = layered_flat_params(&task.shipped_layers(), node).unwrap();
                 let mut params = indexmap::IndexMap::new();
                 declare(&mut params, &defaults, |_| "test");
                 assert_eq!(
@@ -205,16 +205,16 @@ mod tests {
                 match node {
                     "force_controller" => {
                         let p: crate::nodes::ControllerParams = read(&params, &[], node).unwrap();
-                        assert_eq!(p, scene.controller_params().unwrap());
+                        assert_eq!(p, scene.controller);
                     }
                     "sim_robot" => {
                         let p: crate::nodes::SimRobotParams = read(&params, &[], node).unwrap();
-                        assert_eq!(p, scene.sim_params().unwrap());
+                        assert_eq!(p, scene.sim);
                     }
                     _ => {
                         let p: crate::nodes::estimator::EstimatorParams =
                             read(&params, &[], node).unwrap();
-                        assert_eq!(p, scene.estimator_params().unwrap());
+                        assert_eq!(p, scene.estimator);
                     }
                 }
             }
@@ -223,8 +223,8 @@ mod tests {
 
     #[test]
     fn a_launch_override_wins_and_a_bad_one_is_named() {
-        let scene = Scene::builtin(TaskKind::Guarded);
-        let defaults = layered_flat_params(&scene.texts(), "force_controller").unwrap();
+        let layers = TaskKind::Guarded.shipped_layers();
+        let defaults = layered_flat_params(&layers, "force_controller").unwrap();
         let mut params = indexmap::IndexMap::new();
         params.insert(
             "object".to_string(),

@@ -28,12 +28,12 @@ use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacSimConfig;
-use crate::kinematics::robot::PA10_YAML;
+use crate::control::TaskKind;
 use crate::kinematics::{JointVector, RobotParams};
 use crate::nodes::{JointState, SimRobot, SimRobotParams};
 use crate::params::layered_flat_params;
 use crate::params::node_params;
-use crate::params::{GUARDED_YAML, WORLD_YAML};
+use crate::params::{ParamsError, PA10_YAML};
 
 /// The fastest simulated time: a period of 0.1 ms of wall clock at 100 Hz.
 const MAX_REAL_TIME_FACTOR: f64 = 100.0;
@@ -68,9 +68,11 @@ pub async fn run() -> Result<(), RosError> {
     let seed = match seed {
         r2r::ParameterValue::Integer(i) if i >= 0 => i as u64,
         other => {
-            return Err(RosError::Setup(format!(
-                "seed = {other:?}: expected an integer >= 0"
-            )))
+            return Err(RosError::Params(ParamsError::Invalid {
+                key: "seed".into(),
+                value: format!("{other:?}"),
+                expected: "an integer >= 0".into(),
+            }))
         }
     };
     let sim_time = matches!(
@@ -89,16 +91,20 @@ pub async fn run() -> Result<(), RosError> {
         "Simulated seconds per wall-clock second (with use_sim_time:=true); at least 1.",
     )?;
     if !((1.0..=MAX_REAL_TIME_FACTOR).contains(&speed) && (sim_time || speed == 1.0)) {
-        return Err(RosError::Setup(format!(
-            "real_time_factor = {speed}: expected 1, or up to {MAX_REAL_TIME_FACTOR} with \
-             use_sim_time:=true (stamps on the system clock cannot run faster than it; \
-             slower than real time the controller would take each estimate for late)"
-        )));
+        return Err(RosError::Params(ParamsError::Invalid {
+            key: "real_time_factor".into(),
+            value: speed.to_string(),
+            expected: format!(
+                "1, or up to {MAX_REAL_TIME_FACTOR} with use_sim_time:=true (stamps on the \
+                 system clock cannot run faster than it; slower than real time the \
+                 controller would take each estimate for late)"
+            ),
+        }));
     }
     let p: SimRobotParams = super::node_params(
         &node,
         "sim_robot",
-        layered_flat_params(&[WORLD_YAML, GUARDED_YAML], "sim_robot")?,
+        layered_flat_params(&TaskKind::Guarded.shipped_layers(), "sim_robot")?,
         &["joint_names", "frame_id", "seed", "real_time_factor"],
         super::describe_shared,
     )?;

@@ -24,12 +24,11 @@ use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::msg::{self as biotac_msg, BIOTAC_MSG_TYPE};
 use crate::biotac::tare::SavedTare;
-use crate::kinematics::robot::PA10_YAML;
+use crate::control::TaskKind;
 use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::EstimatorParams;
 use crate::nodes::EstimatorNode;
 use crate::params::layered_flat_params;
-use crate::params::{GUARDED_YAML, WORLD_YAML};
 
 fn unix_s() -> f64 {
     SystemTime::now()
@@ -80,7 +79,7 @@ pub async fn run() -> Result<(), RosError> {
     let params: EstimatorParams = super::node_params(
         &node,
         "wrench_estimator",
-        layered_flat_params(&[PA10_YAML, WORLD_YAML, GUARDED_YAML], "wrench_estimator")?,
+        layered_flat_params(&TaskKind::Guarded.shipped_layers(), "wrench_estimator")?,
         &skip,
         super::describe_shared,
     )?;
@@ -91,12 +90,10 @@ pub async fn run() -> Result<(), RosError> {
                 "training the default model ({}, about 10 s)",
                 recipe.describe()
             )
-        })
-        .map_err(|e| RosError::Setup(e.to_string()))?
+        })?
         .0
     } else {
-        WrenchGp::load(std::path::Path::new(&model_file))
-            .map_err(|e| RosError::Setup(format!("{model_file}: {e}")))?
+        WrenchGp::load(std::path::Path::new(&model_file))?
     };
     let gps: Vec<String> = model
         .fits()
@@ -114,9 +111,8 @@ pub async fn run() -> Result<(), RosError> {
         model.axes(),
         params.with_std,
     );
-    let mut estimator = EstimatorNode::new(model, params.with_std)
-        .and_then(|e| e.with_stale_timeout(stale_s))
-        .map_err(|e| RosError::Setup(e.to_string()))?;
+    let mut estimator =
+        EstimatorNode::new(model, params.with_std).and_then(|e| e.with_stale_timeout(stale_s))?;
     let tare_path = match tare_file.as_str() {
         "" => {
             crate::learn::default_model::cache_dir().map(|d| d.join("wrench_estimator_tare.json"))

@@ -33,7 +33,7 @@ pub fn run_scene(
     pacing: Pacing,
     on_row: &mut dyn FnMut(&TraceRow),
 ) -> Result<DemoRun, SceneError> {
-    let info = RunInfo::new(&scene.controller_params()?);
+    let info = RunInfo::new(&scene.controller);
     let mut nodes = scene.build(model, &BioTacSimConfig::default(), seed)?;
     let rows = run(&mut nodes, pacing, on_row)?;
     Ok(DemoRun {
@@ -98,7 +98,7 @@ pub fn sweep_speeds(
     let envelopes = objects
         .iter()
         .map(|o| {
-            let speed = task_envelope(&scene.clone().with_only_object(o).controller_params()?)?;
+            let speed = task_envelope(&scene.clone().with_only_object(o).controller)?;
             Ok(SweepObject {
                 object: o.clone(),
                 stiffness_n_per_m: speed.envelope.stiffness_n_per_m,
@@ -119,7 +119,7 @@ pub fn sweep_speeds(
                 let s = scene
                     .clone()
                     .with_only_object(&o.object)
-                    .with_approach_speed(speed);
+                    .with_approach_speed(speed)?;
                 let s = run_scene(&s, model.clone(), seed, Pacing::Lockstep, &mut |_| {})?.summary;
                 Some(SweepRun {
                     peak_force_n: s.peak_force_n,

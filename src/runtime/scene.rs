@@ -8,12 +8,12 @@
 use std::path::Path;
 
 use crate::biotac::BioTacSimConfig;
-use crate::kinematics::robot::PA10_YAML;
+use crate::contact::BodyParams;
+use crate::control::TaskKind;
 use crate::learn::model::WrenchGp;
-use crate::nodes::controller::TaskKind;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
-use crate::params::{layered_node_params, ParamsError, GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
+use crate::params::{layered_node_params, ParamsError, PA10_YAML, WORLD_YAML};
 use crate::runtime::lockstep::Link;
 use crate::runtime::Nodes;
 use crate::wrench::AxisSet;
@@ -38,22 +38,21 @@ pub enum SceneError {
     },
 }
 
-/// The parameter texts of one run, in order.
+/// The parameters of one run, parsed once from their layers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
-    layers: Vec<String>,
+    /// The force controller's.
+    pub controller: ControllerParams,
+    /// The wrench estimator's.
+    pub estimator: EstimatorParams,
+    /// The simulated robot's.
+    pub sim: SimRobotParams,
 }
 
 impl Scene {
     /// The shipped scene of a task.
-    pub fn builtin(task: TaskKind) -> Self {
-        let scene = match task {
-            TaskKind::Guarded => GUARDED_YAML,
-            TaskKind::Guided => GUIDED_YAML,
-        };
-        Scene {
-            layers: vec![PA10_YAML.into(), WORLD_YAML.into(), scene.into()],
-        }
+    pub fn builtin(task: TaskKind) -> Result<Self, ParamsError> {
+        Scene::layered(&task.shipped_layers())
     }
 
     /// The shipped robot and world with the scene file at `path`.
@@ -62,70 +61,62 @@ impl Scene {
             path: path.to_path_buf(),
             source,
         })?;
+        Scene::layered(&[PA10_YAML, WORLD_YAML, &text])
+    }
+
+    /// The scene of parameter texts given in order, as `--params-file`s
+    /// (later ones override earlier ones key by key).
+    pub fn layered(texts: &[&str]) -> Result<Self, ParamsError> {
         Ok(Scene {
-            layers: vec![PA10_YAML.into(), WORLD_YAML.into(), text],
+            controller: layered_node_params(texts, "force_controller")?,
+            estimator: layered_node_params(texts, "wrench_estimator")?,
+            sim: layered_node_params(texts, "sim_robot")?,
         })
     }
 
-    /// Adds a layer on top (a YAML parameter text).
-    pub fn with_layer(mut self, yaml: String) -> Self {
-        self.layers.push(yaml);
+    /// Sets the object for every node (as the launch argument `object` does).
+    pub fn with_object(mut self, name: &str) -> Self {
+        self.controller.object = name.into();
+        self.sim.object = name.into();
         self
     }
 
-    /// Sets the object for every node (as the launch argument `object` does).
-    pub fn with_object(self, name: &str) -> Self {
-        // Quoted as a YAML string whatever the name holds.
-        let quoted = serde_json::to_string(name).unwrap_or_default();
-        self.with_layer(format!("/**:\n  ros__parameters:\n    object: {quoted}\n"))
-    }
-
-    /// Sets the guarded move's approach speed (m/s).
-    pub fn with_approach_speed(self, mps: f64) -> Self {
-        // As YAML writes it (NaN is `.nan`), so that any value reaches the check.
-        let value = serde_yaml_ng::to_string(&mps).unwrap_or_default();
-        self.with_layer(format!(
-            "force_controller:\n  ros__parameters:\n    guarded:\n      approach_speed_mps: {}\n",
-            value.trim()
-        ))
+    /// Sets the guarded move's approach speed (m/s); the scene must have a
+    /// guarded section.
+    pub fn with_approach_speed(mut self, mps: f64) -> Result<Self, ParamsError> {
+        let g = self
+            .controller
+            .guarded
+            .as_mut()
+            .ok_or_else(|| ParamsError::Invalid {
+                key: "guarded.approach_speed_mps".into(),
+                value: format!("{mps} m/s"),
+                expected: "a scene with a `guarded` section".into(),
+            })?;
+        g.approach_speed_mps = mps;
+        Ok(self)
     }
 
     /// Sets the object for every node and permits only it
     /// (`force_controller.safety.objects`): the speed limit is then that
     /// object's own (the speed sweep, tests).
-    pub fn with_only_object(self, name: &str) -> Self {
-        let quoted = serde_json::to_string(name).unwrap_or_default();
-        self.with_object(name).with_layer(format!(
-            "force_controller:\n  ros__parameters:\n    safety:\n      objects: [{quoted}]\n"
-        ))
+    pub fn with_only_object(mut self, name: &str) -> Self {
+        self.controller.safety.objects = vec![name.into()];
+        self.with_object(name)
     }
 
-    /// The controller's parameters.
-    pub fn controller_params(&self) -> Result<ControllerParams, ParamsError> {
-        layered_node_params(&self.texts(), "force_controller")
-    }
-
-    /// The estimator's parameters.
-    pub fn estimator_params(&self) -> Result<EstimatorParams, ParamsError> {
-        layered_node_params(&self.texts(), "wrench_estimator")
-    }
-
-    /// The simulated robot's parameters.
-    pub fn sim_params(&self) -> Result<SimRobotParams, ParamsError> {
-        layered_node_params(&self.texts(), "sim_robot")
-    }
-
-    /// The layers' texts, in order (as `--params-file`s would be given).
-    pub fn texts(&self) -> Vec<&str> {
-        self.layers.iter().map(String::as_str).collect()
+    /// Adds a body that every node knows (as `/**: objects: name:` does).
+    pub fn with_body(mut self, name: &str, body: BodyParams) -> Self {
+        self.controller.objects.insert(name.into(), body);
+        self.sim.objects.insert(name.into(), body);
+        self
     }
 
     /// Checks every parameter of the controller and the simulated robot
     /// (before an expensive step such as training a model).
     pub fn check(&self) -> Result<(), SceneError> {
-        let recipe = self.estimator_params()?.default_model;
         let (controller, _, _) = self.controller_and_sim(&BioTacSimConfig::default(), 0)?;
-        missing_axes(&recipe.axes, controller.axes())
+        missing_axes(&self.estimator.default_model.axes, controller.axes())
     }
 
     /// The controller, the simulated robot and the estimate's link, checked,
@@ -136,8 +127,7 @@ impl Scene {
         sensor: &BioTacSimConfig,
         seed: u64,
     ) -> Result<(ForceController, SimRobot, Link), SceneError> {
-        let cp = self.controller_params()?;
-        let sp = self.sim_params()?;
+        let (cp, sp) = (self.controller.clone(), self.sim.clone());
         // The lockstep controller takes a delayed estimate at its next tick.
         let ticks = ((sp.transport_delay_s + sp.transport_jitter_s) / sp.control_period_s - 1e-9)
             .ceil()
@@ -189,7 +179,7 @@ impl Scene {
     ) -> Result<Nodes, SceneError> {
         let (controller, sim, link) = self.controller_and_sim(sensor, seed)?;
         missing_axes(model.axes(), controller.axes())?;
-        let estimator = EstimatorNode::new(model, self.estimator_params()?.with_std)?;
+        let estimator = EstimatorNode::new(model, self.estimator.with_std)?;
         Ok(Nodes {
             sim,
             estimator,
@@ -213,70 +203,62 @@ fn missing_axes(model: &AxisSet, task: &AxisSet) -> Result<(), SceneError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::params::GUARDED_YAML;
 
     #[test]
     fn the_shipped_scenes_parse_and_the_object_can_be_chosen() {
-        for task in [TaskKind::Guarded, TaskKind::Guided] {
-            let s = Scene::builtin(task);
-            assert_eq!(s.controller_params().unwrap().task, task);
-            s.sim_params().unwrap();
+        for task in TaskKind::ALL {
+            assert_eq!(Scene::builtin(task).unwrap().controller.task, task);
         }
-        let guided = Scene::builtin(TaskKind::Guided);
-        assert_eq!(guided.sim_params().unwrap().object, "fingertip");
-        assert!(guided.sim_params().unwrap().finger_path.is_some());
-        let s = Scene::builtin(TaskKind::Guarded).with_object("carton_box");
-        assert_eq!(s.controller_params().unwrap().object, "carton_box");
-        assert_eq!(s.sim_params().unwrap().object, "carton_box");
-        let s = s.with_approach_speed(0.025);
-        assert_eq!(
-            s.controller_params()
-                .unwrap()
-                .guarded
-                .unwrap()
-                .approach_speed_mps,
-            0.025
-        );
+        let guided = Scene::builtin(TaskKind::Guided).unwrap();
+        assert_eq!(guided.sim.object, "fingertip");
+        assert!(guided.sim.finger_path.is_some());
+        let e = guided.with_approach_speed(0.01).unwrap_err().to_string();
+        assert!(e.contains("`guarded` section"), "{e}");
+        let s = Scene::builtin(TaskKind::Guarded)
+            .unwrap()
+            .with_object("carton_box");
+        assert_eq!(s.controller.object, "carton_box");
+        assert_eq!(s.sim.object, "carton_box");
+        let s = s.with_approach_speed(0.025).unwrap();
+        assert_eq!(s.controller.guarded.unwrap().approach_speed_mps, 0.025);
     }
 
     #[test]
     fn unknown_objects_and_keys_are_named() {
-        let s = Scene::builtin(TaskKind::Guarded).with_object("teapot");
-        let e = ForceController::new(s.controller_params().unwrap())
-            .unwrap_err()
-            .to_string();
+        let s = Scene::builtin(TaskKind::Guarded)
+            .unwrap()
+            .with_object("teapot");
+        let e = ForceController::new(s.controller).unwrap_err().to_string();
         assert!(e.contains("teapot") && e.contains("wooden_box"), "{e}");
-        let s = Scene::builtin(TaskKind::Guarded)
-            .with_layer("sim_robot:\n  ros__parameters:\n    gap_mm: 3.0\n".into());
-        let e = s.sim_params().unwrap_err().to_string();
-        assert!(e.contains("gap_mm"), "{e}");
-        let s = Scene::builtin(TaskKind::Guarded)
-            .with_layer("force_controller:\n  ros__parameters:\n    task: guided\n".into());
-        let e = ForceController::new(s.controller_params().unwrap())
+        let layers = |top: &str| Scene::layered(&[PA10_YAML, WORLD_YAML, GUARDED_YAML, top]);
+        let e = layers("sim_robot:\n  ros__parameters:\n    gap_mm: 3.0\n")
             .unwrap_err()
             .to_string();
+        assert!(e.contains("gap_mm"), "{e}");
+        let s = layers("force_controller:\n  ros__parameters:\n    task: guided\n").unwrap();
+        let e = ForceController::new(s.controller).unwrap_err().to_string();
         assert!(e.contains("guided"), "a guided task needs its section: {e}");
     }
 
     #[test]
     fn a_default_model_the_task_cannot_use_is_refused_before_training() {
         let recipe = |r: &str| {
-            Scene::builtin(TaskKind::Guided).with_layer(format!(
-                "wrench_estimator:\n  ros__parameters:\n    default_model: {r}\n"
-            ))
+            let top = format!("wrench_estimator:\n  ros__parameters:\n    default_model: {r}\n");
+            let [robot, world, scene] = TaskKind::Guided.shipped_layers();
+            Scene::layered(&[robot, world, scene, &top])
         };
         let e = recipe("{axes: [fz], gp: sparse, size: 200}")
+            .unwrap()
             .check()
             .unwrap_err()
             .to_string();
         assert!(e.contains("estimates fz") && e.contains("fx,fy,fz"), "{e}");
         let e = recipe("{axes: [fx, fy, fz], gp: sprase, size: 200}")
-            .check()
             .unwrap_err()
             .to_string();
         assert!(e.contains("sprase"), "{e}");
-        let guarded = Scene::builtin(TaskKind::Guarded)
-            .estimator_params()
-            .unwrap();
+        let guarded = Scene::builtin(TaskKind::Guarded).unwrap().estimator;
         assert_eq!(guarded.default_model.axes.to_string(), "fz");
         assert!(guarded.with_std);
     }

@@ -17,13 +17,14 @@
 //! Units: metres, newtons, seconds. Vectors in the world frame.
 
 use crate::contact::{shear_stiffness, BodyParams, SkinParams};
+use crate::params::Checked;
 use nalgebra::Vector3;
 
 /// State of one pad-plane contact.
 #[derive(Debug, Clone)]
 pub struct PlaneContact {
-    skin: SkinParams,
-    body: BodyParams,
+    skin: Checked<SkinParams>,
+    body: Checked<BodyParams>,
     /// Body deflection (m).
     deflection: f64,
     /// Friction anchor relative to the plane point (world axes, m): it moves
@@ -33,7 +34,7 @@ pub struct PlaneContact {
 
 impl PlaneContact {
     /// A contact, initially apart.
-    pub fn new(skin: SkinParams, body: BodyParams) -> Self {
+    pub fn new(skin: Checked<SkinParams>, body: Checked<BodyParams>) -> Self {
         PlaneContact {
             skin,
             body,
@@ -111,21 +112,26 @@ impl PlaneContact {
 mod tests {
     use super::*;
     use crate::contact::series_stiffness;
+    use crate::params::Check;
 
-    fn skin() -> SkinParams {
+    fn skin() -> Checked<SkinParams> {
         SkinParams {
             force_scale_n: 0.5,
             length_scale_mm: 1.2,
             shear_stiffness_n_per_m: 1000.0,
         }
+        .checked("skin")
+        .unwrap()
     }
 
-    fn body(k: f64, c: f64) -> BodyParams {
+    fn body(k: f64, c: f64) -> Checked<BodyParams> {
         BodyParams {
             stiffness_n_per_m: k,
             damping_n_s_per_m: c,
             friction: 1.0,
         }
+        .checked("body")
+        .unwrap()
     }
 
     /// Settled force at penetration `delta` (m) along +z.

@@ -2,16 +2,16 @@
 
 use std::sync::OnceLock;
 
+use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model;
 use tactile_force::learn::model::WrenchGp;
-use tactile_force::nodes::controller::TaskKind;
 use tactile_force::runtime::Scene;
 
 /// The default model of a scene's task, trained from simulated data.
 pub fn scene_model(task: TaskKind) -> WrenchGp {
     let recipe = Scene::builtin(task)
-        .estimator_params()
         .expect("the shipped scene parses")
+        .estimator
         .default_model;
     default_model::train(&recipe).expect("the default model trains")
 }
