@@ -10,9 +10,8 @@ pub mod sim;
 pub mod tare;
 pub mod wire;
 
+pub use driver::HoldLastGood;
 pub use reading::{BioTacReading, ADC_MAX, FRAME_PERIOD_S, N_ELECTRODES, N_PAC};
 pub use sim::{BioTacSim, BioTacSimConfig, Contact};
 pub use tare::{Tare, TareError};
-pub use wire::{
-    ChannelMask, DecodedFrame, Decoder, DecoderStats, FrameError, HoldLastGood, WordError,
-};
+pub use wire::{ChannelMask, DecodedFrame, Decoder, DecoderStats, FrameError, WordError};

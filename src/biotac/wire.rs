@@ -33,13 +33,9 @@
 //!
 //! A word that fails parity, an error word, or a word with bits 2..1 set is
 //! an invalid sample: its channel is set to 0 in the reading and listed in
-//! [`DecodedFrame::invalid`]. [`HoldLastGood`] applies the policy before a
-//! reading reaches the estimator: an invalid channel takes its value from the
-//! previous frame (consecutive sequence number, channel valid there), which
-//! holds a value for at most one frame. If a channel is invalid two frames in
-//! a row, or the previous frame is missing, the reading is dropped, so the
-//! estimator never uses an invalid value as if it were good; the
-//! controller's watchdog stops the arm when readings stop.
+//! [`DecodedFrame::invalid`]. What the estimator then gets is the driver's
+//! policy, [`HoldLastGood`](super::driver::HoldLastGood) (the driver's module
+//! documentation, "Invalid samples").
 //!
 //! # Sequence gaps
 //!
@@ -54,7 +50,8 @@
 //! # Example
 //!
 //! ```
-//! use tactile_force::biotac::wire::{encode_frame, Decoder, HoldLastGood};
+//! use tactile_force::biotac::driver::HoldLastGood;
+//! use tactile_force::biotac::wire::{encode_frame, Decoder};
 //! use tactile_force::biotac::BioTacReading;
 //!
 //! let reading = BioTacReading {
@@ -259,7 +256,7 @@ pub fn channel_name(position: usize) -> Option<&'static str> {
 
 /// The reading's field at a frame position: even positions hold E1..E19,
 /// PDC, TAC, TDC; odd positions the PAC samples in order.
-fn slot(reading: &mut BioTacReading, position: usize) -> Option<&mut u16> {
+pub(super) fn slot(reading: &mut BioTacReading, position: usize) -> Option<&mut u16> {
     let index = position / 2;
     if position % 2 == 1 {
         return reading.pac.get_mut(index);
@@ -274,7 +271,7 @@ fn slot(reading: &mut BioTacReading, position: usize) -> Option<&mut u16> {
 }
 
 /// The reading's 44 values in frame order.
-fn to_frame_order(reading: &BioTacReading) -> [u16; N_WORDS] {
+pub(super) fn to_frame_order(reading: &BioTacReading) -> [u16; N_WORDS] {
     // `slot` hands out `&mut`: read through a copy.
     let mut copy = *reading;
     std::array::from_fn(|position| slot(&mut copy, position).map_or(0, |v| *v))
@@ -603,65 +600,13 @@ impl Decoder {
     }
 }
 
-/// The invalid-sample policy (module documentation, "Invalid samples"): an
-/// invalid channel takes the value of the sensor's previous frame for at
-/// most one frame, otherwise the reading is dropped. One instance serves all
-/// sensors of a bridge.
-#[derive(Debug, Clone, Default)]
-pub struct HoldLastGood {
-    /// The previous frame per sensor, its held values filled in.
-    previous: [Option<Previous>; N_SENSORS],
-}
-
-/// What [`HoldLastGood`] keeps of a frame.
-#[derive(Debug, Clone, Copy)]
-struct Previous {
-    seq: u16,
-    /// Values in frame order (invalid channels as received: 0).
-    values: [u16; N_WORDS],
-    invalid: ChannelMask,
-}
-
-impl HoldLastGood {
-    /// A policy that has seen no frame.
-    pub fn new() -> Self {
-        HoldLastGood::default()
-    }
-
-    /// The frame's reading with invalid channels held from the previous
-    /// frame, or `None` if a channel cannot be held (invalid in the previous
-    /// frame too, no previous frame, a sequence gap, or a sensor index past
-    /// the bridge's sensors).
-    pub fn apply(&mut self, frame: &DecodedFrame) -> Option<BioTacReading> {
-        let stored = self.previous.get_mut(usize::from(frame.sensor))?;
-        let previous = stored.filter(|p| p.seq.wrapping_add(1) == frame.seq);
-        let usable = frame.invalid.is_empty()
-            || previous.is_some_and(|p| p.invalid.intersection(frame.invalid).is_empty());
-        let mut reading = frame.reading;
-        if let (true, Some(p)) = (usable, previous) {
-            for position in frame.invalid.positions() {
-                if let (Some(dst), Some(&value)) =
-                    (slot(&mut reading, position), p.values.get(position))
-                {
-                    *dst = value;
-                }
-            }
-        }
-        *stored = Some(Previous {
-            seq: frame.seq,
-            values: to_frame_order(&reading),
-            invalid: frame.invalid,
-        });
-        usable.then_some(reading)
-    }
-}
-
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    /// A reading whose 44 values all differ, shifted by `offset`.
-    fn reading(offset: u16) -> BioTacReading {
+    /// A reading whose 44 values all differ, shifted by `offset` (shared with
+    /// the invalid-sample policy's tests).
+    pub(in crate::biotac) fn reading(offset: u16) -> BioTacReading {
         let value = |i: usize| (i as u16 * 89 + offset) % (ADC_MAX + 1);
         BioTacReading {
             seq: 0,
@@ -672,28 +617,6 @@ mod tests {
             tdc: value(42),
             tac: value(43),
         }
-    }
-
-    /// A decoded frame of `reading(offset)` with the given invalid channels
-    /// (zeroed, as the decoder leaves them).
-    fn frame_with_invalid(sensor: u8, seq: u16, offset: u16, invalid: &[usize]) -> DecodedFrame {
-        let mut frame = DecodedFrame {
-            sensor,
-            seq,
-            bridge_us: 0,
-            reading: BioTacReading {
-                seq,
-                ..reading(offset)
-            },
-            invalid: ChannelMask::default(),
-        };
-        for &position in invalid {
-            frame.invalid.insert(position);
-            if let Some(v) = slot(&mut frame.reading, position) {
-                *v = 0;
-            }
-        }
-        frame
     }
 
     /// Decodes `bytes` in one push; returns the frames and the decoder.
@@ -1038,62 +961,5 @@ mod tests {
         assert_eq!(decoder.stats().restarts, 2, "501 -> 0 and 3 -> 3");
         assert_eq!(seq_lost(0, 32_768), Some(32_767));
         assert_eq!(seq_lost(0, 32_769), None);
-    }
-
-    #[test]
-    fn hold_passes_valid_readings_through() {
-        let mut hold = HoldLastGood::new();
-        let frame = frame_with_invalid(0, 1, 0, &[]);
-        assert_eq!(hold.apply(&frame), Some(frame.reading));
-    }
-
-    #[test]
-    fn hold_fills_one_invalid_frame_from_the_previous_one() {
-        let mut hold = HoldLastGood::new();
-        hold.apply(&frame_with_invalid(0, 1, 0, &[]));
-        let held = hold.apply(&frame_with_invalid(0, 2, 5, &[12, 38])).unwrap();
-        assert_eq!(held.electrodes[6], reading(0).electrodes[6]);
-        assert_eq!(held.pdc, reading(0).pdc);
-        assert_eq!(held.electrodes[5], reading(5).electrodes[5]);
-        assert_eq!(held.seq, 2);
-    }
-
-    #[test]
-    fn hold_drops_a_channel_invalid_twice_in_a_row() {
-        let mut hold = HoldLastGood::new();
-        hold.apply(&frame_with_invalid(0, 1, 0, &[]));
-        assert!(hold.apply(&frame_with_invalid(0, 2, 0, &[12])).is_some());
-        assert_eq!(hold.apply(&frame_with_invalid(0, 3, 0, &[12, 5])), None);
-        assert_eq!(hold.apply(&frame_with_invalid(0, 4, 0, &[5])), None);
-        assert!(hold.apply(&frame_with_invalid(0, 5, 0, &[12])).is_some());
-    }
-
-    #[test]
-    fn hold_drops_without_a_previous_frame() {
-        let mut hold = HoldLastGood::new();
-        assert_eq!(hold.apply(&frame_with_invalid(0, 1, 0, &[3])), None);
-        hold.apply(&frame_with_invalid(0, 2, 0, &[]));
-        assert_eq!(hold.apply(&frame_with_invalid(0, 4, 0, &[3])), None, "gap");
-        hold.apply(&frame_with_invalid(0, 5, 0, &[]));
-        assert_eq!(
-            hold.apply(&frame_with_invalid(1, 6, 0, &[3])),
-            None,
-            "other sensor"
-        );
-        assert_eq!(
-            hold.apply(&frame_with_invalid(3, 6, 0, &[])),
-            None,
-            "no sensor 3"
-        );
-    }
-
-    #[test]
-    fn hold_allows_different_channels_in_consecutive_frames() {
-        let mut hold = HoldLastGood::new();
-        hold.apply(&frame_with_invalid(2, 65535, 0, &[]));
-        let a = hold.apply(&frame_with_invalid(2, 0, 1, &[7])).unwrap();
-        let b = hold.apply(&frame_with_invalid(2, 1, 2, &[8])).unwrap();
-        assert_eq!(a.pac[3], reading(0).pac[3]);
-        assert_eq!(b.electrodes[4], reading(1).electrodes[4]);
     }
 }

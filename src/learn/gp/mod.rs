@@ -10,14 +10,16 @@
 pub mod exact;
 pub mod fit;
 pub mod kernel;
+pub mod params;
 pub mod select;
 pub mod sparse;
 
 use serde::{Deserialize, Serialize};
 
 pub use exact::{ExactGp, ExactGpData, GpWorkspace};
-pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress, GpParams, Subset, ValidGpParams};
+pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress};
 pub use kernel::{KernelKind, SeHyper};
+pub use params::{GpParams, Subset, ValidGpParams};
 pub use select::{farthest_point, greedy_variance};
 pub use sparse::{SparseGp, SparseGpData};
 

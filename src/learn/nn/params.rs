@@ -1,0 +1,199 @@
+//! Hyper-parameters of the network and its training, their ranges, and why a
+//! network cannot be configured or trained ([`NnError`]).
+
+use serde::{Deserialize, Serialize};
+
+/// Why a network cannot be configured or trained.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum NnError {
+    /// A hyper-parameter is out of range.
+    #[error("invalid NN parameter `{name}` = {value}: expected {expected}")]
+    InvalidParam {
+        /// Field name in [`NnParams`].
+        name: &'static str,
+        /// The rejected value.
+        value: String,
+        /// The allowed range.
+        expected: &'static str,
+    },
+    /// Two sizes that must agree do not.
+    #[error("shape mismatch: {what} is {got}, expected {expected}")]
+    ShapeMismatch {
+        /// What was measured.
+        what: &'static str,
+        /// The required size.
+        expected: usize,
+        /// The size found.
+        got: usize,
+    },
+    /// Inputs or targets have no columns.
+    #[error("{what} have no columns")]
+    NoColumns {
+        /// `"inputs"` or `"targets"`.
+        what: &'static str,
+    },
+    /// Not enough rows for a training and a validation part.
+    #[error("too few samples: {got}, need at least {need}")]
+    TooFewSamples {
+        /// Rows given.
+        got: usize,
+        /// Rows needed.
+        need: usize,
+    },
+    /// An input value is NaN or infinite.
+    #[error("non-finite input at row {row}, column {col}")]
+    NonFiniteInput {
+        /// Row (sample) index.
+        row: usize,
+        /// Column (feature) index.
+        col: usize,
+    },
+    /// A target value is NaN or infinite.
+    #[error("non-finite target at row {row}, column {col}")]
+    NonFiniteTarget {
+        /// Row (sample) index.
+        row: usize,
+        /// Column (output) index.
+        col: usize,
+    },
+}
+
+/// Hyper-parameters of the network and its training, as read from a config.
+///
+/// | Name | Default | Purpose | Range |
+/// |---|---|---|---|
+/// | `hidden` | 38 | tanh hidden units (2 × 19 inputs, as in the thesis) | ≥ 1 |
+/// | `l2` | 1e-4 | weight penalty `λ` in `E` (standardised units) | finite, ≥ 0 |
+/// | `learning_rate` | 1e-3 | Adam step size `α` | (0, 1] |
+/// | `batch_size` | 128 | rows per Adam step | ≥ 1 |
+/// | `max_epochs` | 200 | upper bound on passes over the training rows | ≥ 1 |
+/// | `patience` | 15 | epochs without validation improvement before stopping | ≥ 1 |
+/// | `validation_fraction` | 0.15 | share of rows held out for early stopping | (0, 1) |
+/// | `seed` | 0 | seeds the split, initial weights and batch order | any |
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NnParams {
+    /// Hidden units. Default 38; ≥ 1.
+    pub hidden: usize,
+    /// L2 weight penalty `λ`. Default 1e-4; finite, ≥ 0.
+    pub l2: f64,
+    /// Adam step size `α`. Default 1e-3; in (0, 1].
+    pub learning_rate: f64,
+    /// Rows per mini-batch. Default 128; ≥ 1 (capped at the training rows).
+    pub batch_size: usize,
+    /// Maximum epochs. Default 200; ≥ 1.
+    pub max_epochs: usize,
+    /// Epochs without validation improvement before stopping. Default 15; ≥ 1.
+    pub patience: usize,
+    /// Share of the rows held out for validation. Default 0.15; in (0, 1).
+    pub validation_fraction: f64,
+    /// Random seed. Default 0; any value.
+    pub seed: u64,
+}
+
+impl Default for NnParams {
+    fn default() -> Self {
+        NnParams {
+            hidden: 38,
+            l2: 1e-4,
+            learning_rate: 1e-3,
+            batch_size: 128,
+            max_epochs: 200,
+            patience: 15,
+            validation_fraction: 0.15,
+            seed: 0,
+        }
+    }
+}
+
+/// [`NnParams`] that passed [`NnParams::validate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidNnParams(NnParams);
+
+impl NnParams {
+    /// Checks every field against its range (see the table on [`NnParams`]).
+    pub fn validate(&self) -> Result<ValidNnParams, NnError> {
+        let p = self;
+        check("hidden", p.hidden, p.hidden >= 1, ">= 1")?;
+        check("l2", p.l2, p.l2.is_finite() && p.l2 >= 0.0, "finite, >= 0")?;
+        let lr = p.learning_rate;
+        check("learning_rate", lr, lr > 0.0 && lr <= 1.0, "in (0, 1]")?;
+        check("batch_size", p.batch_size, p.batch_size >= 1, ">= 1")?;
+        check("max_epochs", p.max_epochs, p.max_epochs >= 1, ">= 1")?;
+        check("patience", p.patience, p.patience >= 1, ">= 1")?;
+        let f = p.validation_fraction;
+        check("validation_fraction", f, f > 0.0 && f < 1.0, "in (0, 1)")?;
+        Ok(ValidNnParams(self.clone()))
+    }
+}
+
+impl ValidNnParams {
+    /// The validated parameters.
+    pub fn params(&self) -> &NnParams {
+        &self.0
+    }
+}
+
+/// `Ok` when `ok`, else [`NnError::InvalidParam`] naming the field and value.
+fn check(
+    name: &'static str,
+    value: impl std::fmt::Display,
+    ok: bool,
+    expected: &'static str,
+) -> Result<(), NnError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(NnError::InvalidParam {
+            name,
+            value: value.to_string(),
+            expected,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_match_the_thesis_net() {
+        let p = NnParams::default();
+        assert_eq!(p.hidden, 38);
+        assert_eq!(p.validate().map(|v| v.params().clone()), Ok(p));
+    }
+
+    #[test]
+    fn invalid_parameters_are_named() {
+        type Edit = fn(&mut NnParams);
+        let cases: [(&str, Edit); 9] = [
+            ("hidden", |p| p.hidden = 0),
+            ("l2", |p| p.l2 = -1e-3),
+            ("l2", |p| p.l2 = f64::NAN),
+            ("learning_rate", |p| p.learning_rate = 0.0),
+            ("learning_rate", |p| p.learning_rate = 2.0),
+            ("batch_size", |p| p.batch_size = 0),
+            ("max_epochs", |p| p.max_epochs = 0),
+            ("patience", |p| p.patience = 0),
+            ("validation_fraction", |p| p.validation_fraction = 1.0),
+        ];
+        for (field, set) in cases {
+            let mut p = NnParams::default();
+            set(&mut p);
+            match p.validate() {
+                Err(NnError::InvalidParam { name, .. }) => assert_eq!(name, field),
+                other => panic!("{field}: {other:?}"),
+            }
+        }
+        let p = NnParams {
+            validation_fraction: 0.0,
+            ..NnParams::default()
+        };
+        let err = p.validate().expect_err("zero fraction");
+        assert_eq!(
+            err.to_string(),
+            "invalid NN parameter `validation_fraction` = 0: expected in (0, 1)"
+        );
+    }
+}
