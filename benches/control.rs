@@ -103,7 +103,7 @@ impl Run {
 
 /// An estimator for `model`, tared on the first of `readings`.
 fn tared(model: WrenchGp, with_std: bool, readings: &[BioTacReading]) -> EstimatorNode {
-    let mut e = EstimatorNode::new(model, with_std).expect("electrode model");
+    let mut e: EstimatorNode = EstimatorNode::new(model, with_std).expect("electrode model");
     for r in &readings[..e.tare_samples()] {
         e.on_reading(r).expect("tare reading");
     }

@@ -53,6 +53,7 @@ pub mod contact;
 pub mod control;
 pub mod kinematics;
 pub mod learn;
+pub mod nail;
 pub mod nodes;
 pub mod params;
 pub mod record;
@@ -60,5 +61,6 @@ pub mod report;
 #[cfg(feature = "ros2")]
 pub mod ros;
 pub mod runtime;
+pub mod sensor;
 pub mod sim;
 pub mod wrench;

@@ -266,7 +266,7 @@ fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
         tactile_force::kinematics::JointVector::from_iterator(q0.iter().map(|d| d.to_radians()));
     let recipe = scene.estimator.clone().default_model;
     let model = default_model::train(&recipe).unwrap();
-    let mut estimator = EstimatorNode::new(model, false).unwrap();
+    let mut estimator: EstimatorNode = EstimatorNode::new(model, false).unwrap();
 
     let p = pty();
     let mut driver = Driver::new(DriverConfig::new(p.path.clone()));

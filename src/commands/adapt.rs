@@ -5,12 +5,11 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Args;
 
-use tactile_force::biotac::reading::FRAME_PERIOD_S;
 use tactile_force::learn::evaluate::Progress;
 use tactile_force::learn::gp::GpParams;
 use tactile_force::learn::model::{AdaptedFrom, WrenchGp};
 
-use super::data::{load_pooled, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{progress_bar, show};
 
 #[derive(Args)]
@@ -40,13 +39,15 @@ pub(crate) struct AdaptArgs {
 
 pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
     let base = WrenchGp::load(&a.model)?;
-    let (data, tare) = load_pooled(
+    let sessions = load_sessions(
         &a.data,
         base.features(),
         base.axes(),
         base.tare().samples,
         &a.source,
+        Some(base.sensor()),
     )?;
+    let data = sessions.pooled()?;
     let params = GpParams {
         restarts: a.restarts,
         max_train: a.max_train,
@@ -54,7 +55,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         ..GpParams::default()
     }
     .validate()?;
-    let seconds = data.len() as f64 * FRAME_PERIOD_S;
+    let seconds = data.len() as f64 * sessions.sensor.sample_period_s();
     let from = AdaptedFrom {
         model: a.model.display().to_string(),
         data: a.data.iter().map(|p| p.display().to_string()).collect(),
@@ -62,7 +63,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
     };
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
-    let adapted = base.adapt(&data, tare, from, &params, &mut |axis, p| {
+    let adapted = base.adapt(&data, sessions.tare, from, &params, &mut |axis, p| {
         show(&bar, Progress::Gp(axis, p))
     })?;
     let fit_s = t0.elapsed().as_secs_f64();

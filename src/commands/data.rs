@@ -1,6 +1,6 @@
-//! Training data files for `train`, `eval`, `adapt` and `tradeoff`: CSV or
-//! rosbag2 MCAP, each a session tared on its own, wrenches moved to the
-//! BioTac frame.
+//! Training data files for `train`, `eval`, `adapt` and `tradeoff`: BioTac
+//! CSV or rosbag2 MCAP files, each a session tared on its own, wrenches
+//! moved to the BioTac frame; or nail-camera directories.
 
 use std::path::{Path, PathBuf};
 
@@ -11,7 +11,12 @@ use nalgebra::Vector3;
 use tactile_force::learn::bag::{read_bag, BagTopics};
 use tactile_force::learn::dataset::Dataset;
 use tactile_force::learn::model::TareSpec;
+use tactile_force::nail::collect::is_nail_dir;
+use tactile_force::sensor::nail::read_nail_dirs;
+use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::{AxisSet, FrameTransform, Wrench};
+
+use super::BadArgument;
 
 /// Where the data files' wrenches come from: topics of a ROS bag (MCAP)
 /// and the F/T sensor's frame.
@@ -110,41 +115,97 @@ pub(crate) fn read_data(
     Ok(ds)
 }
 
-/// Reads sessions, each tared on its own: their rows, and the tare spec a
-/// model trained on them records (the baselines averaged over sessions).
+/// What training files hold: rows, the tare a model of them records, and
+/// their sensor.
+pub(crate) struct Sessions {
+    /// One data set per file.
+    pub(crate) sets: Vec<Dataset>,
+    /// The baselines averaged over sessions (BioTac; none for the nail).
+    pub(crate) tare: TareSpec,
+    /// Their sensor (for the nail: the preprocessing they were projected with).
+    pub(crate) sensor: SensorSpec,
+}
+
+impl Sessions {
+    /// Every session's rows in one data set.
+    pub(crate) fn pooled(&self) -> Result<Dataset> {
+        let refs: Vec<&Dataset> = self.sets.iter().collect();
+        Dataset::concat(&refs).context("no data file given")
+    }
+}
+
+/// Reads sessions of either sensor. BioTac files (CSV, MCAP) give the
+/// `features` channels, each session tared on its own. Nail-camera
+/// directories give the principal components of their frames' nail pixels
+/// (`features` and `tare_samples` do not apply), projected as `sensor`
+/// says or, without it, as fitted on these directories' frames (no labels
+/// are used).
 pub(crate) fn load_sessions(
     paths: &[PathBuf],
     features: &[String],
     axes: &AxisSet,
     tare_samples: usize,
     source: &SourceArgs,
-) -> Result<(Vec<Dataset>, TareSpec)> {
-    let mut sessions = Vec::with_capacity(paths.len());
+    sensor: Option<&SensorSpec>,
+) -> Result<Sessions> {
+    let nail = paths.iter().filter(|p| is_nail_dir(p)).count();
+    if nail > 0 {
+        if nail < paths.len() {
+            let msg = "the data files mix nail-camera directories and BioTac files";
+            return Err(BadArgument(msg.into()).into());
+        }
+        let spec = match sensor {
+            None => None,
+            Some(SensorSpec::Nail(spec)) => Some(spec.as_ref()),
+            Some(other) => {
+                let msg = format!(
+                    "nail-camera data given to a model of the {} sensor",
+                    other.name()
+                );
+                return Err(BadArgument(msg).into());
+            }
+        };
+        let (sets, spec) = read_nail_dirs(paths, axes, spec)?;
+        let k = spec.projection.len();
+        if sensor.is_none() {
+            eprintln!(
+                "nail frames: {} nail pixels of {:?} px, {k} principal components holding {:.1} % \
+                 of their variance",
+                spec.preprocess.n_pixels(),
+                spec.preprocess.out_size(),
+                spec.projection.explained * 100.0
+            );
+        }
+        let tare = TareSpec {
+            samples: 0,
+            mean_baseline: vec![0.0; k],
+        };
+        return Ok(Sessions {
+            sets,
+            tare,
+            sensor: SensorSpec::Nail(Box::new(spec)),
+        });
+    }
+    if let Some(s @ SensorSpec::Nail(_)) = sensor {
+        let msg = format!("BioTac data given to a model of the {} sensor", s.name());
+        return Err(BadArgument(msg).into());
+    }
+    let mut sets = Vec::with_capacity(paths.len());
     let mut mean_baseline = vec![0.0; features.len()];
     for p in paths {
         let (ds, base) = load_session(p, features, axes, tare_samples, source)?;
         for (m, b) in mean_baseline.iter_mut().zip(base) {
             *m += b / paths.len() as f64;
         }
-        sessions.push(ds);
+        sets.push(ds);
     }
     let tare = TareSpec {
         samples: tare_samples,
         mean_baseline,
     };
-    Ok((sessions, tare))
-}
-
-/// [`load_sessions`] with the rows of every session in one data set.
-pub(crate) fn load_pooled(
-    paths: &[PathBuf],
-    features: &[String],
-    axes: &AxisSet,
-    tare_samples: usize,
-    source: &SourceArgs,
-) -> Result<(Dataset, TareSpec)> {
-    let (sessions, tare) = load_sessions(paths, features, axes, tare_samples, source)?;
-    let refs: Vec<&Dataset> = sessions.iter().collect();
-    let pooled = Dataset::concat(&refs).context("no data file given")?;
-    Ok((pooled, tare))
+    Ok(Sessions {
+        sets,
+        tare,
+        sensor: SensorSpec::Biotac,
+    })
 }

@@ -6,15 +6,16 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::Args;
 
-use tactile_force::learn::dataset::{channel_columns, Dataset};
+use tactile_force::learn::dataset::channel_columns;
 use tactile_force::learn::evaluate::{
     cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
     FoldScores,
 };
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::learn::nn::NnParams;
+use tactile_force::sensor::SensorSpec;
 
-use super::data::{load_pooled, load_sessions, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{file_labels, print_table, progress_bar, show};
 use super::train::{gp_params, FitArgs};
 use super::BadArgument;
@@ -54,33 +55,20 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
     if let Some(model) = &a.model {
         return run_score(model, &a.test, &a.fit.source, a.json);
     }
-    let opts = EvalOptions {
-        scaling: a.fit.input,
-        max_train: a.fit.max_train,
-        gp: gp_params(&a.fit)?,
-        nn: if a.no_nn {
-            None
-        } else {
-            Some(NnParams::default().validate()?)
-        },
-        seed: a.fit.seed,
-    };
-    let bar = progress_bar();
-    let mut on_progress = |p| show(&bar, p);
-    let (features, axes, n) = (
+    let (features, axes, n, source) = (
         channel_columns(&a.fit.channels),
         &a.fit.axes,
         a.fit.tare_samples,
+        &a.fit.source,
     );
+    let load = |paths: &[PathBuf], sensor| load_sessions(paths, &features, axes, n, source, sensor);
+    let bar = progress_bar();
+    let mut on_progress = |p| show(&bar, p);
     let (eval, labels) = if let Some(data) = &a.data {
-        let (ds, tare) = load_pooled(
-            std::slice::from_ref(data),
-            &features,
-            axes,
-            n,
-            &a.fit.source,
-        )?;
-        let eval = cross_validate(&ds, a.folds, &tare, &opts, &mut on_progress)?;
+        let sessions = load(std::slice::from_ref(data), None)?;
+        let opts = options(&a, &sessions.sensor)?;
+        let ds = sessions.pooled()?;
+        let eval = cross_validate(&ds, a.folds, &sessions.tare, &opts, &mut on_progress)?;
         let labels = (1..=a.folds).map(|f| f.to_string()).collect();
         (eval, labels)
     } else if !a.sessions.is_empty() {
@@ -88,13 +76,21 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
             let msg = "--sessions needs at least two files (one is left out in turn)";
             return Err(BadArgument(msg.into()).into());
         }
-        let (sessions, tare) = load_sessions(&a.sessions, &features, axes, n, &a.fit.source)?;
-        let eval = leave_one_session_out(&sessions, &tare, &opts, &mut on_progress)?;
+        let sessions = load(&a.sessions, None)?;
+        let opts = options(&a, &sessions.sensor)?;
+        let eval = leave_one_session_out(&sessions.sets, &sessions.tare, &opts, &mut on_progress)?;
         (eval, file_labels(&a.sessions))
     } else if !a.train.is_empty() && !a.test.is_empty() {
-        let (train, tare) = load_pooled(&a.train, &features, axes, n, &a.fit.source)?;
-        let (tests, _) = load_sessions(&a.test, &features, axes, n, &a.fit.source)?;
-        let eval = train_test(&train, &tests, &tare, &opts, &mut on_progress)?;
+        let train = load(&a.train, None)?;
+        let tests = load(&a.test, Some(&train.sensor))?;
+        let opts = options(&a, &train.sensor)?;
+        let eval = train_test(
+            &train.pooled()?,
+            &tests.sets,
+            &train.tare,
+            &opts,
+            &mut on_progress,
+        )?;
         (eval, file_labels(&a.test))
     } else {
         return Err(BadArgument(
@@ -112,6 +108,21 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
     Ok(())
 }
 
+/// The evaluation's options for data of `sensor`.
+fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
+    Ok(EvalOptions {
+        scaling: a.fit.scaling(sensor)?,
+        max_train: a.fit.max_train,
+        gp: gp_params(&a.fit)?,
+        nn: if a.no_nn {
+            None
+        } else {
+            Some(NnParams::default().validate()?)
+        },
+        seed: a.fit.seed,
+    })
+}
+
 pub(crate) fn run_score(
     model: &Path,
     tests: &[PathBuf],
@@ -119,15 +130,16 @@ pub(crate) fn run_score(
     json: bool,
 ) -> Result<()> {
     let model = WrenchGp::load(model)?;
-    let (sessions, _) = load_sessions(
+    let sessions = load_sessions(
         tests,
         model.features(),
         model.axes(),
         model.tare().samples,
         source,
+        Some(model.sensor()),
     )?;
-    let refs: Vec<&Dataset> = sessions.iter().collect();
-    let pooled = Dataset::concat(&refs).context("give --test FILES")?;
+    let pooled = sessions.pooled().context("give --test FILES")?;
+    let sessions = sessions.sets;
     let mut folds = Vec::with_capacity(sessions.len());
     for (i, ds) in sessions.iter().enumerate() {
         folds.push(FoldScores {

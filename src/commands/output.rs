@@ -99,4 +99,14 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
         row("overall", "NN", nn);
     }
     println!("RMSE in N (forces) and Nm (torques); overall = all test rows pooled; fit s = mean per fold.");
+    let models = [("GP", Some(&eval.gp)), ("NN", eval.nn.as_ref())];
+    for (name, s) in models {
+        if let Some(d) = s.and_then(|s| s.direction_deg) {
+            println!(
+                "{name}: tangential force direction at {} peaks (|Ft| >= 1 N): median {:.1} deg, \
+                 95 % within {:.1} deg, largest {:.1} deg",
+                d.peaks, d.median_deg, d.p95_deg, d.max_deg
+            );
+        }
+    }
 }

@@ -13,7 +13,7 @@ use tactile_force::learn::tradeoff::{pareto_front, tradeoff, Row, TradeoffOption
 use tactile_force::report::plot;
 use tactile_force::wrench::AxisSet;
 
-use super::data::{load_pooled, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{axis_headers, axis_scores, progress_bar};
 use super::BadArgument;
 
@@ -65,13 +65,15 @@ pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
         return Err(BadArgument(msg).into());
     }
     let features = tactile_force::learn::dataset::electrode_columns();
-    let (data, tare) = load_pooled(
+    let sessions = load_sessions(
         std::slice::from_ref(&a.data),
         &features,
         &a.axes,
         a.tare_samples,
         &a.source,
+        None,
     )?;
+    let (data, tare) = (sessions.pooled()?, sessions.tare);
     let (train_rows, test_rows) = trialwise_folds(&data, a.folds).swap_remove(0);
     if train_rows.is_empty() || test_rows.is_empty() {
         let msg = format!(

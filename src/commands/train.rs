@@ -10,10 +10,12 @@ use tactile_force::learn::evaluate::Progress;
 use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::learn::scale::InputScaling;
+use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
 
-use super::data::{load_pooled, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{progress_bar, show};
+use super::BadArgument;
 
 /// Options shared by `train` and `eval`.
 #[derive(Args)]
@@ -29,9 +31,10 @@ pub(crate) struct FitArgs {
     pub(crate) channels: Vec<Channel>,
     /// How the tared features reach the GP: standard (each standardised),
     /// raw (counts as they are) or pattern (the electrodes over their norm,
-    /// plus the norm; then standardised).
-    #[arg(long, default_value = "standard")]
-    pub(crate) input: InputScaling,
+    /// plus the norm; then standardised). Default: standard for the BioTac;
+    /// nail-camera models take raw inputs only (their projected pixels).
+    #[arg(long)]
+    pub(crate) input: Option<InputScaling>,
     /// Largest training set of the exact GP (a subset beyond it, see --subset): time grows as n^3.
     #[arg(long, default_value_t = 2000)]
     pub(crate) max_train: usize,
@@ -64,6 +67,21 @@ pub(crate) struct FitArgs {
     pub(crate) source: SourceArgs,
 }
 
+impl FitArgs {
+    /// How the features of `sensor` reach the GP.
+    pub(crate) fn scaling(&self, sensor: &SensorSpec) -> Result<InputScaling> {
+        match (sensor, self.input) {
+            (SensorSpec::Biotac, input) => Ok(input.unwrap_or(InputScaling::Standard)),
+            (SensorSpec::Nail(_), None | Some(InputScaling::Raw)) => Ok(InputScaling::Raw),
+            (SensorSpec::Nail(_), Some(other)) => Err(BadArgument(format!(
+                "--input {other:?}: nail-camera models take their projected pixels raw, so \
+                 that the kernel stays isotropic in pixel space"
+            ))
+            .into()),
+        }
+    }
+}
+
 #[derive(Args)]
 pub(crate) struct TrainArgs {
     /// Training files, comma-separated: each a session, tared on its own.
@@ -92,19 +110,23 @@ pub(crate) fn gp_params(fit: &FitArgs) -> Result<tactile_force::learn::gp::Valid
 }
 
 pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
-    let (ds, tare) = load_pooled(
+    let sessions = load_sessions(
         &a.data,
         &channel_columns(&a.fit.channels),
         &a.fit.axes,
         a.fit.tare_samples,
         &a.fit.source,
+        None,
     )?;
+    let ds = sessions.pooled()?;
+    let scaling = a.fit.scaling(&sessions.sensor)?;
     let params = gp_params(&a.fit)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
-    let model = WrenchGp::train_scaled(&ds, tare, a.fit.input, &params, &mut |axis, p| {
+    let model = WrenchGp::train_scaled(&ds, sessions.tare, scaling, &params, &mut |axis, p| {
         show(&bar, Progress::Gp(axis, p))
-    })?;
+    })?
+    .with_sensor(sessions.sensor);
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
     model

@@ -13,7 +13,7 @@ use serde::Serialize;
 use super::dataset::{trialwise_folds, Dataset};
 use super::gp::fit::FitProgress;
 use super::gp::ValidGpParams;
-use super::metrics::{r2_columns, rmse_columns};
+use super::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
 use super::model::{ModelError, TareSpec, WrenchGp};
 use super::nn::{Mlp, NnError, ValidNnParams};
 use super::scale::InputScaling;
@@ -73,6 +73,10 @@ pub struct Scores {
     pub fit_s: f64,
     /// Training rows; for cross-validation, per fold.
     pub n_train: usize,
+    /// Direction error of the tangential force at the peaks, when fx and
+    /// fy are estimated ([`direction_error_at_peaks`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub direction_deg: Option<DirectionError>,
 }
 
 /// Scores of one cross-validation fold.
@@ -134,7 +138,27 @@ pub(crate) fn scores(
             .collect(),
         fit_s,
         n_train,
+        direction_deg: None,
     }
+}
+
+/// `s` with the direction error of `pred` on `test` (None unless both fx
+/// and fy are estimated).
+fn with_direction(mut s: Scores, test: &Dataset, pred: ArrayView2<f64>) -> Scores {
+    let axes = test.axes.axes();
+    let col = |a: Axis| axes.iter().position(|&b| b == a);
+    if let (Some(x), Some(y)) = (col(Axis::Fx), col(Axis::Fy)) {
+        let pick = |m: ArrayView2<f64>| m.select(ndarray::Axis(1), &[x, y]);
+        let trial: Vec<(u32, u32)> = test
+            .set
+            .iter()
+            .copied()
+            .zip(test.trial.iter().copied())
+            .collect();
+        s.direction_deg =
+            direction_error_at_peaks(pick(test.y.view()).view(), pick(pred).view(), &trial);
+    }
+    s
 }
 
 /// Predictions of both models on one test set, and their training times.
@@ -249,9 +273,8 @@ fn evaluate_splits(
     progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Evaluation, EvalError> {
     let mut results = Vec::new();
-    let (mut ys, mut gps, mut nns) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut pooled, mut gps, mut nns) = (Vec::new(), Vec::new(), Vec::new());
     let (mut gp_time, mut nn_time, mut n_train) = (0.0, 0.0, 0);
-    let mut axes = None;
     for (s, (train, tests)) in splits.enumerate() {
         progress(Progress::Fold(s + 1, n_splits));
         let refs: Vec<&Dataset> = tests.iter().collect();
@@ -272,7 +295,7 @@ fn evaluate_splits(
             from += t.len();
             let score = |p: &Array2<f64>, fit_s| {
                 let p = p.slice(ndarray::s![rows.clone(), ..]);
-                scores(&t.axes, t.y.view(), p, fit_s, pred.n_train)
+                with_direction(scores(&t.axes, t.y.view(), p, fit_s, pred.n_train), t, p)
             };
             results.push(FoldScores {
                 fold: results.len() + 1,
@@ -285,28 +308,26 @@ fn evaluate_splits(
             nn_time += t;
             nns.push(p.clone());
         }
-        ys.push(test.y);
+        pooled.push(test);
         gps.push(pred.gp);
-        axes = Some(test.axes);
     }
-    let axes = axes.ok_or(EvalError::Folds(0))?;
+    let refs: Vec<&Dataset> = pooled.iter().collect();
+    let all = Dataset::concat(&refs).ok_or(EvalError::Folds(0))?;
     let stack = |m: &[Array2<f64>]| {
         let views: Vec<_> = m.iter().map(|a| a.view()).collect();
         ndarray::concatenate(ndarray::Axis(0), &views)
             .map_err(|e| EvalError::Mismatch(e.to_string()))
     };
-    let (y, nf) = (stack(&ys)?, n_splits as f64);
+    let nf = n_splits as f64;
+    let score = |pred: &Array2<f64>, fit_s| {
+        let s = scores(&all.axes, all.y.view(), pred.view(), fit_s, n_train);
+        with_direction(s, &all, pred.view())
+    };
     Ok(Evaluation {
         folds: results,
-        gp: scores(&axes, y.view(), stack(&gps)?.view(), gp_time / nf, n_train),
+        gp: score(&stack(&gps)?, gp_time / nf),
         nn: match opts.nn {
-            Some(_) => Some(scores(
-                &axes,
-                y.view(),
-                stack(&nns)?.view(),
-                nn_time / nf,
-                n_train,
-            )),
+            Some(_) => Some(score(&stack(&nns)?, nn_time / nf)),
             None => None,
         },
     })
@@ -324,11 +345,6 @@ pub fn score_model(model: &WrenchGp, test: &Dataset) -> Result<Scores, EvalError
         )));
     }
     let (pred, _) = model.predict(test.x.view(), false)?;
-    Ok(scores(
-        &test.axes,
-        test.y.view(),
-        pred.view(),
-        0.0,
-        model.n_train(),
-    ))
+    let s = scores(&test.axes, test.y.view(), pred.view(), 0.0, model.n_train());
+    Ok(with_direction(s, test, pred.view()))
 }

@@ -73,6 +73,65 @@ fn ss_res(y: ArrayView1<f64>, yhat: ArrayView1<f64>) -> f64 {
     y.iter().zip(yhat).map(|(a, b)| (a - b).powi(2)).sum()
 }
 
+/// How far the estimated tangential force points from the true one at the
+/// peaks of the pushes: Watanabe et al. 2023 report the "tangential
+/// direction error at the peak points of the applied force" (within about
+/// ±2.5° for their individual models).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DirectionError {
+    /// Peaks scored.
+    pub peaks: usize,
+    /// Median of the absolute angle (deg).
+    pub median_deg: f64,
+    /// 95th percentile (deg).
+    pub p95_deg: f64,
+    /// Largest (deg).
+    pub max_deg: f64,
+}
+
+/// Smallest true tangential force of a peak (N).
+pub const PEAK_MIN_N: f64 = 1.0;
+/// Rows on each side a peak is the largest of, within its trial.
+pub const PEAK_WINDOW: usize = 15;
+
+/// The direction error of `(fx, fy)` estimates `ft_hat` against the truth
+/// `ft` (both n x 2) at the peaks: rows whose true tangential force is at
+/// least [`PEAK_MIN_N`] and the largest within [`PEAK_WINDOW`] rows of the
+/// same `trial` on each side. None without a peak.
+pub fn direction_error_at_peaks(
+    ft: ArrayView2<f64>,
+    ft_hat: ArrayView2<f64>,
+    trial: &[(u32, u32)],
+) -> Option<DirectionError> {
+    let n = ft.nrows();
+    let size = |i: usize| ft[[i, 0]].hypot(ft[[i, 1]]);
+    let mut errors: Vec<f64> = (0..n)
+        .filter(|&i| {
+            let lo = i.saturating_sub(PEAK_WINDOW);
+            let hi = (i + PEAK_WINDOW + 1).min(n);
+            size(i) >= PEAK_MIN_N
+                && (lo..hi).all(|j| trial[j] != trial[i] || j == i || size(j) <= size(i))
+        })
+        .map(|i| {
+            let truth = ft[[i, 1]].atan2(ft[[i, 0]]);
+            let estimate = ft_hat[[i, 1]].atan2(ft_hat[[i, 0]]);
+            let d = (estimate - truth).to_degrees().rem_euclid(360.0);
+            d.min(360.0 - d)
+        })
+        .collect();
+    if errors.is_empty() {
+        return None;
+    }
+    errors.sort_by(f64::total_cmp);
+    let at = |q: f64| errors[((errors.len() - 1) as f64 * q).round() as usize];
+    Some(DirectionError {
+        peaks: errors.len(),
+        median_deg: at(0.5),
+        p95_deg: at(0.95),
+        max_deg: at(1.0),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,5 +185,27 @@ mod tests {
     #[should_panic(expected = "lengths differ")]
     fn mismatched_lengths_panic() {
         rmse(array![1.0, 2.0].view(), array![1.0].view());
+    }
+
+    #[test]
+    fn direction_errors_are_taken_at_the_peaks_of_each_trial() {
+        // One push per trial along +x, peaking at row 20; the estimate turns
+        // by 10 deg. Two trials back to back.
+        let n = 41;
+        let mut ft = ndarray::Array2::zeros((2 * n, 2));
+        let mut hat = ndarray::Array2::zeros((2 * n, 2));
+        let (s, c) = 10f64.to_radians().sin_cos();
+        for k in 0..2 * n {
+            let f = 3.0 * (1.0 - ((k % n) as f64 - 20.0).abs() / 20.0);
+            ft[[k, 0]] = f;
+            hat[[k, 0]] = f * c;
+            hat[[k, 1]] = f * s;
+        }
+        let trial: Vec<(u32, u32)> = (0..2 * n).map(|k| (1, 1 + (k / n) as u32)).collect();
+        let e = direction_error_at_peaks(ft.view(), hat.view(), &trial).unwrap();
+        assert_eq!(e.peaks, 2);
+        assert!((e.max_deg - 10.0).abs() < 1e-9 && (e.median_deg - 10.0).abs() < 1e-9);
+        let small = ft.mapv(|v| v * 0.1);
+        assert!(direction_error_at_peaks(small.view(), hat.view(), &trial).is_none());
     }
 }

@@ -21,6 +21,7 @@ use super::gp::fit::FitProgress;
 use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, ValidGpParams};
 use super::scale::{InputScaling, Standardizer};
 use crate::biotac::reading::Column;
+use crate::sensor::{ModelInput, SensorSpec};
 use crate::wrench::{Axis, AxisSet};
 
 /// The `format` field of every model file.
@@ -149,7 +150,7 @@ pub struct AdaptedFrom {
     pub model: String,
     /// The recordings it was adapted with, as given.
     pub data: Vec<String>,
-    /// Seconds of adaptation data (rows / 100 Hz).
+    /// Seconds of adaptation data (rows times the sensor's sample period).
     pub seconds: f64,
 }
 
@@ -170,6 +171,9 @@ struct ModelFile<G> {
     features: Vec<String>,
     axes: AxisSet,
     tare: TareSpec,
+    /// The sensor the features come from (absent in files before it: BioTac).
+    #[serde(default)]
+    sensor: SensorSpec,
     /// How the tared features are presented (absent in files before it: standard).
     #[serde(default)]
     scaling: InputScaling,
@@ -353,6 +357,7 @@ impl WrenchGp {
             features: data.features.clone(),
             axes: data.axes.clone(),
             tare,
+            sensor: SensorSpec::Biotac,
             scaling,
             input,
             n_train: data.len(),
@@ -387,6 +392,7 @@ impl WrenchGp {
             ..data.clone()
         };
         let mut adapted = Self::train_scaled(&residual, tare, self.0.scaling, params, progress)?;
+        adapted.0.sensor = self.0.sensor.clone();
         adapted.0.prior = Some(Prior {
             from,
             base: Box::new(self.0.clone()),
@@ -412,6 +418,27 @@ impl WrenchGp {
     /// How the training data was tared.
     pub fn tare(&self) -> &TareSpec {
         &self.0.tare
+    }
+
+    /// The sensor the model reads.
+    pub fn sensor(&self) -> &SensorSpec {
+        &self.0.sensor
+    }
+
+    /// The model, recording that its features come from `sensor` (`train`
+    /// on nail frames records their preprocessing).
+    pub fn with_sensor(mut self, sensor: SensorSpec) -> Self {
+        self.0.sensor = sensor;
+        self
+    }
+
+    /// What the model says of its input, for the sensor that feeds it.
+    pub fn input(&self) -> ModelInput<'_> {
+        ModelInput {
+            features: &self.0.features,
+            sensor: &self.0.sensor,
+            tare_samples: self.0.tare.samples,
+        }
     }
 
     /// Rows the model was trained on (an exact GP keeps a subset of them,
@@ -536,6 +563,11 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
             file.tare.mean_baseline.len()
         ));
     }
+    if let SensorSpec::Nail(spec) = &file.sensor {
+        if let Err(e) = spec.check(file.features.len()) {
+            return bad(e.to_string());
+        }
+    }
     let axes: Vec<Axis> = file.outputs.iter().map(|o| o.axis).collect();
     if axes != file.axes.axes() {
         return bad(format!("axes {} but outputs for {axes:?}", file.axes));
@@ -544,7 +576,10 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         None => None,
         Some(Prior { from, base }) => {
             let base = checked(*base, path)?;
-            if base.features != file.features || base.axes != file.axes {
+            if base.features != file.features
+                || base.axes != file.axes
+                || base.sensor != file.sensor
+            {
                 return bad(format!(
                     "adapted from a model of features {:?} and axes {}, but has {:?} and {}",
                     base.features, base.axes, file.features, file.axes
@@ -585,6 +620,7 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         features: file.features,
         axes: file.axes,
         tare: file.tare,
+        sensor: file.sensor,
         scaling: file.scaling,
         input: file.input,
         n_train: file.n_train,

@@ -1,19 +1,17 @@
-//! The wrench estimator node: tares the BioTac on its first readings (out of
-//! contact), then turns every reading into a wrench estimate with the GP.
-//! Over ROS, readings that arrive too late are dropped and counted
-//! ([`EstimatorNode::on_received`]).
+//! The wrench estimator node: turns every reading of a sensor into a
+//! wrench estimate with the GP, the reading made into the model's features
+//! by the sensor's input ([`SensorInput`]: the BioTac tares itself on its
+//! first readings out of contact first). Over ROS, readings that arrive too
+//! late are dropped and counted ([`EstimatorNode::on_received`]).
 
 use serde::Deserialize;
 
-use crate::biotac::reading::Column;
-use crate::biotac::{BioTacReading, Tare};
+use crate::biotac::Tare;
 use crate::learn::default_model::Recipe;
 use crate::learn::model::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
+use crate::sensor::biotac::BioTacInput;
+use crate::sensor::{SensorError, SensorInput};
 use crate::wrench::Wrench;
-
-/// Readings used for the tare when the model does not say (its data were
-/// tared before training).
-const DEFAULT_TARE_SAMPLES: usize = 50;
 
 /// One estimate (the `biotac/wrench` and `biotac/wrench_stddev` topics).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,7 +26,8 @@ pub struct WrenchEstimate {
     pub std: Wrench,
     /// Which axes (in [`crate::wrench::Axis::ALL`] order) the model estimates.
     pub estimated: [bool; 6],
-    /// PDC above its tare (counts): a contact indicator.
+    /// PDC above its tare (counts): a contact indicator; 0 for a sensor
+    /// without PDC.
     pub pdc_rise: f64,
 }
 
@@ -78,15 +77,9 @@ impl Dropped {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum EstimatorError {
-    /// The model takes a feature that is not a BioTac channel.
-    #[error(
-        "the model's features are {found:?}; this node feeds BioTac channels: e1..e19, pdc, \
-         pac_mean, tdc, tac"
-    )]
-    Features {
-        /// The model's features.
-        found: Vec<String>,
-    },
+    /// The model does not fit the node's sensor, or a reading gives no features.
+    #[error(transparent)]
+    Sensor(#[from] SensorError),
     /// The model refused the input.
     #[error(transparent)]
     Model(#[from] ModelError),
@@ -95,48 +88,31 @@ pub enum EstimatorError {
     StaleTimeout(f64),
 }
 
-/// The estimator node.
+/// The estimator node, for the sensor `S` (the BioTac by default).
 #[derive(Debug, Clone)]
-pub struct EstimatorNode {
+pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     model: WrenchGp,
-    columns: Vec<Column>,
+    sensor: S,
     features: Vec<f64>,
     ws: EstimatorWorkspace,
     with_std: bool,
-    tare_samples: usize,
-    tare_readings: Vec<BioTacReading>,
-    tare: Option<Tare>,
     out: Vec<Estimate>,
     stale_timeout_s: Option<f64>,
     dropped: Dropped,
     estimates: u64,
 }
 
-impl EstimatorNode {
+impl<S: SensorInput> EstimatorNode<S> {
     /// A node for `model`; `with_std = false` skips the variance (cheaper).
     pub fn new(model: WrenchGp, with_std: bool) -> Result<Self, EstimatorError> {
-        let columns = model
-            .features()
-            .iter()
-            .map(|f| Column::from_name(f))
-            .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| EstimatorError::Features {
-                found: model.features().to_vec(),
-            })?;
-        let tare_samples = match model.tare().samples {
-            0 => DEFAULT_TARE_SAMPLES,
-            n => n,
-        };
+        let sensor = S::for_model(model.input())?;
         Ok(EstimatorNode {
-            features: vec![0.0; columns.len()],
-            columns,
+            sensor,
+            features: vec![0.0; model.features().len()],
             ws: model.workspace(),
             out: vec![Estimate::default(); model.axes().len()],
             model,
             with_std,
-            tare_samples,
-            tare_readings: Vec::with_capacity(tare_samples),
-            tare: None,
             stale_timeout_s: None,
             dropped: Dropped::default(),
             estimates: 0,
@@ -153,15 +129,9 @@ impl EstimatorNode {
         Ok(self)
     }
 
-    /// The baseline, once taken.
-    pub fn tare(&self) -> Option<&Tare> {
-        self.tare.as_ref()
-    }
-
-    /// Takes `tare` as the baseline (a saved one): no readings are spent on it.
-    pub fn set_tare(&mut self, tare: Tare) {
-        self.tare = Some(tare);
-        self.tare_readings.clear();
+    /// The sensor's input (its baseline).
+    pub fn sensor(&self) -> &S {
+        &self.sensor
     }
 
     /// What was dropped so far.
@@ -185,12 +155,12 @@ impl EstimatorNode {
     }
 
     /// Takes a reading that arrived at `now_s` (s, the clock of its stamp):
-    /// None while taring, and for a reading older than the stale timeout
-    /// (or with `now_s` unknown, NaN) or whose estimate is not finite;
-    /// those are counted ([`EstimatorNode::dropped`]).
-    pub fn on_received(&mut self, r: &BioTacReading, now_s: f64) -> Option<WrenchEstimate> {
+    /// None while taking the baseline, and for a reading older than the
+    /// stale timeout (or with `now_s` unknown, NaN) or whose estimate is not
+    /// finite; those are counted ([`EstimatorNode::dropped`]).
+    pub fn on_received(&mut self, r: &S::Reading, now_s: f64) -> Option<WrenchEstimate> {
         if let Some(limit) = self.stale_timeout_s {
-            let fresh = now_s - r.stamp_s <= limit; // false for a NaN age
+            let fresh = now_s - S::stamp(r).0 <= limit; // false for a NaN age
             if !fresh {
                 self.dropped.stale += 1;
                 return None;
@@ -216,31 +186,19 @@ impl EstimatorNode {
 
     /// True once the baseline is taken.
     pub fn is_tared(&self) -> bool {
-        self.tare.is_some()
+        self.sensor.is_ready()
     }
 
-    /// Readings the tare needs.
+    /// Readings the baseline takes.
     pub fn tare_samples(&self) -> usize {
-        self.tare_samples
+        self.sensor.baseline_samples()
     }
 
-    /// Takes the reading: part of the tare at first, then an estimate.
-    pub fn on_reading(
-        &mut self,
-        r: &BioTacReading,
-    ) -> Result<Option<WrenchEstimate>, EstimatorError> {
-        let Some(tare) = &self.tare else {
-            self.tare_readings.push(*r);
-            if self.tare_readings.len() == self.tare_samples {
-                // Cannot fail: the buffer is not empty.
-                self.tare = Tare::from_readings(&self.tare_readings).ok();
-                self.tare_readings.clear();
-            }
+    /// Takes the reading: part of the baseline at first, then an estimate.
+    pub fn on_reading(&mut self, r: &S::Reading) -> Result<Option<WrenchEstimate>, EstimatorError> {
+        let Some(cue) = self.sensor.features(r, &mut self.features)? else {
             return Ok(None);
         };
-        for (f, c) in self.features.iter_mut().zip(&self.columns) {
-            *f = tare.tared_column(*c, r);
-        }
         self.model
             .predict_one(&self.features, &mut self.ws, self.with_std, &mut self.out)?;
         let mut mean = Wrench::default();
@@ -251,20 +209,35 @@ impl EstimatorNode {
             std.set(*axis, e.std);
             estimated[axis.index()] = true;
         }
+        let (stamp_s, seq) = S::stamp(r);
         Ok(Some(WrenchEstimate {
-            stamp_s: r.stamp_s,
-            seq: r.seq,
+            stamp_s,
+            seq,
             mean,
             std,
             estimated,
-            pdc_rise: tare.tared_pdc(r),
+            pdc_rise: cue,
         }))
+    }
+}
+
+impl EstimatorNode<BioTacInput> {
+    /// The BioTac's tare, once taken.
+    pub fn tare(&self) -> Option<&Tare> {
+        self.sensor.tare()
+    }
+
+    /// Takes `tare` as the BioTac's baseline (a saved one): no readings are
+    /// spent on it.
+    pub fn set_tare(&mut self, tare: Tare) {
+        self.sensor.set_tare(tare);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::biotac::BioTacReading;
     use crate::learn::dataset::{electrode_columns, Dataset};
     use crate::learn::model::TareSpec;
     use ndarray::Array2;
@@ -303,7 +276,7 @@ mod tests {
 
     #[test]
     fn late_readings_and_an_unknown_clock_are_dropped_and_counted() {
-        let node = EstimatorNode::new(electrode_model(), true).unwrap();
+        let node = EstimatorNode::<BioTacInput>::new(electrode_model(), true).unwrap();
         assert!(matches!(
             node.clone().with_stale_timeout(0.0),
             Err(EstimatorError::StaleTimeout(_))
@@ -325,14 +298,14 @@ mod tests {
 
     #[test]
     fn a_saved_tare_is_used_at_once_and_gives_the_same_estimate() {
-        let mut first = EstimatorNode::new(electrode_model(), false).unwrap();
+        let mut first = EstimatorNode::<BioTacInput>::new(electrode_model(), false).unwrap();
         for i in 0..3 {
             first.on_received(&reading(i as f64, 0), i as f64);
         }
         let pressed = reading(5.0, 6);
         let before = first.on_received(&pressed, 5.0).unwrap();
         // A restart while pressed: taring on the press would read ~0 N.
-        let mut restarted = EstimatorNode::new(electrode_model(), false).unwrap();
+        let mut restarted = EstimatorNode::<BioTacInput>::new(electrode_model(), false).unwrap();
         restarted.set_tare(first.tare().unwrap().clone());
         let after = restarted.on_received(&pressed, 5.0).unwrap();
         assert_eq!(after.mean, before.mean);
@@ -362,14 +335,15 @@ mod tests {
 
     #[test]
     fn models_on_other_channels_are_fed_those_channels_tared() {
-        let mut node = EstimatorNode::new(model_on(&["pdc", "e1"]), false).unwrap();
+        let mut node = EstimatorNode::<BioTacInput>::new(model_on(&["pdc", "e1"]), false).unwrap();
         for i in 0..3 {
             node.on_received(&reading(i as f64, 0), i as f64);
         }
         // PDC 50 counts above its tare: about 0.5 N.
         let e = node.on_received(&reading(5.0, 50), 5.0).unwrap();
         assert!((e.mean.force.z - 0.5).abs() < 0.1, "{:?}", e.mean);
-        let err = EstimatorNode::new(model_on(&["pdc", "pressure"]), false).unwrap_err();
+        let err =
+            EstimatorNode::<BioTacInput>::new(model_on(&["pdc", "pressure"]), false).unwrap_err();
         assert!(
             err.to_string().contains("\"pressure\"]; this node feeds"),
             "{err}"

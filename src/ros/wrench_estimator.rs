@@ -29,6 +29,7 @@ use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::EstimatorParams;
 use crate::nodes::EstimatorNode;
 use crate::params::layered_flat_params;
+use crate::sensor::biotac::BioTacInput;
 
 fn unix_s() -> f64 {
     SystemTime::now()
@@ -111,8 +112,8 @@ pub async fn run() -> Result<(), RosError> {
         model.axes(),
         params.with_std,
     );
-    let mut estimator =
-        EstimatorNode::new(model, params.with_std).and_then(|e| e.with_stale_timeout(stale_s))?;
+    let mut estimator = EstimatorNode::<BioTacInput>::new(model, params.with_std)
+        .and_then(|e| e.with_stale_timeout(stale_s))?;
     let tare_path = match tare_file.as_str() {
         "" => {
             crate::learn::default_model::cache_dir().map(|d| d.join("wrench_estimator_tare.json"))

@@ -158,6 +158,17 @@ struct ProtocolFile {
 }
 
 impl ProtocolParams {
+    /// The timing the push schedule reads.
+    pub(crate) fn timing(&self) -> PushTiming {
+        PushTiming {
+            trial_duration_s: self.trial_duration_s,
+            rate_hz: self.rate_hz,
+            tare_samples: self.tare_samples,
+            min_rest_s: self.min_rest_s,
+            max_traction_ratio: self.max_traction_ratio,
+        }
+    }
+
     /// Checks every value (finite, in range, pushes fit the trial) and
     /// returns the checked config.
     pub fn validate(self) -> Result<CollectConfig, ConfigError> {
@@ -196,52 +207,59 @@ impl ProtocolParams {
         for (key, range, min, max) in ranges {
             check_range(key, range, min, max)?;
         }
-        let tare_s = f64::from(self.tare_samples) / self.rate_hz;
-        for (_, name, s) in self.sets.numbered() {
-            let key = |field: &str| format!("protocol.sets.{name}.{field}");
-            check_value(&key("pushes"), f64::from(s.pushes), 1.0, 1e3)?;
-            check_range(&key("push_duration_s"), s.push_duration_s, 1e-2, 3600.0)?;
-            check_range(&key("normal_peak_n"), s.normal_peak_n, 0.0, 1e3)?;
-            check_range(&key("tangential_peak_n"), s.tangential_peak_n, 0.0, 1e3)?;
-            check_value(
-                &key("direction_jitter_deg"),
-                s.direction_jitter_deg,
-                0.0,
-                180.0,
-            )?;
-            check_range(
-                &key("rotation_deg_per_s"),
-                s.rotation_deg_per_s,
-                0.0,
-                3600.0,
-            )?;
-            if s.directions_deg.is_empty() {
-                return Err(ConfigError::Empty {
-                    key: key("directions_deg"),
-                });
-            }
-            for (i, &d) in s.directions_deg.iter().enumerate() {
-                check_value(&key(&format!("directions_deg[{i}]")), d, -360.0, 360.0)?;
-            }
-            // The longest pushes and the rests must fit after the tare window.
-            let pushes = f64::from(s.pushes);
-            let room = self.trial_duration_s - tare_s - (pushes + 1.0) * self.min_rest_s;
-            if s.push_duration_s[1] * pushes > room {
-                return Err(ConfigError::Value {
-                    key: key("push_duration_s[1]"),
-                    value: s.push_duration_s[1],
-                    expected: format!(
-                        "at most {:.3} s, so that {} pushes and {} rests of protocol.min_rest_s \
-                         fit in protocol.trial_duration_s after the tare",
-                        room / pushes,
-                        s.pushes,
-                        s.pushes + 1
-                    ),
-                });
-            }
-        }
+        check_sets(&self.sets, &self.timing())?;
         Ok(CollectConfig { params: self })
     }
+}
+
+/// Checks the sets of a protocol: counts and ranges, and that the longest
+/// pushes and their rests fit in a trial after the tare window.
+pub(crate) fn check_sets(sets: &SetSpecs, timing: &PushTiming) -> Result<(), ConfigError> {
+    let tare_s = f64::from(timing.tare_samples) / timing.rate_hz;
+    for (_, name, s) in sets.numbered() {
+        let key = |field: &str| format!("protocol.sets.{name}.{field}");
+        check_value(&key("pushes"), f64::from(s.pushes), 1.0, 1e3)?;
+        check_range(&key("push_duration_s"), s.push_duration_s, 1e-2, 3600.0)?;
+        check_range(&key("normal_peak_n"), s.normal_peak_n, 0.0, 1e3)?;
+        check_range(&key("tangential_peak_n"), s.tangential_peak_n, 0.0, 1e3)?;
+        check_value(
+            &key("direction_jitter_deg"),
+            s.direction_jitter_deg,
+            0.0,
+            180.0,
+        )?;
+        check_range(
+            &key("rotation_deg_per_s"),
+            s.rotation_deg_per_s,
+            0.0,
+            3600.0,
+        )?;
+        if s.directions_deg.is_empty() {
+            return Err(ConfigError::Empty {
+                key: key("directions_deg"),
+            });
+        }
+        for (i, &d) in s.directions_deg.iter().enumerate() {
+            check_value(&key(&format!("directions_deg[{i}]")), d, -360.0, 360.0)?;
+        }
+        // The longest pushes and the rests must fit after the tare window.
+        let pushes = f64::from(s.pushes);
+        let room = timing.trial_duration_s - tare_s - (pushes + 1.0) * timing.min_rest_s;
+        if s.push_duration_s[1] * pushes > room {
+            return Err(ConfigError::Value {
+                key: key("push_duration_s[1]"),
+                value: s.push_duration_s[1],
+                expected: format!(
+                    "at most {:.3} s, so that {} pushes and {} rests of protocol.min_rest_s \
+                     fit in protocol.trial_duration_s after the tare",
+                    room / pushes,
+                    s.pushes,
+                    s.pushes + 1
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Checked protocol parameters; build with [`CollectConfig::from_yaml_str`],
@@ -301,15 +319,108 @@ impl Default for CollectConfig {
     }
 }
 
+/// When a trial's pushes may happen and how hard they may pull sideways:
+/// the part of a protocol that the push schedule reads.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PushTiming {
+    /// Length of one trial (s).
+    pub trial_duration_s: f64,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Samples out of contact at the start of every trial.
+    pub tare_samples: u32,
+    /// Shortest rest out of contact between pushes (s).
+    pub min_rest_s: f64,
+    /// Largest |tangential| / normal force.
+    pub max_traction_ratio: f64,
+}
+
 /// One push of a trial.
 #[derive(Debug, Clone, Copy)]
-struct Push {
+pub(crate) struct Push {
     start_s: f64,
     duration_s: f64,
     normal_peak_n: f64,
     tangential_peak_n: f64,
     direction_rad: f64,
     rotation_rad_per_s: f64,
+}
+
+/// The force of a push at one instant, in the pad's frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct PadForce {
+    /// Into the pad (N).
+    pub normal_n: f64,
+    /// Along the pad (N).
+    pub tangential_n: f64,
+    /// Direction of the tangential force (rad, 0 = first pad tangent).
+    pub direction_rad: f64,
+}
+
+impl Push {
+    /// The push's force at `t` seconds into the trial, None outside it.
+    fn at(&self, t: f64) -> Option<PadForce> {
+        if !(t > self.start_s && t < self.start_s + self.duration_s) {
+            return None;
+        }
+        let tau = t - self.start_s;
+        let w = 0.5 * (1.0 - (std::f64::consts::TAU * tau / self.duration_s).cos());
+        Some(PadForce {
+            normal_n: self.normal_peak_n * w,
+            tangential_n: self.tangential_peak_n * w * w,
+            direction_rad: self.direction_rad + self.rotation_rad_per_s * tau,
+        })
+    }
+}
+
+/// The pushes of one trial of `set`, after the tare window, separated by
+/// rests of at least `timing.min_rest_s` (the module's raised-cosine pulses).
+pub(crate) fn sample_pushes(timing: &PushTiming, set: &SetSpec, rng: &mut impl Rng) -> Vec<Push> {
+    let n = set.pushes as usize;
+    let durations: Vec<f64> = (0..n).map(|_| uniform(rng, set.push_duration_s)).collect();
+    // n + 1 rests (after the tare, between pushes, at the end) share the slack.
+    let tare_s = f64::from(timing.tare_samples) / timing.rate_hz;
+    let slack = (timing.trial_duration_s
+        - tare_s
+        - durations.iter().sum::<f64>()
+        - (n + 1) as f64 * timing.min_rest_s)
+        .max(0.0);
+    let weights: Vec<f64> = (0..=n).map(|_| rng.random::<f64>() + 1e-3).collect();
+    let total: f64 = weights.iter().sum();
+    let first_direction = rng.random_range(0..set.directions_deg.len());
+    let mut t = tare_s;
+    durations
+        .iter()
+        .enumerate()
+        .map(|(k, &duration_s)| {
+            t += timing.min_rest_s + slack * weights[k] / total;
+            let start_s = t;
+            t += duration_s;
+            let tangential_peak_n = uniform(rng, set.tangential_peak_n);
+            let normal_peak_n =
+                uniform(rng, set.normal_peak_n).max(tangential_peak_n / timing.max_traction_ratio);
+            let base = set.directions_deg[(first_direction + k) % set.directions_deg.len()];
+            let jitter = set.direction_jitter_deg * (2.0 * rng.random::<f64>() - 1.0);
+            let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
+            Push {
+                start_s,
+                duration_s,
+                normal_peak_n,
+                tangential_peak_n,
+                direction_rad: (base + jitter).to_radians(),
+                rotation_rad_per_s: sign * uniform(rng, set.rotation_deg_per_s).to_radians(),
+            }
+        })
+        .collect()
+}
+
+/// The force of the push under way at `t` seconds into the trial, and the
+/// push's index; None between pushes.
+pub(crate) fn force_at(pushes: &[Push], t: f64) -> Option<(usize, PadForce)> {
+    pushes
+        .iter()
+        .enumerate()
+        .find_map(|(i, p)| p.at(t).map(|f| (i, f)))
 }
 
 /// Where and when the plate touches the finger during one trial.
@@ -324,42 +435,7 @@ impl TrialPlan {
     fn sample(p: &ProtocolParams, set: &SetSpec, mount: &Mount, rng: &mut impl Rng) -> Self {
         let x_mm = uniform(rng, p.contact_x_mm) + mount.x_mm;
         let angle_rad = (uniform(rng, p.contact_angle_deg) + mount.angle_deg).to_radians();
-        let n = set.pushes as usize;
-        let durations: Vec<f64> = (0..n).map(|_| uniform(rng, set.push_duration_s)).collect();
-        // n + 1 rests (after the tare, between pushes, at the end) share the slack.
-        let tare_s = f64::from(p.tare_samples) / p.rate_hz;
-        let slack = (p.trial_duration_s
-            - tare_s
-            - durations.iter().sum::<f64>()
-            - (n + 1) as f64 * p.min_rest_s)
-            .max(0.0);
-        let weights: Vec<f64> = (0..=n).map(|_| rng.random::<f64>() + 1e-3).collect();
-        let total: f64 = weights.iter().sum();
-        let first_direction = rng.random_range(0..set.directions_deg.len());
-        let mut t = tare_s;
-        let pushes = durations
-            .iter()
-            .enumerate()
-            .map(|(k, &duration_s)| {
-                t += p.min_rest_s + slack * weights[k] / total;
-                let start_s = t;
-                t += duration_s;
-                let tangential_peak_n = uniform(rng, set.tangential_peak_n);
-                let normal_peak_n =
-                    uniform(rng, set.normal_peak_n).max(tangential_peak_n / p.max_traction_ratio);
-                let base = set.directions_deg[(first_direction + k) % set.directions_deg.len()];
-                let jitter = set.direction_jitter_deg * (2.0 * rng.random::<f64>() - 1.0);
-                let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
-                Push {
-                    start_s,
-                    duration_s,
-                    normal_peak_n,
-                    tangential_peak_n,
-                    direction_rad: (base + jitter).to_radians(),
-                    rotation_rad_per_s: sign * uniform(rng, set.rotation_deg_per_s).to_radians(),
-                }
-            })
-            .collect();
+        let pushes = sample_pushes(&p.timing(), set, rng);
         TrialPlan {
             x_mm,
             angle_rad,
@@ -369,12 +445,7 @@ impl TrialPlan {
 
     /// The contact at `t` seconds into the trial, None between pushes.
     fn contact_at(&self, t: f64) -> Option<Contact> {
-        let push = self
-            .pushes
-            .iter()
-            .find(|p| t > p.start_s && t < p.start_s + p.duration_s)?;
-        let tau = t - push.start_s;
-        let w = 0.5 * (1.0 - (std::f64::consts::TAU * tau / push.duration_s).cos());
+        let (_, f) = force_at(&self.pushes, t)?;
         let mut contact = Contact {
             x_mm: self.x_mm,
             angle_rad: self.angle_rad,
@@ -382,9 +453,8 @@ impl TrialPlan {
         };
         let surface = contact.surface();
         let (t1, t2) = surface.tangents();
-        let (s, c) = (push.direction_rad + push.rotation_rad_per_s * tau).sin_cos();
-        contact.force = -surface.normal * (push.normal_peak_n * w)
-            + (t1 * c + t2 * s) * (push.tangential_peak_n * w * w);
+        let (s, c) = f.direction_rad.sin_cos();
+        contact.force = -surface.normal * f.normal_n + (t1 * c + t2 * s) * f.tangential_n;
         Some(contact)
     }
 }

@@ -1,0 +1,17 @@
+//! The nail camera: a finger-mounted grey camera seeing the fingernail,
+//! whose colour follows the fingertip force as the force pushes blood out
+//! from under the nail (Urban et al. 2013; Watanabe et al. 2023). The
+//! package's second sensor.
+//!
+//! - [`frame`]: one grey frame and its PNG file;
+//! - [`sim`]: the simulated camera, persons and sessions (config/nail_sim.yaml);
+//! - [`collect`]: the data-collection protocol and its data directory;
+//! - [`preprocess`]: Urban's registration, mask, scaling and normalisation.
+
+pub mod collect;
+pub mod frame;
+pub mod preprocess;
+pub mod sim;
+
+pub use frame::NailFrame;
+pub use preprocess::NailPreprocess;

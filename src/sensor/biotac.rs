@@ -1,0 +1,96 @@
+//! The BioTac as the estimator reads it: the model's channels (by name,
+//! [`Column`]), tared on the first readings ([`Tare`]), and the PDC rise
+//! as the contact cue.
+
+use super::{ModelInput, SensorError, SensorInput, SensorSpec};
+use crate::biotac::reading::Column;
+use crate::biotac::{BioTacReading, Tare};
+
+/// The sensor's name.
+pub const NAME: &str = "biotac";
+
+/// Readings used for the tare when the model does not say (its data were
+/// tared before training).
+const DEFAULT_TARE_SAMPLES: usize = 50;
+
+/// A BioTac feeding a model: its channels and its tare.
+#[derive(Debug, Clone)]
+pub struct BioTacInput {
+    columns: Vec<Column>,
+    tare_samples: usize,
+    tare_readings: Vec<BioTacReading>,
+    tare: Option<Tare>,
+}
+
+impl BioTacInput {
+    /// The baseline, once taken.
+    pub fn tare(&self) -> Option<&Tare> {
+        self.tare.as_ref()
+    }
+
+    /// Takes `tare` as the baseline (a saved one): no readings are spent on it.
+    pub fn set_tare(&mut self, tare: Tare) {
+        self.tare = Some(tare);
+        self.tare_readings.clear();
+    }
+}
+
+impl SensorInput for BioTacInput {
+    type Reading = BioTacReading;
+
+    fn for_model(model: ModelInput) -> Result<Self, SensorError> {
+        if *model.sensor != SensorSpec::Biotac {
+            return Err(SensorError::WrongSensor {
+                model: model.sensor.name(),
+                node: NAME,
+            });
+        }
+        let columns = model
+            .features
+            .iter()
+            .map(|f| Column::from_name(f))
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| SensorError::Features {
+                found: model.features.to_vec(),
+                feeds: "BioTac channels: e1..e19, pdc, pac_mean, tdc, tac",
+            })?;
+        let tare_samples = match model.tare_samples {
+            0 => DEFAULT_TARE_SAMPLES,
+            n => n,
+        };
+        Ok(BioTacInput {
+            columns,
+            tare_samples,
+            tare_readings: Vec::with_capacity(tare_samples),
+            tare: None,
+        })
+    }
+
+    fn stamp(r: &BioTacReading) -> (f64, u16) {
+        (r.stamp_s, r.seq)
+    }
+
+    fn is_ready(&self) -> bool {
+        self.tare.is_some()
+    }
+
+    fn baseline_samples(&self) -> usize {
+        self.tare_samples
+    }
+
+    fn features(&mut self, r: &BioTacReading, out: &mut [f64]) -> Result<Option<f64>, SensorError> {
+        let Some(tare) = &self.tare else {
+            self.tare_readings.push(*r);
+            if self.tare_readings.len() == self.tare_samples {
+                // Cannot fail: the buffer is not empty.
+                self.tare = Tare::from_readings(&self.tare_readings).ok();
+                self.tare_readings.clear();
+            }
+            return Ok(None);
+        };
+        for (f, c) in out.iter_mut().zip(&self.columns) {
+            *f = tare.tared_column(*c, r);
+        }
+        Ok(Some(tare.tared_pdc(r)))
+    }
+}

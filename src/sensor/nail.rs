@@ -1,0 +1,348 @@
+//! The nail camera as the estimator reads it, and its training data.
+//!
+//! A frame becomes Urban's nail pixels ([`NailPreprocess`]: registered on
+//! the markers, masked, 72 px wide, divided by their mean), then their
+//! projection on the leading principal components of the training frames
+//! ([`PixelProjection`]). Urban's GP takes the ~5,000 pixels with an
+//! isotropic SE kernel, which depends on the pixels only through the
+//! distances between frames; the projection keeps those distances up to
+//! the variance it leaves out (reported by `train`), and makes a kernel
+//! evaluation cost `k` instead of ~5,000 products. The scores are scaled by
+//! one common factor (not per component), so the kernel stays isotropic in
+//! pixel space: nail models take their inputs raw
+//! ([`crate::learn::scale::InputScaling::Raw`]).
+//!
+//! The nail has no contact cue such as the BioTac's PDC: the cue is 0.
+
+use std::path::{Path, PathBuf};
+
+use faer::{Mat, Par, Side};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::{ModelInput, SensorError, SensorInput, SensorSpec};
+use crate::learn::dataset::Dataset;
+use crate::nail::collect::{read_frame, read_labels, Label, NailDataError};
+use crate::nail::preprocess::{NailPreprocess, PreprocessError};
+use crate::nail::NailFrame;
+use crate::wrench::AxisSet;
+
+/// The sensor's name.
+pub const NAME: &str = "nail";
+
+/// Share of the pixels' variance the projection keeps, at most.
+pub const VARIANCE_KEPT: f64 = 0.99;
+/// Most principal components kept.
+pub const MAX_COMPONENTS: usize = 64;
+/// Most frames the components are computed from (evenly spread).
+pub const PCA_FRAMES: usize = 2000;
+
+/// The nail pixels' projection on principal components.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PixelProjection {
+    /// Mean of the training frames' pixels.
+    mean: Vec<f64>,
+    /// Components, row-major: `k` rows of the pixel count.
+    components: Vec<f64>,
+    /// Common divisor of the scores.
+    scale: f64,
+    /// Share of the pixels' variance the components hold.
+    pub explained: f64,
+}
+
+impl PixelProjection {
+    /// The components of `rows` (frames x pixels) that hold
+    /// [`VARIANCE_KEPT`] of the variance, at most [`MAX_COMPONENTS`]: the
+    /// eigenvectors of the frames' Gram matrix, mapped back to pixels.
+    pub fn fit(rows: &[Vec<f64>]) -> Result<Self, PreprocessError> {
+        let (m, d) = (rows.len(), rows.first().map_or(0, Vec::len));
+        if m < 2 || d == 0 {
+            return Err(PreprocessError::Inconsistent(format!(
+                "principal components need at least 2 frames of pixels, got {m}"
+            )));
+        }
+        let mean: Vec<f64> = (0..d)
+            .map(|j| rows.iter().map(|r| r[j]).sum::<f64>() / m as f64)
+            .collect();
+        let x = Mat::from_fn(m, d, |i, j| rows[i][j] - mean[j]);
+        let mut gram = Mat::<f64>::zeros(m, m);
+        faer::linalg::matmul::matmul(
+            gram.as_mut(),
+            faer::Accum::Replace,
+            x.as_ref(),
+            x.transpose(),
+            1.0,
+            Par::rayon(0),
+        );
+        let eig = gram
+            .self_adjoint_eigen(Side::Lower)
+            .map_err(|e| PreprocessError::Inconsistent(format!("eigendecomposition: {e:?}")))?;
+        let values: Vec<f64> = (0..m).rev().map(|i| eig.S()[i].max(0.0)).collect();
+        let total: f64 = values.iter().sum();
+        let mut k = 0;
+        let mut kept = 0.0;
+        while k < MAX_COMPONENTS.min(m) && kept < VARIANCE_KEPT * total && values[k] > 0.0 {
+            kept += values[k];
+            k += 1;
+        }
+        let k = k.max(1);
+        let mut components = Vec::with_capacity(k * d);
+        for (c, value) in values.iter().take(k).enumerate() {
+            let u = eig.U().col(m - 1 - c);
+            let norm = value.sqrt().max(f64::MIN_POSITIVE);
+            components.extend((0..d).map(|j| (0..m).map(|i| x[(i, j)] * u[i]).sum::<f64>() / norm));
+        }
+        let scale = (values[..k].iter().sum::<f64>() / m as f64 / k as f64)
+            .sqrt()
+            .max(f64::MIN_POSITIVE);
+        Ok(PixelProjection {
+            mean,
+            components,
+            scale,
+            explained: if total > 0.0 { kept / total } else { 1.0 },
+        })
+    }
+
+    /// Number of components.
+    pub fn len(&self) -> usize {
+        self.components.len() / self.mean.len().max(1)
+    }
+
+    /// True without components.
+    pub fn is_empty(&self) -> bool {
+        self.components.is_empty()
+    }
+
+    /// The scores of `pixels` into `out` (one per component).
+    pub fn project(&self, pixels: &[f64], out: &mut [f64]) {
+        let d = self.mean.len();
+        for (o, c) in out.iter_mut().zip(self.components.chunks_exact(d)) {
+            *o = pixels
+                .iter()
+                .zip(&self.mean)
+                .zip(c)
+                .map(|((p, m), v)| (p - m) * v)
+                .sum::<f64>()
+                / self.scale;
+        }
+    }
+}
+
+/// What a nail model records of its frames: their preprocessing and
+/// projection.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NailSpec {
+    /// Time between frames (s), from the training labels.
+    pub frame_period_s: f64,
+    /// Registration, region and mask.
+    pub preprocess: NailPreprocess,
+    /// Principal components of the training pixels.
+    pub projection: PixelProjection,
+}
+
+impl NailSpec {
+    /// Checks a stored spec against the model's `features` count.
+    pub fn check(&self, features: usize) -> Result<(), PreprocessError> {
+        self.preprocess.check()?;
+        let (d, k) = (self.preprocess.n_pixels(), self.projection.len());
+        let p = &self.projection;
+        let finite = p.mean.iter().chain(&p.components).all(|v| v.is_finite())
+            && p.scale.is_finite()
+            && p.scale > 0.0
+            && self.frame_period_s.is_finite()
+            && self.frame_period_s > 0.0;
+        if p.mean.len() != d || p.components.len() != k * d || k != features || !finite {
+            return Err(PreprocessError::Inconsistent(format!(
+                "{d} nail pixels and {features} features, but a projection of {} means and \
+                 {} components (finite: {finite})",
+                p.mean.len(),
+                k
+            )));
+        }
+        Ok(())
+    }
+
+    /// The feature names of its models: `pc1`..`pck`.
+    pub fn feature_names(&self) -> Vec<String> {
+        (1..=self.projection.len())
+            .map(|i| format!("pc{i}"))
+            .collect()
+    }
+}
+
+/// The nail camera feeding a model.
+#[derive(Debug, Clone)]
+pub struct NailInput {
+    spec: NailSpec,
+    pixels: Vec<f64>,
+}
+
+impl SensorInput for NailInput {
+    type Reading = NailFrame;
+
+    fn for_model(model: ModelInput) -> Result<Self, SensorError> {
+        let SensorSpec::Nail(spec) = model.sensor else {
+            return Err(SensorError::WrongSensor {
+                model: model.sensor.name(),
+                node: NAME,
+            });
+        };
+        if model.features != spec.feature_names() {
+            return Err(SensorError::Features {
+                found: model.features.to_vec(),
+                feeds: "the principal components of nail pixels, pc1..pck",
+            });
+        }
+        Ok(NailInput {
+            pixels: Vec::with_capacity(spec.preprocess.n_pixels()),
+            spec: (**spec).clone(),
+        })
+    }
+
+    fn stamp(r: &NailFrame) -> (f64, u16) {
+        (r.stamp_s, r.seq)
+    }
+
+    fn is_ready(&self) -> bool {
+        true
+    }
+
+    fn baseline_samples(&self) -> usize {
+        0
+    }
+
+    fn features(&mut self, r: &NailFrame, out: &mut [f64]) -> Result<Option<f64>, SensorError> {
+        self.spec.preprocess.pixels(r, &mut self.pixels)?;
+        self.spec.projection.project(&self.pixels, out);
+        Ok(Some(0.0))
+    }
+}
+
+/// Nail data directories as data sets (one per directory), and the spec
+/// they were projected with: `spec`, or one made from them (the mask from
+/// the first directory's first frame, the components from up to
+/// [`PCA_FRAMES`] of their frames; no labels are used).
+pub fn read_nail_dirs(
+    dirs: &[PathBuf],
+    axes: &AxisSet,
+    spec: Option<&NailSpec>,
+) -> Result<(Vec<Dataset>, NailSpec), NailDataError> {
+    let labels: Vec<Vec<Label>> = dirs
+        .iter()
+        .map(|d| read_labels(d))
+        .collect::<Result<_, _>>()?;
+    let spec = match spec {
+        Some(s) => s.clone(),
+        None => fit_spec(dirs, &labels)?,
+    };
+    let features = spec.feature_names();
+    let sets = dirs
+        .iter()
+        .zip(&labels)
+        .map(|(dir, labels)| {
+            let rows: Vec<Vec<f64>> = labels
+                .par_iter()
+                .map(|l| {
+                    let mut pixels = Vec::new();
+                    spec.preprocess.pixels(&read_frame(dir, l)?, &mut pixels)?;
+                    let mut x = vec![0.0; features.len()];
+                    spec.projection.project(&pixels, &mut x);
+                    Ok(x)
+                })
+                .collect::<Result<_, NailDataError>>()?;
+            Ok(Dataset {
+                features: features.clone(),
+                x: ndarray::Array2::from_shape_fn((rows.len(), features.len()), |(i, j)| {
+                    rows[i][j]
+                }),
+                axes: axes.clone(),
+                y: ndarray::Array2::from_shape_fn((labels.len(), axes.len()), |(i, j)| {
+                    labels[i].wrench().get(axes.axes()[j])
+                }),
+                set: labels.iter().map(|l| l.set).collect(),
+                trial: labels.iter().map(|l| l.trial).collect(),
+            })
+        })
+        .collect::<Result<_, NailDataError>>()?;
+    Ok((sets, spec))
+}
+
+/// The spec of frames like those of `dirs`.
+fn fit_spec(dirs: &[PathBuf], labels: &[Vec<Label>]) -> Result<NailSpec, NailDataError> {
+    let reference = read_frame(&dirs[0], &labels[0][0])?;
+    let preprocess = NailPreprocess::from_reference(&reference)?;
+    let all: Vec<(&Path, &Label)> = dirs
+        .iter()
+        .zip(labels)
+        .flat_map(|(d, ls)| ls.iter().map(move |l| (d.as_path(), l)))
+        .collect();
+    let stride = all.len().div_ceil(PCA_FRAMES).max(1);
+    let rows: Vec<Vec<f64>> = all
+        .par_iter()
+        .step_by(stride)
+        .map(|(dir, l)| {
+            let mut pixels = Vec::new();
+            preprocess.pixels(&read_frame(dir, l)?, &mut pixels)?;
+            Ok(pixels)
+        })
+        .collect::<Result<_, NailDataError>>()?;
+    let projection = PixelProjection::fit(&rows)?;
+    // The step of the first trial's times; 1 s when it has one frame.
+    let first = &labels[0];
+    let frame_period_s = first
+        .windows(2)
+        .find(|w| (w[0].set, w[0].trial) == (w[1].set, w[1].trial) && w[1].t > w[0].t)
+        .map_or(1.0, |w| w[1].t - w[0].t);
+    Ok(NailSpec {
+        frame_period_s,
+        preprocess,
+        projection,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_projection_keeps_the_distances_of_low_rank_data() {
+        // Rows on a 3-dimensional subspace of 50 pixels: 3 components, exact distances.
+        let rows: Vec<Vec<f64>> = (0..40)
+            .map(|i| {
+                let (a, b, c) = (
+                    (i as f64).sin(),
+                    (i as f64 * 0.7).cos(),
+                    (i as f64 * 1.3).sin(),
+                );
+                (0..50)
+                    .map(|j| {
+                        a * (j as f64 / 7.0).sin()
+                            + b * ((j % 5) as f64 - 2.0)
+                            + c * (j as f64 / 3.0).cos()
+                    })
+                    .collect()
+            })
+            .collect();
+        let p = PixelProjection::fit(&rows).unwrap();
+        assert_eq!(p.len(), 3);
+        assert!(p.explained > 0.999);
+        let score = |r: &[f64]| {
+            let mut s = vec![0.0; 3];
+            p.project(r, &mut s);
+            s
+        };
+        let dist = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let (s0, s9) = (score(&rows[0]), score(&rows[9]));
+        let ratio = dist(&s0, &s9) * p.scale / dist(&rows[0], &rows[9]);
+        assert!((ratio - 1.0).abs() < 1e-9, "{ratio}");
+        assert!(PixelProjection::fit(&rows[..1]).is_err());
+    }
+}
