@@ -1,8 +1,9 @@
 //! Learning a wrench from BioTac signals: data sets (CSV files and rosbag2
-//! MCAP bags), Gaussian processes, the baseline neural network, metrics and
-//! the model file.
+//! MCAP bags), Gaussian processes, the baseline neural network, the nail
+//! camera's CNN baseline, metrics and the model file.
 
 pub mod bag;
+pub mod cnn;
 pub mod dataset;
 pub mod default_model;
 pub mod evaluate;

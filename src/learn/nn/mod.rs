@@ -63,7 +63,10 @@ use serde::{Deserialize, Serialize};
 
 use super::scale::Standardizer;
 use layers::Layers;
-use train::{check_data, split_rows, Trainer};
+use train::{check_data, Trainer};
+
+/// The seeded train/validation split, shared with [`crate::learn::cnn`].
+pub(crate) use train::split_rows;
 
 pub use params::{NnError, NnParams, ValidNnParams};
 pub use train::FitReport;

@@ -205,7 +205,7 @@ pub(super) fn check_data(x: ArrayView2<f64>, y: ArrayView2<f64>) -> Result<(), N
 
 /// Seeded split of `0..n` into (training, validation) rows, both non-empty
 /// for `n ≥ 2`: `n_val = round(n f)` clamped to `[1, n − 1]`.
-pub(super) fn split_rows(n: usize, fraction: f64, seed: u64) -> (Vec<usize>, Vec<usize>) {
+pub(crate) fn split_rows(n: usize, fraction: f64, seed: u64) -> (Vec<usize>, Vec<usize>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(SPLIT_STREAM);
     let mut rows: Vec<usize> = (0..n).collect();

@@ -1,0 +1,262 @@
+//! Hyper-parameters of the CNN and its training, their ranges, and why a CNN
+//! cannot be configured, trained or loaded ([`CnnError`]).
+
+use serde::{Deserialize, Serialize};
+
+/// Why a CNN cannot be configured, trained, run or loaded.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CnnError {
+    /// A hyper-parameter is out of range.
+    #[error("invalid CNN parameter `{name}` = {value}: expected {expected}")]
+    InvalidParam {
+        /// Field name in [`CnnParams`].
+        name: &'static str,
+        /// The rejected value.
+        value: String,
+        /// The allowed range.
+        expected: &'static str,
+    },
+    /// A size of the data or of a stored tensor is not the one required.
+    #[error("shape mismatch: {what} is {got}, expected {expected}")]
+    Shape {
+        /// What was measured.
+        what: String,
+        /// The required size (or range of sizes).
+        expected: String,
+        /// The size found.
+        got: String,
+    },
+    /// An image pixel is NaN or infinite.
+    #[error("non-finite pixel in image {sample} at row {row}, column {col}")]
+    NonFiniteImage {
+        /// Image (sample) index.
+        sample: usize,
+        /// Pixel row.
+        row: usize,
+        /// Pixel column.
+        col: usize,
+    },
+    /// A target value is NaN or infinite.
+    #[error("non-finite target in sample {sample}, axis {axis}")]
+    NonFiniteTarget {
+        /// Sample index.
+        sample: usize,
+        /// Target column (force axis).
+        axis: usize,
+    },
+    /// A stored weight is NaN or infinite.
+    #[error("non-finite weight in `{tensor}` at flat index {index}")]
+    NonFiniteWeight {
+        /// Tensor name.
+        tensor: String,
+        /// Index in the row-major data.
+        index: usize,
+    },
+    /// Not enough images for a training and a validation part.
+    #[error("too few samples: {got}, need at least {need}")]
+    TooFewSamples {
+        /// Images given.
+        got: usize,
+        /// Images needed.
+        need: usize,
+    },
+    /// candle refused an operation (a bug here rather than bad input: the
+    /// shapes are checked before candle sees them).
+    #[error("candle: {0}")]
+    Candle(String),
+}
+
+impl From<candle_core::Error> for CnnError {
+    fn from(e: candle_core::Error) -> Self {
+        CnnError::Candle(e.to_string())
+    }
+}
+
+impl CnnError {
+    /// [`CnnError::Shape`] from displayable parts.
+    pub(super) fn shape(
+        what: impl Into<String>,
+        expected: impl std::fmt::Display,
+        got: impl std::fmt::Display,
+    ) -> Self {
+        CnnError::Shape {
+            what: what.into(),
+            expected: expected.to_string(),
+            got: got.to_string(),
+        }
+    }
+}
+
+/// Hyper-parameters of the CNN and its training, as read from a config.
+///
+/// | Name | Default | Purpose | Range |
+/// |---|---|---|---|
+/// | `channels` | [8, 16, 32] | output channels of the three 3×3 conv blocks | each ≥ 1 |
+/// | `hidden` | 64 | ReLU units of the fully connected layer | ≥ 1 |
+/// | `dropout` | 0.2 | drop probability of the hidden units (training only) | [0, 1) |
+/// | `learning_rate` | 1e-3 | AdamW step size `α` | (0, 1] |
+/// | `weight_decay` | 1e-4 | AdamW's decoupled decay `λ` of the weights (not the biases) | finite, ≥ 0 |
+/// | `batch_size` | 64 | images per AdamW step | ≥ 1 |
+/// | `max_epochs` | 40 | upper bound on passes over the training images | ≥ 1 |
+/// | `patience` | 5 | epochs without validation improvement before stopping | ≥ 1 |
+/// | `validation_fraction` | 0.15 | share of images held out for early stopping | (0, 1) |
+/// | `seed` | 0 | seeds the split, initial weights, batch order and dropout | any |
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CnnParams {
+    /// Conv widths. Default [8, 16, 32]; each ≥ 1.
+    pub channels: [usize; 3],
+    /// Hidden units. Default 64; ≥ 1.
+    pub hidden: usize,
+    /// Dropout probability of the hidden units. Default 0.2; in [0, 1).
+    pub dropout: f64,
+    /// AdamW step size `α`. Default 1e-3; in (0, 1].
+    pub learning_rate: f64,
+    /// AdamW weight decay `λ`. Default 1e-4; finite, ≥ 0.
+    pub weight_decay: f64,
+    /// Images per mini-batch. Default 64; ≥ 1 (capped at the training images).
+    pub batch_size: usize,
+    /// Maximum epochs. Default 40; ≥ 1.
+    pub max_epochs: usize,
+    /// Epochs without validation improvement before stopping. Default 5; ≥ 1.
+    pub patience: usize,
+    /// Share of the images held out for validation. Default 0.15; in (0, 1).
+    pub validation_fraction: f64,
+    /// Random seed. Default 0; any value.
+    pub seed: u64,
+}
+
+impl Default for CnnParams {
+    fn default() -> Self {
+        CnnParams {
+            channels: [8, 16, 32],
+            hidden: 64,
+            dropout: 0.2,
+            learning_rate: 1e-3,
+            weight_decay: 1e-4,
+            batch_size: 64,
+            max_epochs: 40,
+            patience: 5,
+            validation_fraction: 0.15,
+            seed: 0,
+        }
+    }
+}
+
+/// [`CnnParams`] that passed [`CnnParams::validate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidCnnParams(CnnParams);
+
+impl CnnParams {
+    /// Checks every field against its range (see the table on [`CnnParams`]).
+    pub fn validate(&self) -> Result<ValidCnnParams, CnnError> {
+        let p = self;
+        let c = p.channels;
+        check(
+            "channels",
+            format!("{c:?}"),
+            c.iter().all(|&c| c >= 1),
+            "each >= 1",
+        )?;
+        check("hidden", p.hidden, p.hidden >= 1, ">= 1")?;
+        let d = p.dropout;
+        check("dropout", d, (0.0..1.0).contains(&d), "in [0, 1)")?;
+        let lr = p.learning_rate;
+        check("learning_rate", lr, lr > 0.0 && lr <= 1.0, "in (0, 1]")?;
+        let wd = p.weight_decay;
+        check(
+            "weight_decay",
+            wd,
+            wd.is_finite() && wd >= 0.0,
+            "finite, >= 0",
+        )?;
+        check("batch_size", p.batch_size, p.batch_size >= 1, ">= 1")?;
+        check("max_epochs", p.max_epochs, p.max_epochs >= 1, ">= 1")?;
+        check("patience", p.patience, p.patience >= 1, ">= 1")?;
+        let f = p.validation_fraction;
+        check("validation_fraction", f, f > 0.0 && f < 1.0, "in (0, 1)")?;
+        Ok(ValidCnnParams(self.clone()))
+    }
+}
+
+impl ValidCnnParams {
+    /// The validated parameters.
+    pub fn params(&self) -> &CnnParams {
+        &self.0
+    }
+}
+
+/// `Ok` when `ok`, else [`CnnError::InvalidParam`] naming the field and value.
+fn check(
+    name: &'static str,
+    value: impl std::fmt::Display,
+    ok: bool,
+    expected: &'static str,
+) -> Result<(), CnnError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(CnnError::InvalidParam {
+            name,
+            value: value.to_string(),
+            expected,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid() {
+        let p = CnnParams::default();
+        assert_eq!((p.channels, p.hidden, p.batch_size), ([8, 16, 32], 64, 64));
+        assert_eq!(p.validate().map(|v| v.params().clone()), Ok(p));
+    }
+
+    #[test]
+    fn invalid_parameters_are_refused_by_name() {
+        type Edit = fn(&mut CnnParams);
+        let cases: [(&str, Edit); 13] = [
+            ("channels", |p| p.channels = [8, 0, 32]),
+            ("hidden", |p| p.hidden = 0),
+            ("dropout", |p| p.dropout = 1.0),
+            ("dropout", |p| p.dropout = -0.1),
+            ("dropout", |p| p.dropout = f64::NAN),
+            ("learning_rate", |p| p.learning_rate = 0.0),
+            ("learning_rate", |p| p.learning_rate = f64::INFINITY),
+            ("weight_decay", |p| p.weight_decay = -1e-3),
+            ("batch_size", |p| p.batch_size = 0),
+            ("max_epochs", |p| p.max_epochs = 0),
+            ("patience", |p| p.patience = 0),
+            ("validation_fraction", |p| p.validation_fraction = 0.0),
+            ("validation_fraction", |p| p.validation_fraction = 1.0),
+        ];
+        for (field, set) in cases {
+            let mut p = CnnParams::default();
+            set(&mut p);
+            match p.validate() {
+                Err(CnnError::InvalidParam { name, .. }) => assert_eq!(name, field),
+                other => panic!("{field}: {other:?}"),
+            }
+        }
+        let p = CnnParams {
+            channels: [0, 16, 32],
+            ..CnnParams::default()
+        };
+        assert_eq!(
+            p.validate().expect_err("zero channels").to_string(),
+            "invalid CNN parameter `channels` = [0, 16, 32]: expected each >= 1"
+        );
+    }
+
+    #[test]
+    fn params_read_from_json_with_defaults_and_refuse_unknown_fields() {
+        let p: CnnParams = serde_json::from_str(r#"{"hidden": 32, "seed": 4}"#).expect("parses");
+        assert_eq!((p.hidden, p.seed, p.patience), (32, 4, 5));
+        let err = serde_json::from_str::<CnnParams>(r#"{"hiden": 32}"#).expect_err("typo");
+        assert!(err.to_string().contains("unknown field `hiden`"), "{err}");
+    }
+}
