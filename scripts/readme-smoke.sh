@@ -34,7 +34,7 @@ mapfile -t runs < <(sh_lines | grep -E '^cargo run' || true)
 export TACTILE_FORCE_CACHE="$PWD/target/readme-smoke/cache"
 rm -rf "$TACTILE_FORCE_CACHE"
 created=()
-cleanup() { [ "${#created[@]}" -eq 0 ] || rm -f -- "${created[@]}"; }
+cleanup() { [ "${#created[@]}" -eq 0 ] || rm -rf -- "${created[@]}"; }
 trap cleanup EXIT
 
 for line in "${runs[@]}"; do

@@ -35,6 +35,7 @@
 //!     y,
 //!     set: vec![1; 50],
 //!     trial: vec![1; 50],
+//!     images: None,
 //! };
 //! let tare = TareSpec { samples: 0, mean_baseline: vec![0.0; 2] };
 //! let params = GpParams::default().validate()?;

@@ -667,3 +667,71 @@ fn monitor_without_a_bridge_gives_up_with_the_reason() {
     assert!(text(&o).1.contains("--fault-rate 2"), "{:?}", text(&o));
     assert_eq!(o.status.code(), Some(2), "a refused argument");
 }
+
+#[test]
+fn nail_camera_data_are_collected_trained_on_and_scored_with_the_cnn() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("p1");
+    let d = data.to_str().unwrap();
+    let o = run(&[
+        "collect", "--sensor", "nail", "--unit", "1", "--seed", "1", "--trials", "2", "--out", d,
+    ]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(
+        text(&o).0.contains("wrote 4800 frames (160 s)"),
+        "{:?}",
+        text(&o)
+    );
+    assert!(data.join("frames/004799.png").is_file() && data.join("labels.csv").is_file());
+    let model = dir.path().join("m.json");
+    let m = model.to_str().unwrap();
+    let o = run(&["train", "--data", d, "--axes", "fz", "--out", m]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(
+        text(&o).1.contains("principal components"),
+        "{:?}",
+        text(&o)
+    );
+    let o = run(&["eval", "--model", m, "--test", d, "--json"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let r2 = last_json(&text(&o).0)["gp"]["r2"]["fz"].as_f64().unwrap();
+    assert!(r2 > 0.9, "fz R2 of a nail model on its own data: {r2}");
+    // Cross-validation on 300 training frames: GP, and the CNN beside it.
+    let o = run(&[
+        "eval",
+        "--data",
+        d,
+        "--folds",
+        "2",
+        "--axes",
+        "fx,fy,fz",
+        "--max-train",
+        "300",
+        "--no-nn",
+        "--json",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let json = last_json(&out);
+    let gp = json["gp"]["r2"]["fz"].as_f64().unwrap();
+    let cnn = json["cnn"]["r2"]["fz"].as_f64().unwrap();
+    assert!(gp > 0.8 && cnn > 0.3, "fz R2: GP {gp}, CNN {cnn}");
+    assert!(json["gp"]["direction_deg"]["peaks"].as_u64().unwrap() > 0);
+    assert!(out.contains("tangential force direction at"), "{out}");
+    // BioTac files and nail directories do not mix; nail inputs are raw.
+    let csv = dir.path().join("d.csv");
+    std::fs::write(&csv, "t,set,trial,e1\n0,1,1,1\n").unwrap();
+    let mixed = format!("{d},{}", csv.display());
+    let o = run(&["train", "--data", &mixed, "--out", m]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o)
+        .1
+        .contains("mix nail-camera directories and BioTac files"));
+    let o = run(&["train", "--data", d, "--input", "standard", "--out", m]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o).1.contains("take their projected pixels raw"),
+        "{:?}",
+        text(&o)
+    );
+}

@@ -32,6 +32,7 @@ fn dataset(x: Array2<f64>, y: Array2<f64>) -> Dataset {
         y,
         set: vec![1; n],
         trial: vec![1; n],
+        images: None,
     }
 }
 

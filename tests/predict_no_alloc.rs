@@ -38,6 +38,7 @@ fn predict_one_allocates_nothing_after_warm_up() {
         y,
         set: vec![1; n],
         trial: vec![1; n],
+        images: None,
     };
     let tare = TareSpec {
         samples: 0,

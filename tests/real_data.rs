@@ -57,6 +57,7 @@ fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
         max_train: 2000,
         gp: GpParams::default().validate().unwrap(),
         nn: None,
+        cnn: None,
         seed: 0,
     };
     let eval = cross_validate(&ds, 3, &tare, &opts, &mut |_| {}).unwrap();

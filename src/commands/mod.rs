@@ -16,6 +16,8 @@ use tactile_force::learn::bag::BagError;
 use tactile_force::learn::dataset::DatasetError;
 use tactile_force::learn::evaluate::EvalError;
 use tactile_force::learn::model::ModelError;
+use tactile_force::nail::collect::NailDataError;
+use tactile_force::nail::preprocess::PreprocessError;
 use tactile_force::params::ParamsError;
 use tactile_force::runtime::scene::SceneError;
 use tactile_force::wrench::AxisSetError;
@@ -44,6 +46,16 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
             || c.is::<ConfigError>()
             || c.is::<AxisSetError>()
             || c.is::<BagError>()
+            || c.is::<PreprocessError>()
+            || c.downcast_ref::<NailDataError>().is_some_and(|d| {
+                matches!(
+                    d,
+                    NailDataError::NonFinite { .. }
+                        | NailDataError::Empty { .. }
+                        | NailDataError::FrameSize { .. }
+                        | NailDataError::Preprocess(_)
+                )
+            })
             || c.downcast_ref::<DatasetError>()
                 .is_some_and(|d| !matches!(d, DatasetError::Write { .. }))
             || c.downcast_ref::<ModelError>()

@@ -29,6 +29,7 @@ pub(crate) fn show(bar: &ProgressBar, p: Progress) {
             g.neg_lml_per_sample
         )),
         Progress::Nn => bar.set_message("neural network: training"),
+        Progress::Cnn => bar.set_message("CNN: training"),
     }
 }
 
@@ -92,14 +93,24 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
             if let Some(nn) = &f.nn {
                 row(label, "NN", nn);
             }
+            if let Some(cnn) = &f.cnn {
+                row(label, "CNN", cnn);
+            }
         }
     }
     row("overall", "GP", &eval.gp);
     if let Some(nn) = &eval.nn {
         row("overall", "NN", nn);
     }
+    if let Some(cnn) = &eval.cnn {
+        row("overall", "CNN", cnn);
+    }
     println!("RMSE in N (forces) and Nm (torques); overall = all test rows pooled; fit s = mean per fold.");
-    let models = [("GP", Some(&eval.gp)), ("NN", eval.nn.as_ref())];
+    let models = [
+        ("GP", Some(&eval.gp)),
+        ("NN", eval.nn.as_ref()),
+        ("CNN", eval.cnn.as_ref()),
+    ];
     for (name, s) in models {
         if let Some(d) = s.and_then(|s| s.direction_deg) {
             println!(

@@ -21,7 +21,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use ndarray::{Array2, Axis as NdAxis};
+use ndarray::{Array2, Array3, Axis as NdAxis};
 
 use crate::biotac::reading::Column;
 use crate::biotac::N_ELECTRODES;
@@ -197,6 +197,10 @@ pub struct Dataset {
     pub set: Vec<u32>,
     /// Trial of each row (0 when the file has no `trial` column).
     pub trial: Vec<u32>,
+    /// An image per row (rows x height x width), for a sensor that has
+    /// them: the nail camera's registered nail, for the CNN. None for the
+    /// BioTac.
+    pub images: Option<Array3<f32>>,
 }
 
 impl Dataset {
@@ -282,6 +286,7 @@ impl Dataset {
             y: Array2::from_shape_vec((n, axes.len()), ys).expect(shape_ok),
             set,
             trial,
+            images: None,
         })
     }
 
@@ -324,6 +329,7 @@ impl Dataset {
             y,
             set: records.iter().map(|r| r.set).collect(),
             trial: records.iter().map(|r| r.trial).collect(),
+            images: None,
         })
     }
 
@@ -431,6 +437,11 @@ impl Dataset {
             y: stack(parts.iter().map(|p| p.y.view()).collect())?,
             set: parts.iter().flat_map(|p| p.set.iter().copied()).collect(),
             trial: parts.iter().flat_map(|p| p.trial.iter().copied()).collect(),
+            images: parts
+                .iter()
+                .map(|p| p.images.as_ref().map(|m| m.view()))
+                .collect::<Option<Vec<_>>>()
+                .and_then(|v| ndarray::concatenate(NdAxis(0), &v).ok()),
         })
     }
 
@@ -443,6 +454,7 @@ impl Dataset {
             y: self.y.select(NdAxis(0), idx),
             set: idx.iter().map(|&i| self.set[i]).collect(),
             trial: idx.iter().map(|&i| self.trial[i]).collect(),
+            images: self.images.as_ref().map(|m| m.select(NdAxis(0), idx)),
         }
     }
 }

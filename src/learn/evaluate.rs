@@ -10,6 +10,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+use super::cnn::{Cnn, CnnError, ValidCnnParams};
 use super::dataset::{trialwise_folds, Dataset};
 use super::gp::fit::FitProgress;
 use super::gp::ValidGpParams;
@@ -29,6 +30,9 @@ pub enum EvalError {
     /// Network training failed.
     #[error("neural network: {0}")]
     Nn(#[from] NnError),
+    /// CNN training failed.
+    #[error("CNN: {0}")]
+    Cnn(#[from] CnnError),
     /// Train and test files have different features or axes.
     #[error("train and test data differ: {0}")]
     Mismatch(String),
@@ -58,6 +62,8 @@ pub struct EvalOptions {
     pub scaling: InputScaling,
     /// Network options; `None` skips the network.
     pub nn: Option<ValidNnParams>,
+    /// CNN options, for data with images (the nail camera); `None` skips it.
+    pub cnn: Option<ValidCnnParams>,
     /// Seed of the training subsets.
     pub seed: u64,
 }
@@ -90,6 +96,9 @@ pub struct FoldScores {
     pub gp: Scores,
     /// Network scores, when it was trained.
     pub nn: Option<Scores>,
+    /// CNN scores, when it was trained.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cnn: Option<Scores>,
 }
 
 /// Result of an evaluation: per fold, and overall on all test rows pooled.
@@ -101,6 +110,9 @@ pub struct Evaluation {
     pub gp: Scores,
     /// Network scores over all test rows.
     pub nn: Option<Scores>,
+    /// CNN scores over all test rows (data with images).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cnn: Option<Scores>,
 }
 
 /// What an evaluation is doing, for progress displays.
@@ -112,6 +124,8 @@ pub enum Progress {
     Gp(Axis, FitProgress),
     /// The network is training.
     Nn,
+    /// The CNN is training.
+    Cnn,
 }
 
 pub(crate) fn scores(
@@ -166,6 +180,7 @@ struct FoldPredictions {
     gp: Array2<f64>,
     gp_fit_s: f64,
     nn: Option<(Array2<f64>, f64)>,
+    cnn: Option<(Array2<f64>, f64)>,
     n_train: usize,
 }
 
@@ -194,10 +209,21 @@ fn fit_and_predict(
         }
         None => None,
     };
+    let cnn = match (&opts.cnn, &train.images, &test.images) {
+        (Some(params), Some(images), Some(test_images)) => {
+            progress(Progress::Cnn);
+            let t0 = Instant::now();
+            let (net, _) = Cnn::fit(images.view(), train.y.view(), params)?;
+            let fit_s = t0.elapsed().as_secs_f64();
+            Some((net.predict(test_images.view())?, fit_s))
+        }
+        _ => None,
+    };
     Ok(FoldPredictions {
         gp: gp_pred,
         gp_fit_s,
         nn,
+        cnn,
         n_train: train.len(),
     })
 }
@@ -273,8 +299,8 @@ fn evaluate_splits(
     progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Evaluation, EvalError> {
     let mut results = Vec::new();
-    let (mut pooled, mut gps, mut nns) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut gp_time, mut nn_time, mut n_train) = (0.0, 0.0, 0);
+    let (mut pooled, mut gps, mut nns, mut cnns) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut gp_time, mut nn_time, mut cnn_time, mut n_train) = (0.0, 0.0, 0.0, 0);
     for (s, (train, tests)) in splits.enumerate() {
         progress(Progress::Fold(s + 1, n_splits));
         let refs: Vec<&Dataset> = tests.iter().collect();
@@ -302,11 +328,16 @@ fn evaluate_splits(
                 n_test: t.len(),
                 gp: score(&pred.gp, pred.gp_fit_s),
                 nn: pred.nn.as_ref().map(|(p, fit_s)| score(p, *fit_s)),
+                cnn: pred.cnn.as_ref().map(|(p, fit_s)| score(p, *fit_s)),
             });
         }
         if let Some((p, t)) = &pred.nn {
             nn_time += t;
             nns.push(p.clone());
+        }
+        if let Some((p, t)) = &pred.cnn {
+            cnn_time += t;
+            cnns.push(p.clone());
         }
         pooled.push(test);
         gps.push(pred.gp);
@@ -329,6 +360,10 @@ fn evaluate_splits(
         nn: match opts.nn {
             Some(_) => Some(score(&stack(&nns)?, nn_time / nf)),
             None => None,
+        },
+        cnn: match cnns.len() {
+            0 => None,
+            _ => Some(score(&stack(&cnns)?, cnn_time / nf)),
         },
     })
 }

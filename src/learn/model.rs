@@ -663,6 +663,7 @@ mod tests {
             y,
             set: vec![1; n],
             trial: vec![1; n],
+            images: None,
         }
     }
 

@@ -153,6 +153,21 @@ impl NailPreprocess {
     /// The nail pixels of `frame`, registered, divided by their mean, into
     /// `out` (cleared first).
     pub fn pixels(&self, frame: &NailFrame, out: &mut Vec<f64>) -> Result<(), PreprocessError> {
+        let region = self.region(frame)?;
+        out.clear();
+        out.extend(
+            region
+                .iter()
+                .zip(&self.mask)
+                .filter_map(|(v, &m)| m.then_some(*v)),
+        );
+        Ok(())
+    }
+
+    /// The whole registered region of `frame` (row-major over
+    /// [`NailPreprocess::out_size`]), divided by the mean of its nail
+    /// pixels; 1 outside the nail.
+    pub fn region(&self, frame: &NailFrame) -> Result<Vec<f64>, PreprocessError> {
         let found = (frame.width(), frame.height());
         if found != self.frame_size {
             return Err(PreprocessError::Size {
@@ -162,21 +177,20 @@ impl NailPreprocess {
             });
         }
         let markers = find_markers(frame)?;
-        let map = affine(&self.reference, &markers);
-        let image = self.sample(frame, &map);
-        out.clear();
-        out.extend(
-            image
-                .iter()
-                .zip(&self.mask)
-                .filter_map(|(v, &m)| m.then_some(*v)),
-        );
-        let mean = out.iter().sum::<f64>() / out.len() as f64;
-        if mean <= 0.0 {
+        let mut image = self.sample(frame, &affine(&self.reference, &markers));
+        let (sum, n) = image
+            .iter()
+            .zip(&self.mask)
+            .filter(|(_, &m)| m)
+            .fold((0.0, 0usize), |(s, n), (v, _)| (s + v, n + 1));
+        let mean = sum / n as f64;
+        if mean.is_nan() || mean <= 0.0 {
             return Err(PreprocessError::Dark { seq: frame.seq });
         }
-        out.iter_mut().for_each(|v| *v /= mean);
-        Ok(())
+        for (v, &m) in image.iter_mut().zip(&self.mask) {
+            *v = if m { *v / mean } else { 1.0 };
+        }
+        Ok(image)
     }
 
     /// The region of `frame` through `map` (reference -> frame), every

@@ -254,6 +254,7 @@ mod tests {
             y,
             set: vec![1; n],
             trial: vec![1; n],
+            images: None,
         };
         let tare = TareSpec {
             samples: 3,
@@ -325,6 +326,7 @@ mod tests {
             y,
             set: vec![1; n],
             trial: vec![1; n],
+            images: None,
         };
         let tare = TareSpec {
             samples: 3,

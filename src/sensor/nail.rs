@@ -36,6 +36,10 @@ pub const VARIANCE_KEPT: f64 = 0.99;
 pub const MAX_COMPONENTS: usize = 64;
 /// Most frames the components are computed from (evenly spread).
 pub const PCA_FRAMES: usize = 2000;
+/// The CNN's image: the registered region averaged over blocks of this many
+/// pixels a side (72 x ~88 -> 36 x ~44), so that a person's network trains
+/// within the budget (learn::cnn, "Cost").
+pub const CNN_BLOCK: usize = 2;
 
 /// The nail pixels' projection on principal components.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -242,20 +246,29 @@ pub fn read_nail_dirs(
         .iter()
         .zip(&labels)
         .map(|(dir, labels)| {
-            let rows: Vec<Vec<f64>> = labels
+            let (w, h) = spec.preprocess.out_size();
+            let (iw, ih) = (w / CNN_BLOCK, h / CNN_BLOCK);
+            let rows: Vec<(Vec<f64>, Vec<f32>)> = labels
                 .par_iter()
                 .map(|l| {
-                    let mut pixels = Vec::new();
-                    spec.preprocess.pixels(&read_frame(dir, l)?, &mut pixels)?;
+                    let region = spec.preprocess.region(&read_frame(dir, l)?)?;
+                    let pixels: Vec<f64> = region
+                        .iter()
+                        .zip(spec.preprocess.mask())
+                        .filter_map(|(v, &m)| m.then_some(*v))
+                        .collect();
                     let mut x = vec![0.0; features.len()];
                     spec.projection.project(&pixels, &mut x);
-                    Ok(x)
+                    Ok((x, blocks(&region, w, CNN_BLOCK, (iw, ih))))
                 })
                 .collect::<Result<_, NailDataError>>()?;
+            let images = ndarray::Array3::from_shape_fn((rows.len(), ih, iw), |(n, i, j)| {
+                rows[n].1[i * iw + j]
+            });
             Ok(Dataset {
                 features: features.clone(),
                 x: ndarray::Array2::from_shape_fn((rows.len(), features.len()), |(i, j)| {
-                    rows[i][j]
+                    rows[i].0[j]
                 }),
                 axes: axes.clone(),
                 y: ndarray::Array2::from_shape_fn((labels.len(), axes.len()), |(i, j)| {
@@ -263,10 +276,28 @@ pub fn read_nail_dirs(
                 }),
                 set: labels.iter().map(|l| l.set).collect(),
                 trial: labels.iter().map(|l| l.trial).collect(),
+                images: Some(images),
             })
         })
         .collect::<Result<_, NailDataError>>()?;
     Ok((sets, spec))
+}
+
+/// Means of `block` x `block` pixels of a row-major image `width` wide,
+/// `size` (width, height) blocks.
+fn blocks(image: &[f64], width: usize, block: usize, size: (usize, usize)) -> Vec<f32> {
+    let (bw, bh) = size;
+    let mut out = Vec::with_capacity(bw * bh);
+    for i in 0..bh {
+        for j in 0..bw {
+            let sum: f64 = (0..block)
+                .flat_map(|di| (0..block).map(move |dj| (i * block + di) * width + j * block + dj))
+                .map(|k| image[k])
+                .sum();
+            out.push((sum / (block * block) as f64) as f32);
+        }
+    }
+    out
 }
 
 /// The spec of frames like those of `dirs`.
@@ -305,6 +336,7 @@ fn fit_spec(dirs: &[PathBuf], labels: &[Vec<Label>]) -> Result<NailSpec, NailDat
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::nail::collect::read_labels;
 
     #[test]
     fn the_projection_keeps_the_distances_of_low_rank_data() {
@@ -344,5 +376,58 @@ mod tests {
         let ratio = dist(&s0, &s9) * p.scale / dist(&rows[0], &rows[9]);
         assert!((ratio - 1.0).abs() < 1e-9, "{ratio}");
         assert!(PixelProjection::fit(&rows[..1]).is_err());
+    }
+
+    #[test]
+    fn the_estimator_reads_nail_frames_through_the_seam() {
+        use crate::learn::model::{quick_params, TareSpec, WrenchGp};
+        use crate::learn::scale::InputScaling;
+        use crate::nail::collect::{collect_nail, NailWriter};
+        use crate::nail::sim::NailSimConfig;
+        use crate::nodes::EstimatorNode;
+        use crate::sensor::biotac::BioTacInput;
+
+        let dir = tempfile::tempdir().unwrap();
+        let config = NailSimConfig::default().with_trials(1).unwrap();
+        let mut w = NailWriter::create(dir.path()).unwrap();
+        collect_nail(&config, 3, 1, &mut |r| w.write(&r)).unwrap();
+        w.finish().unwrap();
+        let axes: AxisSet = "fz".parse().unwrap();
+        let (sets, spec) = read_nail_dirs(&[dir.path().to_path_buf()], &axes, None).unwrap();
+        let ds = &sets[0];
+        assert_eq!(ds.images.as_ref().unwrap().dim().0, ds.len());
+        let train: Vec<usize> = (0..ds.len()).step_by(4).collect();
+        let tare = TareSpec {
+            samples: 0,
+            mean_baseline: vec![0.0; ds.features.len()],
+        };
+        let model = WrenchGp::train_scaled(
+            &ds.select(&train),
+            tare,
+            InputScaling::Raw,
+            &quick_params(),
+            &mut |_, _| {},
+        )
+        .unwrap()
+        .with_sensor(SensorSpec::Nail(Box::new(spec)));
+        // Frames the model was not trained on, through the node.
+        let mut node = EstimatorNode::<NailInput>::new(model.clone(), true).unwrap();
+        let labels = read_labels(dir.path()).unwrap();
+        let mut sq = 0.0;
+        let held_out: Vec<usize> = (2..labels.len()).step_by(4).collect();
+        for &i in &held_out {
+            let frame = read_frame(dir.path(), &labels[i]).unwrap();
+            let e = node
+                .on_reading(&frame)
+                .unwrap()
+                .expect("no baseline to take");
+            assert_eq!(e.pdc_rise, 0.0);
+            sq += (e.mean.force.z - labels[i].fz).powi(2);
+        }
+        let rmse = (sq / held_out.len() as f64).sqrt();
+        assert!(rmse < 0.8, "fz RMSE {rmse} N on held-out frames");
+        // A BioTac node refuses the nail model, and the nail node a BioTac one.
+        let e = EstimatorNode::<BioTacInput>::new(model, true).unwrap_err();
+        assert!(e.to_string().contains("trained on the nail sensor"), "{e}");
     }
 }
