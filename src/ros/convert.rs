@@ -6,11 +6,12 @@
 use r2r::builtin_interfaces::msg::Time;
 use r2r::diagnostic_msgs::msg::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use r2r::geometry_msgs::msg::{Twist, TwistStamped, Vector3, Wrench as WrenchMsg, WrenchStamped};
-use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
+use r2r::sensor_msgs::msg::{FluidPressure, Image, JointState as JointStateMsg};
 use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
 
 use crate::biotac::msg::{join_stamp, split_stamp};
 use crate::kinematics::{JointVector, N_JOINTS};
+use crate::nail::NailFrame;
 use crate::nodes::{JointState, WrenchEstimate};
 use crate::wrench::Wrench;
 
@@ -30,6 +31,9 @@ pub enum ConvertError {
     /// A joint the controller needs is absent from `joint_states`.
     #[error("joint_states: joint `{0}` is missing or has no position")]
     MissingJoint(String),
+    /// An image encoding the node does not read.
+    #[error("sensor_msgs/Image encoding {0:?}: expected mono8, rgb8 or bgr8")]
+    Encoding(String),
     /// An array of the wrong length.
     #[error("{what}: {found} values, expected {expected}")]
     Length {
@@ -70,6 +74,37 @@ fn wrench_msg(w: &Wrench) -> WrenchMsg {
         force: v(&w.force),
         torque: v(&w.torque),
     }
+}
+
+/// A nail-camera frame from `sensor_msgs/Image`: mono8 as it is, rgb8 or
+/// bgr8 by the green channel (as Watanabe et al. 2023 use it); rows `step`
+/// bytes apart. `seq` numbers it (ROS 2 headers carry none).
+pub fn nail_frame(msg: &Image, seq: u16) -> Result<NailFrame, ConvertError> {
+    let (channels, green) = match msg.encoding.as_str() {
+        "mono8" => (1, 0),
+        "rgb8" | "bgr8" => (3, 1),
+        other => return Err(ConvertError::Encoding(other.to_string())),
+    };
+    let (w, h, step) = (msg.width as usize, msg.height as usize, msg.step as usize);
+    let needed = step * h.saturating_sub(1) + w * channels;
+    if w == 0 || h == 0 || step < w * channels || msg.data.len() < needed {
+        return Err(ConvertError::Length {
+            what: "sensor_msgs/Image data",
+            found: msg.data.len(),
+            expected: needed.max(1),
+        });
+    }
+    let pixels = (0..h)
+        .flat_map(|v| (0..w).map(move |u| msg.data[v * step + u * channels + green]))
+        .collect();
+    let mut frame = NailFrame::new(w, h, pixels).map_err(|_| ConvertError::Length {
+        what: "sensor_msgs/Image data",
+        found: msg.data.len(),
+        expected: needed,
+    })?;
+    frame.stamp_s = time_s(&msg.header.stamp);
+    frame.seq = seq;
+    Ok(frame)
 }
 
 /// `biotac/wrench` (mean) and `biotac/wrench_stddev` (1-sigma) for an
@@ -297,6 +332,31 @@ pub fn diagnostics_msg(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn images_become_nail_frames_by_their_grey_or_green() {
+        let image = |encoding: &str, step: u32, data: Vec<u8>| Image {
+            header: header(1.5, "nail"),
+            height: 2,
+            width: 2,
+            encoding: encoding.into(),
+            is_bigendian: 0,
+            step,
+            data,
+        };
+        // Rows padded to 3 bytes.
+        let f = nail_frame(&image("mono8", 3, vec![1, 2, 0, 3, 4, 0]), 7).unwrap();
+        assert_eq!((f.pixels(), f.stamp_s, f.seq), (&[1, 2, 3, 4][..], 1.5, 7));
+        let rgb = vec![9, 1, 9, 9, 2, 9, 9, 3, 9, 9, 4, 9];
+        assert_eq!(
+            nail_frame(&image("rgb8", 6, rgb), 0).unwrap().pixels(),
+            &[1, 2, 3, 4]
+        );
+        let e = nail_frame(&image("16UC1", 4, vec![0; 8]), 0).unwrap_err();
+        assert!(e.to_string().contains("16UC1"), "{e}");
+        let e = nail_frame(&image("mono8", 2, vec![0; 3]), 0).unwrap_err();
+        assert!(matches!(e, ConvertError::Length { found: 3, .. }), "{e}");
+    }
 
     fn estimate() -> WrenchEstimate {
         let mean = Wrench {

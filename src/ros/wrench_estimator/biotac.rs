@@ -1,0 +1,113 @@
+//! The BioTac's loop: `biotac/readings` (CDR bytes) -> estimates; the tare
+//! is saved (`tare_file`): restarted within `tare_max_age_s`, for the same
+//! sensor serial, the node takes it up rather than taring again, since the
+//! finger may be pressed (a hold) when it comes back.
+
+use std::path::PathBuf;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use futures::StreamExt;
+use r2r::QosProfile;
+
+use super::{Outputs, Settings, REPORT};
+use crate::biotac::msg::{self as biotac_msg, BIOTAC_MSG_TYPE};
+use crate::biotac::tare::SavedTare;
+use crate::learn::model::WrenchGp;
+use crate::nodes::EstimatorNode;
+use crate::ros::params::RuntimeParams;
+use crate::ros::RosError;
+use crate::sensor::biotac::BioTacInput;
+
+fn unix_s() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// Runs the BioTac estimator until the process ends.
+pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Result<(), RosError> {
+    let mut estimator = EstimatorNode::<BioTacInput>::new(model, s.with_std)
+        .and_then(|e| e.with_stale_timeout(s.stale_s))?;
+    let tare_path = match s.tare_file.as_str() {
+        "" => {
+            crate::learn::default_model::cache_dir().map(|d| d.join("wrench_estimator_tare.json"))
+        }
+        f => Some(PathBuf::from(f)),
+    };
+    if tare_path.is_none() {
+        tracing::info!("no cache folder ($HOME unset) and no tare_file: the tare is not saved");
+    }
+    let mut saved = match tare_path.as_deref().map(SavedTare::load) {
+        Some(Ok(saved)) => saved
+            .filter(|saved| (0.0..=s.tare_max_age_s).contains(&(unix_s() - saved.taken_unix_s))),
+        Some(Err(e)) => {
+            tracing::warn!("{e}; taking a new tare");
+            None
+        }
+        None => None,
+    };
+
+    let mut readings = node.subscribe_raw(
+        "biotac/readings",
+        BIOTAC_MSG_TYPE,
+        QosProfile::sensor_data(),
+    )?;
+    let mut out = Outputs::new(&mut node, s.frame_id)?;
+    let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none())?;
+    crate::ros::spin(node);
+
+    let mut report = tokio::time::interval(REPORT);
+    loop {
+        let msg = tokio::select! {
+            m = readings.next() => match m {
+                Some(m) => m,
+                None => return Ok(()),
+            },
+            _ = report.tick() => {
+                out.report(&estimator, &clock);
+                continue;
+            }
+        };
+        let (reading, meta) = match biotac_msg::from_cdr(&msg) {
+            Ok((r, meta)) if meta.invalid_channels.is_empty() => (r, meta),
+            Ok(_) => {
+                estimator.count_unusable(true);
+                continue;
+            }
+            Err(e) => {
+                estimator.count_unusable(false);
+                tracing::debug!("biotac/readings: {e}");
+                continue;
+            }
+        };
+        if let Some(saved) = saved.take() {
+            if saved.serial == meta.serial && !estimator.is_tared() {
+                tracing::info!(
+                    "taking up the tare saved {:.0} s ago (same sensor, \"{}\"): \
+                     the skin may be pressed now; tare_max_age_s:=0 tares anew",
+                    unix_s() - saved.taken_unix_s,
+                    saved.serial,
+                );
+                estimator.set_tare(saved.tare);
+            }
+        }
+        let was_tared = estimator.is_tared();
+        let estimate = estimator.on_received(&reading, clock.now_s());
+        if !was_tared && estimator.is_tared() {
+            tracing::info!("tared on {} readings", estimator.tare_samples());
+            if let (Some(tare), Some(path)) = (estimator.tare(), &tare_path) {
+                let saved = SavedTare {
+                    serial: meta.serial.clone(),
+                    taken_unix_s: unix_s(),
+                    tare: tare.clone(),
+                };
+                if let Err(e) = saved.save(path) {
+                    tracing::warn!("tare not saved: {e}");
+                }
+            }
+        }
+        if let Some(e) = estimate {
+            out.publish(&e);
+        }
+    }
+}

@@ -1,0 +1,52 @@
+//! The nail camera's loop: `camera/image` (sensor_msgs/Image) -> estimates.
+//! The nail needs no baseline: every frame is registered and normalised on
+//! its own (crate::nail::preprocess); a frame without its four markers is
+//! dropped and counted.
+
+use futures::StreamExt;
+use r2r::sensor_msgs::msg::Image;
+use r2r::QosProfile;
+
+use super::{Outputs, Settings, REPORT};
+use crate::learn::model::WrenchGp;
+use crate::nodes::EstimatorNode;
+use crate::ros::params::RuntimeParams;
+use crate::ros::{convert, RosError};
+use crate::sensor::nail::NailInput;
+
+/// Runs the nail-camera estimator until the process ends.
+pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Result<(), RosError> {
+    let mut estimator = EstimatorNode::<NailInput>::new(model, s.with_std)
+        .and_then(|e| e.with_stale_timeout(s.stale_s))?;
+    let mut images = node.subscribe::<Image>("camera/image", QosProfile::sensor_data())?;
+    let mut out = Outputs::new(&mut node, s.frame_id)?;
+    let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none())?;
+    crate::ros::spin(node);
+
+    let mut report = tokio::time::interval(REPORT);
+    let mut seq = 0u16;
+    loop {
+        let msg = tokio::select! {
+            m = images.next() => match m {
+                Some(m) => m,
+                None => return Ok(()),
+            },
+            _ = report.tick() => {
+                out.report(&estimator, &clock);
+                continue;
+            }
+        };
+        seq = seq.wrapping_add(1);
+        match convert::nail_frame(&msg, seq) {
+            Ok(frame) => {
+                if let Some(e) = estimator.on_received(&frame, clock.now_s()) {
+                    out.publish(&e);
+                }
+            }
+            Err(e) => {
+                estimator.count_unusable(false);
+                tracing::debug!("camera/image: {e}");
+            }
+        }
+    }
+}
