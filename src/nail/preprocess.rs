@@ -285,17 +285,10 @@ pub fn find_markers(frame: &NailFrame) -> Result<[[f64; 2]; 4], PreprocessError>
         stack.push(start);
         let (mut n, mut sx, mut sy) = (0usize, 0.0, 0.0);
         while let Some(i) = stack.pop() {
-            let (u, v) = (i % w, i / w);
             n += 1;
-            sx += u as f64;
-            sy += v as f64;
-            let neighbours = [
-                (u > 0).then(|| i - 1),
-                (u + 1 < w).then(|| i + 1),
-                (v > 0).then(|| i - w),
-                (v + 1 < h).then(|| i + w),
-            ];
-            for j in neighbours.into_iter().flatten() {
+            sx += (i % w) as f64;
+            sy += (i / w) as f64;
+            for j in neighbours(i, w, h).into_iter().flatten() {
                 if dark[j] && !seen[j] {
                     seen[j] = true;
                     stack.push(j);
@@ -336,14 +329,7 @@ fn nail_mask(image: &[f64], (w, h): (usize, usize)) -> Vec<bool> {
         if !region[i] {
             continue;
         }
-        let (u, v) = (i % w, i / w);
-        let neighbours = [
-            (u > 0).then(|| i - 1),
-            (u + 1 < w).then(|| i + 1),
-            (v > 0).then(|| i - w),
-            (v + 1 < h).then(|| i + w),
-        ];
-        for j in neighbours.into_iter().flatten() {
+        for j in neighbours(i, w, h).into_iter().flatten() {
             if bright[j] && !region[j] {
                 region[j] = true;
                 stack.push(j);
@@ -352,18 +338,24 @@ fn nail_mask(image: &[f64], (w, h): (usize, usize)) -> Vec<bool> {
     }
     (0..w * h)
         .map(|i| {
-            let (u, v) = (i % w, i / w);
             region[i]
-                && u > 0
-                && v > 0
-                && u + 1 < w
-                && v + 1 < h
-                && region[i - 1]
-                && region[i + 1]
-                && region[i - w]
-                && region[i + w]
+                && neighbours(i, w, h)
+                    .iter()
+                    .all(|j| j.is_some_and(|j| region[j]))
         })
         .collect()
+}
+
+/// The 4-neighbours of pixel `i` of a `w` x `h` row-major image (None
+/// past an edge).
+fn neighbours(i: usize, w: usize, h: usize) -> [Option<usize>; 4] {
+    let (u, v) = (i % w, i / w);
+    [
+        (u > 0).then(|| i - 1),
+        (u + 1 < w).then(|| i + 1),
+        (v > 0).then(|| i - w),
+        (v + 1 < h).then(|| i + w),
+    ]
 }
 
 /// Otsu's threshold of `values` (the split that maximises the

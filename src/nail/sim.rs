@@ -27,7 +27,7 @@ use serde::Deserialize;
 
 use super::frame::NailFrame;
 use crate::biotac::sim::{check_range, check_value, gaussian, uniform, ConfigError};
-use crate::sim::collect::{check_sets, PushTiming, SetSpecs};
+use crate::sim::collect::{check_sets, FtNoiseStd, PushTiming, SetSpecs};
 
 /// The shipped `config/nail_sim.yaml`.
 pub const NAIL_SIM_YAML: &str = include_str!("../../config/nail_sim.yaml");
@@ -130,16 +130,6 @@ pub struct SessionSpread {
     pub flicker: f64,
 }
 
-/// F/T reference noise (std).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NailFtNoise {
-    /// Forces (N).
-    pub force_n: [f64; 3],
-    /// Torques (N·m).
-    pub torque_nm: [f64; 3],
-}
-
 /// `protocol:` in the config.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -163,7 +153,7 @@ pub struct NailProtocol {
     /// Twisting moment per push (N·mm), range.
     pub twist_nmm: [f64; 2],
     /// F/T reference noise.
-    pub ft_noise_std: NailFtNoise,
+    pub ft_noise_std: FtNoiseStd,
     /// The four sets.
     pub sets: SetSpecs,
 }

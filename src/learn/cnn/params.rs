@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::learn::nn::{check, check_schedule, OutOfRange};
+
 /// Why a CNN cannot be configured, trained, run or loaded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -162,8 +164,6 @@ impl CnnParams {
         check("hidden", p.hidden, p.hidden >= 1, ">= 1")?;
         let d = p.dropout;
         check("dropout", d, (0.0..1.0).contains(&d), "in [0, 1)")?;
-        let lr = p.learning_rate;
-        check("learning_rate", lr, lr > 0.0 && lr <= 1.0, "in (0, 1]")?;
         let wd = p.weight_decay;
         check(
             "weight_decay",
@@ -171,11 +171,13 @@ impl CnnParams {
             wd.is_finite() && wd >= 0.0,
             "finite, >= 0",
         )?;
-        check("batch_size", p.batch_size, p.batch_size >= 1, ">= 1")?;
-        check("max_epochs", p.max_epochs, p.max_epochs >= 1, ">= 1")?;
-        check("patience", p.patience, p.patience >= 1, ">= 1")?;
-        let f = p.validation_fraction;
-        check("validation_fraction", f, f > 0.0 && f < 1.0, "in (0, 1)")?;
+        check_schedule(
+            p.learning_rate,
+            p.batch_size,
+            p.max_epochs,
+            p.patience,
+            p.validation_fraction,
+        )?;
         Ok(ValidCnnParams(self.clone()))
     }
 }
@@ -187,21 +189,13 @@ impl ValidCnnParams {
     }
 }
 
-/// `Ok` when `ok`, else [`CnnError::InvalidParam`] naming the field and value.
-fn check(
-    name: &'static str,
-    value: impl std::fmt::Display,
-    ok: bool,
-    expected: &'static str,
-) -> Result<(), CnnError> {
-    if ok {
-        Ok(())
-    } else {
-        Err(CnnError::InvalidParam {
-            name,
-            value: value.to_string(),
-            expected,
-        })
+impl From<OutOfRange> for CnnError {
+    fn from(e: OutOfRange) -> Self {
+        CnnError::InvalidParam {
+            name: e.name,
+            value: e.value,
+            expected: e.expected,
+        }
     }
 }
 

@@ -68,6 +68,7 @@ use train::{check_data, Trainer};
 /// The seeded train/validation split, shared with [`crate::learn::cnn`].
 pub(crate) use train::split_rows;
 
+pub(crate) use params::{check, check_schedule, OutOfRange};
 pub use params::{NnError, NnParams, ValidNnParams};
 pub use train::FitReport;
 

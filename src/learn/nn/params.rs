@@ -117,13 +117,13 @@ impl NnParams {
         let p = self;
         check("hidden", p.hidden, p.hidden >= 1, ">= 1")?;
         check("l2", p.l2, p.l2.is_finite() && p.l2 >= 0.0, "finite, >= 0")?;
-        let lr = p.learning_rate;
-        check("learning_rate", lr, lr > 0.0 && lr <= 1.0, "in (0, 1]")?;
-        check("batch_size", p.batch_size, p.batch_size >= 1, ">= 1")?;
-        check("max_epochs", p.max_epochs, p.max_epochs >= 1, ">= 1")?;
-        check("patience", p.patience, p.patience >= 1, ">= 1")?;
-        let f = p.validation_fraction;
-        check("validation_fraction", f, f > 0.0 && f < 1.0, "in (0, 1)")?;
+        check_schedule(
+            p.learning_rate,
+            p.batch_size,
+            p.max_epochs,
+            p.patience,
+            p.validation_fraction,
+        )?;
         Ok(ValidNnParams(self.clone()))
     }
 }
@@ -135,22 +135,59 @@ impl ValidNnParams {
     }
 }
 
-/// `Ok` when `ok`, else [`NnError::InvalidParam`] naming the field and value.
-fn check(
+/// A hyper-parameter outside its range: the field, its value, what is
+/// accepted (the networks' `InvalidParam` errors carry it).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct OutOfRange {
+    pub(crate) name: &'static str,
+    pub(crate) value: String,
+    pub(crate) expected: &'static str,
+}
+
+impl From<OutOfRange> for NnError {
+    fn from(e: OutOfRange) -> Self {
+        NnError::InvalidParam {
+            name: e.name,
+            value: e.value,
+            expected: e.expected,
+        }
+    }
+}
+
+/// `Ok` when `ok`, else which field is out of range.
+pub(crate) fn check(
     name: &'static str,
     value: impl std::fmt::Display,
     ok: bool,
     expected: &'static str,
-) -> Result<(), NnError> {
+) -> Result<(), OutOfRange> {
     if ok {
         Ok(())
     } else {
-        Err(NnError::InvalidParam {
+        Err(OutOfRange {
             name,
             value: value.to_string(),
             expected,
         })
     }
+}
+
+/// The checks of a mini-batch training schedule with early stopping, which
+/// the network and the CNN share.
+pub(crate) fn check_schedule(
+    learning_rate: f64,
+    batch_size: usize,
+    max_epochs: usize,
+    patience: usize,
+    validation_fraction: f64,
+) -> Result<(), OutOfRange> {
+    let lr = learning_rate;
+    check("learning_rate", lr, lr > 0.0 && lr <= 1.0, "in (0, 1]")?;
+    check("batch_size", batch_size, batch_size >= 1, ">= 1")?;
+    check("max_epochs", max_epochs, max_epochs >= 1, ">= 1")?;
+    check("patience", patience, patience >= 1, ">= 1")?;
+    let f = validation_fraction;
+    check("validation_fraction", f, f > 0.0 && f < 1.0, "in (0, 1)")
 }
 
 #[cfg(test)]
