@@ -91,6 +91,12 @@ fn collect_train_eval_round_trip() {
         out.contains("trained 1 axes (fz) on 40000 samples"),
         "{out}"
     );
+    // A BioTac model's GPs keep a zero mean unless told.
+    let file = std::fs::read_to_string(&model).unwrap();
+    assert!(
+        !file.contains("\"linear\""),
+        "a BioTac model with a linear mean"
+    );
 
     // Cross-validation: GP and NN on the same folds, JSON on the last line.
     let o = run(&[
@@ -689,6 +695,16 @@ fn nail_camera_data_are_collected_trained_on_and_scored_with_the_cnn() {
     assert!(o.status.success(), "{:?}", text(&o));
     assert!(
         text(&o).1.contains("principal components"),
+        "{:?}",
+        text(&o)
+    );
+    // A nail model's GPs take a linear mean by default.
+    let file = std::fs::read_to_string(&model).unwrap();
+    assert!(file.contains("\"linear\":{\"weights\":["), "no linear mean");
+    let o = run(&["train", "--data", d, "--mean", "affine", "--out", m]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o).1.contains("expected zero or linear"),
         "{:?}",
         text(&o)
     );

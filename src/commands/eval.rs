@@ -134,7 +134,7 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
     Ok(EvalOptions {
         scaling: a.fit.scaling(sensor)?,
         max_train: a.fit.max_train,
-        gp: gp_params(&a.fit)?,
+        gp: gp_params(&a.fit, sensor)?,
         nn: if a.no_nn {
             None
         } else {

@@ -7,7 +7,7 @@ use clap::Args;
 
 use tactile_force::learn::dataset::{channel_columns, Channel};
 use tactile_force::learn::evaluate::Progress;
-use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
+use tactile_force::learn::gp::{GpParams, KernelKind, MeanKind, Subset};
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::learn::scale::InputScaling;
 use tactile_force::sensor::SensorSpec;
@@ -48,6 +48,11 @@ pub(crate) struct FitArgs {
     /// GP kernel: iso (one length-scale) or ard (one length-scale per electrode).
     #[arg(long, default_value = "iso")]
     pub(crate) kernel: KernelKind,
+    /// The GPs' prior mean: zero, or linear (a least-squares line on every
+    /// training row; the GP models what it leaves out). Default: zero for
+    /// the BioTac, linear for the nail camera (README, "Nail camera").
+    #[arg(long)]
+    pub(crate) mean: Option<MeanKind>,
     /// Optimiser starts of the hyperparameter fit.
     #[arg(long, default_value_t = 3)]
     pub(crate) restarts: usize,
@@ -94,9 +99,18 @@ pub(crate) struct TrainArgs {
     fit: FitArgs,
 }
 
-pub(crate) fn gp_params(fit: &FitArgs) -> Result<tactile_force::learn::gp::ValidGpParams> {
+/// The GP options of `fit` for data of `sensor`.
+pub(crate) fn gp_params(
+    fit: &FitArgs,
+    sensor: &SensorSpec,
+) -> Result<tactile_force::learn::gp::ValidGpParams> {
+    let default_mean = match sensor {
+        SensorSpec::Biotac => MeanKind::Zero,
+        SensorSpec::Nail(_) => MeanKind::Linear,
+    };
     Ok(GpParams {
         kernel: fit.kernel,
+        mean: fit.mean.unwrap_or(default_mean),
         restarts: fit.restarts,
         restart_subset: fit.restart_subset,
         polish_iters: fit.polish_iters,
@@ -120,7 +134,7 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     )?;
     let ds = sessions.pooled()?;
     let scaling = a.fit.scaling(&sessions.sensor)?;
-    let params = gp_params(&a.fit)?;
+    let params = gp_params(&a.fit, &sessions.sensor)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
     let model = WrenchGp::train_scaled(&ds, sessions.tare, scaling, &params, &mut |axis, p| {

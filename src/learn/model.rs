@@ -4,7 +4,8 @@
 //!
 //! The model file is JSON: `format`, `version`, the feature names, the axes,
 //! the input standardisation, how the data was tared, and per axis the target
-//! standardisation and the GP (`{"exact": ..}`: hyperparameters and training
+//! standardisation, the GP's linear prior mean when it has one (`linear`:
+//! weights and intercept) and the GP (`{"exact": ..}`: hyperparameters and training
 //! data; `{"sparse": ..}`: hyperparameters, inducing inputs and their
 //! posterior). The factorisations are recomputed on load, which also
 //! re-checks the file's numbers.
@@ -18,7 +19,7 @@ use std::sync::Mutex;
 
 use super::dataset::Dataset;
 use super::gp::fit::FitProgress;
-use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, ValidGpParams};
+use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, LinearMean, MeanKind, ValidGpParams};
 use super::scale::{InputScaling, Standardizer};
 use crate::biotac::reading::Column;
 use crate::sensor::{ModelInput, SensorSpec};
@@ -28,8 +29,8 @@ use crate::wrench::{Axis, AxisSet};
 pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// The model-file version this build writes (2: the GP of an axis is tagged
 /// exact or sparse; 3: an adapted model holds the model it was adapted
-/// from). It reads versions 2 and 3.
-pub const MODEL_VERSION: u32 = 3;
+/// from; 4: an axis may have a linear prior mean). It reads versions 2 to 4.
+pub const MODEL_VERSION: u32 = 4;
 
 /// Errors saving, loading or using a model.
 #[derive(Debug, thiserror::Error)]
@@ -131,7 +132,9 @@ pub struct Estimate {
     pub std: f64,
 }
 
-/// One output axis: its GP (fitted, or as stored) and target standardisation.
+/// One output axis: the target's linear mean when it has one (in target
+/// units), and the GP (fitted, or as stored) of what is left, standardised
+/// by `target_mean` and `target_scale`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct AxisModel<G> {
@@ -139,6 +142,9 @@ struct AxisModel<G> {
     target_mean: f64,
     target_scale: f64,
     fit: FitInfo,
+    /// A linear prior mean (absent: zero).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    linear: Option<LinearMean>,
     gp: G,
 }
 
@@ -230,7 +236,8 @@ impl ModelFile<Gp> {
         // variance but allocates now and then (tests/predict_no_alloc.rs).
         for (o, e) in self.outputs.iter().zip(out.iter_mut()) {
             let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
-            e.mean = m * o.target_scale + o.target_mean;
+            let prior = o.linear.as_ref().map_or(0.0, |l| l.at(&ws.z));
+            e.mean = m * o.target_scale + o.target_mean + prior;
             e.std = v.sqrt() * o.target_scale;
         }
         // The prior mean: the base's estimate (same features and axes, checked
@@ -257,8 +264,10 @@ impl ModelFile<Gp> {
         let mut std = Array2::zeros((n, k));
         for (j, o) in self.outputs.iter().enumerate() {
             let (m, v) = o.gp.predict(&z, with_std);
+            let prior = o.linear.as_ref().map(|l| l.at_rows(&z));
             for i in 0..n {
-                mean[[i, j]] = m[i] * o.target_scale + o.target_mean;
+                mean[[i, j]] =
+                    m[i] * o.target_scale + o.target_mean + prior.as_ref().map_or(0.0, |p| p[i]);
                 std[[i, j]] = v[i].sqrt() * o.target_scale;
             }
         }
@@ -326,7 +335,6 @@ impl WrenchGp {
         let z = input.transform(represented.view());
         let x: Vec<f64> = z.iter().copied().collect();
         let d = input.dim();
-        let targets = Standardizer::fit(data.y.view());
         let progress = Mutex::new(progress);
         let outputs = data
             .axes
@@ -334,8 +342,19 @@ impl WrenchGp {
             .par_iter()
             .enumerate()
             .map(|(j, &axis)| {
-                let (m, s) = (targets.mean[j], targets.scale[j]);
-                let y: Vec<f64> = data.y.column(j).iter().map(|v| (v - m) / s).collect();
+                // What the GP models: the target less its linear mean,
+                // standardised (so that the fit's starts and bounds hold).
+                let mut y = data.y.column(j).to_owned();
+                let linear = match params.get().mean {
+                    MeanKind::Zero => None,
+                    MeanKind::Linear => Some(LinearMean::fit(&x, d, &y.to_vec())?),
+                };
+                if let Some(l) = &linear {
+                    y.iter_mut().zip(l.at_rows(&x)).for_each(|(y, p)| *y -= p);
+                }
+                let targets = Standardizer::fit(y.view().insert_axis(ndarray::Axis(1)));
+                let (m, s) = (targets.mean[0], targets.scale[0]);
+                let y: Vec<f64> = y.iter().map(|v| (v - m) / s).collect();
                 let mut report = |p| {
                     if let Ok(mut f) = progress.lock() {
                         f(axis, p)
@@ -347,6 +366,7 @@ impl WrenchGp {
                     target_mean: m,
                     target_scale: s,
                     fit,
+                    linear,
                     gp,
                 })
             })
@@ -606,11 +626,20 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
                 o.axis, o.target_scale, o.target_mean
             ));
         }
+        if let Some(l) = o.linear.as_ref().filter(|l| !l.is_valid(d)) {
+            return bad(format!(
+                "axis {}: linear mean of {} weights (expected {d}, all finite) and intercept {}",
+                o.axis,
+                l.weights.len(),
+                l.bias
+            ));
+        }
         outputs.push(AxisModel {
             axis: o.axis,
             target_mean: o.target_mean,
             target_scale: o.target_scale,
             fit: o.fit,
+            linear: o.linear,
             gp: Gp::try_from(o.gp)?,
         });
     }
@@ -807,6 +836,48 @@ mod tests {
     }
 
     #[test]
+    fn a_linear_mean_extrapolates_loads_back_and_is_checked() {
+        // y = 2 x0 - x1 + 0.5 on inputs in [-5, 5], asked at x0 = 1000: the
+        // line goes on (2010.5); without it the GP of what the line left (0)
+        // says 0.
+        let mut data = small_model_data();
+        data.y = Array2::from_shape_fn((data.len(), 2), |(i, _)| {
+            2.0 * data.x[[i, 0]] - data.x[[i, 1]] + 0.5
+        });
+        let params = super::super::gp::GpParams {
+            restarts: 1,
+            mean: MeanKind::Linear,
+            ..Default::default()
+        };
+        let tare = TareSpec {
+            samples: 5,
+            mean_baseline: vec![0.0; 3],
+        };
+        let model =
+            WrenchGp::train(&data, tare, &params.validate().unwrap(), &mut |_, _| {}).unwrap();
+        let far = ndarray::aview2(&[[1000.0, -10.0, 0.0]]);
+        let at = |m: &WrenchGp| m.predict(far, false).unwrap().0[[0, 0]];
+        assert!((at(&model) - 2010.5).abs() < 1e-3, "{}", at(&model));
+        let f = tempfile::NamedTempFile::new().unwrap();
+        model.save(f.path()).unwrap();
+        assert_eq!(at(&WrenchGp::load(f.path()).unwrap()), at(&model));
+        let mut value: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(f.path()).unwrap()).unwrap();
+        for o in value["outputs"].as_array_mut().unwrap() {
+            o.as_object_mut().unwrap().remove("linear");
+        }
+        let without = load_text(&value.to_string()).unwrap();
+        assert!(at(&without).abs() < 1.0, "{}", at(&without));
+        let json = std::fs::read_to_string(f.path()).unwrap();
+        let err = load_text(&json.replacen("\"weights\":[", "\"weights\":[1.0,", 1));
+        let err = err.unwrap_err().to_string();
+        assert!(
+            err.contains("linear mean of 4 weights (expected 3"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn broken_model_files_give_clear_errors() {
         let json = serde_json::to_string(&small_model()).unwrap();
         let err = load_text(&json[..json.len() / 2]).unwrap_err();
@@ -816,7 +887,7 @@ mod tests {
         let err = load_text("{\"format\": \"something else\"}").unwrap_err();
         assert!(matches!(err, ModelError::WrongFormat { .. }), "{err}");
 
-        let v1 = json.replace("\"version\":3", "\"version\":1");
+        let v1 = json.replace(&format!("\"version\":{MODEL_VERSION}"), "\"version\":1");
         let err = load_text(&v1).unwrap_err();
         assert!(
             matches!(err, ModelError::UnsupportedVersion { found: 1, .. }),

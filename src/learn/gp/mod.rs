@@ -10,6 +10,7 @@
 pub mod exact;
 pub mod fit;
 pub mod kernel;
+pub mod mean;
 pub mod params;
 pub mod select;
 pub mod sparse;
@@ -19,6 +20,7 @@ use serde::{Deserialize, Serialize};
 pub use exact::{ExactGp, ExactGpData, GpWorkspace};
 pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress};
 pub use kernel::{KernelKind, SeHyper};
+pub use mean::{LinearMean, MeanKind};
 pub use params::{GpParams, Subset, ValidGpParams};
 pub use select::{farthest_point, greedy_variance};
 pub use sparse::{SparseGp, SparseGpData};

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::kernel::KernelKind;
+use super::mean::MeanKind;
 use super::GpError;
 
 /// Options of GP training.
@@ -11,6 +12,7 @@ use super::GpError;
 /// | Name | Default | Purpose | Range |
 /// |---|---|---|---|
 /// | kernel | iso | length-scale structure | iso, ard |
+/// | mean | zero | prior mean, fitted on every row | zero, linear |
 /// | restarts | 3 | optimiser starts | >= 1 |
 /// | restart_subset | 500 | points used to optimise each start | >= 10 |
 /// | max_iters | 100 | L-BFGS iterations of each start on the subset | >= 1 |
@@ -28,6 +30,8 @@ use super::GpError;
 pub struct GpParams {
     /// Isotropic or ARD squared-exponential kernel.
     pub kernel: KernelKind,
+    /// Prior mean: zero, or a least-squares line on every training row.
+    pub mean: MeanKind,
     /// Number of optimiser starts.
     pub restarts: usize,
     /// Size of the random subset each start is optimised on.
@@ -102,6 +106,7 @@ impl Default for GpParams {
     fn default() -> Self {
         GpParams {
             kernel: KernelKind::Isotropic,
+            mean: MeanKind::Zero,
             restarts: 3,
             restart_subset: 500,
             max_iters: 100,
