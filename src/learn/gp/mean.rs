@@ -10,7 +10,7 @@
 //! lengthen the one direction a force lies along.
 
 use faer::linalg::solvers::Solve;
-use faer::{Mat, MatRef, Par, Side};
+use faer::{Mat, Par, Side};
 use serde::{Deserialize, Serialize};
 
 use super::GpError;
@@ -111,10 +111,8 @@ impl LinearMean {
 
     /// The means at row-major inputs (n x d).
     pub fn at_rows(&self, z: &[f64]) -> Vec<f64> {
-        let d = self.weights.len().max(1);
-        let rows = MatRef::from_row_major_slice(z, z.len() / d, d);
-        (0..rows.nrows())
-            .map(|i| self.bias + (0..d).map(|j| self.weights[j] * rows[(i, j)]).sum::<f64>())
+        z.chunks_exact(self.weights.len().max(1))
+            .map(|row| self.at(row))
             .collect()
     }
 
