@@ -698,13 +698,14 @@ fn nail_camera_data_are_collected_trained_on_and_scored_with_the_cnn() {
         "{:?}",
         text(&o)
     );
-    // A nail model's GPs take a linear mean by default.
+    // A nail model's GPs take a cubic mean by default (one line for fz).
     let file = std::fs::read_to_string(&model).unwrap();
     assert!(file.contains("\"linear\":{\"weights\":["), "no linear mean");
+    assert!(file.contains("\"bend\":{\"along\":[["), "no bend");
     let o = run(&["train", "--data", d, "--mean", "affine", "--out", m]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        text(&o).1.contains("expected zero or linear"),
+        text(&o).1.contains("expected zero, linear or cubic"),
         "{:?}",
         text(&o)
     );

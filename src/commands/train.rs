@@ -48,9 +48,10 @@ pub(crate) struct FitArgs {
     /// GP kernel: iso (one length-scale) or ard (one length-scale per electrode).
     #[arg(long, default_value = "iso")]
     pub(crate) kernel: KernelKind,
-    /// The GPs' prior mean: zero, or linear (a least-squares line on every
-    /// training row; the GP models what it leaves out). Default: zero for
-    /// the BioTac, linear for the nail camera (README, "Nail camera").
+    /// The GPs' prior mean: zero; linear (a least-squares line on every
+    /// training row; the GP models what it leaves out); or cubic (that line
+    /// plus a cubic in its own value). Default: zero for the BioTac, cubic
+    /// for the nail camera (README, "Nail camera").
     #[arg(long)]
     pub(crate) mean: Option<MeanKind>,
     /// Optimiser starts of the hyperparameter fit.
@@ -106,7 +107,7 @@ pub(crate) fn gp_params(
 ) -> Result<tactile_force::learn::gp::ValidGpParams> {
     let default_mean = match sensor {
         SensorSpec::Biotac => MeanKind::Zero,
-        SensorSpec::Nail(_) => MeanKind::Linear,
+        SensorSpec::Nail(_) => MeanKind::Cubic,
     };
     Ok(GpParams {
         kernel: fit.kernel,

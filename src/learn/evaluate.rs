@@ -13,7 +13,7 @@ use serde::Serialize;
 use super::cnn::{Cnn, CnnError, ValidCnnParams};
 use super::dataset::{trialwise_folds, Dataset};
 use super::gp::fit::FitProgress;
-use super::gp::ValidGpParams;
+use super::gp::{MeanKind, ValidGpParams};
 use super::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
 use super::model::{ModelError, TareSpec, WrenchGp};
 use super::nn::{Mlp, NnError, ValidNnParams};
@@ -192,28 +192,39 @@ fn fit_and_predict(
     progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<FoldPredictions, EvalError> {
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    let train = train.random_rows(opts.max_train, &mut rng);
+    let subset = train.random_rows(opts.max_train, &mut rng);
+    // A zero-mean GP is fitted on the networks' subset. A prior mean is
+    // fitted on every training row, as `train` fits it; the exact GP then
+    // takes its own `max_train` of them.
+    let gp_rows = match opts.gp.get().mean {
+        MeanKind::Zero => &subset,
+        MeanKind::Linear | MeanKind::Cubic => train,
+    };
     let t0 = Instant::now();
-    let gp = WrenchGp::train_scaled(&train, tare.clone(), opts.scaling, &opts.gp, &mut |a, p| {
-        progress(Progress::Gp(a, p))
-    })?;
+    let gp = WrenchGp::train_scaled(
+        gp_rows,
+        tare.clone(),
+        opts.scaling,
+        &opts.gp,
+        &mut |a, p| progress(Progress::Gp(a, p)),
+    )?;
     let gp_fit_s = t0.elapsed().as_secs_f64();
     let (gp_pred, _) = gp.predict(test.x.view(), false)?;
     let nn = match &opts.nn {
         Some(params) => {
             progress(Progress::Nn);
             let t0 = Instant::now();
-            let net = Mlp::fit(params, train.x.view(), train.y.view())?;
+            let net = Mlp::fit(params, subset.x.view(), subset.y.view())?;
             let fit_s = t0.elapsed().as_secs_f64();
             Some((net.predict(test.x.view()), fit_s))
         }
         None => None,
     };
-    let cnn = match (&opts.cnn, &train.images, &test.images) {
+    let cnn = match (&opts.cnn, &subset.images, &test.images) {
         (Some(params), Some(images), Some(test_images)) => {
             progress(Progress::Cnn);
             let t0 = Instant::now();
-            let (net, _) = Cnn::fit(images.view(), train.y.view(), params)?;
+            let (net, _) = Cnn::fit(images.view(), subset.y.view(), params)?;
             let fit_s = t0.elapsed().as_secs_f64();
             Some((net.predict(test_images.view())?, fit_s))
         }
@@ -224,7 +235,7 @@ fn fit_and_predict(
         gp_fit_s,
         nn,
         cnn,
-        n_train: train.len(),
+        n_train: subset.len(),
     })
 }
 

@@ -5,7 +5,7 @@
 //! The model file is JSON: `format`, `version`, the feature names, the axes,
 //! the input standardisation, how the data was tared, and per axis the target
 //! standardisation, the GP's linear prior mean when it has one (`linear`:
-//! weights and intercept) and the GP (`{"exact": ..}`: hyperparameters and training
+//! weights, intercept and, for a cubic mean, its `bend`) and the GP (`{"exact": ..}`: hyperparameters and training
 //! data; `{"sparse": ..}`: hyperparameters, inducing inputs and their
 //! posterior). The factorisations are recomputed on load, which also
 //! re-checks the file's numbers.
@@ -19,7 +19,7 @@ use std::sync::Mutex;
 
 use super::dataset::Dataset;
 use super::gp::fit::FitProgress;
-use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, LinearMean, MeanKind, ValidGpParams};
+use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, LinearMean, ValidGpParams};
 use super::scale::{InputScaling, Standardizer};
 use crate::biotac::reading::Column;
 use crate::sensor::{ModelInput, SensorSpec};
@@ -29,8 +29,9 @@ use crate::wrench::{Axis, AxisSet};
 pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// The model-file version this build writes (2: the GP of an axis is tagged
 /// exact or sparse; 3: an adapted model holds the model it was adapted
-/// from; 4: an axis may have a linear prior mean). It reads versions 2 to 4.
-pub const MODEL_VERSION: u32 = 4;
+/// from; 4: an axis may have a linear prior mean; 5: that mean may bend).
+/// It reads versions 2 to 5.
+pub const MODEL_VERSION: u32 = 5;
 
 /// Errors saving, loading or using a model.
 #[derive(Debug, thiserror::Error)]
@@ -335,6 +336,7 @@ impl WrenchGp {
         let z = input.transform(represented.view());
         let x: Vec<f64> = z.iter().copied().collect();
         let d = input.dim();
+        let means = params.get().mean.fit(&x, d, data.y.view())?;
         let progress = Mutex::new(progress);
         let outputs = data
             .axes
@@ -342,13 +344,10 @@ impl WrenchGp {
             .par_iter()
             .enumerate()
             .map(|(j, &axis)| {
-                // What the GP models: the target less its linear mean,
+                // What the GP models: the target less its prior mean,
                 // standardised (so that the fit's starts and bounds hold).
                 let mut y = data.y.column(j).to_owned();
-                let linear = match params.get().mean {
-                    MeanKind::Zero => None,
-                    MeanKind::Linear => Some(LinearMean::fit(&x, d, &y.to_vec())?),
-                };
+                let linear = means[j].clone();
                 if let Some(l) = &linear {
                     y.iter_mut().zip(l.at_rows(&x)).for_each(|(y, p)| *y -= p);
                 }
@@ -628,10 +627,18 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         }
         if let Some(l) = o.linear.as_ref().filter(|l| !l.is_valid(d)) {
             return bad(format!(
-                "axis {}: linear mean of {} weights (expected {d}, all finite) and intercept {}",
+                "axis {}: linear mean of {} weights (expected {d}, all finite), intercept {}{}",
                 o.axis,
                 l.weights.len(),
-                l.bias
+                l.bias,
+                l.bend.as_ref().map_or(String::new(), |b| format!(
+                    ", bend of {} lines (1 to 6, each of {d} weights) with scales {:?} (> 0), \
+                     ranges {:?} (ordered) and {} weights (one per term), all finite",
+                    b.along.len(),
+                    b.scale,
+                    b.range,
+                    b.coeffs.len()
+                ))
             ));
         }
         outputs.push(AxisModel {
@@ -679,6 +686,7 @@ pub(crate) fn quick_fit(data: &Dataset, tare: TareSpec) -> WrenchGp {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::learn::gp::MeanKind;
     use ndarray::Array2;
 
     fn small_model_data() -> Dataset {
@@ -835,6 +843,20 @@ mod tests {
         );
     }
 
+    /// A one-start model of `data` with the prior mean `mean`.
+    fn train_with_mean(data: &Dataset, mean: MeanKind) -> WrenchGp {
+        let params = super::super::gp::GpParams {
+            restarts: 1,
+            mean,
+            ..Default::default()
+        };
+        let tare = TareSpec {
+            samples: 5,
+            mean_baseline: vec![0.0; 3],
+        };
+        WrenchGp::train(data, tare, &params.validate().unwrap(), &mut |_, _| {}).unwrap()
+    }
+
     #[test]
     fn a_linear_mean_extrapolates_loads_back_and_is_checked() {
         // y = 2 x0 - x1 + 0.5 on inputs in [-5, 5], asked at x0 = 1000: the
@@ -844,17 +866,7 @@ mod tests {
         data.y = Array2::from_shape_fn((data.len(), 2), |(i, _)| {
             2.0 * data.x[[i, 0]] - data.x[[i, 1]] + 0.5
         });
-        let params = super::super::gp::GpParams {
-            restarts: 1,
-            mean: MeanKind::Linear,
-            ..Default::default()
-        };
-        let tare = TareSpec {
-            samples: 5,
-            mean_baseline: vec![0.0; 3],
-        };
-        let model =
-            WrenchGp::train(&data, tare, &params.validate().unwrap(), &mut |_, _| {}).unwrap();
+        let model = train_with_mean(&data, MeanKind::Linear);
         let far = ndarray::aview2(&[[1000.0, -10.0, 0.0]]);
         let at = |m: &WrenchGp| m.predict(far, false).unwrap().0[[0, 0]];
         assert!((at(&model) - 2010.5).abs() < 1e-3, "{}", at(&model));
@@ -873,6 +885,41 @@ mod tests {
         let err = err.unwrap_err().to_string();
         assert!(
             err.contains("linear mean of 4 weights (expected 3"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_cubic_mean_round_trips_and_a_bad_bend_is_refused() {
+        // y = x0 + 0.3 x0^3 - x1: the bent mean carries it, the file keeps it.
+        let mut data = small_model_data();
+        data.y = Array2::from_shape_fn((data.len(), 2), |(i, _)| {
+            let (a, b) = (data.x[[i, 0]], data.x[[i, 1]]);
+            a + 0.3 * a.powi(3) - b
+        });
+        let model = train_with_mean(&data, MeanKind::Cubic);
+        let fitted = model.predict(data.x.view(), false).unwrap().0;
+        let worst = (&fitted - &data.y)
+            .iter()
+            .fold(0.0f64, |m, e| m.max(e.abs()));
+        assert!(worst < 0.05, "{worst}");
+        let row = data.x.slice(ndarray::s![3..4, ..]);
+        let at = |m: &WrenchGp| m.predict(row, false).unwrap().0[[0, 0]];
+        let f = tempfile::NamedTempFile::new().unwrap();
+        model.save(f.path()).unwrap();
+        assert_eq!(at(&WrenchGp::load(f.path()).unwrap()), at(&model));
+        let json = std::fs::read_to_string(f.path()).unwrap();
+        assert!(json.contains("\"bend\":{\"along\":["), "{json}");
+        let bend = json.find("\"bend\"").unwrap();
+        let broken = format!(
+            "{}{}",
+            &json[..bend],
+            json[bend..].replacen("\"scale\":[", "\"scale\":[-", 1)
+        );
+        let err = load_text(&broken);
+        let err = err.unwrap_err().to_string();
+        assert!(
+            err.contains("bend of 2 lines") && err.contains("scales [-"),
             "{err}"
         );
     }

@@ -1,4 +1,4 @@
-//! The GP's prior mean: zero, or linear in the inputs.
+//! The GP's prior mean: zero, linear in the inputs, or cubic in the lines.
 //!
 //! A linear mean `m(x) = w.x + b` is the GP with explicit basis functions of
 //! Rasmussen & Williams (2006, Sec. 2.7) with the weights taken at their
@@ -8,9 +8,18 @@
 //! nail camera's shear forces are in its projected pixels (README, "Nail
 //! camera"); with thousands of inputs an isotropic SE kernel alone cannot
 //! lengthen the one direction a force lies along.
+//!
+//! A cubic mean adds basis functions in the standardised values `u` of the
+//! least-squares lines of all the axes trained together ([`Bend`]): every
+//! product `u_i u_j` (squares included) and every cube `u_i^3`. They follow
+//! a response that flattens with force (the nail's whitening towards 10 N)
+//! and one force scaling another's pattern (a twist skews the region the
+//! normal force whitens): a line misses both by a margin that grows with
+//! the force, and the GP's training rows thin out where it grows.
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Par, Side};
+use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};
 
 use super::GpError;
@@ -24,6 +33,49 @@ pub enum MeanKind {
     Zero,
     /// Linear in the inputs, fitted by least squares ([`LinearMean`]).
     Linear,
+    /// Linear, plus a cubic in the axes' lines ([`Bend`]).
+    Cubic,
+}
+
+impl MeanKind {
+    /// The means of this kind, one per column of the targets `y` (n x k),
+    /// through row-major inputs `x` (n x d); None for a zero mean.
+    pub fn fit(
+        self,
+        x: &[f64],
+        d: usize,
+        y: ArrayView2<f64>,
+    ) -> Result<Vec<Option<LinearMean>>, GpError> {
+        let columns = || y.columns().into_iter().map(|c| c.to_vec());
+        match self {
+            MeanKind::Zero => Ok(vec![None; y.ncols()]),
+            MeanKind::Linear => columns()
+                .map(|c| LinearMean::fit(x, d, &c).map(Some))
+                .collect(),
+            MeanKind::Cubic => {
+                let lines: Vec<LinearMean> = columns()
+                    .map(|c| LinearMean::fit(x, d, &c))
+                    .collect::<Result<_, _>>()?;
+                let bend = Bend::through(&lines, x, d)?;
+                let bent: Vec<f64> = x
+                    .chunks_exact(d)
+                    .flat_map(|row| row.iter().copied().chain(bend.terms(row)))
+                    .collect();
+                let p = bend.coeffs.len();
+                columns()
+                    .map(|c| {
+                        let mut mean = LinearMean::fit(&bent, d + p, &c)?;
+                        let coeffs = mean.weights.split_off(d);
+                        mean.bend = Some(Bend {
+                            coeffs,
+                            ..bend.clone()
+                        });
+                        Ok(Some(mean))
+                    })
+                    .collect()
+            }
+        }
+    }
 }
 
 impl std::str::FromStr for MeanKind {
@@ -32,7 +84,10 @@ impl std::str::FromStr for MeanKind {
         match s {
             "zero" => Ok(MeanKind::Zero),
             "linear" => Ok(MeanKind::Linear),
-            _ => Err(format!("unknown mean {s:?}: expected zero or linear")),
+            "cubic" => Ok(MeanKind::Cubic),
+            _ => Err(format!(
+                "unknown mean {s:?}: expected zero, linear or cubic"
+            )),
         }
     }
 }
@@ -41,7 +96,11 @@ impl std::str::FromStr for MeanKind {
 /// enough to solve collinear inputs, far below any input's variance.
 const RIDGE: f64 = 1e-9;
 
-/// A linear prior mean `w.x + b` on standardised inputs.
+/// Most lines a bend takes: the wrench's six axes.
+pub const MAX_BEND_LINES: usize = 6;
+
+/// A linear prior mean `w.x + b` on standardised inputs, bent when `bend`
+/// is there.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LinearMean {
@@ -49,6 +108,112 @@ pub struct LinearMean {
     pub weights: Vec<f64>,
     /// Intercept.
     pub bias: f64,
+    /// The cubic terms (absent: a plain line).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bend: Option<Bend>,
+}
+
+/// The cubic terms of a mean: in `u_i = (v_i.x - centre_i) / scale_i`, the
+/// standardised values of the first least-squares lines `v_i.x` of the axes
+/// trained together, each held within the range it took on the training
+/// rows (so that beyond them the mean goes on as a line, not as a cubic),
+/// the weighted sum of every `u_i u_j` (i <= j) and every `u_i^3`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bend {
+    /// The lines' weights `v_i`, each one per input.
+    pub along: Vec<Vec<f64>>,
+    /// Mean of each `v_i.x` on the training rows.
+    pub centre: Vec<f64>,
+    /// Standard deviation of each `v_i.x` on the training rows.
+    pub scale: Vec<f64>,
+    /// Smallest and largest `u_i` on the training rows.
+    pub range: Vec<[f64; 2]>,
+    /// Weights of `u_0 u_0, u_0 u_1, .., u_1 u_1, ..`, then `u_0^3, u_1^3, ..`.
+    pub coeffs: Vec<f64>,
+}
+
+impl Bend {
+    /// The standardisation and ranges of `lines` on row-major `x` (n x d),
+    /// with no weights yet.
+    fn through(lines: &[LinearMean], x: &[f64], d: usize) -> Result<Self, GpError> {
+        let k = lines.len();
+        if !(1..=MAX_BEND_LINES).contains(&k) {
+            return Err(GpError::InvalidParam {
+                name: "mean",
+                value: format!("cubic over {k} axes"),
+                expected: "1 to 6 axes",
+            });
+        }
+        let mut bend = Bend {
+            along: lines.iter().map(|l| l.weights.clone()).collect(),
+            centre: vec![0.0; k],
+            scale: vec![1.0; k],
+            range: vec![[f64::NEG_INFINITY, f64::INFINITY]; k],
+            coeffs: vec![0.0; k * (k + 1) / 2 + k],
+        };
+        for (i, line) in lines.iter().enumerate() {
+            let v: Vec<f64> = line.at_rows(x).iter().map(|m| m - line.bias).collect();
+            let n = v.len() as f64;
+            let centre = v.iter().sum::<f64>() / n;
+            let scale = (v.iter().map(|a| (a - centre).powi(2)).sum::<f64>() / n).sqrt();
+            if !(scale > 0.0 && scale.is_finite()) {
+                return Err(GpError::InvalidParam {
+                    name: "mean",
+                    value: "cubic".into(),
+                    expected: "targets that vary along the inputs (a flat line has no bend)",
+                });
+            }
+            bend.centre[i] = centre;
+            bend.scale[i] = scale;
+            bend.range[i] = v
+                .iter()
+                .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], a| {
+                    let u = (a - centre) / scale;
+                    [lo.min(u), hi.max(u)]
+                });
+        }
+        debug_assert!(d == 0 || bend.along.iter().all(|a| a.len() == d));
+        Ok(bend)
+    }
+
+    /// The terms at one input, in the order of `coeffs`.
+    fn terms(&self, z: &[f64]) -> impl Iterator<Item = f64> {
+        let k = self.along.len().min(MAX_BEND_LINES);
+        let mut u = [0.0; MAX_BEND_LINES];
+        for (i, u) in u.iter_mut().enumerate().take(k) {
+            let v: f64 = self.along[i].iter().zip(z).map(|(a, b)| a * b).sum();
+            *u = ((v - self.centre[i]) / self.scale[i]).clamp(self.range[i][0], self.range[i][1]);
+        }
+        let products = (0..k).flat_map(move |i| (i..k).map(move |j| u[i] * u[j]));
+        products.chain((0..k).map(move |i| u[i].powi(3)))
+    }
+
+    /// The bend at one input.
+    fn at(&self, z: &[f64]) -> f64 {
+        self.terms(z).zip(&self.coeffs).map(|(t, c)| t * c).sum()
+    }
+
+    /// True with 1 to [`MAX_BEND_LINES`] lines of `dim` finite weights,
+    /// positive scales, ordered ranges and one finite weight per term.
+    fn is_valid(&self, dim: usize) -> bool {
+        let k = self.along.len();
+        (1..=MAX_BEND_LINES).contains(&k)
+            && self.along.iter().all(|a| a.len() == dim)
+            && [self.centre.len(), self.scale.len(), self.range.len()] == [k; 3]
+            && self.coeffs.len() == k * (k + 1) / 2 + k
+            && self.scale.iter().all(|s| *s > 0.0)
+            && self.range.iter().all(|[lo, hi]| lo <= hi)
+            && self
+                .along
+                .iter()
+                .flatten()
+                .chain(&self.centre)
+                .chain(&self.scale)
+                .chain(self.range.iter().flatten())
+                .chain(&self.coeffs)
+                .all(|v| v.is_finite())
+    }
 }
 
 impl LinearMean {
@@ -93,7 +258,11 @@ impl LinearMean {
         llt.solve_in_place(w.as_mut());
         let weights: Vec<f64> = (0..d).map(|j| w[(j, 0)]).collect();
         let bias = y_mean - weights.iter().zip(&x_mean).map(|(a, b)| a * b).sum::<f64>();
-        let line = LinearMean { weights, bias };
+        let line = LinearMean {
+            weights,
+            bias,
+            bend: None,
+        };
         if !line.is_valid(d) {
             return Err(GpError::InvalidParam {
                 name: "mean",
@@ -106,7 +275,8 @@ impl LinearMean {
 
     /// The mean at one input.
     pub fn at(&self, z: &[f64]) -> f64 {
-        self.bias + self.weights.iter().zip(z).map(|(w, v)| w * v).sum::<f64>()
+        let line = self.bias + self.weights.iter().zip(z).map(|(w, v)| w * v).sum::<f64>();
+        line + self.bend.as_ref().map_or(0.0, |b| b.at(z))
     }
 
     /// The means at row-major inputs (n x d).
@@ -116,11 +286,13 @@ impl LinearMean {
             .collect()
     }
 
-    /// True with `dim` finite weights and a finite intercept.
+    /// True with `dim` finite weights, a finite intercept and, when bent, a
+    /// valid bend on `dim` inputs.
     pub fn is_valid(&self, dim: usize) -> bool {
         self.weights.len() == dim
             && self.bias.is_finite()
             && self.weights.iter().all(|w| w.is_finite())
+            && self.bend.as_ref().is_none_or(|b| b.is_valid(dim))
     }
 }
 
@@ -158,6 +330,55 @@ mod tests {
         assert!("affine"
             .parse::<MeanKind>()
             .unwrap_err()
-            .contains("zero or linear"));
+            .contains("zero, linear or cubic"));
+    }
+
+    #[test]
+    fn a_cubic_mean_follows_bent_and_coupled_responses_and_holds_beyond_the_data() {
+        // On x0 in -2..2, each with x1 in -1.5..1.5 (4 levels): y0 = 1 + x0
+        // + 0.2 x0^3 bends along its own line, y1 = x1 (1 + 0.5 x0) scales
+        // with y0's. Both lie in the cubic's span, so the fit is exact there.
+        let rows: Vec<[f64; 2]> = (0..164)
+            .map(|i| [-2.0 + 0.1 * (i / 4) as f64, (i % 4) as f64 - 1.5])
+            .collect();
+        let truth = |r: &[f64]| [1.0 + r[0] + 0.2 * r[0].powi(3), r[1] * (1.0 + 0.5 * r[0])];
+        let x: Vec<f64> = rows.iter().flatten().copied().collect();
+        let y = ndarray::Array2::from_shape_fn((164, 2), |(i, j)| truth(&rows[i])[j]);
+        let means: Vec<LinearMean> = MeanKind::Cubic
+            .fit(&x, 2, y.view())
+            .unwrap()
+            .into_iter()
+            .map(Option::unwrap)
+            .collect();
+        assert!(means.iter().all(|m| m.is_valid(2)));
+        assert_eq!(means[0].bend.as_ref().unwrap().coeffs.len(), 5);
+        for r in [[0.55, 1.0], [-1.95, -1.0], [1.3, 0.4]] {
+            for (j, m) in means.iter().enumerate() {
+                assert!((m.at(&r) - truth(&r)[j]).abs() < 1e-6, "{j} {r:?}");
+            }
+        }
+        // Lines miss both by far more.
+        let line = |j: usize| LinearMean::fit(&x, 2, &y.column(j).to_vec()).unwrap();
+        assert!((line(0).at(&[2.0, 0.0]) - truth(&[2.0, 0.0])[0]).abs() > 0.1);
+        assert!((line(1).at(&[2.0, 1.0]) - truth(&[2.0, 1.0])[1]).abs() > 0.5);
+        // Beyond the data the bend is held at its edge: the line part goes on.
+        let (at4, at6) = (means[0].at(&[4.0, 0.0]), means[0].at(&[6.0, 0.0]));
+        let slope = (at6 - at4) / 2.0;
+        assert!((slope - means[0].weights[0]).abs() < 1e-9, "slope {slope}");
+        assert!(at4 < truth(&[4.0, 0.0])[0] - 5.0);
+        // A flat target has no bend; an invalid bend is caught.
+        let flat = ndarray::Array2::from_elem((164, 1), 3.0);
+        assert!(MeanKind::Cubic.fit(&x, 2, flat.view()).is_err());
+        let mut bad = means[0].clone();
+        bad.bend.as_mut().unwrap().range[1] = [1.0, -1.0];
+        assert!(!bad.is_valid(2));
+        let mut short = means[0].clone();
+        short.bend.as_mut().unwrap().coeffs.pop();
+        assert!(!short.is_valid(2));
+        assert_eq!(
+            MeanKind::Zero.fit(&x, 2, y.view()).unwrap(),
+            vec![None, None]
+        );
+        assert_eq!("cubic".parse(), Ok(MeanKind::Cubic));
     }
 }

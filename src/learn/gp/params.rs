@@ -12,7 +12,7 @@ use super::GpError;
 /// | Name | Default | Purpose | Range |
 /// |---|---|---|---|
 /// | kernel | iso | length-scale structure | iso, ard |
-/// | mean | zero | prior mean, fitted on every row | zero, linear |
+/// | mean | zero | prior mean, fitted on every row | zero, linear, cubic |
 /// | restarts | 3 | optimiser starts | >= 1 |
 /// | restart_subset | 500 | points used to optimise each start | >= 10 |
 /// | max_iters | 100 | L-BFGS iterations of each start on the subset | >= 1 |
@@ -30,7 +30,8 @@ use super::GpError;
 pub struct GpParams {
     /// Isotropic or ARD squared-exponential kernel.
     pub kernel: KernelKind,
-    /// Prior mean: zero, or a least-squares line on every training row.
+    /// Prior mean: zero, or a least-squares line (cubic: bent) on every
+    /// training row.
     pub mean: MeanKind,
     /// Number of optimiser starts.
     pub restarts: usize,
