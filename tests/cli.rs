@@ -702,6 +702,11 @@ fn nail_camera_data_are_collected_trained_on_and_scored_with_the_cnn() {
     let file = std::fs::read_to_string(&model).unwrap();
     assert!(file.contains("\"linear\":{\"weights\":["), "no linear mean");
     assert!(file.contains("\"bend\":{\"along\":[["), "no bend");
+    // Its trials were tared on their first second.
+    assert!(
+        file.contains("\"tare\":{\"samples\":30,"),
+        "not tared on 30 frames"
+    );
     let o = run(&["train", "--data", d, "--mean", "affine", "--out", m]);
     assert_eq!(o.status.code(), Some(2));
     assert!(

@@ -43,7 +43,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         &a.data,
         base.features(),
         base.axes(),
-        base.tare().samples,
+        Some(base.tare().samples),
         &a.source,
         Some(base.sensor()),
     )?;

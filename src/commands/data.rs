@@ -12,8 +12,8 @@ use tactile_force::learn::bag::{read_bag, BagTopics};
 use tactile_force::learn::dataset::Dataset;
 use tactile_force::learn::model::TareSpec;
 use tactile_force::nail::collect::is_nail_dir;
-use tactile_force::sensor::nail::read_nail_dirs;
-use tactile_force::sensor::SensorSpec;
+use tactile_force::sensor::nail::{self, read_nail_dirs};
+use tactile_force::sensor::{biotac, SensorSpec};
 use tactile_force::wrench::{AxisSet, FrameTransform, Wrench};
 
 use super::BadArgument;
@@ -134,17 +134,17 @@ impl Sessions {
     }
 }
 
-/// Reads sessions of either sensor. BioTac files (CSV, MCAP) give the
-/// `features` channels, each session tared on its own. Nail-camera
+/// Reads sessions of either sensor, each trial tared on its first
+/// `tare_samples` rows (0: already tared; None: the sensor's default).
+/// BioTac files (CSV, MCAP) give the `features` channels. Nail-camera
 /// directories give the principal components of their frames' nail pixels
-/// (`features` and `tare_samples` do not apply), projected as `sensor`
-/// says or, without it, as fitted on these directories' frames (no labels
-/// are used).
+/// (`features` does not apply), projected as `sensor` says or, without it,
+/// as fitted on these directories' frames (no labels are used).
 pub(crate) fn load_sessions(
     paths: &[PathBuf],
     features: &[String],
     axes: &AxisSet,
-    tare_samples: usize,
+    tare_samples: Option<usize>,
     source: &SourceArgs,
     sensor: Option<&SensorSpec>,
 ) -> Result<Sessions> {
@@ -165,7 +165,7 @@ pub(crate) fn load_sessions(
                 return Err(BadArgument(msg).into());
             }
         };
-        let (sets, spec) = read_nail_dirs(paths, axes, spec)?;
+        let (mut sets, spec) = read_nail_dirs(paths, axes, spec)?;
         let k = spec.projection.len();
         if sensor.is_none() {
             eprintln!(
@@ -176,9 +176,21 @@ pub(crate) fn load_sessions(
                 spec.projection.explained * 100.0
             );
         }
+        let samples = tare_samples.unwrap_or(nail::TARE_FRAMES);
+        let mut mean_baseline = vec![0.0; k];
+        if samples > 0 {
+            for (ds, path) in sets.iter_mut().zip(paths) {
+                let base = ds
+                    .tare_per_trial(samples)
+                    .with_context(|| format!("taring {}", path.display()))?;
+                for (m, b) in mean_baseline.iter_mut().zip(base) {
+                    *m += b / paths.len() as f64;
+                }
+            }
+        }
         let tare = TareSpec {
-            samples: 0,
-            mean_baseline: vec![0.0; k],
+            samples,
+            mean_baseline,
         };
         return Ok(Sessions {
             sets,
@@ -190,6 +202,7 @@ pub(crate) fn load_sessions(
         let msg = format!("BioTac data given to a model of the {} sensor", s.name());
         return Err(BadArgument(msg).into());
     }
+    let tare_samples = tare_samples.unwrap_or(biotac::DEFAULT_TARE_SAMPLES);
     let mut sets = Vec::with_capacity(paths.len());
     let mut mean_baseline = vec![0.0; features.len()];
     for p in paths {

@@ -165,7 +165,7 @@ pub(crate) fn run_score(
         tests,
         model.features(),
         model.axes(),
-        model.tare().samples,
+        Some(model.tare().samples),
         source,
         Some(model.sensor()),
     )?;

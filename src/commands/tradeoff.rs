@@ -69,7 +69,7 @@ pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
         std::slice::from_ref(&a.data),
         &features,
         &a.axes,
-        a.tare_samples,
+        Some(a.tare_samples),
         &a.source,
         None,
     )?;

@@ -63,9 +63,11 @@ pub(crate) struct FitArgs {
     /// L-BFGS iterations of the polish on all points (0: keep the subset's hyperparameters).
     #[arg(long, default_value_t = 0)]
     pub(crate) polish_iters: u64,
-    /// Out-of-contact rows at the start of each trial used to tare it (0: the CSV is already tared).
-    #[arg(long, default_value_t = 50)]
-    pub(crate) tare_samples: usize,
+    /// Out-of-contact rows at the start of each trial used to tare it (0:
+    /// the data are already tared). Default: 50 for the BioTac, 30 for the
+    /// nail camera.
+    #[arg(long)]
+    pub(crate) tare_samples: Option<usize>,
     /// Seed of subsets and optimiser starts.
     #[arg(long, default_value_t = 0)]
     pub(crate) seed: u64,

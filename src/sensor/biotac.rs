@@ -9,9 +9,9 @@ use crate::biotac::{BioTacReading, Tare};
 /// The sensor's name.
 pub const NAME: &str = "biotac";
 
-/// Readings used for the tare when the model does not say (its data were
-/// tared before training).
-const DEFAULT_TARE_SAMPLES: usize = 50;
+/// Readings a tare takes unless told: `train`'s default, and the node's
+/// when the model does not say (its data were tared before training).
+pub const DEFAULT_TARE_SAMPLES: usize = 50;
 
 /// A BioTac feeding a model: its channels and its tare.
 #[derive(Debug, Clone)]

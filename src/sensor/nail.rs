@@ -36,6 +36,9 @@ pub const VARIANCE_KEPT: f64 = 0.99;
 pub const MAX_COMPONENTS: usize = 64;
 /// Most frames the components are computed from (evenly spread).
 pub const PCA_FRAMES: usize = 2000;
+/// Frames a tare takes unless told: the first second at 30 fps, out of
+/// contact (the simulated protocol's rest, `config/nail_sim.yaml`).
+pub const TARE_FRAMES: usize = 30;
 /// The CNN's image: the registered region averaged over blocks of this many
 /// pixels a side (72 x ~88 -> 36 x ~44), so that a person's network trains
 /// within the budget (learn::cnn, "Cost").
@@ -176,11 +179,19 @@ impl NailSpec {
     }
 }
 
-/// The nail camera feeding a model.
+/// The nail camera feeding a model: its frames' projection, tared on the
+/// first frames as the model's training data were (none for a model whose
+/// data were not tared).
 #[derive(Debug, Clone)]
 pub struct NailInput {
     spec: NailSpec,
     pixels: Vec<f64>,
+    tare_frames: usize,
+    /// Frames taken into the baseline so far.
+    taken: usize,
+    /// The mean projection of the first `tare_frames` frames (its partial
+    /// sum while they come).
+    baseline: Vec<f64>,
 }
 
 impl SensorInput for NailInput {
@@ -201,6 +212,9 @@ impl SensorInput for NailInput {
         }
         Ok(NailInput {
             pixels: Vec::with_capacity(spec.preprocess.n_pixels()),
+            tare_frames: model.tare_samples,
+            taken: 0,
+            baseline: vec![0.0; model.features.len()],
             spec: (**spec).clone(),
         })
     }
@@ -210,16 +224,28 @@ impl SensorInput for NailInput {
     }
 
     fn is_ready(&self) -> bool {
-        true
+        self.taken == self.tare_frames
     }
 
     fn baseline_samples(&self) -> usize {
-        0
+        self.tare_frames
     }
 
     fn features(&mut self, r: &NailFrame, out: &mut [f64]) -> Result<Option<f64>, SensorError> {
         self.spec.preprocess.pixels(r, &mut self.pixels)?;
         self.spec.projection.project(&self.pixels, out);
+        if self.taken < self.tare_frames {
+            let n = self.tare_frames as f64;
+            self.baseline
+                .iter_mut()
+                .zip(out.iter())
+                .for_each(|(b, v)| *b += v / n);
+            self.taken += 1;
+            return Ok(None);
+        }
+        out.iter_mut()
+            .zip(&self.baseline)
+            .for_each(|(v, b)| *v -= b);
         Ok(Some(0.0))
     }
 }
@@ -393,14 +419,14 @@ mod tests {
         collect_nail(&config, 3, 1, &mut |r| w.write(&r)).unwrap();
         w.finish().unwrap();
         let axes: AxisSet = "fz".parse().unwrap();
-        let (sets, spec) = read_nail_dirs(&[dir.path().to_path_buf()], &axes, None).unwrap();
-        let ds = &sets[0];
+        let (mut sets, spec) = read_nail_dirs(&[dir.path().to_path_buf()], &axes, None).unwrap();
+        let ds = &mut sets[0];
         assert_eq!(ds.images.as_ref().unwrap().dim().0, ds.len());
-        let train: Vec<usize> = (0..ds.len()).step_by(4).collect();
         let tare = TareSpec {
-            samples: 0,
-            mean_baseline: vec![0.0; ds.features.len()],
+            samples: TARE_FRAMES,
+            mean_baseline: ds.tare_per_trial(TARE_FRAMES).unwrap(),
         };
+        let train: Vec<usize> = (0..ds.len()).step_by(4).collect();
         let model = WrenchGp::train_scaled(
             &ds.select(&train),
             tare,
@@ -410,17 +436,32 @@ mod tests {
         )
         .unwrap()
         .with_sensor(SensorSpec::Nail(Box::new(spec)));
-        // Frames the model was not trained on, through the node.
+        // The first trial's rest frames make the node's baseline, then frames
+        // the model was not trained on give estimates.
         let mut node = EstimatorNode::<NailInput>::new(model.clone(), true).unwrap();
         let labels = read_labels(dir.path()).unwrap();
+        for l in &labels[..TARE_FRAMES] {
+            assert!(!node.is_tared());
+            let frame = read_frame(dir.path(), l).unwrap();
+            assert!(node.on_reading(&frame).unwrap().is_none());
+        }
+        assert!(node.is_tared());
+        // A model of untared data (tare 0) takes no baseline.
+        let untared = NailInput::for_model(ModelInput {
+            features: model.features(),
+            sensor: model.sensor(),
+            tare_samples: 0,
+        })
+        .unwrap();
+        assert!(untared.is_ready() && untared.baseline_samples() == 0);
         let mut sq = 0.0;
-        let held_out: Vec<usize> = (2..labels.len()).step_by(4).collect();
+        let held_out: Vec<usize> = (TARE_FRAMES + 2..labels.len()).step_by(4).collect();
         for &i in &held_out {
             let frame = read_frame(dir.path(), &labels[i]).unwrap();
             let e = node
                 .on_reading(&frame)
                 .unwrap()
-                .expect("no baseline to take");
+                .expect("the baseline is taken");
             assert_eq!(e.pdc_rise, 0.0);
             sq += (e.mean.force.z - labels[i].fz).powi(2);
         }

@@ -1,7 +1,8 @@
 //! The nail camera's loop: `camera/image` (sensor_msgs/Image) -> estimates.
-//! The nail needs no baseline: every frame is registered and normalised on
-//! its own (crate::nail::preprocess); a frame without its four markers is
-//! dropped and counted.
+//! Every frame is registered and normalised on its own
+//! (crate::nail::preprocess); a frame without its four markers is dropped
+//! and counted. The first frames (the model's tare, 30 by default: the
+//! finger out of contact) make the baseline, as the BioTac's readings do.
 
 use futures::StreamExt;
 use r2r::sensor_msgs::msg::Image;
@@ -39,8 +40,12 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
         seq = seq.wrapping_add(1);
         match convert::nail_frame(&msg, seq) {
             Ok(frame) => {
+                let was_tared = estimator.is_tared();
                 if let Some(e) = estimator.on_received(&frame, clock.now_s()) {
                     out.publish(&e);
+                }
+                if !was_tared && estimator.is_tared() {
+                    tracing::info!("tared on {} frames", estimator.tare_samples());
                 }
             }
             Err(e) => {
