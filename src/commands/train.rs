@@ -50,8 +50,8 @@ pub(crate) struct FitArgs {
     pub(crate) kernel: KernelKind,
     /// The GPs' prior mean: zero; linear (a least-squares line on every
     /// training row; the GP models what it leaves out); or cubic (that line
-    /// plus a cubic in its own value). Default: zero for the BioTac, cubic
-    /// for the nail camera (README, "Nail camera").
+    /// plus the products and cubes of the trained axes' lines). Default:
+    /// zero for the BioTac, cubic for the nail camera (README, "Nail camera").
     #[arg(long)]
     pub(crate) mean: Option<MeanKind>,
     /// Optimiser starts of the hyperparameter fit.

@@ -4,10 +4,10 @@
 //!
 //! The model file is JSON: `format`, `version`, the feature names, the axes,
 //! the input standardisation, how the data was tared, and per axis the target
-//! standardisation, the GP's linear prior mean when it has one (`linear`:
-//! weights, intercept and, for a cubic mean, its `bend`) and the GP (`{"exact": ..}`: hyperparameters and training
-//! data; `{"sparse": ..}`: hyperparameters, inducing inputs and their
-//! posterior). The factorisations are recomputed on load, which also
+//! standardisation, the GP's prior mean when it has one (`linear`: weights,
+//! intercept and, for a cubic mean, its `bend`) and the GP (`{"exact": ..}`:
+//! hyperparameters and training data; `{"sparse": ..}`: hyperparameters,
+//! inducing inputs and their posterior). The factorisations are recomputed on load, which also
 //! re-checks the file's numbers.
 
 use std::path::Path;

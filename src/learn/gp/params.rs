@@ -30,8 +30,8 @@ use super::GpError;
 pub struct GpParams {
     /// Isotropic or ARD squared-exponential kernel.
     pub kernel: KernelKind,
-    /// Prior mean: zero, or a least-squares line (cubic: bent) on every
-    /// training row.
+    /// Prior mean: zero, a least-squares line on every training row, or that
+    /// line with the products and cubes of the axes' lines (cubic).
     pub mean: MeanKind,
     /// Number of optimiser starts.
     pub restarts: usize,
