@@ -56,7 +56,7 @@ impl MeanKind {
                 let lines: Vec<LinearMean> = columns()
                     .map(|c| LinearMean::fit(x, d, &c))
                     .collect::<Result<_, _>>()?;
-                let bend = Bend::through(&lines, x, d)?;
+                let bend = Bend::through(&lines, x)?;
                 let bent: Vec<f64> = x
                     .chunks_exact(d)
                     .flat_map(|row| row.iter().copied().chain(bend.terms(row)))
@@ -134,9 +134,9 @@ pub struct Bend {
 }
 
 impl Bend {
-    /// The standardisation and ranges of `lines` on row-major `x` (n x d),
-    /// with no weights yet.
-    fn through(lines: &[LinearMean], x: &[f64], d: usize) -> Result<Self, GpError> {
+    /// The standardisation and ranges of `lines` on their row-major inputs
+    /// `x`, with no weights yet.
+    fn through(lines: &[LinearMean], x: &[f64]) -> Result<Self, GpError> {
         let k = lines.len();
         if !(1..=MAX_BEND_LINES).contains(&k) {
             return Err(GpError::InvalidParam {
@@ -173,7 +173,6 @@ impl Bend {
                     [lo.min(u), hi.max(u)]
                 });
         }
-        debug_assert!(d == 0 || bend.along.iter().all(|a| a.len() == d));
         Ok(bend)
     }
 
