@@ -46,33 +46,31 @@ impl MeanKind {
         d: usize,
         y: ArrayView2<f64>,
     ) -> Result<Vec<Option<LinearMean>>, GpError> {
-        let columns = || y.columns().into_iter().map(|c| c.to_vec());
         match self {
             MeanKind::Zero => Ok(vec![None; y.ncols()]),
-            MeanKind::Linear => columns()
-                .map(|c| LinearMean::fit(x, d, &c).map(Some))
-                .collect(),
+            MeanKind::Linear => Ok(LinearMean::fit_columns(x, d, y)?
+                .into_iter()
+                .map(Some)
+                .collect()),
             MeanKind::Cubic => {
-                let lines: Vec<LinearMean> = columns()
-                    .map(|c| LinearMean::fit(x, d, &c))
-                    .collect::<Result<_, _>>()?;
+                let lines = LinearMean::fit_columns(x, d, y)?;
                 let bend = Bend::through(&lines, x)?;
                 let bent: Vec<f64> = x
                     .chunks_exact(d)
                     .flat_map(|row| row.iter().copied().chain(bend.terms(row)))
                     .collect();
-                let p = bend.coeffs.len();
-                columns()
-                    .map(|c| {
-                        let mut mean = LinearMean::fit(&bent, d + p, &c)?;
+                let means = LinearMean::fit_columns(&bent, d + bend.coeffs.len(), y)?;
+                Ok(means
+                    .into_iter()
+                    .map(|mut mean| {
                         let coeffs = mean.weights.split_off(d);
                         mean.bend = Some(Bend {
                             coeffs,
                             ..bend.clone()
                         });
-                        Ok(Some(mean))
+                        Some(mean)
                     })
-                    .collect()
+                    .collect())
             }
         }
     }
@@ -219,7 +217,14 @@ impl LinearMean {
     /// The least-squares line through row-major inputs `x` (n x d) and
     /// targets `y`.
     pub fn fit(x: &[f64], d: usize, y: &[f64]) -> Result<Self, GpError> {
-        let n = y.len();
+        let y = ArrayView2::from_shape((y.len(), 1), y).expect("one column of y.len() rows");
+        Ok(Self::fit_columns(x, d, y)?.remove(0))
+    }
+
+    /// The least-squares lines through row-major inputs `x` (n x d) and
+    /// each column of `y` (n x k), with one factorisation for all.
+    pub fn fit_columns(x: &[f64], d: usize, y: ArrayView2<f64>) -> Result<Vec<Self>, GpError> {
+        let (n, k) = y.dim();
         if n == 0 {
             return Err(GpError::Empty);
         }
@@ -232,9 +237,13 @@ impl LinearMean {
         let x_mean: Vec<f64> = (0..d)
             .map(|j| x.iter().skip(j).step_by(d).sum::<f64>() / n as f64)
             .collect();
-        let y_mean = y.iter().sum::<f64>() / n as f64;
+        let y_mean: Vec<f64> = y
+            .columns()
+            .into_iter()
+            .map(|c| c.sum() / n as f64)
+            .collect();
         let xc = Mat::from_fn(n, d, |i, j| x[i * d + j] - x_mean[j]);
-        let yc = Mat::from_fn(n, 1, |i, _| y[i] - y_mean);
+        let yc = Mat::from_fn(n, k, |i, c| y[[i, c]] - y_mean[c]);
         let mut gram = Mat::<f64>::zeros(d, d);
         faer::linalg::matmul::matmul(
             gram.as_mut(),
@@ -255,21 +264,25 @@ impl LinearMean {
             expected: "inputs that vary (their covariance is not positive definite)",
         })?;
         llt.solve_in_place(w.as_mut());
-        let weights: Vec<f64> = (0..d).map(|j| w[(j, 0)]).collect();
-        let bias = y_mean - weights.iter().zip(&x_mean).map(|(a, b)| a * b).sum::<f64>();
-        let line = LinearMean {
-            weights,
-            bias,
-            bend: None,
-        };
-        if !line.is_valid(d) {
-            return Err(GpError::InvalidParam {
-                name: "mean",
-                value: "linear".into(),
-                expected: "inputs whose least-squares line is finite",
-            });
-        }
-        Ok(line)
+        (0..k)
+            .map(|c| {
+                let weights: Vec<f64> = (0..d).map(|j| w[(j, c)]).collect();
+                let bias = y_mean[c] - weights.iter().zip(&x_mean).map(|(a, b)| a * b).sum::<f64>();
+                let line = LinearMean {
+                    weights,
+                    bias,
+                    bend: None,
+                };
+                if !line.is_valid(d) {
+                    return Err(GpError::InvalidParam {
+                        name: "mean",
+                        value: "linear".into(),
+                        expected: "inputs whose least-squares line is finite",
+                    });
+                }
+                Ok(line)
+            })
+            .collect()
     }
 
     /// The mean at one input.
