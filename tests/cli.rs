@@ -757,3 +757,89 @@ fn nail_camera_data_are_collected_trained_on_and_scored_with_the_cnn() {
         text(&o)
     );
 }
+
+#[test]
+fn the_radial_test_scores_one_direction_per_push_from_the_given_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let ok = |args: &[&str]| {
+        let o = run(args);
+        assert!(o.status.success(), "{args:?}: {:?}", text(&o));
+        text(&o).0
+    };
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    // Three directions of two 6 s cycles: the second cycle's tangential
+    // force peaks at mu Fz_max = 5 N.
+    let shipped =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/config/nail_sim.yaml"))
+            .unwrap();
+    let short = shipped
+        .replace("directions: 12", "directions: 3")
+        .replace("cycles: 5", "cycles: 2")
+        .replace("cycle_s: 40.0", "cycle_s: 6.0");
+    assert_ne!(short, shipped);
+    std::fs::write(path("short.yaml"), short).unwrap();
+    let (cfg, radial) = (path("short.yaml"), path("radial"));
+    let out = ok(&[
+        "collect",
+        "--sensor",
+        "nail",
+        "--protocol",
+        "radial",
+        "--config",
+        &cfg,
+        "--out",
+        &radial,
+    ]);
+    assert!(out.contains("wrote 1170 frames (39 s)"), "{out}");
+    let (sets, m) = (path("sets"), path("m.json"));
+    ok(&[
+        "collect", "--sensor", "nail", "--trials", "1", "--out", &sets,
+    ]);
+    ok(&[
+        "train",
+        "--data",
+        &sets,
+        "--axes",
+        "fx,fy",
+        "--max-train",
+        "300",
+        "--out",
+        &m,
+    ]);
+    let score = |n| vec!["eval", "--model", &m, "--test", &radial, "--peak-min-n", n];
+    let out = ok(&[score("2"), vec!["--json"]].concat());
+    let d = &last_json(&out)["gp"]["direction_deg"];
+    assert_eq!(
+        (d["peaks"].as_u64(), d["min_peak_n"].as_f64()),
+        (Some(3), Some(2.0))
+    );
+    assert!(d["max_deg"].as_f64().unwrap() < 30.0, "{d}");
+    assert!(out.contains("at 3 peaks (|Ft| >= 2 N)"), "{out}");
+    // Refused: the BioTac has no radial test, the radial test no --trials,
+    // a peak force that the noise at rest would reach.
+    for (args, says) in [
+        (
+            vec!["collect", "--protocol", "radial", "--out", &radial],
+            "add --sensor nail",
+        ),
+        (
+            vec![
+                "collect",
+                "--sensor",
+                "nail",
+                "--protocol",
+                "radial",
+                "--trials",
+                "2",
+                "--out",
+                &radial,
+            ],
+            "one trial per direction",
+        ),
+        (score("0"), "at least 0.1 N"),
+    ] {
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(text(&o).1.contains(says), "{args:?}: {:?}", text(&o));
+    }
+}

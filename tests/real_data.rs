@@ -59,6 +59,7 @@ fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
         nn: None,
         cnn: None,
         seed: 0,
+        min_peak_n: 1.0,
     };
     let eval = cross_validate(&ds, 3, &tare, &opts, &mut |_| {}).unwrap();
     let fig = |s: &tactile_force::learn::evaluate::Scores| (s.rmse[&Axis::Fz], s.r2[&Axis::Fz]);

@@ -8,9 +8,22 @@ use clap::Args;
 
 use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::learn::dataset::write_csv;
-use tactile_force::nail::collect::{collect_nail, NailWriter};
+use tactile_force::nail::collect::{collect_nail, NailWriter, Protocol};
 use tactile_force::nail::sim::NailSimConfig;
 use tactile_force::sim::collect::{collect, CollectConfig};
+
+use super::BadArgument;
+
+/// The protocols.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum ProtocolArg {
+    /// Four sets by axis (x, y, z, combined) of trials of pushes.
+    Sets,
+    /// Watanabe et al. 2023's 360° test (nail camera only): one trial per
+    /// direction of the tangential force, load cycles whose tangential peaks
+    /// step up (`protocol.radial` in the config).
+    Radial,
+}
 
 /// The simulated sensors.
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -43,6 +56,9 @@ pub(crate) struct CollectArgs {
     /// nail camera; 1 trial per set is 80 s of data).
     #[arg(long)]
     trials: Option<u32>,
+    /// The protocol.
+    #[arg(long, value_enum, default_value = "sets")]
+    protocol: ProtocolArg,
     /// Simulator and protocol parameters (YAML); default: the shipped
     /// config/biotac_sim.yaml, or config/nail_sim.yaml for the nail camera.
     #[arg(long)]
@@ -52,6 +68,10 @@ pub(crate) struct CollectArgs {
 pub(crate) fn run_collect(a: CollectArgs) -> Result<()> {
     if a.sensor == SensorArg::Nail {
         return run_collect_nail(&a);
+    }
+    if a.protocol == ProtocolArg::Radial {
+        let msg = "--protocol radial is the nail camera's (add --sensor nail)";
+        return Err(BadArgument(msg.into()).into());
     }
     let (sensor, protocol) = match &a.config {
         Some(p) => (BioTacSimConfig::from_file(p)?, CollectConfig::from_file(p)?),
@@ -82,12 +102,21 @@ fn run_collect_nail(a: &CollectArgs) -> Result<()> {
         Some(p) => NailSimConfig::from_file(p)?,
         None => NailSimConfig::default(),
     };
-    let config = match a.trials {
-        Some(n) => config.with_trials(n).context("--trials")?,
-        None => config,
+    let config = match (a.trials, a.protocol) {
+        (Some(_), ProtocolArg::Radial) => {
+            let msg = "--trials is the sets protocol's: the radial test has one trial per \
+                       direction (protocol.radial.directions in the config)";
+            return Err(BadArgument(msg.into()).into());
+        }
+        (Some(n), ProtocolArg::Sets) => config.with_trials(n).context("--trials")?,
+        (None, _) => config,
     };
     let mut writer = NailWriter::create(&a.out)?;
-    collect_nail(&config, a.unit, a.seed, &mut |r| writer.write(&r))?;
+    let protocol = match a.protocol {
+        ProtocolArg::Sets => Protocol::Sets,
+        ProtocolArg::Radial => Protocol::Radial,
+    };
+    collect_nail(&config, protocol, a.unit, a.seed, &mut |r| writer.write(&r))?;
     let rows = writer.finish()?;
     println!(
         "wrote {rows} frames ({:.0} s) to {} (person {}, session {})",

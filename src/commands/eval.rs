@@ -12,6 +12,7 @@ use tactile_force::learn::evaluate::{
     cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
     FoldScores,
 };
+use tactile_force::learn::metrics::DEFAULT_PEAK_MIN_N;
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::learn::nn::NnParams;
 use tactile_force::sensor::SensorSpec;
@@ -48,6 +49,10 @@ pub(crate) struct EvalArgs {
     /// Skip the CNN (trained on nail-camera data only).
     #[arg(long)]
     no_cnn: bool,
+    /// Score the tangential force's direction at the peaks of pushes of at
+    /// least this force (N).
+    #[arg(long, default_value_t = DEFAULT_PEAK_MIN_N, value_parser = positive_newtons)]
+    peak_min_n: f64,
     /// Print the result as one JSON object on the last line.
     #[arg(long)]
     json: bool,
@@ -57,7 +62,7 @@ pub(crate) struct EvalArgs {
 
 pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
     if let Some(model) = &a.model {
-        return run_score(model, &a.test, &a.fit.source, a.json);
+        return run_score(model, &a.test, &a.fit.source, a.peak_min_n, a.json);
     }
     let (features, axes, n, source) = (
         channel_columns(&a.fit.channels),
@@ -151,13 +156,24 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
             _ => None,
         },
         seed: a.fit.seed,
+        min_peak_n: a.peak_min_n,
     })
+}
+
+/// A force of at least 0.1 N: half of it must stand above the reference's
+/// noise at rest for a push to be found.
+fn positive_newtons(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.1 => Ok(v),
+        _ => Err(format!("expected a force of at least 0.1 N, got {s}")),
+    }
 }
 
 pub(crate) fn run_score(
     model: &Path,
     tests: &[PathBuf],
     source: &SourceArgs,
+    min_peak_n: f64,
     json: bool,
 ) -> Result<()> {
     let model = WrenchGp::load(model)?;
@@ -176,14 +192,14 @@ pub(crate) fn run_score(
         folds.push(FoldScores {
             fold: i + 1,
             n_test: ds.len(),
-            gp: score_model(&model, ds)?,
+            gp: score_model(&model, ds, min_peak_n)?,
             nn: None,
             cnn: None,
         });
     }
     let eval = Evaluation {
         folds,
-        gp: score_model(&model, &pooled)?,
+        gp: score_model(&model, &pooled, min_peak_n)?,
         nn: None,
         cnn: None,
     };

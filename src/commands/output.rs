@@ -114,9 +114,9 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
     for (name, s) in models {
         if let Some(d) = s.and_then(|s| s.direction_deg) {
             println!(
-                "{name}: tangential force direction at {} peaks (|Ft| >= 1 N): median {:.1} deg, \
+                "{name}: tangential force direction at {} peaks (|Ft| >= {} N): median {:.1} deg, \
                  95 % within {:.1} deg, largest {:.1} deg",
-                d.peaks, d.median_deg, d.p95_deg, d.max_deg
+                d.peaks, d.min_peak_n, d.median_deg, d.p95_deg, d.max_deg
             );
         }
     }

@@ -66,6 +66,8 @@ pub struct EvalOptions {
     pub cnn: Option<ValidCnnParams>,
     /// Seed of the training subsets.
     pub seed: u64,
+    /// Smallest tangential force of a peak whose direction is scored (N).
+    pub min_peak_n: f64,
 }
 
 /// Scores of one model on one test set.
@@ -158,7 +160,7 @@ pub(crate) fn scores(
 
 /// `s` with the direction error of `pred` on `test` (None unless both fx
 /// and fy are estimated).
-fn with_direction(mut s: Scores, test: &Dataset, pred: ArrayView2<f64>) -> Scores {
+fn with_direction(mut s: Scores, test: &Dataset, pred: ArrayView2<f64>, min_peak_n: f64) -> Scores {
     let axes = test.axes.axes();
     let col = |a: Axis| axes.iter().position(|&b| b == a);
     if let (Some(x), Some(y)) = (col(Axis::Fx), col(Axis::Fy)) {
@@ -169,8 +171,12 @@ fn with_direction(mut s: Scores, test: &Dataset, pred: ArrayView2<f64>) -> Score
             .copied()
             .zip(test.trial.iter().copied())
             .collect();
-        s.direction_deg =
-            direction_error_at_peaks(pick(test.y.view()).view(), pick(pred).view(), &trial);
+        s.direction_deg = direction_error_at_peaks(
+            pick(test.y.view()).view(),
+            pick(pred).view(),
+            &trial,
+            min_peak_n,
+        );
     }
     s
 }
@@ -332,7 +338,8 @@ fn evaluate_splits(
             from += t.len();
             let score = |p: &Array2<f64>, fit_s| {
                 let p = p.slice(ndarray::s![rows.clone(), ..]);
-                with_direction(scores(&t.axes, t.y.view(), p, fit_s, pred.n_train), t, p)
+                let s = scores(&t.axes, t.y.view(), p, fit_s, pred.n_train);
+                with_direction(s, t, p, opts.min_peak_n)
             };
             results.push(FoldScores {
                 fold: results.len() + 1,
@@ -363,7 +370,7 @@ fn evaluate_splits(
     let nf = n_splits as f64;
     let score = |pred: &Array2<f64>, fit_s| {
         let s = scores(&all.axes, all.y.view(), pred.view(), fit_s, n_train);
-        with_direction(s, &all, pred.view())
+        with_direction(s, &all, pred.view(), opts.min_peak_n)
     };
     Ok(Evaluation {
         folds: results,
@@ -380,7 +387,8 @@ fn evaluate_splits(
 }
 
 /// Scores a trained model on `test` (tared, with the model's features and axes).
-pub fn score_model(model: &WrenchGp, test: &Dataset) -> Result<Scores, EvalError> {
+/// Directions are scored at peaks of at least `min_peak_n`.
+pub fn score_model(model: &WrenchGp, test: &Dataset, min_peak_n: f64) -> Result<Scores, EvalError> {
     if test.features != model.features() || &test.axes != model.axes() {
         return Err(EvalError::Mismatch(format!(
             "model has features {:?} / axes {}, test data {:?} / {}",
@@ -392,5 +400,5 @@ pub fn score_model(model: &WrenchGp, test: &Dataset) -> Result<Scores, EvalError
     }
     let (pred, _) = model.predict(test.x.view(), false)?;
     let s = scores(&test.axes, test.y.view(), pred.view(), 0.0, model.n_train());
-    Ok(with_direction(s, test, pred.view()))
+    Ok(with_direction(s, test, pred.view(), min_peak_n))
 }

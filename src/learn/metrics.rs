@@ -79,6 +79,8 @@ fn ss_res(y: ArrayView1<f64>, yhat: ArrayView1<f64>) -> f64 {
 /// ±2.5° for their individual models).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct DirectionError {
+    /// Smallest true tangential force of a scored peak (N).
+    pub min_peak_n: f64,
     /// Peaks scored.
     pub peaks: usize,
     /// Median of the absolute angle (deg).
@@ -89,29 +91,38 @@ pub struct DirectionError {
     pub max_deg: f64,
 }
 
-/// Smallest true tangential force of a peak (N).
-pub const PEAK_MIN_N: f64 = 1.0;
-/// Rows on each side a peak is the largest of, within its trial.
-pub const PEAK_WINDOW: usize = 15;
+/// Default smallest true tangential force of a scored peak (N).
+pub const DEFAULT_PEAK_MIN_N: f64 = 1.0;
 
 /// The direction error of `(fx, fy)` estimates `ft_hat` against the truth
-/// `ft` (both n x 2) at the peaks: rows whose true tangential force is at
-/// least [`PEAK_MIN_N`] and the largest within [`PEAK_WINDOW`] rows of the
-/// same `trial` on each side. None without a peak.
+/// `ft` (both n x 2) at the peak of every push: a push is a run of rows of
+/// one `trial` whose true tangential force is at least half `min_peak_n`
+/// (with 1 N, well above the reference's noise at rest); its peak is the
+/// row of the largest, scored when at least `min_peak_n`. None without a
+/// peak.
 pub fn direction_error_at_peaks(
     ft: ArrayView2<f64>,
     ft_hat: ArrayView2<f64>,
     trial: &[(u32, u32)],
+    min_peak_n: f64,
 ) -> Option<DirectionError> {
-    let n = ft.nrows();
+    let push_min_n = min_peak_n / 2.0;
     let size = |i: usize| ft[[i, 0]].hypot(ft[[i, 1]]);
-    let mut errors: Vec<f64> = (0..n)
-        .filter(|&i| {
-            let lo = i.saturating_sub(PEAK_WINDOW);
-            let hi = (i + PEAK_WINDOW + 1).min(n);
-            size(i) >= PEAK_MIN_N
-                && (lo..hi).all(|j| trial[j] != trial[i] || j == i || size(j) <= size(i))
-        })
+    let mut peaks = Vec::new();
+    let mut push: Option<usize> = None;
+    for i in 0..ft.nrows() {
+        let same_push = i > 0 && trial[i] == trial[i - 1] && size(i) >= push_min_n;
+        if !same_push {
+            peaks.extend(push.take());
+        }
+        if size(i) >= push_min_n && push.is_none_or(|p| size(i) > size(p)) {
+            push = Some(i);
+        }
+    }
+    peaks.extend(push);
+    let mut errors: Vec<f64> = peaks
+        .into_iter()
+        .filter(|&i| size(i) >= min_peak_n)
         .map(|i| {
             let truth = ft[[i, 1]].atan2(ft[[i, 0]]);
             let estimate = ft_hat[[i, 1]].atan2(ft_hat[[i, 0]]);
@@ -125,6 +136,7 @@ pub fn direction_error_at_peaks(
     errors.sort_by(f64::total_cmp);
     let at = |q: f64| errors[((errors.len() - 1) as f64 * q).round() as usize];
     Some(DirectionError {
+        min_peak_n,
         peaks: errors.len(),
         median_deg: at(0.5),
         p95_deg: at(0.95),
@@ -188,24 +200,38 @@ mod tests {
     }
 
     #[test]
-    fn direction_errors_are_taken_at_the_peaks_of_each_trial() {
-        // One push per trial along +x, peaking at row 20; the estimate turns
-        // by 10 deg. Two trials back to back.
-        let n = 41;
+    fn direction_errors_are_taken_at_the_peak_of_each_push() {
+        // Two trials back to back, each with two pushes along +x (peaks 3 N
+        // and 1.5 N) apart by a rest; the estimate turns by 10 deg in the
+        // first push of a trial, 20 deg in the second. A ripple of 0.05 N
+        // puts many local maxima on each push: one peak each all the same.
+        let n = 100;
         let mut ft = ndarray::Array2::zeros((2 * n, 2));
         let mut hat = ndarray::Array2::zeros((2 * n, 2));
-        let (s, c) = 10f64.to_radians().sin_cos();
         for k in 0..2 * n {
-            let f = 3.0 * (1.0 - ((k % n) as f64 - 20.0).abs() / 20.0);
+            let (i, second) = ((k % n) as f64, k % n >= 50);
+            let (top, centre, turn) = match second {
+                false => (3.0, 20.0, 10f64),
+                true => (1.5, 75.0, 20f64),
+            };
+            let f =
+                (top * (1.0 - (i - centre).abs() / 20.0)).max(0.0) + 0.05 * (i * 2.0).sin().abs();
+            let (s, c) = turn.to_radians().sin_cos();
             ft[[k, 0]] = f;
             hat[[k, 0]] = f * c;
             hat[[k, 1]] = f * s;
         }
         let trial: Vec<(u32, u32)> = (0..2 * n).map(|k| (1, 1 + (k / n) as u32)).collect();
-        let e = direction_error_at_peaks(ft.view(), hat.view(), &trial).unwrap();
+        let e = direction_error_at_peaks(ft.view(), hat.view(), &trial, 1.0).unwrap();
+        assert_eq!(e.peaks, 4);
+        assert!((e.median_deg - 10.0).abs() < 1e-9 || (e.median_deg - 20.0).abs() < 1e-9);
+        assert!((e.max_deg - 20.0).abs() < 1e-9, "{e:?}");
+        // A push that peaks under 1 N is not scored.
+        let small = ft.mapv(|v| v * 0.4);
+        let e = direction_error_at_peaks(small.view(), hat.view(), &trial, 1.0).unwrap();
         assert_eq!(e.peaks, 2);
-        assert!((e.max_deg - 10.0).abs() < 1e-9 && (e.median_deg - 10.0).abs() < 1e-9);
-        let small = ft.mapv(|v| v * 0.1);
-        assert!(direction_error_at_peaks(small.view(), hat.view(), &trial).is_none());
+        assert!((e.max_deg - 10.0).abs() < 1e-9, "{e:?}");
+        let tiny = ft.mapv(|v| v * 0.1);
+        assert!(direction_error_at_peaks(tiny.view(), hat.view(), &trial, 1.0).is_none());
     }
 }

@@ -1,12 +1,13 @@
-//! The data-collection protocol with the nail camera, and its data
+//! The data-collection protocols with the nail camera, and their data
 //! directory: `frames/NNNNNN.png` (8-bit grey) and `labels.csv`, one row per
 //! frame with the project's columns (`t,set,trial`, then `frame` naming the
 //! PNG, then `fx,fy,fz,tx,ty,tz` in N and N·m, finger frame).
 //!
 //! A person (`--unit`) presses a fixed F/T sensor with the fingertip while
-//! wearing the camera: the BioTac protocol's sets and trials of
-//! raised-cosine pushes ([`crate::sim::collect`]), at the camera's rate. Per
-//! push the centre of pressure and a twisting moment are drawn; the centre
+//! wearing the camera, at the camera's rate: the BioTac protocol's sets and
+//! trials of raised-cosine pushes ([`crate::sim::collect`]), or Watanabe's
+//! 360° test of load cycles in fixed directions ([`super::radial`]). Per
+//! push (or cycle) the centre of pressure and a twisting moment are drawn; the centre
 //! rolls with the force. The torques are about the pad centre:
 //! `τ = p × F + (0, 0, τ_twist)`.
 
@@ -16,9 +17,10 @@ use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 use super::frame::{FrameError, NailFrame};
+use super::radial::RadialTest;
 use super::sim::{NailSimConfig, Person, Pressing, Session};
 use crate::biotac::sim::{gaussian, uniform};
-use crate::sim::collect::{force_at, sample_pushes};
+use crate::sim::collect::{force_at, sample_pushes, PadForce, Push};
 use crate::wrench::{Axis, Wrench};
 
 /// The labels file of a data directory.
@@ -85,7 +87,7 @@ pub enum NailDataError {
 pub struct Label {
     /// Time since the trial start (s).
     pub t: f64,
-    /// Set (1..=4: x, y, z, combined).
+    /// Set (1..=4: x, y, z, combined; [`RADIAL_SET`]: the radial test).
     pub set: u32,
     /// Trial within the set.
     pub trial: u32,
@@ -130,79 +132,190 @@ pub struct NailRecord {
     pub label: Label,
 }
 
-/// Runs the protocol on person `person` in session `session`, calling
-/// `on_record` for every frame in order (sets 1..=4, trials, frames).
+/// Which protocol [`collect_nail`] runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Protocol {
+    /// The four sets by axis, `trials_per_set` trials each (sets 1..=4).
+    Sets,
+    /// Watanabe's 360° test ([`RadialTest`]): one trial per direction, all
+    /// in set [`RADIAL_SET`].
+    Radial,
+}
+
+/// The set number of the radial test's trials in `labels.csv`.
+pub const RADIAL_SET: u32 = 5;
+
+/// Runs `protocol` on person `person` in session `session`, calling
+/// `on_record` for every frame in order (sets, trials, frames).
 pub fn collect_nail(
     config: &NailSimConfig,
+    protocol: Protocol,
     person: u64,
     session: u64,
     on_record: &mut dyn FnMut(NailRecord) -> Result<(), NailDataError>,
 ) -> Result<(), NailDataError> {
     let q = &config.protocol;
-    let who = Person::new(config, person);
-    let mut s = Session::new(config, session);
-    let n = (q.trial_duration_s * q.rate_hz).round() as usize;
-    let noise = &q.ft_noise_std;
-    let mut index = 0usize;
-    for (set, _, spec) in q.sets.numbered() {
-        for trial in 1..=q.trials_per_set {
-            s.next_trial();
-            let rng = s.rng();
-            let pushes = sample_pushes(&q.timing(), spec, rng);
-            let per_push: Vec<([f64; 2], f64, f64)> = pushes
-                .iter()
-                .map(|_| {
-                    let centre = [
-                        uniform(rng, q.pressure_centre_mm),
-                        uniform(rng, q.pressure_centre_mm),
-                    ];
-                    let roll = rng.random::<f64>() * std::f64::consts::TAU;
-                    (centre, roll, uniform(rng, q.twist_nmm))
-                })
-                .collect();
-            for k in 0..n {
-                let t = k as f64 / q.rate_hz;
-                let pressing = match force_at(&pushes, t) {
-                    Some((i, f)) => {
-                        let (centre, roll, twist) = per_push[i];
-                        let w = f.normal_n / spec.max_normal_n(q.max_traction_ratio).max(1e-9);
-                        let (sr, cr) = roll.sin_cos();
-                        let (sd, cd) = f.direction_rad.sin_cos();
-                        Pressing {
-                            force: [f.tangential_n * cd, f.tangential_n * sd, f.normal_n],
-                            centre_mm: [
-                                centre[0] + q.pressure_roll_mm * w * cr,
-                                centre[1] + q.pressure_roll_mm * w * sr,
-                            ],
-                            twist_nmm: twist * w,
-                        }
-                    }
-                    None => Pressing::default(),
+    let mut run = Run {
+        config,
+        who: Person::new(config, person),
+        session: Session::new(config, session),
+        index: 0,
+        on_record,
+    };
+    match protocol {
+        Protocol::Sets => {
+            for (set, _, spec) in q.sets.numbered() {
+                for trial in 1..=q.trials_per_set {
+                    run.session.next_trial();
+                    let schedule = Schedule::Pushes {
+                        pushes: sample_pushes(&q.timing(), spec, run.session.rng()),
+                        max_normal_n: spec.max_normal_n(q.max_traction_ratio),
+                    };
+                    run.trial(set, trial, q.trial_duration_s, &schedule)?;
+                }
+            }
+        }
+        Protocol::Radial => {
+            let tare_s = f64::from(q.tare_samples) / q.rate_hz;
+            for trial in 1..=q.radial.directions {
+                run.session.next_trial();
+                let schedule = Schedule::Radial {
+                    test: &q.radial,
+                    direction_rad: q.radial.direction_rad(trial),
+                    start_s: tare_s,
+                    traction_ratio: q.max_traction_ratio,
                 };
-                let mut frame = s.render(config, &who, &pressing);
-                frame.stamp_s = t;
-                frame.seq = (index % 65536) as u16;
-                let truth = wrench_of(&pressing);
-                let rng = s.rng();
-                let mut f = |a: Axis, std: f64| truth.get(a) + gaussian(rng, std);
-                let label = Label {
-                    t,
-                    set,
-                    trial,
-                    frame: format!("{FRAMES_DIR}/{index:06}.png"),
-                    fx: f(Axis::Fx, noise.force_n[0]),
-                    fy: f(Axis::Fy, noise.force_n[1]),
-                    fz: f(Axis::Fz, noise.force_n[2]),
-                    tx: f(Axis::Tx, noise.torque_nm[0]),
-                    ty: f(Axis::Ty, noise.torque_nm[1]),
-                    tz: f(Axis::Tz, noise.torque_nm[2]),
-                };
-                on_record(NailRecord { frame, label })?;
-                index += 1;
+                run.trial(RADIAL_SET, trial, tare_s + q.radial.duration_s(), &schedule)?;
             }
         }
     }
     Ok(())
+}
+
+/// The forces of one trial.
+enum Schedule<'a> {
+    /// Sampled pushes; `max_normal_n`, the set's largest normal force,
+    /// scales the centre's roll and the twist.
+    Pushes {
+        pushes: Vec<Push>,
+        max_normal_n: f64,
+    },
+    /// One direction of the radial test, its cycles from `start_s`.
+    Radial {
+        test: &'a RadialTest,
+        direction_rad: f64,
+        start_s: f64,
+        traction_ratio: f64,
+    },
+}
+
+impl Schedule<'_> {
+    /// How many pushes (or cycles) the trial has.
+    fn pushes(&self) -> usize {
+        match self {
+            Schedule::Pushes { pushes, .. } => pushes.len(),
+            Schedule::Radial { test, .. } => test.cycles as usize,
+        }
+    }
+
+    /// The push under way at `t`, its force and its load as a fraction of
+    /// the largest normal force; None out of contact.
+    fn at(&self, t: f64) -> Option<(usize, PadForce, f64)> {
+        let (i, f, max_normal_n) = match self {
+            Schedule::Pushes {
+                pushes,
+                max_normal_n,
+            } => {
+                let (i, f) = force_at(pushes, t)?;
+                (i, f, *max_normal_n)
+            }
+            Schedule::Radial {
+                test,
+                direction_rad,
+                start_s,
+                traction_ratio,
+            } => {
+                let (i, f) = test.force_at(*direction_rad, *traction_ratio, t - start_s)?;
+                (i, f, test.normal_peak_n)
+            }
+        };
+        Some((i, f, f.normal_n / max_normal_n.max(1e-9)))
+    }
+}
+
+/// One person and session recording trials, frame after frame.
+struct Run<'a> {
+    config: &'a NailSimConfig,
+    who: Person,
+    session: Session,
+    index: usize,
+    on_record: &'a mut dyn FnMut(NailRecord) -> Result<(), NailDataError>,
+}
+
+impl Run<'_> {
+    /// Records one trial of `duration_s`. Per push the centre of pressure,
+    /// the way it rolls and a twisting moment are drawn.
+    fn trial(
+        &mut self,
+        set: u32,
+        trial: u32,
+        duration_s: f64,
+        schedule: &Schedule,
+    ) -> Result<(), NailDataError> {
+        let q = &self.config.protocol;
+        let noise = &q.ft_noise_std;
+        let rng = self.session.rng();
+        let per_push: Vec<([f64; 2], f64, f64)> = (0..schedule.pushes())
+            .map(|_| {
+                let centre = [
+                    uniform(rng, q.pressure_centre_mm),
+                    uniform(rng, q.pressure_centre_mm),
+                ];
+                let roll = rng.random::<f64>() * std::f64::consts::TAU;
+                (centre, roll, uniform(rng, q.twist_nmm))
+            })
+            .collect();
+        for k in 0..(duration_s * q.rate_hz).round() as usize {
+            let t = k as f64 / q.rate_hz;
+            let pressing = match schedule.at(t) {
+                Some((i, f, w)) => {
+                    let (centre, roll, twist) = per_push[i];
+                    let (sr, cr) = roll.sin_cos();
+                    let (sd, cd) = f.direction_rad.sin_cos();
+                    Pressing {
+                        force: [f.tangential_n * cd, f.tangential_n * sd, f.normal_n],
+                        centre_mm: [
+                            centre[0] + q.pressure_roll_mm * w * cr,
+                            centre[1] + q.pressure_roll_mm * w * sr,
+                        ],
+                        twist_nmm: twist * w,
+                    }
+                }
+                None => Pressing::default(),
+            };
+            let mut frame = self.session.render(self.config, &self.who, &pressing);
+            frame.stamp_s = t;
+            frame.seq = (self.index % 65536) as u16;
+            let truth = wrench_of(&pressing);
+            let rng = self.session.rng();
+            let mut f = |a: Axis, std: f64| truth.get(a) + gaussian(rng, std);
+            let label = Label {
+                t,
+                set,
+                trial,
+                frame: format!("{FRAMES_DIR}/{:06}.png", self.index),
+                fx: f(Axis::Fx, noise.force_n[0]),
+                fy: f(Axis::Fy, noise.force_n[1]),
+                fz: f(Axis::Fz, noise.force_n[2]),
+                tx: f(Axis::Tx, noise.torque_nm[0]),
+                ty: f(Axis::Ty, noise.torque_nm[1]),
+                tz: f(Axis::Tz, noise.torque_nm[2]),
+            };
+            (self.on_record)(NailRecord { frame, label })?;
+            self.index += 1;
+        }
+        Ok(())
+    }
 }
 
 /// The wrench of a pressing about the pad centre (N, N·m).
@@ -318,7 +431,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut w = NailWriter::create(dir.path()).unwrap();
         let mut peak = [0.0f64; 6];
-        collect_nail(&c, 1, 1, &mut |r| {
+        collect_nail(&c, Protocol::Sets, 1, 1, &mut |r| {
             for (p, a) in peak.iter_mut().zip(Axis::ALL) {
                 *p = p.max(r.label.wrench().get(a).abs());
             }
@@ -339,6 +452,39 @@ mod tests {
         assert_eq!((f.width(), f.height()), (96, 104));
         // The first frames are out of contact: zero force up to the noise.
         assert!(labels[..30].iter().all(|l| l.fz.abs() < 0.1));
+    }
+
+    #[test]
+    fn the_radial_test_holds_one_direction_per_trial_after_a_rest() {
+        let mut c = NailSimConfig::default();
+        c.protocol.radial.directions = 4;
+        c.protocol.radial.cycle_s = 4.0;
+        c.protocol.radial.cycles = 3;
+        let mut labels = Vec::new();
+        collect_nail(&c, Protocol::Radial, 1, 1, &mut |r| {
+            labels.push(r.label);
+            Ok(())
+        })
+        .unwrap();
+        // 4 trials of 1 s rest and 3 cycles of 4 s, at 30 fps.
+        assert_eq!(labels.len(), 4 * 13 * 30);
+        assert!(labels.iter().all(|l| l.set == RADIAL_SET));
+        for trial in 1..=4u32 {
+            let rows: Vec<&Label> = labels.iter().filter(|l| l.trial == trial).collect();
+            assert!(rows[..30].iter().all(|l| l.wrench().force.norm() < 0.1));
+            // Tops of the cycles (t = 3, 7, 11 s): Fz 10 N, Fr 0, 2.5, 5 N
+            // along 0, 90, 180, 270 deg, up to the reference's noise.
+            for (cycle, fr) in [0.0, 2.5, 5.0].into_iter().enumerate() {
+                let l = rows[(3 + 4 * cycle) * 30];
+                assert!((l.fz - 10.0).abs() < 0.1, "{l:?}");
+                assert!((l.fx.hypot(l.fy) - fr).abs() < 0.1, "{l:?}");
+                if fr > 0.0 {
+                    let along = 90.0 * f64::from(trial - 1);
+                    let d = (l.fy.atan2(l.fx).to_degrees() - along).rem_euclid(360.0);
+                    assert!(d.min(360.0 - d) < 3.0, "trial {trial}: {l:?}");
+                }
+            }
+        }
     }
 
     #[test]

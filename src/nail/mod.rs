@@ -5,12 +5,14 @@
 //!
 //! - [`frame`]: one grey frame and its PNG file;
 //! - [`sim`]: the simulated camera, persons and sessions (config/nail_sim.yaml);
-//! - [`collect`]: the data-collection protocol and its data directory;
+//! - [`collect`]: the data-collection protocols and their data directory;
+//! - [`radial`]: Watanabe's 360° test, the second protocol;
 //! - [`preprocess`]: Urban's registration, mask, scaling and normalisation.
 
 pub mod collect;
 pub mod frame;
 pub mod preprocess;
+pub mod radial;
 pub mod sim;
 
 pub use frame::NailFrame;

@@ -26,6 +26,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
 
 use super::frame::NailFrame;
+use super::radial::RadialTest;
 use crate::biotac::sim::{check_range, check_value, gaussian, uniform, ConfigError};
 use crate::sim::collect::{check_sets, FtNoiseStd, PushTiming, SetSpecs};
 
@@ -156,6 +157,8 @@ pub struct NailProtocol {
     pub ft_noise_std: FtNoiseStd,
     /// The four sets.
     pub sets: SetSpecs,
+    /// Watanabe's 360° test (`collect --protocol radial`).
+    pub radial: RadialTest,
 }
 
 impl NailProtocol {
@@ -299,7 +302,8 @@ impl NailSimConfig {
                 expected: format!("the camera's rate, camera.rate_hz = {}", c.rate_hz),
             });
         }
-        check_sets(&q.sets, &q.timing())
+        check_sets(&q.sets, &q.timing())?;
+        q.radial.check("protocol.radial")
     }
 }
 

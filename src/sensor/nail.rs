@@ -408,7 +408,7 @@ mod tests {
     fn the_estimator_reads_nail_frames_through_the_seam() {
         use crate::learn::model::{quick_params, TareSpec, WrenchGp};
         use crate::learn::scale::InputScaling;
-        use crate::nail::collect::{collect_nail, NailWriter};
+        use crate::nail::collect::{collect_nail, NailWriter, Protocol};
         use crate::nail::sim::NailSimConfig;
         use crate::nodes::EstimatorNode;
         use crate::sensor::biotac::BioTacInput;
@@ -416,7 +416,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let config = NailSimConfig::default().with_trials(1).unwrap();
         let mut w = NailWriter::create(dir.path()).unwrap();
-        collect_nail(&config, 3, 1, &mut |r| w.write(&r)).unwrap();
+        collect_nail(&config, Protocol::Sets, 3, 1, &mut |r| w.write(&r)).unwrap();
         w.finish().unwrap();
         let axes: AxisSet = "fz".parse().unwrap();
         let (mut sets, spec) = read_nail_dirs(&[dir.path().to_path_buf()], &axes, None).unwrap();
