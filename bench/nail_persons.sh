@@ -7,9 +7,11 @@
 # Watanabe et al. 2023's 360-degree test of person 1 in session 3
 # (`collect --protocol radial`, 2412 s), scored at the 48 peaks of its
 # pushes: person 1's model from session 1's sets, and from those and
-# session 1's own 360-degree test.
+# session 1's own 360-degree test. Last, the same sets-and-360-degree model
+# and test with the person pressing closer to the pad's centre (the
+# config's `pressure_centre_mm` and `pressure_roll_mm` narrowed).
 # Prints the eval tables; R2 and RMSE per axis, fit time, direction error.
-# Usage: bench/nail_persons.sh [work dir]   (about 10 min on 2 cores)
+# Usage: bench/nail_persons.sh [work dir]   (about 12 min on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-target/nail-persons}"
@@ -48,4 +50,25 @@ echo "== the same test: model from session 1's sets and 360-degree test; peaks f
 for n in 1 2.5 3.5; do
   $tf eval --train "$work/p1,$work/p1-radial-s1" --test "$work/p1-radial-s3" --axes "$axes" \
     --no-cnn --peak-min-n "$n"
+done
+
+echo "== where the direction error comes from: the same model and test, the pad pressed within 2 and 1 mm of its centre"
+for held in "2.0 1.0" "1.0 0.5"; do
+  read -r centre roll <<<"$held"
+  dir="$work/held-$centre-mm"
+  mkdir -p "$dir"
+  sed -e "s/pressure_centre_mm: \[-3.0, 3.0\]/pressure_centre_mm: [-$centre, $centre]/" \
+    -e "s/pressure_roll_mm: 1.5/pressure_roll_mm: $roll/" config/nail_sim.yaml >"$dir/nail_sim.yaml"
+  if ! grep -q "pressure_centre_mm: \[-$centre, $centre\]" "$dir/nail_sim.yaml" ||
+    ! grep -q "pressure_roll_mm: $roll$" "$dir/nail_sim.yaml"; then
+    echo "config/nail_sim.yaml no longer holds pressure_centre_mm: [-3.0, 3.0] and pressure_roll_mm: 1.5: update this bench" >&2
+    exit 1
+  fi
+  [ -d "$dir/p1" ] || $tf collect --sensor nail --unit 1 --seed 1 --config "$dir/nail_sim.yaml" --out "$dir/p1" >/dev/null
+  for s in 1 3; do
+    [ -d "$dir/p1-radial-s$s" ] || $tf collect --sensor nail --unit 1 --seed "$s" --protocol radial \
+      --config "$dir/nail_sim.yaml" --out "$dir/p1-radial-s$s" >/dev/null
+  done
+  echo "-- within $centre mm, rolling $roll mm"
+  $tf eval --train "$dir/p1,$dir/p1-radial-s1" --test "$dir/p1-radial-s3" --axes "$axes" --no-cnn
 done

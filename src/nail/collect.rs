@@ -181,7 +181,7 @@ pub fn collect_nail(
                 run.session.next_trial();
                 let schedule = Schedule::Radial {
                     test: &q.radial,
-                    direction_rad: q.radial.direction_rad(trial),
+                    direction_rad: q.radial.direction_rad(trial - 1),
                     start_s: tare_s,
                     traction_ratio: q.max_traction_ratio,
                 };

@@ -41,10 +41,10 @@ impl RadialTest {
         Ok(())
     }
 
-    /// The direction of trial `trial` (1-based) in radians: 0, 360° /
-    /// directions, ...
-    pub fn direction_rad(&self, trial: u32) -> f64 {
-        std::f64::consts::TAU * f64::from(trial - 1) / f64::from(self.directions)
+    /// The direction of the `index`-th trial (0-based) in radians: 0,
+    /// 360° / directions, ...
+    pub fn direction_rad(&self, index: u32) -> f64 {
+        std::f64::consts::TAU * f64::from(index) / f64::from(self.directions)
     }
 
     /// How long the cycles of one direction last (s).
@@ -97,7 +97,7 @@ mod tests {
     fn the_tangential_peaks_step_up_to_mu_fmax_in_one_direction() {
         let r = watanabe();
         assert_eq!(r.duration_s(), 200.0);
-        assert!((r.direction_rad(4) - 90f64.to_radians()).abs() < 1e-12);
+        assert!((r.direction_rad(3) - 90f64.to_radians()).abs() < 1e-12);
         // Tops of the cycles at 20, 60, ... s: Fz = 10 N, Fr = 0, 1.25, ..., 5 N.
         for (i, fr) in [0.0, 1.25, 2.5, 3.75, 5.0].iter().enumerate() {
             let (cycle, f) = r.force_at(1.0, 0.5, 20.0 + 40.0 * i as f64).unwrap();
