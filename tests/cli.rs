@@ -738,8 +738,22 @@ fn nail_camera_data_are_collected_trained_on_and_scored_with_the_cnn() {
     let gp = json["gp"]["r2"]["fz"].as_f64().unwrap();
     let cnn = json["cnn"]["r2"]["fz"].as_f64().unwrap();
     assert!(gp > 0.8 && cnn > 0.3, "fz R2: GP {gp}, CNN {cnn}");
-    assert!(json["gp"]["direction_deg"]["peaks"].as_u64().unwrap() > 0);
+    let pooled = json["gp"]["direction_deg"]["peaks"].as_u64().unwrap();
+    assert!(pooled > 0);
     assert!(out.contains("tangential force direction at"), "{out}");
+    // Each fold's peaks on a line of its own; together, the pooled ones.
+    let mut per_fold = 0;
+    for f in json["folds"].as_array().unwrap() {
+        if let Some(peaks) = f["gp"]["direction_deg"]["peaks"].as_u64() {
+            let line = format!(
+                "GP, {}: tangential force direction at {peaks} peaks",
+                f["fold"]
+            );
+            assert!(out.contains(&line), "no '{line}' in {out}");
+            per_fold += peaks;
+        }
+    }
+    assert_eq!(per_fold, pooled);
     // BioTac files and nail directories do not mix; nail inputs are raw.
     let csv = dir.path().join("d.csv");
     std::fs::write(&csv, "t,set,trial,e1\n0,1,1,1\n").unwrap();

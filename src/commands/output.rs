@@ -7,6 +7,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
+use tactile_force::learn::metrics::DirectionError;
 use tactile_force::wrench::{Axis, AxisSet};
 
 pub(crate) fn progress_bar() -> ProgressBar {
@@ -113,11 +114,23 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
     ];
     for (name, s) in models {
         if let Some(d) = s.and_then(|s| s.direction_deg) {
-            println!(
-                "{name}: tangential force direction at {} peaks (|Ft| >= {} N): median {:.1} deg, \
-                 95 % within {:.1} deg, largest {:.1} deg",
-                d.peaks, d.min_peak_n, d.median_deg, d.p95_deg, d.max_deg
-            );
+            print_direction(name, &d);
         }
     }
+    if eval.folds.len() > 1 {
+        for (f, label) in eval.folds.iter().zip(labels) {
+            if let Some(d) = &f.gp.direction_deg {
+                print_direction(&format!("GP, {label}"), d);
+            }
+        }
+    }
+}
+
+/// One line of direction errors at the peaks.
+fn print_direction(name: &str, d: &DirectionError) {
+    println!(
+        "{name}: tangential force direction at {} peaks (|Ft| >= {} N): median {:.1} deg, \
+         95 % within {:.1} deg, largest {:.1} deg",
+        d.peaks, d.min_peak_n, d.median_deg, d.p95_deg, d.max_deg
+    );
 }

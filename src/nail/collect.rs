@@ -9,7 +9,9 @@
 //! 360° test of load cycles in fixed directions ([`super::radial`]). Per
 //! push (or cycle) the centre of pressure and a twisting moment are drawn; the centre
 //! rolls with the force. The torques are about the pad centre:
-//! `τ = p × F + (0, 0, τ_twist)`.
+//! `τ = p × F + (0, 0, τ_twist)`. The labels carry the reference's noise:
+//! the F/T sensor's on every axis, but in the 360° test, the tangential
+//! force is read along the slider only, as Watanabe's load cell reads it.
 
 use std::path::{Path, PathBuf};
 
@@ -21,7 +23,7 @@ use super::radial::RadialTest;
 use super::sim::{NailSimConfig, Person, Pressing, Session};
 use crate::biotac::sim::{gaussian, uniform};
 use crate::sim::collect::{force_at, sample_pushes, PadForce, Push};
-use crate::wrench::{Axis, Wrench};
+use crate::wrench::Wrench;
 
 /// The labels file of a data directory.
 pub const LABELS_FILE: &str = "labels.csv";
@@ -210,6 +212,18 @@ enum Schedule<'a> {
 }
 
 impl Schedule<'_> {
+    /// The slider's direction in the radial test (rad). Watanabe's
+    /// apparatus (section 3.1, Eqs. 1 and 2) reads the tangential force
+    /// with a load cell along the slider, `F_r`, and takes
+    /// `F_x = F_r cos θ`, `F_y = F_r sin θ`: its reference has no noise
+    /// across the slider. None for the F/T sensor of the sets.
+    fn slider_rad(&self) -> Option<f64> {
+        match self {
+            Schedule::Pushes { .. } => None,
+            Schedule::Radial { direction_rad, .. } => Some(*direction_rad),
+        }
+    }
+
     /// How many pushes (or cycles) the trial has.
     fn pushes(&self) -> usize {
         match self {
@@ -298,18 +312,29 @@ impl Run<'_> {
             frame.seq = (self.index % 65536) as u16;
             let truth = wrench_of(&pressing);
             let rng = self.session.rng();
-            let mut f = |a: Axis, std: f64| truth.get(a) + gaussian(rng, std);
+            let mut f = |v: f64, std: f64| v + gaussian(rng, std);
+            let (fx, fy) = match schedule.slider_rad() {
+                Some(theta) => {
+                    let (s, c) = theta.sin_cos();
+                    let fr = f(truth.force.x * c + truth.force.y * s, noise.force_n[0]);
+                    (fr * c, fr * s)
+                }
+                None => (
+                    f(truth.force.x, noise.force_n[0]),
+                    f(truth.force.y, noise.force_n[1]),
+                ),
+            };
             let label = Label {
                 t,
                 set,
                 trial,
                 frame: format!("{FRAMES_DIR}/{:06}.png", self.index),
-                fx: f(Axis::Fx, noise.force_n[0]),
-                fy: f(Axis::Fy, noise.force_n[1]),
-                fz: f(Axis::Fz, noise.force_n[2]),
-                tx: f(Axis::Tx, noise.torque_nm[0]),
-                ty: f(Axis::Ty, noise.torque_nm[1]),
-                tz: f(Axis::Tz, noise.torque_nm[2]),
+                fx,
+                fy,
+                fz: f(truth.force.z, noise.force_n[2]),
+                tx: f(truth.torque.x, noise.torque_nm[0]),
+                ty: f(truth.torque.y, noise.torque_nm[1]),
+                tz: f(truth.torque.z, noise.torque_nm[2]),
             };
             (self.on_record)(NailRecord { frame, label })?;
             self.index += 1;
@@ -424,6 +449,7 @@ pub fn read_frame(dir: &Path, label: &Label) -> Result<NailFrame, NailDataError>
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wrench::Axis;
 
     #[test]
     fn one_trial_per_set_writes_frames_and_labels_that_read_back() {
@@ -478,12 +504,13 @@ mod tests {
                 let l = rows[(3 + 4 * cycle) * 30];
                 assert!((l.fz - 10.0).abs() < 0.1, "{l:?}");
                 assert!((l.fx.hypot(l.fy) - fr).abs() < 0.1, "{l:?}");
-                if fr > 0.0 {
-                    let along = 90.0 * f64::from(trial - 1);
-                    let d = (l.fy.atan2(l.fx).to_degrees() - along).rem_euclid(360.0);
-                    assert!(d.min(360.0 - d) < 3.0, "trial {trial}: {l:?}");
-                }
             }
+            // The slider's load cell reads along it only: every label lies
+            // on its line, the pushes on the side it points to.
+            let (s, c) = (std::f64::consts::FRAC_PI_2 * f64::from(trial - 1)).sin_cos();
+            assert!(rows.iter().all(|l| (l.fx * s - l.fy * c).abs() < 1e-12));
+            let l = rows[11 * 30];
+            assert!(l.fx * c + l.fy * s > 4.9, "trial {trial}: {l:?}");
         }
     }
 
