@@ -7,15 +7,15 @@
 # Watanabe et al. 2023's 360-degree test of person 1 in session 3
 # (`collect --protocol radial`, 2412 s), scored at the 48 peaks of its
 # pushes: person 1's model from session 1's sets, and from those and
-# session 1's own 360-degree test, on session 3's and on those of sessions
-# 3 to 6; then Watanabe's split (85 % of the
-# frames of session 3's test to learn, 15 % to test; by frame, our
-# reading: the paper does not say). Last, the same sets-and-360-degree model
-# and test with the person pressing closer to the pad's centre (the
-# config's `pressure_centre_mm` and `pressure_roll_mm` narrowed), on
-# sessions 3 to 6.
+# session 1's own 360-degree test, on session 3's test and on those of
+# sessions 3 to 6. Then Watanabe's split: 85 % of the frames of session 3's
+# test to learn, 15 % to test (by frame, our reading: the paper does not
+# say). Last, the sets-and-360-degree model on sessions 3 to 6 with the
+# person pressing closer to the pad's centre (the config's
+# `pressure_centre_mm` and `pressure_roll_mm` narrowed).
 # Prints the eval tables; R2 and RMSE per axis, fit time, direction error.
-# Usage: bench/nail_persons.sh [work dir]   (about 17 min on 2 cores once its recordings exist; the first run makes them)
+# Usage: bench/nail_persons.sh [work dir]
+# (about 17 min on 2 cores once its recordings exist; the first run makes them)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-target/nail-persons}"
@@ -50,18 +50,22 @@ $tf eval --train "$work/p1-80s" --test "$work/p1" --axes "$axes" --no-nn --no-cn
 echo "== 360-degree test (person 1, session 3): person 1's model from session 1's sets"
 $tf eval --train "$work/p1" --test "$work/p1-radial-s3" --axes "$axes" --no-cnn
 
-echo "== the same test: model from session 1's sets and 360-degree test; peaks from 1, 2.5, 3.5 N"
-for n in 1 2.5 3.5; do
-  $tf eval --train "$work/p1,$work/p1-radial-s1" --test "$work/p1-radial-s3" --axes "$axes" \
-    --no-cnn --peak-min-n "$n"
+echo "== the same test: model from session 1's sets and 360-degree test"
+$tf eval --train "$work/p1,$work/p1-radial-s1" --test "$work/p1-radial-s3" --axes "$axes" --no-cnn
+model="$work/p1-radial-model.json"
+$tf train --data "$work/p1,$work/p1-radial-s1" --axes "$axes" --out "$model" >/dev/null
+
+echo "== the same GP, peaks from 2.5 and 3.5 N"
+for n in 2.5 3.5; do
+  $tf eval --model "$model" --test "$work/p1-radial-s3" --peak-min-n "$n"
 done
 
-echo "== the same model on the 360-degree tests of sessions 3 to 6 (each session and pooled): how far the largest error moves from one recording to the next"
+echo "== the same GP on the 360-degree tests of sessions 3 to 6 (each session and pooled): how far the largest error moves from one recording to the next"
 for s in 4 5 6; do
   [ -d "$work/p1-radial-s$s" ] ||
     $tf collect --sensor nail --unit 1 --seed "$s" --protocol radial --out "$work/p1-radial-s$s" >/dev/null
 done
-$tf eval --train "$work/p1,$work/p1-radial-s1" --axes "$axes" --no-cnn --no-nn \
+$tf eval --model "$model" \
   --test "$work/p1-radial-s3,$work/p1-radial-s4,$work/p1-radial-s5,$work/p1-radial-s6"
 
 echo "== Watanabe's split of one recording: 85 % of session 3's 360-degree test to learn, 15 % to test, drawn frame by frame (each trial's first second, at rest, in both for the tare)"
