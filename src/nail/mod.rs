@@ -7,8 +7,10 @@
 //! - [`sim`]: the simulated camera, persons and sessions (config/nail_sim.yaml);
 //! - [`collect`]: the data-collection protocols and their data directory;
 //! - [`radial`]: Watanabe's 360° test, the second protocol;
-//! - [`preprocess`]: Urban's registration, mask, scaling and normalisation.
+//! - [`preprocess`]: Urban's registration, mask, scaling and normalisation;
+//! - [`bound`]: how well one frame can tell the force's direction at all.
 
+pub mod bound;
 pub mod collect;
 pub mod frame;
 pub mod preprocess;

@@ -488,11 +488,33 @@ impl Session {
         person: &Person,
         pressing: &Pressing,
     ) -> NailFrame {
+        let flicker = gaussian(&mut self.rng, self.flicker);
+        let grey = self.expected_grey(config, person, pressing, flicker);
+        let (noise, rng) = (self.noise_grey, &mut self.rng);
+        let pixels = grey
+            .iter()
+            .map(|g| (g + gaussian(rng, noise)).round().clamp(0.0, 255.0) as u8)
+            .collect();
+        let (w, h) = (config.camera.width_px, config.camera.height_px);
+        // The size comes from the checked config.
+        NailFrame::new(w, h, pixels).expect("width x height pixels")
+    }
+
+    /// The grey of every pixel, row by row, before the camera's noise and
+    /// rounding: what [`Session::render`] draws its frame around, the light
+    /// flickering by the fraction `flicker` (0: not at all).
+    pub fn expected_grey(
+        &self,
+        config: &NailSimConfig,
+        person: &Person,
+        pressing: &Pressing,
+        flicker: f64,
+    ) -> Vec<f64> {
         let (w, h) = (config.camera.width_px, config.camera.height_px);
         let centre = Vector2::new((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
         let to_nail = self.rotation.inverse();
-        let light = self.gain * (1.0 + gaussian(&mut self.rng, self.flicker));
-        let mut pixels = Vec::with_capacity(w * h);
+        let light = self.gain * (1.0 + flicker);
+        let mut grey = Vec::with_capacity(w * h);
         for v in 0..h {
             for u in 0..w {
                 let q = Vector2::new(u as f64, v as f64) - centre - self.shift - self.slip;
@@ -501,13 +523,10 @@ impl Session {
                     .nail_grey(&config.nail, p.x, p.y, pressing)
                     .unwrap_or(person.skin_grey);
                 let across = (u as f64 - centre.x) / w as f64;
-                let g = g * light * (1.0 + self.gradient * across)
-                    + gaussian(&mut self.rng, self.noise_grey);
-                pixels.push(g.round().clamp(0.0, 255.0) as u8);
+                grey.push(g * light * (1.0 + self.gradient * across));
             }
         }
-        // The size comes from the checked config.
-        NailFrame::new(w, h, pixels).expect("width x height pixels")
+        grey
     }
 }
 
