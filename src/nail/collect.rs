@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::frame::{FrameError, NailFrame};
 use super::radial::RadialTest;
-use super::sim::{NailSimConfig, Person, Pressing, Session};
+use super::sim::{NailProtocol, NailSimConfig, Person, Pressing, Session};
 use crate::biotac::sim::{gaussian, uniform};
 use crate::sim::collect::{force_at, sample_pushes, PadForce, Push};
 use crate::wrench::Wrench;
@@ -257,6 +257,66 @@ impl Schedule<'_> {
     }
 }
 
+/// How one push presses the pad, drawn per push: where its centre of
+/// pressure sits, which way it rolls and its twisting moment.
+#[derive(Debug, Clone, Copy)]
+struct PushPad {
+    centre_mm: [f64; 2],
+    roll_rad: f64,
+    twist_nmm: f64,
+}
+
+impl PushPad {
+    /// Draws a push's pad as `protocol` says.
+    fn draw(protocol: &NailProtocol, rng: &mut impl Rng) -> Self {
+        let centre_mm = [
+            uniform(rng, protocol.pressure_centre_mm),
+            uniform(rng, protocol.pressure_centre_mm),
+        ];
+        let roll_rad = rng.random::<f64>() * std::f64::consts::TAU;
+        let twist_nmm = uniform(rng, protocol.twist_nmm);
+        PushPad {
+            centre_mm,
+            roll_rad,
+            twist_nmm,
+        }
+    }
+
+    /// What presses the finger under force `f` at the load `w` (a fraction
+    /// of the largest normal force): the centre rolls and the twist grows
+    /// with it.
+    fn pressing(&self, protocol: &NailProtocol, f: &PadForce, w: f64) -> Pressing {
+        let (sr, cr) = self.roll_rad.sin_cos();
+        let (sd, cd) = f.direction_rad.sin_cos();
+        let roll = protocol.pressure_roll_mm * w;
+        Pressing {
+            force: [f.tangential_n * cd, f.tangential_n * sd, f.normal_n],
+            centre_mm: [self.centre_mm[0] + roll * cr, self.centre_mm[1] + roll * sr],
+            twist_nmm: self.twist_nmm * w,
+        }
+    }
+}
+
+/// What presses the finger at the peak of every cycle of the radial test
+/// that has a tangential force, direction by direction, each cycle's pad
+/// drawn from `rng` as [`collect_nail`] draws it.
+pub fn radial_peaks(config: &NailSimConfig, rng: &mut impl Rng) -> Vec<Pressing> {
+    let q = &config.protocol;
+    let test = &q.radial;
+    let mut peaks = Vec::new();
+    for d in 0..test.directions {
+        for cycle in 1..test.cycles {
+            let pad = PushPad::draw(q, rng);
+            let t = (f64::from(cycle) + 0.5) * test.cycle_s;
+            let direction = test.direction_rad(d);
+            if let Some((_, f)) = test.force_at(direction, q.max_traction_ratio, t) {
+                peaks.push(pad.pressing(q, &f, f.normal_n / test.normal_peak_n));
+            }
+        }
+    }
+    peaks
+}
+
 /// One person and session recording trials, frame after frame.
 struct Run<'a> {
     config: &'a NailSimConfig,
@@ -279,32 +339,13 @@ impl Run<'_> {
         let q = &self.config.protocol;
         let noise = &q.ft_noise_std;
         let rng = self.session.rng();
-        let per_push: Vec<([f64; 2], f64, f64)> = (0..schedule.pushes())
-            .map(|_| {
-                let centre = [
-                    uniform(rng, q.pressure_centre_mm),
-                    uniform(rng, q.pressure_centre_mm),
-                ];
-                let roll = rng.random::<f64>() * std::f64::consts::TAU;
-                (centre, roll, uniform(rng, q.twist_nmm))
-            })
+        let pads: Vec<PushPad> = (0..schedule.pushes())
+            .map(|_| PushPad::draw(q, rng))
             .collect();
         for k in 0..(duration_s * q.rate_hz).round() as usize {
             let t = k as f64 / q.rate_hz;
             let pressing = match schedule.at(t) {
-                Some((i, f, w)) => {
-                    let (centre, roll, twist) = per_push[i];
-                    let (sr, cr) = roll.sin_cos();
-                    let (sd, cd) = f.direction_rad.sin_cos();
-                    Pressing {
-                        force: [f.tangential_n * cd, f.tangential_n * sd, f.normal_n],
-                        centre_mm: [
-                            centre[0] + q.pressure_roll_mm * w * cr,
-                            centre[1] + q.pressure_roll_mm * w * sr,
-                        ],
-                        twist_nmm: twist * w,
-                    }
-                }
+                Some((i, f, w)) => pads[i].pressing(q, &f, w),
                 None => Pressing::default(),
             };
             let mut frame = self.session.render(self.config, &self.who, &pressing);
@@ -450,6 +491,7 @@ pub fn read_frame(dir: &Path, label: &Label) -> Result<NailFrame, NailDataError>
 mod tests {
     use super::*;
     use crate::wrench::Axis;
+    use rand::SeedableRng;
 
     #[test]
     fn one_trial_per_set_writes_frames_and_labels_that_read_back() {
@@ -512,6 +554,28 @@ mod tests {
             let l = rows[11 * 30];
             assert!(l.fx * c + l.fy * s > 4.9, "trial {trial}: {l:?}");
         }
+    }
+
+    #[test]
+    fn the_radial_peaks_press_at_10_n_with_every_tangential_step() {
+        let c = NailSimConfig::default();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let peaks = radial_peaks(&c, &mut rng);
+        // 12 directions, cycles 2 to 5: Fr 1.25, 2.5, 3.75, 5 N at Fz 10 N.
+        assert_eq!(peaks.len(), 48);
+        for (k, p) in peaks.iter().enumerate() {
+            let [fx, fy, fz] = p.force;
+            let fr = 1.25 * (k % 4 + 1) as f64;
+            let direction = (30.0 * (k / 4) as f64).to_radians();
+            assert!((fz - 10.0).abs() < 1e-9, "{p:?}");
+            assert!((fx - fr * direction.cos()).abs() < 1e-9, "{k}: {p:?}");
+            assert!((fy - fr * direction.sin()).abs() < 1e-9, "{k}: {p:?}");
+            // Drawn within +-3 mm, rolled 1.5 mm at the peak; +-15 N·mm.
+            assert!(p.centre_mm.iter().all(|x| x.abs() <= 4.5), "{p:?}");
+            assert!(p.twist_nmm.abs() <= 15.0, "{p:?}");
+        }
+        let spread = peaks.iter().map(|p| p.centre_mm[0]).fold(0.0, f64::max);
+        assert!(spread > 2.0, "the pads are drawn: largest x {spread} mm");
     }
 
     #[test]
