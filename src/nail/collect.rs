@@ -181,12 +181,7 @@ pub fn collect_nail(
             let tare_s = f64::from(q.tare_samples) / q.rate_hz;
             for trial in 1..=q.radial.directions {
                 run.session.next_trial();
-                let schedule = Schedule::Radial {
-                    test: &q.radial,
-                    direction_rad: q.radial.direction_rad(trial - 1),
-                    start_s: tare_s,
-                    traction_ratio: q.max_traction_ratio,
-                };
+                let schedule = Schedule::radial(q, trial - 1, tare_s);
                 run.trial(RADIAL_SET, trial, tare_s + q.radial.duration_s(), &schedule)?;
             }
         }
@@ -211,7 +206,18 @@ enum Schedule<'a> {
     },
 }
 
-impl Schedule<'_> {
+impl<'a> Schedule<'a> {
+    /// Direction `index` of the radial test of `protocol`, its cycles
+    /// from `start_s`.
+    fn radial(protocol: &'a NailProtocol, index: u32, start_s: f64) -> Self {
+        Schedule::Radial {
+            test: &protocol.radial,
+            direction_rad: protocol.radial.direction_rad(index),
+            start_s,
+            traction_ratio: protocol.max_traction_ratio,
+        }
+    }
+
     /// The slider's direction in the radial test (rad). Watanabe's
     /// apparatus (section 3.1, Eqs. 1 and 2) reads the tangential force
     /// with a load cell along the slider, `F_r`, and takes
@@ -305,12 +311,12 @@ pub fn radial_peaks(config: &NailSimConfig, rng: &mut impl Rng) -> Vec<Pressing>
     let test = &q.radial;
     let mut peaks = Vec::new();
     for d in 0..test.directions {
+        let schedule = Schedule::radial(q, d, 0.0);
         for cycle in 1..test.cycles {
             let pad = PushPad::draw(q, rng);
             let t = (f64::from(cycle) + 0.5) * test.cycle_s;
-            let direction = test.direction_rad(d);
-            if let Some((_, f)) = test.force_at(direction, q.max_traction_ratio, t) {
-                peaks.push(pad.pressing(q, &f, f.normal_n / test.normal_peak_n));
+            if let Some((_, f, w)) = schedule.at(t) {
+                peaks.push(pad.pressing(q, &f, w));
             }
         }
     }
