@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
-use commands::{adapt, collect, demo, eval, serial, tradeoff, train};
+use commands::{adapt, collect, demo, eval, robot, serial, tradeoff, train};
 
 #[derive(Parser)]
 #[command(
@@ -38,6 +38,9 @@ enum Command {
     Adapt(adapt::AdaptArgs),
     /// Run the closed loop in simulation: a guarded or a guided move.
     Demo(demo::DemoArgs),
+    /// Check an arm's URDF: the chain between two links, its limits, and at
+    /// a configuration the tip pose, the Jacobian and its smallest singular value.
+    Robot(robot::RobotArgs),
     /// Emulate a BioTac serial bridge: simulated frames to a serial port.
     BiotacEmulator(serial::EmulatorArgs),
     /// Show what a BioTac serial bridge sends: readings and link statistics.
@@ -76,6 +79,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Eval(a) => eval::run_eval(a),
         Command::Adapt(a) => adapt::run_adapt(a),
         Command::Demo(a) => demo::run_demo(a),
+        Command::Robot(a) => robot::run_robot(a),
         Command::BiotacEmulator(a) => serial::run_emulator(a),
         Command::BiotacMonitor(a) => serial::run_monitor(a),
         Command::Tradeoff(a) => tradeoff::run_tradeoff(a),

@@ -5,8 +5,6 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
-/// The shipped PA10-7C parameter file.
-pub const PA10_YAML: &str = include_str!("../config/pa10.yaml");
 /// The shipped world file.
 pub const WORLD_YAML: &str = include_str!("../config/world.yaml");
 /// The shipped guarded-move scene.
@@ -19,20 +17,20 @@ pub const GUIDED_YAML: &str = include_str!("../config/guided_move.yaml");
 #[non_exhaustive]
 pub enum ParamsError {
     /// The file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         /// File path.
         path: PathBuf,
-        /// Underlying error.
-        source: std::io::Error,
+        /// Underlying error (in the message, not a source: said once).
+        error: std::io::Error,
     },
     /// Not YAML, or a key missing, unknown or of the wrong type.
-    #[error("parameters of {node}: {source}")]
+    #[error("parameters of {node}: {error}")]
     Yaml {
         /// Node whose parameters were read.
         node: String,
-        /// Parser error, naming the key.
-        source: serde_yaml_ng::Error,
+        /// Parser error, naming the key (in the message, not a source).
+        error: serde_yaml_ng::Error,
     },
     /// The file has no `node: ros__parameters:` section.
     #[error("no `{node}: ros__parameters:` section")]
@@ -66,9 +64,9 @@ pub fn layered_node_params<T: DeserializeOwned>(
     yamls: &[&str],
     node: &str,
 ) -> Result<T, ParamsError> {
-    let yaml_err = |source| ParamsError::Yaml {
+    let yaml_err = |error| ParamsError::Yaml {
         node: node.into(),
-        source,
+        error,
     };
     let mut params = serde_yaml_ng::Value::Null;
     let mut found = false;
@@ -178,19 +176,19 @@ pub fn from_flat_params<T: DeserializeOwned>(
             };
         }
     }
-    serde_yaml_ng::from_value(serde_yaml_ng::Value::Mapping(root)).map_err(|source| {
+    serde_yaml_ng::from_value(serde_yaml_ng::Value::Mapping(root)).map_err(|error| {
         ParamsError::Yaml {
             node: node.into(),
-            source,
+            error,
         }
     })
 }
 
 /// Reads a parameter file and deserialises the `ros__parameters` of `node`.
 pub fn read_node_params<T: DeserializeOwned>(path: &Path, node: &str) -> Result<T, ParamsError> {
-    let yaml = std::fs::read_to_string(path).map_err(|source| ParamsError::Io {
+    let yaml = std::fs::read_to_string(path).map_err(|error| ParamsError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     node_params(&yaml, node)
 }

@@ -36,7 +36,7 @@ fn run_faulty(scene: &Scene, fault: ReadingTamper) -> DemoRun {
             period.expect("the model takes 19 electrodes").row()
         })
         .collect();
-    let info = RunInfo::new(&scene.controller);
+    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name);
     DemoRun {
         summary: summarize(&info, &rows),
         gains: nodes.controller.gains(),
@@ -145,7 +145,7 @@ fn a_singular_pose_at_the_start_gives_slow_bounded_motion() {
     // is a singular direction; damping keeps joint speeds bounded.
     let start = |deg: [f64; 7]| {
         let mut scene = Scene::builtin(TaskKind::Guarded).unwrap();
-        scene.sim.start_joints_deg = deg.to_vec();
+        scene.sim.start_joints_deg = Some(deg.to_vec());
         scene
     };
     let r = run(start([0.0, 0.0, 0.0, 0.0, 0.0, 90.0, 0.0]));

@@ -8,6 +8,7 @@
 //! bounds. Figures from the measured (F/T) force.
 
 use tactile_force::control::TaskKind;
+use tactile_force::kinematics::Robot;
 use tactile_force::nodes::controller::task_envelope;
 use tactile_force::nodes::ForceController;
 use tactile_force::report::summary::Summary;
@@ -118,7 +119,7 @@ fn a_ros_like_transport_delay_still_follows_the_finger() {
 }
 
 fn refusal(scene: Scene) -> String {
-    ForceController::new(scene.controller)
+    ForceController::new(scene.controller, Robot::pa10())
         .expect_err("refused")
         .to_string()
 }
@@ -137,8 +138,11 @@ fn the_stiffest_permitted_object_sets_the_limit() {
         e.contains("at most 0.0512 m/s") && e.contains("wooden_box"),
         "{e}"
     );
-    ForceController::new(soft.with_only_object("stuffed_animal").controller)
-        .expect("alone, the stuffed animal takes 60 mm/s");
+    ForceController::new(
+        soft.with_only_object("stuffed_animal").controller,
+        Robot::pa10(),
+    )
+    .expect("alone, the stuffed animal takes 60 mm/s");
     // A longer loop lowers the limit: one period of transport, 41 mm/s.
     let e = refusal(
         with_transport_delay(guarded_alone("wooden_box"), 1)

@@ -259,11 +259,10 @@ fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
     use tactile_force::runtime::Scene;
 
     let scene = Scene::builtin(TaskKind::Guarded).unwrap();
-    let params = scene.controller.clone();
-    let mut controller = ForceController::new(params).unwrap();
-    let q0 = scene.sim.clone().start_joints_deg;
-    let q =
-        tactile_force::kinematics::JointVector::from_iterator(q0.iter().map(|d| d.to_radians()));
+    let robot = tactile_force::kinematics::Robot::pa10();
+    let q0 = scene.sim.start_joints_deg.clone().unwrap();
+    let q = robot.positions_from_deg_mm("start", &q0).unwrap();
+    let mut controller = ForceController::new(scene.controller.clone(), robot).unwrap();
     let recipe = scene.estimator.clone().default_model;
     let model = default_model::train(&recipe).unwrap();
     let mut estimator: EstimatorNode = EstimatorNode::new(model, false).unwrap();
@@ -297,10 +296,14 @@ fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
         }
         if now >= next_tick {
             next_tick += 0.01;
-            let _ = controller.on_joint_state(JointState { stamp_s: now, q });
-            let out = controller.tick(now);
+            let js = JointState {
+                stamp_s: now,
+                q: q.clone(),
+            };
+            let _ = controller.on_joint_state(&js);
+            controller.tick(now);
             if let Some(s) = last_stamp {
-                ticks.push((now - s, out.qdot.norm() > 0.0));
+                ticks.push((now - s, controller.command().norm() > 0.0));
             }
         }
     }

@@ -17,6 +17,7 @@ use tactile_force::report::TraceRow;
 use tactile_force::runtime::demo::{
     fastest_within, run_scene, sweep_speeds, SweepObject, SweepPoint,
 };
+use tactile_force::runtime::scene::RobotChoice;
 use tactile_force::runtime::{Pacing, Scene};
 
 use super::output::progress_bar;
@@ -34,9 +35,23 @@ pub struct DemoArgs {
     /// carton_box, stuffed_animal). Default: the scene's.
     #[arg(long)]
     object: Option<String>,
-    /// Scene file (ROS 2 parameters, layered on config/pa10.yaml and
-    /// config/world.yaml). Default: the shipped config/guarded_move.yaml or
-    /// config/guided_move.yaml.
+    /// The arm: a shipped robot (pa10, ur5, panda: config/<name>.urdf and
+    /// config/<name>.yaml) or a URDF file (the chain from --base to --tip,
+    /// the BioTac frame at the tip, the start pose in the middle of every
+    /// joint's range unless the scene sets `start_joints_deg`).
+    #[arg(long, default_value = "pa10")]
+    robot: String,
+    /// First link of the chain (default: the robot's; for a URDF file, its
+    /// root link).
+    #[arg(long)]
+    base: Option<String>,
+    /// The link the BioTac is mounted on (default: the robot's; for a URDF
+    /// file, its one leaf).
+    #[arg(long)]
+    tip: Option<String>,
+    /// Scene file (ROS 2 parameters, layered on config/world.yaml and the
+    /// robot's file; it may override any of their keys). Default: the
+    /// shipped config/guarded_move.yaml or config/guided_move.yaml.
     #[arg(long)]
     scene: Option<PathBuf>,
     /// Model file from `train`. Default: a model trained on simulated data on
@@ -92,10 +107,13 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
             BadArgument("--speed and --sweep-speed are for the guarded move".into()).into(),
         );
     }
-    let mut scene = match &a.scene {
-        Some(path) => Scene::from_file(path)?,
-        None => Scene::builtin(task)?,
+    let robot = RobotChoice::parse(&a.robot)?;
+    let text = match &a.scene {
+        Some(path) => Scene::read_scene(path)?,
+        None => task.scene_yaml().to_string(),
     };
+    let mut scene =
+        Scene::with_robot(&robot, &text)?.with_links(a.base.as_deref(), a.tip.as_deref());
     if let Some(o) = &a.object {
         scene = scene.with_object(o);
     }
@@ -123,7 +141,7 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     print_summary(&run.summary, &run.gains);
     if let Some(path) = &a.plot {
         let s = &run.summary;
-        let title = format!("{} move, {}", s.task, s.object);
+        let title = format!("{} move, {}, {}", s.task, s.object, s.robot);
         plot::plot_run(path, &title, &run.rows)?;
         println!("plot written to {}", shown_path(path));
     }
@@ -198,7 +216,7 @@ fn show_status(bar: &ProgressBar, r: &TraceRow) {
 
 fn print_summary(s: &Summary, gains: &[Option<f64>; 3]) {
     let opt = |v: Option<f64>, unit: &str| v.map_or("-".into(), |v| format!("{v:.3} {unit}"));
-    println!("{} move, object {}", s.task, s.object);
+    println!("{} move, object {}, robot {}", s.task, s.object, s.robot);
     if let Some(v) = s.approach_speed_mps {
         println!("  approach speed      {:.1} mm/s", v * 1e3);
     }
@@ -225,6 +243,12 @@ fn print_summary(s: &Summary, gains: &[Option<f64>; 3]) {
             r * 100.0
         ))
     );
+    if s.damped_periods > 0 {
+        println!(
+            "  damping             {} periods near a singularity, lambda up to {:.4}",
+            s.damped_periods, s.max_damping
+        );
+    }
     println!(
         "  end                 {} after {:.2} s{}",
         s.final_phase,

@@ -7,11 +7,13 @@ pub mod data;
 pub mod demo;
 pub mod eval;
 pub mod output;
+pub mod robot;
 pub mod serial;
 pub mod tradeoff;
 pub mod train;
 
 use tactile_force::biotac::sim::ConfigError;
+use tactile_force::kinematics::RobotError;
 use tactile_force::learn::bag::BagError;
 use tactile_force::learn::dataset::DatasetError;
 use tactile_force::learn::evaluate::EvalError;
@@ -43,6 +45,7 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
         c.is::<BadArgument>()
             || c.is::<ParamsError>()
             || c.is::<SceneError>()
+            || c.is::<RobotError>()
             || c.is::<ConfigError>()
             || c.is::<AxisSetError>()
             || c.is::<BagError>()

@@ -168,6 +168,12 @@ impl GuardedMove {
         self.phase = Phase::Stopped;
     }
 
+    /// Stops for good, with `reason`, before any motion.
+    pub fn stop_on(&mut self, reason: StopReason) {
+        self.phase = Phase::Stopped;
+        self.reason = Some(reason);
+    }
+
     /// One cycle: the speed along the approach direction (m/s).
     pub fn step(&mut self, i: &GuardedInput) -> f64 {
         let p = self.p;

@@ -108,6 +108,12 @@ impl GuidedMove {
         self.phase = Phase::Stopped;
     }
 
+    /// Stops for good, with `reason`, before any motion.
+    pub fn stop_on(&mut self, reason: StopReason) {
+        self.phase = Phase::Stopped;
+        self.reason = Some(reason);
+    }
+
     /// One cycle: estimated force (N, BioTac frame) -> BioTac velocity (m/s,
     /// BioTac frame). Over the force limit, or with the input out of the
     /// estimator's range, the arm stops for good.

@@ -62,6 +62,9 @@ pub enum StopReason {
     /// The BioTac input left what the estimator knows (its uncertainty, or
     /// PDC near saturation): the force may be larger than estimated.
     OutOfRange,
+    /// The arm (fewer than six joints) cannot move the BioTac along an axis
+    /// of the task at its start pose.
+    Unrealisable,
 }
 
 impl StopReason {
@@ -71,6 +74,7 @@ impl StopReason {
             StopReason::Timeout => "timeout",
             StopReason::ForceLimit => "force_limit",
             StopReason::OutOfRange => "out_of_range",
+            StopReason::Unrealisable => "unrealisable_axis",
         }
     }
 }

@@ -25,6 +25,14 @@ pub enum Halt {
     /// An input held NaN or infinity and was rejected.
     #[error("{0} is not finite")]
     NonFinite(&'static str),
+    /// A joint state with another number of joints than the arm's.
+    #[error("the joint state has {found} positions, the arm {expected} joints")]
+    JointCount {
+        /// The arm's joints.
+        expected: usize,
+        /// Positions received.
+        found: usize,
+    },
     /// The inverse kinematics refused the motion.
     #[error("inverse kinematics: {0}")]
     Kinematics(#[from] KinematicsError),

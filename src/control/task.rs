@@ -16,9 +16,8 @@ use super::{
     StopReason,
 };
 use crate::contact::{series_stiffness, shear_stiffness, BodyParams, SkinParams};
-use crate::params::{
-    Check, Checked, ParamsError, GUARDED_YAML, GUIDED_YAML, PA10_YAML, WORLD_YAML,
-};
+use crate::kinematics::ShippedRobot;
+use crate::params::{Check, Checked, ParamsError, GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
 use crate::wrench::{Axis, AxisSet};
 
 /// Which task the controller runs (the parameter `task`).
@@ -51,10 +50,10 @@ impl TaskKind {
         }
     }
 
-    /// The shipped parameter files of a run of the task, in order: the
-    /// robot, the world, the task's scene.
-    pub fn shipped_layers(self) -> [&'static str; 3] {
-        [PA10_YAML, WORLD_YAML, self.scene_yaml()]
+    /// The shipped parameter files of a run of the task on `robot`, in
+    /// order: the world, the robot, the task's scene.
+    pub fn shipped_layers(self, robot: ShippedRobot) -> [&'static str; 3] {
+        [WORLD_YAML, robot.yaml(), self.scene_yaml()]
     }
 
     /// The names of every task, for messages ("guarded or guided").
@@ -329,6 +328,26 @@ impl Task {
         }
     }
 
+    /// The directions the task moves the BioTac along (BioTac frame), each
+    /// with its name for messages: the guarded move's approach, the guided
+    /// move's controlled axes.
+    pub fn directions(&self) -> Vec<(String, Vector3<f64>)> {
+        match self {
+            Task::Guarded(g) => {
+                let d = g.direction();
+                let name = format!("the approach direction [{}, {}, {}]", d.x, d.y, d.z);
+                vec![(name, d)]
+            }
+            Task::Guided(g) => ["x", "y", "z"]
+                .iter()
+                .zip(g.targets())
+                .enumerate()
+                .filter(|(_, (_, t))| t.is_some())
+                .map(|(i, (name, _))| (format!("{name} of the BioTac frame"), Vector3::ith(i, 1.0)))
+                .collect(),
+        }
+    }
+
     /// The force axes the task reads.
     pub fn force_axes(&self) -> Vec<Axis> {
         let forces = [Axis::Fx, Axis::Fy, Axis::Fz];
@@ -374,6 +393,14 @@ impl Task {
         match self {
             Task::Guarded(g) => g.stop(),
             Task::Guided(g) => g.stop(),
+        }
+    }
+
+    /// Stops for good with `reason`.
+    pub fn stop_on(&mut self, reason: StopReason) {
+        match self {
+            Task::Guarded(g) => g.stop_on(reason),
+            Task::Guided(g) => g.stop_on(reason),
         }
     }
 }

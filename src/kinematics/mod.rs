@@ -1,24 +1,26 @@
-//! Arm kinematics: a 7-joint serial chain from modified DH parameters (the
-//! PA10-7C by default, `config/pa10.yaml`), forward kinematics, the geometric
-//! Jacobian at the tool, and a damped least-squares inverse that respects
-//! joint limits.
+//! Arm kinematics: a serial chain read from a URDF between two links (any
+//! number of revolute, continuous and prismatic joints), forward
+//! kinematics, the geometric Jacobian at the tool, and a damped
+//! least-squares inverse that respects joint limits.
 //!
 //! Conventions: base frame, metres, radians; twists are 6-vectors
-//! `[vx, vy, vz, wx, wy, wz]` of the tool frame's origin, in the base frame.
+//! `[vx, vy, vz, wx, wy, wz]` of the tool frame's origin, in the base frame
+//! (Pinocchio's LOCAL_WORLD_ALIGNED).
 
 pub mod chain;
 pub mod dls;
 pub mod robot;
+pub mod shipped;
+pub mod urdf;
 
-pub use chain::SerialChain;
-pub use dls::{joint_velocities, DlsParams, JointLimits, KinematicsError, Motion};
-pub use robot::{Robot, RobotParams};
+pub use chain::{ChainJoint, JointKind, SerialChain};
+pub use dls::{Dls, DlsParams, JointLimits, KinematicsError, Motion};
+pub use robot::{LimitOverride, Robot, RobotError, RobotParams};
+pub use shipped::ShippedRobot;
 
-/// Joints of the arm.
-pub const N_JOINTS: usize = 7;
-/// Joint positions (rad) or velocities (rad/s).
-pub type JointVector = nalgebra::SVector<f64, N_JOINTS>;
-/// Geometric Jacobian, 6 x 7: linear rows then angular rows.
-pub type Jacobian = nalgebra::SMatrix<f64, 6, N_JOINTS>;
+/// Joint positions (rad or m) or velocities (rad/s or m/s), one per joint.
+pub type JointVector = nalgebra::DVector<f64>;
+/// Geometric Jacobian, 6 x n: linear rows then angular rows.
+pub type Jacobian = nalgebra::Matrix6xX<f64>;
 /// Twist `[vx, vy, vz, wx, wy, wz]` (m/s, rad/s).
 pub type Twist = nalgebra::Vector6<f64>;

@@ -2,9 +2,14 @@
 //! finite, else zero velocity), runs the task (guarded or guided move) in the
 //! BioTac frame, and turns the BioTac's velocity into joint velocities with
 //! the damped least-squares inverse. The BioTac's orientation is held (zero
-//! angular velocity).
+//! angular velocity). An arm with fewer than six joints runs a task only if
+//! it can move the BioTac along each of the task's directions at the start
+//! pose; otherwise the task stops at once (`unrealisable_axis`), and
+//! [`ForceController::check_start`] names the axis before a run.
 //!
-//! Update pipeline: inputs -> watchdog -> task -> twist (base frame) -> DLS -> command.
+//! Update pipeline: inputs -> watchdog -> task -> twist (base frame) -> DLS
+//! -> command. A tick allocates nothing: the command is read with
+//! [`ForceController::command`].
 
 use std::collections::BTreeMap;
 
@@ -18,7 +23,7 @@ use crate::control::{
     Envelope, GuardedParams, GuidedParams, Halt, LoopDelays, PdParams, Phase, SafetyParams,
     StopReason, Task, TaskEnvelope, TaskKind, TaskLoop, TaskParams, Watchdog, UNKNOWN_OBJECT,
 };
-use crate::kinematics::{joint_velocities, JointVector, Robot, RobotParams, Twist};
+use crate::kinematics::{Dls, JointVector, Robot, RobotParams, Twist};
 use crate::params::{positive, Check, Checked, ParamsError};
 use crate::wrench::{Axis, AxisSet};
 
@@ -35,7 +40,8 @@ pub struct ControllerParams {
     /// The object of this run: its stiffness sets the gains. One of
     /// `safety.objects`; `unknown` takes `safety.worst_case_stiffness_n_per_m`.
     pub object: String,
-    /// The arm.
+    /// The arm: the links of its robot description, the BioTac's mount,
+    /// limits and inverse-kinematics settings.
     pub robot: RobotParams,
     /// Estimates older than this many periods stop the arm.
     pub stale_periods: f64,
@@ -72,11 +78,15 @@ pub struct OutOfRangeParams {
     pub max_pdc_rise_counts: f64,
 }
 
-/// What the controller commands this tick.
+/// A motion an arm with fewer than six joints may leave undone, as a
+/// fraction of the commanded motion, for a task direction to count as
+/// realisable at the start pose.
+pub const REALISABLE_TOLERANCE: f64 = 0.01;
+
+/// What the controller commands this tick (the joint velocities are
+/// [`ForceController::command`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControlOutput {
-    /// Joint velocities (rad/s); zero when halted.
-    pub qdot: JointVector,
     /// Commanded BioTac velocity (m/s, BioTac frame at the start of the run).
     pub velocity: Vector3<f64>,
     /// Task phase.
@@ -87,12 +97,16 @@ pub struct ControlOutput {
     pub halt: Option<Halt>,
     /// Desired force along x, y, z of the BioTac frame, on controlled axes (N).
     pub targets: [Option<f64>; 3],
+    /// Damping factor of the inverse kinematics (0: away from singularity).
+    pub damping: f64,
 }
 
 /// The force controller.
 #[derive(Debug, Clone)]
 pub struct ForceController {
     robot: Robot,
+    dls: Dls,
+    command: JointVector,
     task: Task,
     axes: AxisSet,
     task_axes: Vec<Axis>,
@@ -105,11 +119,13 @@ pub struct ForceController {
     start: Option<Isometry3<f64>>,
     last_tick: Option<f64>,
     rejected: u64,
+    refusal: Option<String>,
 }
 
 impl ForceController {
-    /// Checks the parameters and builds the controller.
-    pub fn new(p: ControllerParams) -> Result<Self, ParamsError> {
+    /// Checks the parameters and builds the controller for `robot` (built
+    /// from the robot description with `p.robot`).
+    pub fn new(p: ControllerParams, robot: Robot) -> Result<Self, ParamsError> {
         positive("stale_periods", p.stale_periods)?;
         positive("out_of_range.max_std_n", p.out_of_range.max_std_n)?;
         positive(
@@ -122,12 +138,13 @@ impl ForceController {
         speed.check()?;
         let body = permitted_body(&p, &sections.safety, &p.object)?;
         let task = sections.task.build(&lp, &body);
-        let robot = p.robot.validate()?;
         let needed = task.force_axes();
         if let Some(axis) = needed.iter().find(|a| !p.axes.axes().contains(a)) {
             return Err(missing_axis(&p.axes, *axis));
         }
         Ok(ForceController {
+            dls: Dls::new(&robot),
+            command: JointVector::zeros(robot.dof()),
             robot,
             task,
             axes: p.axes,
@@ -145,17 +162,25 @@ impl ForceController {
             start: None,
             last_tick: None,
             rejected: 0,
+            refusal: None,
         })
     }
 
     /// A controller for `task` with the other parameters of `base`: a task
     /// switch while running, checked as at start-up (the other task's
     /// section, its safety envelope against the scene's bodies).
-    pub fn switched(base: &ControllerParams, task: TaskKind) -> Result<Self, ParamsError> {
-        ForceController::new(ControllerParams {
-            task,
-            ..base.clone()
-        })
+    pub fn switched(
+        base: &ControllerParams,
+        task: TaskKind,
+        robot: Robot,
+    ) -> Result<Self, ParamsError> {
+        ForceController::new(
+            ControllerParams {
+                task,
+                ..base.clone()
+            },
+            robot,
+        )
     }
 
     /// The axes the task controls.
@@ -166,6 +191,26 @@ impl ForceController {
     /// The robot.
     pub fn robot(&self) -> &Robot {
         &self.robot
+    }
+
+    /// The joint velocities of the last tick (rad/s or m/s, one per joint in
+    /// chain order); zero when halted or stopped.
+    pub fn command(&self) -> &JointVector {
+        &self.command
+    }
+
+    /// Why the task was refused at its start pose, if it was
+    /// ([`StopReason::Unrealisable`]).
+    pub fn refusal(&self) -> Option<&str> {
+        self.refusal.as_deref()
+    }
+
+    /// Refuses a start pose `q` at which an arm with fewer than six joints
+    /// cannot move the BioTac along a direction of the task while holding
+    /// its orientation, naming the direction. Arms with six joints or more
+    /// pass (near a singularity the damping slows them instead).
+    pub fn check_start(&mut self, q: &JointVector) -> Result<(), ParamsError> {
+        realisable(&self.robot, &mut self.dls, &self.task, q)
     }
 
     /// Proportional gain of each force axis x, y, z (m/s per N), None where
@@ -197,13 +242,27 @@ impl ForceController {
         Ok(())
     }
 
-    /// Takes the joint positions; non-finite ones are rejected.
-    pub fn on_joint_state(&mut self, js: JointState) -> Result<(), Halt> {
+    /// Takes the joint positions (copied: no heap work after the first);
+    /// non-finite ones, or not one per joint, are rejected.
+    pub fn on_joint_state(&mut self, js: &JointState) -> Result<(), Halt> {
+        if js.q.len() != self.robot.dof() {
+            self.rejected += 1;
+            return Err(Halt::JointCount {
+                expected: self.robot.dof(),
+                found: js.q.len(),
+            });
+        }
         if !(js.stamp_s.is_finite() && js.q.iter().all(|v| v.is_finite())) {
             self.rejected += 1;
             return Err(Halt::NonFinite("the joint state"));
         }
-        self.joints = Some(js);
+        match &mut self.joints {
+            Some(j) => {
+                j.stamp_s = js.stamp_s;
+                j.q.copy_from(&js.q);
+            }
+            None => self.joints = Some(js.clone()),
+        }
         Ok(())
     }
 
@@ -218,7 +277,7 @@ impl ForceController {
         let dt = self.last_tick.map_or(self.period_s, |t| now - t);
         self.last_tick = Some(now);
         match self.step(now, dt) {
-            Ok((qdot, velocity)) => self.output(qdot, velocity, None),
+            Ok((velocity, damping)) => self.output(velocity, damping, None),
             Err(halt) => self.halt(halt),
         }
     }
@@ -239,17 +298,26 @@ impl ForceController {
 
     fn halt(&mut self, halt: Halt) -> ControlOutput {
         self.task.pause();
-        self.output(JointVector::zeros(), Vector3::zeros(), Some(halt))
+        self.command.fill(0.0);
+        self.output(Vector3::zeros(), 0.0, Some(halt))
     }
 
-    fn step(&mut self, now: f64, dt: f64) -> Result<(JointVector, Vector3<f64>), Halt> {
+    /// One step of the task; the command goes to `self.command`, the
+    /// commanded velocity and the damping come back.
+    fn step(&mut self, now: f64, dt: f64) -> Result<(Vector3<f64>, f64), Halt> {
         let w = self.watchdog;
-        let js = self.joints.ok_or(Halt::Missing("joint state"))?;
+        let js = self.joints.as_ref().ok_or(Halt::Missing("joint state"))?;
         w.check("joint state", now, Some(js.stamp_s))?;
         let est = self.estimate.ok_or(Halt::Missing("wrench estimate"))?;
         w.check("wrench estimate", now, Some(est.stamp_s))?;
         let out_of_range = self.is_out_of_range(&est);
         let pose = self.robot.chain.forward(&js.q);
+        if self.start.is_none() {
+            if let Err(e) = realisable(&self.robot, &mut self.dls, &self.task, &js.q) {
+                self.task.stop_on(StopReason::Unrealisable);
+                self.refusal = Some(e.to_string());
+            }
+        }
         let start = *self.start.get_or_insert(pose);
         let v_world = self.task.step(&TaskInput {
             force: &est.mean.force,
@@ -260,13 +328,15 @@ impl ForceController {
             dt,
         });
         if v_world == Vector3::zeros() {
-            return Ok((JointVector::zeros(), v_world));
+            self.command.fill(0.0);
+            return Ok((v_world, 0.0));
         }
         let twist = Twist::new(v_world.x, v_world.y, v_world.z, 0.0, 0.0, 0.0);
-        let motion = joint_velocities(&self.robot, &js.q, &twist, None)?;
+        let motion = self.dls.solve(&self.robot, &js.q, &twist, None)?;
+        self.command.copy_from(self.dls.qdot());
         // What the arm will do after the speed scaling, in the start frame.
         let velocity = start.rotation.inverse() * v_world * motion.scale;
-        Ok((motion.qdot, velocity))
+        Ok((velocity, motion.damping))
     }
 
     /// True when a controlled axis is too uncertain or PDC nearly saturated.
@@ -279,21 +349,50 @@ impl ForceController {
         uncertain || est.pdc_rise > limits.max_pdc_rise_counts
     }
 
-    fn output(
-        &self,
-        qdot: JointVector,
-        velocity: Vector3<f64>,
-        halt: Option<Halt>,
-    ) -> ControlOutput {
+    fn output(&self, velocity: Vector3<f64>, damping: f64, halt: Option<Halt>) -> ControlOutput {
         ControlOutput {
-            qdot,
             velocity,
+            damping,
             phase: self.task.phase(),
             reason: self.task.reason(),
             halt,
             targets: self.task.targets(),
         }
     }
+}
+
+/// Refuses a pose `q` at which an arm with fewer than six joints cannot
+/// move the BioTac along a direction of `task` (see
+/// [`ForceController::check_start`]).
+fn realisable(
+    robot: &Robot,
+    dls: &mut Dls,
+    task: &Task,
+    q: &JointVector,
+) -> Result<(), ParamsError> {
+    let dof = robot.dof();
+    if dof >= 6 {
+        return Ok(());
+    }
+    let pose = robot.chain.forward(q);
+    for (name, d) in task.directions() {
+        let v = pose.rotation * d;
+        let unmade = dls.unmade(robot, q, &Twist::new(v.x, v.y, v.z, 0.0, 0.0, 0.0));
+        if unmade > REALISABLE_TOLERANCE {
+            return Err(ParamsError::Invalid {
+                key: "start pose".into(),
+                value: format!("{:?} rad", q.as_slice()),
+                expected: format!(
+                    "a pose where the arm ({dof} joints) can move the BioTac along {name} \
+                     while holding its orientation: {:.0} % of that motion cannot be made \
+                     (at most {:.0} %); choose another start pose or a task without that axis",
+                    unmade * 100.0,
+                    REALISABLE_TOLERANCE * 100.0
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The safety envelope of the task of `p` (src/control/envelope.rs)
@@ -423,18 +522,19 @@ mod tests {
             err.contains("fast") && err.contains("guarded or guided"),
             "{err}"
         );
+        let pa10 = Robot::pa10;
         // The joystick scene may switch to the guarded move, and back.
         let guided = both_sections(TaskKind::Guided);
-        let c = ForceController::switched(&guided, TaskKind::Guarded).unwrap();
+        let c = ForceController::switched(&guided, TaskKind::Guarded, pa10()).unwrap();
         assert!(c.gains()[2].is_some() && c.gains()[0].is_none());
-        ForceController::switched(&guided, TaskKind::Guided).unwrap();
+        ForceController::switched(&guided, TaskKind::Guided, pa10()).unwrap();
         // Without the other task's section the switch names what is missing.
         let only = Scene::builtin(TaskKind::Guided).unwrap().controller;
-        let err = ForceController::switched(&only, TaskKind::Guarded).unwrap_err();
+        let err = ForceController::switched(&only, TaskKind::Guarded, pa10()).unwrap_err();
         assert!(err.to_string().contains("guarded"), "{err}");
         // The guided move's speeds are beyond the envelope of a wooden box.
         let guarded = both_sections(TaskKind::Guarded);
-        let err = ForceController::switched(&guarded, TaskKind::Guided)
+        let err = ForceController::switched(&guarded, TaskKind::Guided, pa10())
             .unwrap_err()
             .to_string();
         assert!(
@@ -443,30 +543,42 @@ mod tests {
         );
     }
 
+    fn estimate(t: f64) -> WrenchEstimate {
+        WrenchEstimate {
+            stamp_s: t,
+            seq: 0,
+            mean: Default::default(),
+            std: Default::default(),
+            estimated: [true; 6],
+            pdc_rise: 0.0,
+        }
+    }
+
     #[test]
     fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
         let scene = Scene::builtin(TaskKind::Guarded).unwrap();
-        let mut c = ForceController::new(scene.controller).unwrap();
-        let deg = scene.sim.start_joints_deg;
-        let q = JointVector::from_iterator(deg.iter().map(|d| d.to_radians()));
-        let inputs = |c: &mut ForceController, t: f64| {
-            c.on_joint_state(JointState { stamp_s: t, q }).unwrap();
-            c.on_estimate(WrenchEstimate {
-                stamp_s: t,
-                seq: 0,
-                mean: Default::default(),
-                std: Default::default(),
-                estimated: [false, false, true, false, false, false],
-                pdc_rise: 0.0,
-            })
+        let robot = Robot::pa10();
+        let q = robot
+            .positions_from_deg_mm("start", scene.sim.start_joints_deg.as_ref().unwrap())
             .unwrap();
+        let mut c = ForceController::new(scene.controller, robot).unwrap();
+        let inputs = |c: &mut ForceController, t: f64| {
+            let js = JointState {
+                stamp_s: t,
+                q: q.clone(),
+            };
+            c.on_joint_state(&js).unwrap();
+            c.on_estimate(estimate(t)).unwrap();
         };
         inputs(&mut c, 0.0);
         let out = c.tick(0.002);
-        assert!(out.halt.is_none() && out.qdot.norm() > 0.0, "approaching");
+        assert!(
+            out.halt.is_none() && c.command().norm() > 0.0,
+            "approaching"
+        );
         // 15 ms without an estimate: well inside the watchdog's 30 ms.
         let out = c.estimate_late(0.015, 0.015);
-        assert_eq!(out.qdot, JointVector::zeros());
+        assert_eq!(c.command(), &JointVector::zeros(7));
         assert!(
             matches!(out.halt, Some(Halt::Stale { .. })),
             "{:?}",
@@ -475,8 +587,87 @@ mod tests {
         inputs(&mut c, 0.02);
         let out = c.tick(0.022);
         assert!(
-            out.halt.is_none() && out.qdot.norm() > 0.0,
+            out.halt.is_none() && c.command().norm() > 0.0,
             "approaching again"
         );
+        // A joint state of another arm is refused and counted.
+        let other = JointState {
+            stamp_s: 0.03,
+            q: JointVector::zeros(6),
+        };
+        let e = c.on_joint_state(&other).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Halt::JointCount {
+                    expected: 7,
+                    found: 6
+                }
+            ),
+            "{e}"
+        );
+        assert_eq!(c.rejected(), 1);
+    }
+
+    /// The five-joint test arm, the BioTac frame at its flange.
+    fn five_joints() -> Robot {
+        let mut p = crate::kinematics::ShippedRobot::Pa10
+            .robot_params()
+            .unwrap();
+        p.base_link = String::new();
+        p.tip_link = String::new();
+        p.tool_xyz_m = [0.0; 3];
+        p.tool_rpy_deg = [0.0; 3];
+        Robot::from_urdf(include_str!("../../tests/data/five_joint_arm.urdf"), &p).unwrap()
+    }
+
+    #[test]
+    fn an_arm_of_five_joints_runs_the_axes_it_can_realise_and_names_the_one_it_cannot() {
+        // Wrist roll at zero: the pad's normal lies in the arm's plane.
+        let q = JointVector::from_column_slice(&[0.3, 0.2, 0.4, -0.5, 0.0]);
+        // The guarded move presses along the pad's normal: the planar
+        // joints make that motion exactly.
+        let guarded = Scene::builtin(TaskKind::Guarded).unwrap().controller;
+        let mut c = ForceController::new(guarded, five_joints()).unwrap();
+        c.check_start(&q).unwrap();
+        let js = JointState {
+            stamp_s: 0.0,
+            q: q.clone(),
+        };
+        c.on_joint_state(&js).unwrap();
+        c.on_estimate(estimate(0.0)).unwrap();
+        let out = c.tick(0.001);
+        assert!(out.halt.is_none() && out.reason.is_none(), "{out:?}");
+        let made = c.robot().chain.jacobian(&q) * c.command();
+        let pose = c.robot().chain.forward(&q);
+        let wanted = pose.rotation * Vector3::new(0.0, 0.0, -0.01);
+        assert!((made.fixed_rows::<3>(0) - wanted).norm() < 1e-12, "{made}");
+        assert!(made.fixed_rows::<3>(3).norm() < 1e-12, "orientation held");
+
+        // The guided move needs y as well, which only the pan could give.
+        let guided = Scene::builtin(TaskKind::Guided).unwrap().controller;
+        let mut c = ForceController::new(guided, five_joints()).unwrap();
+        let e = c.check_start(&q).unwrap_err().to_string();
+        assert!(
+            e.contains("y of the BioTac frame") && e.contains("5 joints"),
+            "{e}"
+        );
+        // Started anyway (as over ROS), it stops at once and says why.
+        c.on_joint_state(&js).unwrap();
+        c.on_estimate(estimate(0.0)).unwrap();
+        let out = c.tick(0.001);
+        assert_eq!(
+            (out.phase, out.reason),
+            (Phase::Stopped, Some(StopReason::Unrealisable))
+        );
+        assert_eq!(c.command(), &JointVector::zeros(5));
+        assert!(c.refusal().unwrap().contains("y of the BioTac frame"));
+
+        // Rolled, the pad's normal leaves that plane: refused too.
+        let rolled = JointVector::from_column_slice(&[0.3, 0.2, 0.4, -0.5, 0.1]);
+        let guarded = Scene::builtin(TaskKind::Guarded).unwrap().controller;
+        let mut c = ForceController::new(guarded, five_joints()).unwrap();
+        let e = c.check_start(&rolled).unwrap_err().to_string();
+        assert!(e.contains("the approach direction [0, 0, -1]"), "{e}");
     }
 }

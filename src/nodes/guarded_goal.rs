@@ -5,6 +5,7 @@
 
 use super::{ControlOutput, ControllerParams, ForceController};
 use crate::control::{GuardedParams, Phase, TaskKind};
+use crate::kinematics::Robot;
 use crate::params::ParamsError;
 
 /// A guarded-move goal; zero fields keep the parameter's value.
@@ -47,8 +48,12 @@ impl GuardedGoal {
 
     /// The controller that runs this goal, or why the goal is refused (a
     /// value out of range, a speed beyond the safety envelope).
-    pub fn start(&self, base: &ControllerParams) -> Result<ForceController, ParamsError> {
-        ForceController::new(self.apply(base)?)
+    pub fn start(
+        &self,
+        base: &ControllerParams,
+        robot: Robot,
+    ) -> Result<ForceController, ParamsError> {
+        ForceController::new(self.apply(base)?, robot)
     }
 }
 
@@ -87,15 +92,18 @@ mod tests {
         assert_eq!(g.approach_speed_mps, 0.02);
         assert_eq!(g.target_force_n, b.target_force_n);
         assert_eq!(g.direction, b.direction);
-        goal(0.02).start(&base).unwrap();
-        assert!(goal(f64::NAN).start(&base).is_err());
+        goal(0.02).start(&base, Robot::pa10()).unwrap();
+        assert!(goal(f64::NAN).start(&base, Robot::pa10()).is_err());
     }
 
     #[test]
     fn a_goal_beyond_the_safety_envelope_is_refused_with_the_limit() {
         let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
         for speed in [0.2, 5.0] {
-            let e = goal(speed).start(&base).unwrap_err().to_string();
+            let e = goal(speed)
+                .start(&base, Robot::pa10())
+                .unwrap_err()
+                .to_string();
             assert!(
                 e.contains("approach_speed_mps") && e.contains("at most 0.0512 m/s"),
                 "{e}"
@@ -105,14 +113,17 @@ mod tests {
             target_force_n: 4.0,
             ..goal(0.01)
         };
-        let e = over.start(&base).unwrap_err().to_string();
+        let e = over.start(&base, Robot::pa10()).unwrap_err().to_string();
         assert!(e.contains("force_limit_n"), "a target past the limit: {e}");
     }
 
     #[test]
     fn the_outcome_is_known_only_when_the_move_holds_or_stops() {
         let mut c = goal(0.0)
-            .start(&Scene::builtin(TaskKind::Guarded).unwrap().controller)
+            .start(
+                &Scene::builtin(TaskKind::Guarded).unwrap().controller,
+                Robot::pa10(),
+            )
             .unwrap();
         let out = c.tick(0.0);
         assert!(out.halt.is_some(), "no input yet: the watchdog halts");

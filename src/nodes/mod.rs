@@ -21,10 +21,10 @@ pub use sim_robot::{SimRobot, SimRobotParams, SimSample};
 use crate::kinematics::JointVector;
 
 /// Joint positions at a time (the `joint_states` topic).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct JointState {
     /// Time of the measurement (s).
     pub stamp_s: f64,
-    /// Joint positions (rad).
+    /// Joint positions (rad or m), one per joint in chain order.
     pub q: JointVector,
 }

@@ -22,7 +22,7 @@ use crate::biotac::geometry::SurfacePoint;
 use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
 use crate::biotac::BioTacReading;
 use crate::contact::{object_body, BodyParams, SkinParams};
-use crate::kinematics::{JointVector, Robot, N_JOINTS};
+use crate::kinematics::{JointVector, Robot, RobotParams};
 use crate::params::{invalid, non_negative, positive, Check, ParamsError};
 use crate::sim::arm::ArmPlant;
 use crate::sim::collect::unit_seed;
@@ -42,14 +42,18 @@ pub struct SimRobotParams {
     pub objects: BTreeMap<String, BodyParams>,
     /// The object of this run (for the guided move: the person's fingertip).
     pub object: String,
+    /// The arm: the links of its robot description, the BioTac's mount.
+    pub robot: RobotParams,
     /// Physics rate (Hz); a multiple of the control rate.
     pub physics_rate_hz: f64,
     /// Delay before a joint velocity command acts (s).
     pub command_latency_s: f64,
     /// Time constant of the joints' velocity tracking (s).
     pub velocity_lag_s: f64,
-    /// Joint positions at the start (deg).
-    pub start_joints_deg: Vec<f64>,
+    /// Joint positions at the start, one per joint of the chain (deg, or mm
+    /// for a prismatic joint); absent: the middle of each joint's range.
+    #[serde(default)]
+    pub start_joints_deg: Option<Vec<f64>>,
     /// Where the pad touches, along the BioTac axis (mm).
     pub contact_x_mm: f64,
     /// Distance from the pad to the body's surface at the start (mm).
@@ -75,7 +79,7 @@ pub struct SimRobotParams {
 }
 
 /// What the simulated robot publishes each control period.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SimSample {
     /// Simulated time (s).
     pub t: f64,
@@ -123,8 +127,10 @@ pub struct SimRobot {
 }
 
 impl SimRobot {
-    /// Checks the parameters and builds the world at rest; `seed` drives
-    /// every noise (F/T and BioTac), the BioTac is unit `sensor_unit` (as `collect --unit` numbers them).
+    /// Checks the parameters and builds the world at rest around `robot`
+    /// (built from the robot description with `p.robot`); `seed` drives
+    /// every noise (F/T and BioTac), the BioTac is unit `sensor_unit` (as
+    /// `collect --unit` numbers them).
     pub fn new(
         p: SimRobotParams,
         robot: Robot,
@@ -156,21 +162,10 @@ impl SimRobot {
                 "a whole multiple of the control rate",
             ));
         }
-        if p.start_joints_deg.len() != N_JOINTS {
-            return Err(ParamsError::Invalid {
-                key: "start_joints_deg".into(),
-                value: format!("{:?}", p.start_joints_deg),
-                expected: format!("{N_JOINTS} values"),
-            });
-        }
-        let q0 = JointVector::from_iterator(p.start_joints_deg.iter().map(|d| d.to_radians()));
-        if (0..N_JOINTS).any(|i| !(q0[i] > robot.limits.min[i] && q0[i] < robot.limits.max[i])) {
-            return Err(ParamsError::Invalid {
-                key: "start_joints_deg".into(),
-                value: format!("{:?}", p.start_joints_deg),
-                expected: "values inside the joint ranges".into(),
-            });
-        }
+        let q0 = match &p.start_joints_deg {
+            Some(values) => robot.positions_from_deg_mm("start_joints_deg", values)?,
+            None => robot.middle(),
+        };
         let body = object_body(&p.objects, &p.object)?;
         let path = p.finger_path.as_deref().map(FingerPath::new).transpose()?;
         if let Some(path) = &path {
@@ -245,8 +240,19 @@ impl SimRobot {
         self.contact.body()
     }
 
-    /// Sends a joint velocity command now.
-    pub fn command(&mut self, qdot: JointVector) {
+    /// The robot it simulates.
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The joint positions now (rad or m).
+    pub fn joints(&self) -> &JointVector {
+        self.arm.q()
+    }
+
+    /// Sends a joint velocity command now, one value per joint (the
+    /// transports check the length).
+    pub fn command(&mut self, qdot: &JointVector) {
         self.arm.command(self.t, qdot);
     }
 
@@ -320,7 +326,7 @@ impl SimRobot {
             reading,
             joints: JointState {
                 stamp_s: self.t,
-                q: *self.arm.q(),
+                q: self.arm.q().clone(),
             },
             ft,
             offset,

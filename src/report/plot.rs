@@ -651,6 +651,7 @@ mod tests {
                     velocity: Vector3::zeros(),
                     commanded: Vector3::zeros(),
                     finger: None,
+                    damping: 0.0,
                 }
             })
             .collect()

@@ -36,6 +36,8 @@ pub const REST_WINDOW_S: f64 = 0.5;
 /// What the summary needs besides the rows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunInfo {
+    /// The robot (its URDF's name).
+    pub robot: String,
     /// The task.
     pub task: TaskKind,
     /// The body touched.
@@ -45,9 +47,10 @@ pub struct RunInfo {
 }
 
 impl RunInfo {
-    /// The run of a controller with `params`.
-    pub fn new(params: &ControllerParams) -> Self {
+    /// The run of a controller with `params` on the robot named `robot`.
+    pub fn new(params: &ControllerParams, robot: &str) -> Self {
         RunInfo {
+            robot: robot.into(),
             task: params.task,
             object: params.object.clone(),
             approach_speed_mps: match params.task {
@@ -61,6 +64,8 @@ impl RunInfo {
 /// The figures of one run (the `--json` line of `demo`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
+    /// The robot (its URDF's name).
+    pub robot: String,
     /// "guarded" or "guided".
     pub task: &'static str,
     /// The body touched.
@@ -93,6 +98,11 @@ pub struct Summary {
     pub rest_speed_mps: f64,
     /// Periods the safety checks held the arm.
     pub halted_periods: usize,
+    /// Periods in which the inverse kinematics damped the motion (near a
+    /// singularity).
+    pub damped_periods: usize,
+    /// Largest damping factor lambda of the inverse kinematics.
+    pub max_damping: f64,
     /// True when the task stopped on the force limit or out-of-range input.
     pub aborted: bool,
     /// Why the task stopped ("timeout", "force_limit", "out_of_range"), null
@@ -186,6 +196,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         .fold(0.0, f64::max);
     let reason = last.and_then(|r| r.reason);
     Summary {
+        robot: info.robot.clone(),
         task: info.task.name(),
         object: info.object.clone(),
         approach_speed_mps: info.approach_speed_mps,
@@ -201,6 +212,8 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         max_off_axis_ratio: off_ratio,
         rest_speed_mps,
         halted_periods: rows.iter().filter(|r| r.halted).count(),
+        damped_periods: rows.iter().filter(|r| r.damping > 0.0).count(),
+        max_damping: rows.iter().map(|r| r.damping).fold(0.0, f64::max),
         aborted: matches!(
             reason,
             Some(crate::control::StopReason::ForceLimit | crate::control::StopReason::OutOfRange)
@@ -217,6 +230,11 @@ mod tests {
     use crate::control::Phase;
     use nalgebra::Vector3;
 
+    /// Damped from 2 s on.
+    fn k_damped(t: f64) -> bool {
+        t >= 2.0 - 1e-9
+    }
+
     fn row(t: f64, fz: f64, vx: f64) -> TraceRow {
         TraceRow {
             t,
@@ -231,6 +249,7 @@ mod tests {
             velocity: Vector3::new(vx, 0.0, -0.01),
             commanded: Vector3::zeros(),
             finger: None,
+            damping: if k_damped(t) { 0.01 } else { 0.0 },
         }
     }
 
@@ -252,6 +271,7 @@ mod tests {
             })
             .collect();
         let info = RunInfo {
+            robot: "arm".into(),
             task: TaskKind::Guarded,
             object: "box".into(),
             approach_speed_mps: Some(0.01),
@@ -270,12 +290,14 @@ mod tests {
             (s.aborted, s.reason, s.final_phase),
             (false, None, "regulate")
         );
+        assert_eq!((s.damped_periods, s.max_damping), (100, 0.01));
     }
 
     #[test]
     fn no_contact_leaves_the_contact_figures_empty() {
         let rows: Vec<TraceRow> = (0..10).map(|k| row(k as f64 * 0.01, 0.0, 0.0)).collect();
         let info = RunInfo {
+            robot: "arm".into(),
             task: TaskKind::Guarded,
             object: "air".into(),
             approach_speed_mps: Some(0.01),

@@ -35,12 +35,14 @@ pub struct TraceRow {
     pub commanded: Vector3<f64>,
     /// The finger, in the guided move.
     pub finger: Option<FingerState>,
+    /// Damping factor of the inverse kinematics (0: away from singularity).
+    pub damping: f64,
 }
 
 /// Column names of [`write_csv`], in order.
 pub const CSV_HEADER: &str = "t,phase,halted,est_fx,est_fy,est_fz,std_fx,std_fy,std_fz,\
 pdc_rise,ft_fx,ft_fy,ft_fz,target_fx,target_fy,target_fz,x,y,z,vx,vy,vz,cmd_vx,cmd_vy,cmd_vz,\
-finger_x,finger_y,finger_z";
+finger_x,finger_y,finger_z,damping";
 
 /// Writes the rows as CSV (SI units; empty fields where a value is absent).
 pub fn write_csv(path: &Path, rows: &[TraceRow]) -> std::io::Result<()> {
@@ -56,7 +58,7 @@ pub fn write_csv(path: &Path, rows: &[TraceRow]) -> std::io::Result<()> {
     for r in rows {
         writeln!(
             w,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.t,
             r.phase.name(),
             u8::from(r.halted),
@@ -69,6 +71,7 @@ pub fn write_csv(path: &Path, rows: &[TraceRow]) -> std::io::Result<()> {
             vec3(Some(r.velocity)),
             vec3(Some(r.commanded)),
             vec3(r.finger.map(|f| f.offset)),
+            r.damping,
         )?;
     }
     w.flush()

@@ -33,8 +33,8 @@ pub fn run_scene(
     pacing: Pacing,
     on_row: &mut dyn FnMut(&TraceRow),
 ) -> Result<DemoRun, SceneError> {
-    let info = RunInfo::new(&scene.controller);
     let mut nodes = scene.build(model, &BioTacSimConfig::default(), seed)?;
+    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name);
     let rows = run(&mut nodes, pacing, on_row)?;
     Ok(DemoRun {
         summary: summarize(&info, &rows),

@@ -135,6 +135,7 @@ impl Period {
             velocity: s.velocity,
             commanded: out.velocity,
             finger: s.finger,
+            damping: out.damping,
         }
     }
 }
@@ -166,9 +167,9 @@ impl Nodes {
             // watchdog then stops the arm.
             let _ = self.controller.on_estimate(e);
         }
-        let _ = self.controller.on_joint_state(sample.joints);
+        let _ = self.controller.on_joint_state(&sample.joints);
         let output = self.controller.tick(sample.t);
-        self.sim.command(output.qdot);
+        self.sim.command(self.controller.command());
         self.sim.advance();
         Ok(Period {
             sample,

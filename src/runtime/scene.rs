@@ -1,19 +1,22 @@
-//! Scenes: the parameter files that configure one run, layered as ROS 2
-//! does with several `--params-file`s (later files override earlier ones):
-//! the robot (`config/pa10.yaml`), the world (`config/world.yaml`: skin law,
-//! objects, arm plant, sensors), then the task's scene
-//! (`config/guarded_move.yaml` or `config/guided_move.yaml`, or a user's
-//! file). The shipped files are embedded, so the demo runs from anywhere.
+//! Scenes: the robot description and the parameter files that configure
+//! one run, layered as ROS 2 does with several `--params-file`s (later files
+//! override earlier ones): the world (`config/world.yaml`: skin law,
+//! objects, every robot's defaults, arm plant, sensors), the robot's file
+//! (`config/pa10.yaml`, `ur5.yaml`, `panda.yaml`; none for a user's URDF),
+//! then the task's scene (`config/guarded_move.yaml` or
+//! `config/guided_move.yaml`, or a user's file). The shipped files are
+//! embedded, so the demo runs from anywhere.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::biotac::BioTacSimConfig;
 use crate::contact::BodyParams;
 use crate::control::TaskKind;
+use crate::kinematics::{Robot, RobotError, ShippedRobot};
 use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
-use crate::params::{layered_node_params, ParamsError, PA10_YAML, WORLD_YAML};
+use crate::params::{layered_node_params, ParamsError, WORLD_YAML};
 use crate::runtime::lockstep::Link;
 use crate::runtime::Nodes;
 use crate::wrench::AxisSet;
@@ -25,6 +28,9 @@ pub enum SceneError {
     /// A parameter is missing, unknown or out of range.
     #[error(transparent)]
     Params(#[from] ParamsError),
+    /// The robot description or the robot's parameters.
+    #[error(transparent)]
+    Robot(#[from] RobotError),
     /// The model cannot serve the estimator or the task.
     #[error(transparent)]
     Estimator(#[from] EstimatorError),
@@ -38,7 +44,60 @@ pub enum SceneError {
     },
 }
 
-/// The parameters of one run, parsed once from their layers.
+/// The robot of a run: a shipped one (its URDF and parameter file), or a
+/// user's URDF file (the world's robot defaults: the chain from the root
+/// link to the one leaf, the BioTac frame at the tip link, the start pose
+/// in the middle of every joint's range; a scene file may set them).
+#[derive(Debug, Clone, PartialEq)]
+pub enum RobotChoice {
+    /// `pa10`, `ur5` or `panda`.
+    Shipped(ShippedRobot),
+    /// A URDF file and its text.
+    Urdf {
+        /// The file.
+        path: PathBuf,
+        /// Its text.
+        text: String,
+    },
+}
+
+impl RobotChoice {
+    /// A shipped robot's name or a URDF file's path.
+    pub fn parse(name_or_path: &str) -> Result<Self, ParamsError> {
+        if let Ok(r) = name_or_path.parse::<ShippedRobot>() {
+            return Ok(RobotChoice::Shipped(r));
+        }
+        let path = PathBuf::from(name_or_path);
+        if path.extension().is_none_or(|e| e != "urdf") && !path.exists() {
+            // Neither a robot's name nor a file: say both.
+            return Err(name_or_path.parse::<ShippedRobot>().unwrap_err());
+        }
+        let text = std::fs::read_to_string(&path).map_err(|error| ParamsError::Io {
+            path: path.clone(),
+            error,
+        })?;
+        Ok(RobotChoice::Urdf { path, text })
+    }
+
+    /// The robot description (URDF text).
+    pub fn description(&self) -> &str {
+        match self {
+            RobotChoice::Shipped(r) => r.urdf(),
+            RobotChoice::Urdf { text, .. } => text,
+        }
+    }
+
+    /// The robot's parameter file, if it has one.
+    fn yaml(&self) -> Option<&'static str> {
+        match self {
+            RobotChoice::Shipped(r) => Some(r.yaml()),
+            RobotChoice::Urdf { .. } => None,
+        }
+    }
+}
+
+/// The parameters of one run, parsed once from their layers, and the robot
+/// description every node reads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
     /// The force controller's.
@@ -47,30 +106,61 @@ pub struct Scene {
     pub estimator: EstimatorParams,
     /// The simulated robot's.
     pub sim: SimRobotParams,
+    /// The robot description (URDF text).
+    pub description: String,
 }
 
 impl Scene {
-    /// The shipped scene of a task.
+    /// The shipped scene of a task on the PA10.
     pub fn builtin(task: TaskKind) -> Result<Self, ParamsError> {
-        Scene::layered(&task.shipped_layers())
+        Scene::shipped(task, ShippedRobot::Pa10)
     }
 
-    /// The shipped robot and world with the scene file at `path`.
-    pub fn from_file(path: &Path) -> Result<Self, ParamsError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Scene::layered(&[PA10_YAML, WORLD_YAML, &text])
+    /// The shipped scene of a task on a shipped robot.
+    pub fn shipped(task: TaskKind, robot: ShippedRobot) -> Result<Self, ParamsError> {
+        Scene::layered(&task.shipped_layers(robot), robot.urdf())
+    }
+
+    /// The world, `robot`'s file and the scene text `scene` (a task's
+    /// shipped scene, or a user's file read with [`read_scene`]).
+    pub fn with_robot(robot: &RobotChoice, scene: &str) -> Result<Self, ParamsError> {
+        let mut layers = vec![WORLD_YAML];
+        layers.extend(robot.yaml());
+        layers.push(scene);
+        Scene::layered(&layers, robot.description())
     }
 
     /// The scene of parameter texts given in order, as `--params-file`s
-    /// (later ones override earlier ones key by key).
-    pub fn layered(texts: &[&str]) -> Result<Self, ParamsError> {
+    /// (later ones override earlier ones key by key), on the robot
+    /// `description`.
+    pub fn layered(texts: &[&str], description: &str) -> Result<Self, ParamsError> {
         Ok(Scene {
             controller: layered_node_params(texts, "force_controller")?,
             estimator: layered_node_params(texts, "wrench_estimator")?,
             sim: layered_node_params(texts, "sim_robot")?,
+            description: description.to_string(),
+        })
+    }
+
+    /// Sets the chain's links for every node (empty: the URDF's root, its
+    /// one leaf).
+    pub fn with_links(mut self, base: Option<&str>, tip: Option<&str>) -> Self {
+        for robot in [&mut self.controller.robot, &mut self.sim.robot] {
+            if let Some(b) = base {
+                robot.base_link = b.into();
+            }
+            if let Some(t) = tip {
+                robot.tip_link = t.into();
+            }
+        }
+        self
+    }
+
+    /// Reads a user's scene file (to layer with [`Scene::with_robot`]).
+    pub fn read_scene(path: &Path) -> Result<String, ParamsError> {
+        std::fs::read_to_string(path).map_err(|error| ParamsError::Io {
+            path: path.to_path_buf(),
+            error,
         })
     }
 
@@ -164,9 +254,12 @@ impl Scene {
                 }));
             }
         }
-        let controller = ForceController::new(cp)?;
+        let robot = Robot::from_urdf(&self.description, &cp.robot)?;
+        let sim_robot = Robot::from_urdf(&self.description, &sp.robot)?;
+        let mut controller = ForceController::new(cp, robot)?;
         let link = Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed);
-        let sim = SimRobot::new(sp, controller.robot().clone(), sensor, seed)?;
+        let sim = SimRobot::new(sp, sim_robot, sensor, seed)?;
+        controller.check_start(sim.joints())?;
         Ok((controller, sim, link))
     }
 
@@ -229,15 +322,21 @@ mod tests {
         let s = Scene::builtin(TaskKind::Guarded)
             .unwrap()
             .with_object("teapot");
-        let e = ForceController::new(s.controller).unwrap_err().to_string();
+        let e = ForceController::new(s.controller, Robot::pa10())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("teapot") && e.contains("wooden_box"), "{e}");
-        let layers = |top: &str| Scene::layered(&[PA10_YAML, WORLD_YAML, GUARDED_YAML, top]);
+        let pa10 = ShippedRobot::Pa10;
+        let layers =
+            |top: &str| Scene::layered(&[WORLD_YAML, pa10.yaml(), GUARDED_YAML, top], pa10.urdf());
         let e = layers("sim_robot:\n  ros__parameters:\n    gap_mm: 3.0\n")
             .unwrap_err()
             .to_string();
         assert!(e.contains("gap_mm"), "{e}");
         let s = layers("force_controller:\n  ros__parameters:\n    task: guided\n").unwrap();
-        let e = ForceController::new(s.controller).unwrap_err().to_string();
+        let e = ForceController::new(s.controller, Robot::pa10())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("guided"), "a guided task needs its section: {e}");
     }
 
@@ -245,8 +344,8 @@ mod tests {
     fn a_default_model_the_task_cannot_use_is_refused_before_training() {
         let recipe = |r: &str| {
             let top = format!("wrench_estimator:\n  ros__parameters:\n    default_model: {r}\n");
-            let [robot, world, scene] = TaskKind::Guided.shipped_layers();
-            Scene::layered(&[robot, world, scene, &top])
+            let [world, robot, scene] = TaskKind::Guided.shipped_layers(ShippedRobot::Pa10);
+            Scene::layered(&[world, robot, scene, &top], ShippedRobot::Pa10.urdf())
         };
         let e = recipe("{axes: [fz], gp: sparse, size: 200}")
             .unwrap()

@@ -1,6 +1,8 @@
-//! The simulated arm: a velocity-controlled joint servo. A command takes
-//! effect after a latency, then each joint tracks it with a first-order lag
-//! `tau dqdot/dt = qdot_cmd - qdot`. The hardware stops are the joint ranges.
+//! The simulated arm, any number of joints: a velocity-controlled joint
+//! servo. A command takes effect after a latency, then each joint tracks it
+//! with a first-order lag `tau dqdot/dt = qdot_cmd - qdot`. The hardware
+//! stops are the joint ranges. Commands in flight reuse their vectors, so a
+//! running arm does no heap work.
 
 use std::collections::VecDeque;
 
@@ -13,6 +15,7 @@ pub struct ArmPlant {
     qdot: JointVector,
     active: JointVector,
     pending: VecDeque<(f64, JointVector)>,
+    spare: Vec<JointVector>,
     latency_s: f64,
     lag_s: f64,
     min: JointVector,
@@ -22,16 +25,18 @@ pub struct ArmPlant {
 impl ArmPlant {
     /// An arm at rest at `q0`, with its command latency and velocity lag (s).
     pub fn new(q0: JointVector, limits: &JointLimits, latency_s: f64, lag_s: f64) -> Self {
+        let n = q0.len();
         ArmPlant {
             q: q0,
-            qdot: JointVector::zeros(),
-            active: JointVector::zeros(),
+            qdot: JointVector::zeros(n),
+            active: JointVector::zeros(n),
             // A few control periods of commands in flight at most.
             pending: VecDeque::with_capacity(64),
+            spare: Vec::with_capacity(64),
             latency_s,
             lag_s,
-            min: limits.min,
-            max: limits.max,
+            min: limits.min.clone(),
+            max: limits.max.clone(),
         }
     }
 
@@ -45,27 +50,35 @@ impl ArmPlant {
         &self.qdot
     }
 
-    /// Sends a velocity command at time `now`; it takes effect at `now + latency`.
-    pub fn command(&mut self, now: f64, qdot: JointVector) {
-        self.pending.push_back((now + self.latency_s, qdot));
+    /// Sends a velocity command at time `now` (one value per joint); it
+    /// takes effect at `now + latency`.
+    pub fn command(&mut self, now: f64, qdot: &JointVector) {
+        let mut slot = self
+            .spare
+            .pop()
+            .unwrap_or_else(|| JointVector::zeros(qdot.len()));
+        slot.copy_from(qdot);
+        self.pending.push_back((now + self.latency_s, slot));
     }
 
     /// Advances from `now` by `dt`.
     pub fn step(&mut self, now: f64, dt: f64) {
-        while let Some(&(at, cmd)) = self.pending.front() {
-            if at > now + 1e-12 {
+        while let Some((at, _)) = self.pending.front() {
+            if *at > now + 1e-12 {
                 break;
             }
-            self.active = cmd;
-            self.pending.pop_front();
+            if let Some((_, cmd)) = self.pending.pop_front() {
+                self.spare.push(std::mem::replace(&mut self.active, cmd));
+            }
         }
         let alpha = if self.lag_s > 0.0 {
             1.0 - (-dt / self.lag_s).exp()
         } else {
             1.0
         };
-        self.qdot += (self.active - self.qdot) * alpha;
-        self.q += self.qdot * dt;
+        self.qdot
+            .zip_apply(&self.active, |v, a| *v += (a - *v) * alpha);
+        self.q.zip_apply(&self.qdot, |q, v| *q += v * dt);
         for i in 0..self.q.len() {
             if self.q[i] <= self.min[i] || self.q[i] >= self.max[i] {
                 self.q[i] = self.q[i].clamp(self.min[i], self.max[i]);
@@ -83,14 +96,14 @@ mod tests {
     #[test]
     fn a_command_acts_after_the_latency_then_with_the_lag() {
         let robot = Robot::pa10();
-        let mut arm = ArmPlant::new(JointVector::zeros(), &robot.limits, 0.01, 0.02);
-        let cmd = JointVector::repeat(0.1);
-        arm.command(0.0, cmd);
+        let mut arm = ArmPlant::new(JointVector::zeros(7), &robot.limits, 0.01, 0.02);
+        let cmd = JointVector::repeat(7, 0.1);
+        arm.command(0.0, &cmd);
         let dt = 1e-3;
         for k in 0..10 {
             arm.step(k as f64 * dt, dt);
         }
-        assert_eq!(*arm.qdot(), JointVector::zeros(), "nothing before 10 ms");
+        assert_eq!(*arm.qdot(), JointVector::zeros(7), "nothing before 10 ms");
         for k in 10..30 {
             arm.step(k as f64 * dt, dt);
         }
@@ -106,10 +119,10 @@ mod tests {
     #[test]
     fn the_hardware_stops_hold() {
         let robot = Robot::pa10();
-        let mut q0 = JointVector::zeros();
+        let mut q0 = JointVector::zeros(7);
         q0[1] = robot.limits.max[1] - 1e-3;
         let mut arm = ArmPlant::new(q0, &robot.limits, 0.0, 0.0);
-        arm.command(0.0, JointVector::repeat(1.0));
+        arm.command(0.0, &JointVector::repeat(7, 1.0));
         for k in 0..100 {
             arm.step(k as f64 * 1e-3, 1e-3);
         }
