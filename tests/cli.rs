@@ -435,6 +435,7 @@ fn every_subcommand_has_help() {
         "biotac-emulator",
         "biotac-monitor",
         "tradeoff",
+        "robot",
     ] {
         let o = run(&[sub, "--help"]);
         assert!(o.status.success());
@@ -550,6 +551,172 @@ fn demo_refuses_bad_requests_before_any_training() {
         0,
         "nothing trained"
     );
+}
+
+#[test]
+fn robot_prints_the_chain_pose_and_jacobian_and_refuses_bad_input() {
+    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/config/ur5.urdf");
+    let base = [
+        "robot",
+        "--urdf",
+        urdf,
+        "--base",
+        "base_link",
+        "--tip",
+        "tool0",
+    ];
+    // At zero the UR5 lies stretched along its base's x (base_link is UR's
+    // base turned by pi): tool0 at (a2 + a3, d4 + d6, d1 - d5).
+    let o = run(&[&base[..], &["--q=0,0,0,0,0,0", "--json"]].concat());
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("shoulder_pan_joint") && out.contains("revolute"),
+        "{out}"
+    );
+    let j = last_json(&out);
+    let p: Vec<f64> = serde_json::from_value(j["position_m"].clone()).unwrap();
+    let expected = [0.425 + 0.39225, 0.10915 + 0.0823, 0.089159 - 0.09465];
+    for (a, b) in p.iter().zip(expected) {
+        assert!((a - b).abs() < 1e-12, "{p:?}");
+    }
+    let jac: Vec<Vec<f64>> = serde_json::from_value(j["jacobian"].clone()).unwrap();
+    assert_eq!((jac.len(), jac[0].len()), (6, 6));
+    assert_eq!(j["joints"].as_array().unwrap().len(), 6);
+    assert!(j["quaternion_xyzw"].as_array().unwrap().len() == 4);
+    // Stretched: the elbow is singular.
+    assert!(j["sigma_min"].as_f64().unwrap() < 1e-9, "{j}");
+    // Default q: the middle of each range (0 for the UR5), the same pose.
+    let o = run(&[&base[..], &["--json"]].concat());
+    assert_eq!(last_json(&text(&o).0)["position_m"], j["position_m"]);
+
+    let refused = |args: &[&str], says: &str| {
+        let o = run(args);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    };
+    refused(&[&base[..], &["--q", "1,2,3"]].concat(), "6 values");
+    refused(
+        &[&base[..], &["--q=0,0,0,0,0,7"]].concat(),
+        "wrist_3_joint = 7",
+    );
+    refused(
+        &[&base[..], &["--q=0,0,0,0,0,nan"]].concat(),
+        "wrist_3_joint = NaN",
+    );
+    refused(
+        &[
+            "robot",
+            "--urdf",
+            urdf,
+            "--base",
+            "base_link",
+            "--tip",
+            "tool9",
+        ],
+        "no link `tool9` (its links: base_link, base,",
+    );
+    refused(
+        &[
+            "robot",
+            "--urdf",
+            urdf,
+            "--base",
+            "tool0",
+            "--tip",
+            "base_link",
+        ],
+        "no chain from `tool0` down to `base_link`",
+    );
+    refused(
+        &[
+            "robot",
+            "--urdf",
+            "/nonexistent.urdf",
+            "--base",
+            "a",
+            "--tip",
+            "b",
+        ],
+        "/nonexistent.urdf",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.urdf");
+    std::fs::write(&bad, "<robot name=\"x\"><link name=\"a\"></robot>").unwrap();
+    refused(
+        &[
+            "robot",
+            "--urdf",
+            bad.to_str().unwrap(),
+            "--base",
+            "a",
+            "--tip",
+            "a",
+        ],
+        "not a valid URDF",
+    );
+}
+
+#[test]
+fn demo_runs_any_arm_and_refuses_an_axis_the_arm_cannot_make() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run_cached(
+        &[
+            "demo",
+            "guarded",
+            "--robot",
+            "ur5",
+            "--object",
+            "carton_box",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let j = last_json(&out);
+    assert_eq!(j["robot"].as_str(), Some("ur5"));
+    assert!(j["overshoot_n"].as_f64().unwrap() <= 0.1, "{j}");
+    assert!(
+        j["damped_periods"].as_u64().unwrap() > 0,
+        "near the wrist singularity: {j}"
+    );
+    // A URDF file: the chain from its root to its one leaf, the BioTac at
+    // the flange, the middle of every range (the forearm level, the pad
+    // facing down). The guarded move presses down, which the planar joints
+    // make; the guided move also needs y, which only the pan could give.
+    let arm = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/five_joint_arm.urdf"
+    );
+    let o = run_cached(&["demo", "guarded", "--robot", arm, "--json"], dir.path());
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let j = last_json(&out);
+    assert_eq!(j["robot"].as_str(), Some("five_joint_arm"));
+    assert_eq!(j["final_phase"].as_str(), Some("hold"), "{j}");
+    assert!(j["overshoot_n"].as_f64().unwrap() <= 0.1, "{j}");
+    let o = run_cached(&["demo", "guided", "--robot", arm], dir.path());
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("5 joints") && err.contains("y of the BioTac frame"),
+        "{err}"
+    );
+    for (args, says) in [
+        (vec!["--robot", "ur10"], "pa10, ur5, panda"),
+        (vec!["--robot", "/nonexistent.urdf"], "/nonexistent.urdf"),
+        (
+            vec!["--robot", "ur5", "--tip", "flange"],
+            "no link `flange`",
+        ),
+    ] {
+        let o = run_cached(&[&["demo", "guarded"][..], &args].concat(), dir.path());
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
 }
 
 #[test]

@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Our kinematics against an independent library: Pinocchio (`pin`) on the
+# robot descriptions of example-robot-data and ours, both from PyPI into a
+# venv cached under the target dir (tests/kinematics/check_pinocchio.py).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+target="${CARGO_TARGET_DIR:-target}"
+venv="$target/kin-venv"
+if ! "$venv/bin/python" -c 'import pinocchio' 2>/dev/null; then
+  python3 -m venv "$venv"
+  "$venv/bin/pip" install --quiet "pin==4.1.0" "example-robot-data==6.0.0"
+fi
+robots=$("$venv/bin/python" -c 'import sys, os; print(os.path.join(sys.prefix, "lib", "python%d.%d" % sys.version_info[:2], "site-packages", "cmeel.prefix", "share", "example-robot-data", "robots"))')
+cargo build --release --bin tactile_force
+"$venv/bin/python" tests/kinematics/check_pinocchio.py "$target/release/tactile_force" "$robots"
