@@ -1,52 +1,73 @@
 """Shared builder of the tactile_force launch files (guarded_move, joystick).
 
 The nodes, their parameter files and overrides come from
-tactile_force_nodes.nodes(), which the tests over DDS use too.
+tactile_force_nodes.nodes(), which the tests over DDS use too. The robot:
+`robot:=pa10|ur5|panda` (config/<robot>.urdf and config/<robot>.yaml), or
+`urdf:=FILE` with `base_link:=` and `tip_link:=` (empty: the URDF's root
+and its one leaf); the URDF goes to sim_robot and force_controller as their
+`robot_description` parameter, or, with `description_topic:=true`, they
+take it from /robot_description (a robot_state_publisher's).
 """
 
+import os
+
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument
-from launch.conditions import IfCondition, UnlessCondition
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch_ros.actions import Node
-from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
-from tactile_force_nodes import nodes
+from tactile_force_nodes import ROBOTS, nodes
 
 SCENE = "guarded_move.yaml"
 
 
 def make(scene=SCENE):
-    config = PathJoinSubstitution([FindPackageShare("tactile_force"), "config"])
-    use_sim = LaunchConfiguration("use_sim")
-    args = dict(
-        object_name=LaunchConfiguration("object"),
-        model=LaunchConfiguration("model"),
-        port=LaunchConfiguration("port"),
-        sim_time=ParameterValue(LaunchConfiguration("use_sim_time"), value_type=bool),
-        real_time_factor=ParameterValue(LaunchConfiguration("real_time_factor"), value_type=float),
-    )
-
-    def node(executable, files, overrides, condition=None):
-        params = [PathJoinSubstitution([config, name]) for name in files] + [overrides]
-        return Node(
-            package="tactile_force",
-            executable=executable,
-            name=executable,
-            output="screen",
-            parameters=params,
-            condition=condition,
+    def setup(context):
+        value = lambda name: context.launch_configurations[name]  # noqa: E731
+        config = os.path.join(FindPackageShare("tactile_force").perform(context), "config")
+        urdf = value("urdf")
+        robot = None if urdf else value("robot")
+        if robot is not None and robot not in ROBOTS:
+            raise RuntimeError(f"robot:={robot}: expected one of {', '.join(ROBOTS)}, or urdf:=FILE")
+        path = urdf or os.path.join(config, f"{robot}.urdf")
+        with open(path) as f:
+            description = None if value("description_topic") == "true" else f.read()
+        links = (value("base_link"), value("tip_link")) if urdf else None
+        args = dict(
+            object_name=value("object"),
+            model=value("model"),
+            port=value("port"),
+            sim_time=value("use_sim_time") == "true",
+            real_time_factor=float(value("real_time_factor")),
+            robot=robot,
+            description=description,
+            links=links,
         )
+        started = nodes(scene, value("use_sim") == "true", **args)
+        return [
+            Node(
+                package="tactile_force",
+                executable=executable,
+                name=executable,
+                output="screen",
+                parameters=[os.path.join(config, name) for name in files] + [overrides],
+            )
+            for executable, files, overrides in started
+        ]
 
-    sim = nodes(scene, True, **args)
-    real = nodes(scene, False, **args)
-    started = [node(*sim[0], condition=IfCondition(use_sim)),
-               node(*real[0], condition=UnlessCondition(use_sim))]
-    started += [node(*n) for n in sim[1:]]
     return LaunchDescription([
         DeclareLaunchArgument("use_sim", default_value="true",
                               description="Simulated arm, object and BioTac (no hardware)."),
+        DeclareLaunchArgument("robot", default_value="pa10",
+                              description=f"A shipped robot: {', '.join(ROBOTS)} (config/<robot>.urdf, .yaml)."),
+        DeclareLaunchArgument("urdf", default_value="",
+                              description="A URDF file of your robot instead (with base_link, tip_link)."),
+        DeclareLaunchArgument("base_link", default_value="",
+                              description="With urdf:=FILE: first link of the chain; empty: the root."),
+        DeclareLaunchArgument("tip_link", default_value="",
+                              description="With urdf:=FILE: the link the BioTac is on; empty: the one leaf."),
+        DeclareLaunchArgument("description_topic", default_value="false",
+                              description="Take the URDF from /robot_description, not the file."),
         DeclareLaunchArgument("model", default_value="",
                               description="GP model file; empty: the default model."),
         DeclareLaunchArgument("port", default_value="/dev/ttyACM0",
@@ -57,5 +78,5 @@ def make(scene=SCENE):
                               description="Simulated seconds per wall-clock second (use_sim_time:=true), >= 1."),
         DeclareLaunchArgument("object", default_value="wooden_box" if scene == SCENE else "fingertip",
                               description="Object (config/world.yaml objects)."),
-        *started,
+        OpaqueFunction(function=setup),
     ])

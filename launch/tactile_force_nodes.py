@@ -5,28 +5,47 @@ over DDS (tests/ros/) both build their processes from `nodes()`, so the node
 list, parameter files and overrides cannot drift apart. No ROS import here.
 """
 
-
-def param_files(scene):
-    """Parameter files, in config/, layered in this order (later wins)."""
-    return ["pa10.yaml", "world.yaml", scene, "ros2.yaml"]
+# The shipped robots: config/<name>.urdf and config/<name>.yaml.
+ROBOTS = ("pa10", "ur5", "panda")
 
 
-def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_factor=1.0):
+def param_files(scene, robot="pa10"):
+    """Parameter files, in config/, layered in this order (later wins): the
+    world (every robot's defaults), the shipped robot's file (none for a
+    URDF of the user's: robot=None), the scene, the ROS deployment."""
+    if robot is not None and robot not in ROBOTS:
+        raise ValueError(f"robot {robot!r}: expected one of {', '.join(ROBOTS)} or a URDF file")
+    robot_file = [] if robot is None else [f"{robot}.yaml"]
+    return ["world.yaml"] + robot_file + [scene, "ros2.yaml"]
+
+
+def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_factor=1.0,
+          robot="pa10", description=None, links=None):
     """(executable, parameter files, overrides) for each node to start.
 
     scene: guarded_move.yaml or guided_move.yaml; use_sim: the simulated arm
     and BioTac (sim_robot) rather than the serial driver; object_name, model,
     port: the launch arguments; sim_time: every node on sim_robot's /clock,
-    which runs real_time_factor times faster than the wall clock (values, or
-    launch substitutions).
+    which runs real_time_factor times faster than the wall clock. robot: a
+    shipped robot's name, or None for a URDF of the user's; description: the
+    URDF text given to sim_robot and force_controller as their
+    `robot_description` parameter, or None: they take it from the
+    /robot_description topic; links: (base_link, tip_link) of the chain, or
+    None for the robot file's (a URDF of the user's: its root and its one
+    leaf).
     """
-    files = param_files(scene)
+    files = param_files(scene, robot)
     # Passed to every node, as Scene::with_object does in the embedded runtime.
     shared = {"object": object_name, "use_sim_time": sim_time}
-    sim = ("sim_robot", files, dict(shared, real_time_factor=real_time_factor))
+    arm = dict(shared)
+    if description is not None:
+        arm["robot_description"] = description
+    if links is not None:
+        arm["robot.base_link"], arm["robot.tip_link"] = links
+    sim = ("sim_robot", files, dict(arm, real_time_factor=real_time_factor))
     first = sim if use_sim else ("biotac_driver", [], dict(shared, port=port))
     return [
         first,
         ("wrench_estimator", files, dict(shared, model_file=model)),
-        ("force_controller", files, shared),
+        ("force_controller", files, arm),
     ]

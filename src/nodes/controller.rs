@@ -107,6 +107,7 @@ pub struct ForceController {
     robot: Robot,
     dls: Dls,
     command: JointVector,
+    twist: Twist,
     task: Task,
     axes: AxisSet,
     task_axes: Vec<Axis>,
@@ -122,26 +123,56 @@ pub struct ForceController {
     refusal: Option<String>,
 }
 
-impl ForceController {
-    /// Checks the parameters and builds the controller for `robot` (built
-    /// from the robot description with `p.robot`).
-    pub fn new(p: ControllerParams, robot: Robot) -> Result<Self, ParamsError> {
+/// The task of checked parameters, its envelope and the force axes it reads.
+struct CheckedTask {
+    task: Task,
+    envelope: Envelope,
+    needed: Vec<Axis>,
+}
+
+impl CheckedTask {
+    /// Checks every parameter but the robot's and builds the task.
+    fn new(p: &ControllerParams) -> Result<Self, ParamsError> {
         positive("stale_periods", p.stale_periods)?;
         positive("out_of_range.max_std_n", p.out_of_range.max_std_n)?;
         positive(
             "out_of_range.max_pdc_rise_counts",
             p.out_of_range.max_pdc_rise_counts,
         )?;
-        let sections = Sections::check(&p)?;
-        let lp = sections.task_loop(&p);
-        let speed = sections.envelope(&p)?;
+        let sections = Sections::check(p)?;
+        let lp = sections.task_loop(p);
+        let speed = sections.envelope(p)?;
         speed.check()?;
-        let body = permitted_body(&p, &sections.safety, &p.object)?;
+        let body = permitted_body(p, &sections.safety, &p.object)?;
         let task = sections.task.build(&lp, &body);
         let needed = task.force_axes();
         if let Some(axis) = needed.iter().find(|a| !p.axes.axes().contains(a)) {
             return Err(missing_axis(&p.axes, *axis));
         }
+        Ok(CheckedTask {
+            task,
+            envelope: speed.envelope,
+            needed,
+        })
+    }
+}
+
+impl ForceController {
+    /// Checks every parameter but the robot's (`robot.*` is checked with
+    /// the robot description): what a ROS node does at start-up, before a
+    /// description arrives.
+    pub fn check(p: &ControllerParams) -> Result<(), ParamsError> {
+        CheckedTask::new(p).map(|_| ())
+    }
+
+    /// Checks the parameters and builds the controller for `robot` (built
+    /// from the robot description with `p.robot`).
+    pub fn new(p: ControllerParams, robot: Robot) -> Result<Self, ParamsError> {
+        let CheckedTask {
+            task,
+            envelope,
+            needed,
+        } = CheckedTask::new(&p)?;
         Ok(ForceController {
             dls: Dls::new(&robot),
             command: JointVector::zeros(robot.dof()),
@@ -155,8 +186,9 @@ impl ForceController {
                 p.stale_periods + p.loop_delays.transport_delay_s / p.control_period_s,
                 p.control_period_s,
             ),
-            envelope: speed.envelope,
+            envelope,
             period_s: p.control_period_s,
+            twist: Twist::zeros(),
             estimate: None,
             joints: None,
             start: None,
@@ -197,6 +229,19 @@ impl ForceController {
     /// chain order); zero when halted or stopped.
     pub fn command(&self) -> &JointVector {
         &self.command
+    }
+
+    /// The BioTac's twist of the last tick (base frame, m/s and rad/s: zero
+    /// angular velocity, the orientation held); zero when halted or stopped.
+    /// What an arm driven by a Cartesian controller is sent instead of
+    /// [`ForceController::command`].
+    pub fn twist(&self) -> &Twist {
+        &self.twist
+    }
+
+    /// True once the task has begun (a first tick with fresh inputs).
+    pub fn started(&self) -> bool {
+        self.start.is_some()
     }
 
     /// Why the task was refused at its start pose, if it was
@@ -299,6 +344,7 @@ impl ForceController {
     fn halt(&mut self, halt: Halt) -> ControlOutput {
         self.task.pause();
         self.command.fill(0.0);
+        self.twist = Twist::zeros();
         self.output(Vector3::zeros(), 0.0, Some(halt))
     }
 
@@ -327,12 +373,12 @@ impl ForceController {
             out_of_range,
             dt,
         });
+        self.twist = Twist::new(v_world.x, v_world.y, v_world.z, 0.0, 0.0, 0.0);
         if v_world == Vector3::zeros() {
             self.command.fill(0.0);
             return Ok((v_world, 0.0));
         }
-        let twist = Twist::new(v_world.x, v_world.y, v_world.z, 0.0, 0.0, 0.0);
-        let motion = self.dls.solve(&self.robot, &js.q, &twist, None)?;
+        let motion = self.dls.solve(&self.robot, &js.q, &self.twist, None)?;
         self.command.copy_from(self.dls.qdot());
         // What the arm will do after the speed scaling, in the start frame.
         let velocity = start.rotation.inverse() * v_world * motion.scale;

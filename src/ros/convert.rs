@@ -10,13 +10,10 @@ use r2r::sensor_msgs::msg::{FluidPressure, Image, JointState as JointStateMsg};
 use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
 
 use crate::biotac::msg::{join_stamp, split_stamp};
-use crate::kinematics::{JointVector, N_JOINTS};
+use crate::kinematics::{JointVector, Twist as TwistVector};
 use crate::nail::NailFrame;
 use crate::nodes::{JointState, WrenchEstimate};
 use crate::wrench::Wrench;
-
-/// The PA10-7C's joint names (S1 S2 S3 E1 E2 W1 W2), the default of `joint_names`.
-pub const PA10_JOINTS: [&str; 7] = ["S1", "S2", "S3", "E1", "E2", "W1", "W2"];
 
 /// Why a message was refused (the adapters count these and drop the message).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -200,20 +197,14 @@ pub fn joint_state_msg(js: &JointState, names: &[String]) -> JointStateMsg {
     }
 }
 
-/// Our joint positions from `joint_states`: the joints are picked by name
-/// (the message may list them in any order, and list others too).
+/// Our joint positions from `joint_states`: the joints `names` (the arm's,
+/// in chain order) are picked by name (the message may list them in any
+/// order, and list others too).
 pub fn joint_state_from_msg(
     m: &JointStateMsg,
     names: &[String],
 ) -> Result<JointState, ConvertError> {
-    if names.len() != N_JOINTS {
-        return Err(ConvertError::Length {
-            what: "joint_names parameter",
-            found: names.len(),
-            expected: N_JOINTS,
-        });
-    }
-    let mut q = JointVector::zeros();
+    let mut q = JointVector::zeros(names.len());
     for (i, name) in names.iter().enumerate() {
         let k = m
             .name
@@ -235,18 +226,19 @@ pub fn joint_state_from_msg(
 /// must list the arm's joints in chain order). A non-finite command becomes
 /// zeros: the arm stops.
 pub fn commands_msg(qdot: &JointVector) -> Float64MultiArray {
+    let n = qdot.len();
     let finite = qdot.iter().all(|v| v.is_finite());
     let data = if finite {
         qdot.iter().copied().collect()
     } else {
-        vec![0.0; N_JOINTS]
+        vec![0.0; n]
     };
     Float64MultiArray {
         layout: MultiArrayLayout {
             dim: vec![MultiArrayDimension {
                 label: "joints".into(),
-                size: N_JOINTS as u32,
-                stride: N_JOINTS as u32,
+                size: n as u32,
+                stride: n as u32,
             }],
             data_offset: 0,
         },
@@ -255,19 +247,41 @@ pub fn commands_msg(qdot: &JointVector) -> Float64MultiArray {
 }
 
 /// Joint velocities from a `velocity_controller/commands` message (the
-/// simulated arm's input).
-pub fn qdot_from_msg(m: &Float64MultiArray) -> Result<JointVector, ConvertError> {
-    if m.data.len() != N_JOINTS {
+/// simulated arm's input), one per joint of an arm of `joints` joints.
+pub fn qdot_from_msg(m: &Float64MultiArray, joints: usize) -> Result<JointVector, ConvertError> {
+    if m.data.len() != joints {
         return Err(ConvertError::Length {
             what: "velocity_controller/commands",
             found: m.data.len(),
-            expected: N_JOINTS,
+            expected: joints,
         });
     }
     if !m.data.iter().all(|v| v.is_finite()) {
         return Err(ConvertError::NonFinite("velocity_controller/commands"));
     }
-    Ok(JointVector::from_iterator(m.data.iter().copied()))
+    Ok(JointVector::from_column_slice(&m.data))
+}
+
+/// A twist (m/s, rad/s) as a TwistStamped in `frame_id`; a non-finite twist
+/// becomes zero (the arm stops).
+pub fn twist_msg(stamp_s: f64, frame_id: &str, t: &TwistVector) -> TwistStamped {
+    let t = if t.iter().all(|v| v.is_finite()) {
+        *t
+    } else {
+        TwistVector::zeros()
+    };
+    let v = |i: usize| Vector3 {
+        x: t[i],
+        y: t[i + 1],
+        z: t[i + 2],
+    };
+    TwistStamped {
+        header: header(stamp_s, frame_id),
+        twist: Twist {
+            linear: v(0),
+            angular: v(3),
+        },
+    }
 }
 
 /// A linear velocity (m/s) as a TwistStamped with zero angular part.
@@ -427,8 +441,10 @@ mod tests {
             estimate_from_msgs(&m, Some(&m), None),
             Err(ConvertError::NonFinite("biotac/wrench"))
         );
-        let c = commands_msg(&JointVector::from_element(f64::NAN));
-        assert_eq!(c.data, vec![0.0; N_JOINTS]);
+        let c = commands_msg(&JointVector::from_element(6, f64::NAN));
+        assert_eq!(c.data, vec![0.0; 6]);
+        let t = twist_msg(1.0, "base_link", &TwistVector::repeat(f64::NAN));
+        assert_eq!((t.twist.linear.x, t.twist.angular.z), (0.0, 0.0));
     }
 
     #[test]
@@ -436,7 +452,7 @@ mod tests {
         let names: Vec<String> = (1..=7).map(|i| format!("j{i}")).collect();
         let js = JointState {
             stamp_s: 1.25,
-            q: JointVector::from_fn(|i, _| i as f64 * 0.1),
+            q: JointVector::from_fn(7, |i, _| i as f64 * 0.1),
         };
         let m = joint_state_msg(&js, &names);
         assert_eq!(m.name, names);
@@ -468,11 +484,11 @@ mod tests {
 
     #[test]
     fn commands_have_one_velocity_per_joint() {
-        let qdot = JointVector::from_fn(|i, _| i as f64 - 3.0);
+        let qdot = JointVector::from_fn(7, |i, _| i as f64 - 3.0);
         let c = commands_msg(&qdot);
         assert_eq!(c.data, qdot.iter().copied().collect::<Vec<_>>());
         assert_eq!(c.layout.dim[0].size, 7);
-        assert_eq!(qdot_from_msg(&c).unwrap(), qdot);
+        assert_eq!(qdot_from_msg(&c, 7).unwrap(), qdot);
         // Struct literals only: r2r's Default impls go through rcl, which
         // panics under `doc-only`.
         let short = Float64MultiArray {
@@ -480,8 +496,16 @@ mod tests {
             data: vec![0.0; 6],
         };
         assert!(matches!(
-            qdot_from_msg(&short),
+            qdot_from_msg(&short, 7),
             Err(ConvertError::Length { found: 6, .. })
         ));
+        // A twist in the base frame, linear then angular.
+        let t = twist_msg(
+            2.5,
+            "base_link",
+            &TwistVector::new(0.1, 0.2, 0.3, 0.4, 0.5, 0.6),
+        );
+        assert_eq!(t.header.frame_id, "base_link");
+        assert_eq!((t.twist.linear.z, t.twist.angular.x), (0.3, 0.4));
     }
 }

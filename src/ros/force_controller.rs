@@ -2,7 +2,17 @@
 //! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`] ->
 //! `velocity_controller/commands` (std_msgs/Float64MultiArray, one velocity
 //! per joint in chain order: the ros2_control JointGroupVelocityController
-//! convention).
+//! convention), or with `command_interface: twist`, `twist_commands`
+//! (geometry_msgs/TwistStamped: the BioTac's twist in the base link's
+//! frame, for MoveIt Servo or a Cartesian controller).
+//!
+//! The arm is the chain between `robot.base_link` and `robot.tip_link` of
+//! the robot description: the `robot_description` parameter, or else the
+//! `/robot_description` topic ([`super::description`]). Until one arrives
+//! the node commands nothing and says so; a new one is taken while no task
+//! runs, and refused, with the reason, while one does. `joint_names` (one
+//! per joint of the chain) renames the joints as `joint_states` lists them;
+//! by default they are the URDF's.
 //!
 //! The controller steps on each new estimate (the mean and the std of one
 //! reading both in), so an estimate acts as soon as it arrives rather than
@@ -20,11 +30,11 @@
 //! (tactile_force_msgs/action/GuardedMove): see
 //! [`crate::nodes::guarded_goal`]. A goal the
 //! controller refuses (a value out of range, a speed beyond the safety
-//! envelope) is accepted and aborted at once with `reason` "refused: ..."
-//! naming the limit, so that a client can read why. r2r has no
-//! untyped action server and, under its `doc-only` build, no types for our
-//! interface package, so the action server is compiled only in a real ROS
-//! build (`cfg(not(feature = "ros2-doc-only"))`).
+//! envelope, no robot description yet) is accepted and aborted at once with
+//! `reason` "refused: ..." naming the limit, so that a client can read why.
+//! r2r has no untyped action server and, under its `doc-only` build, no
+//! types for our interface package, so the action server is compiled only
+//! in a real ROS build (`cfg(not(feature = "ros2-doc-only"))`).
 
 mod estimates;
 #[cfg(not(feature = "ros2-doc-only"))]
@@ -36,18 +46,19 @@ use std::time::Duration;
 
 use futures::StreamExt;
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
-use r2r::geometry_msgs::msg::WrenchStamped;
+use r2r::geometry_msgs::msg::{TwistStamped, WrenchStamped};
 use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 
-use super::convert::PA10_JOINTS;
+use super::description::{joint_names, joint_names_param, robot_description, Description};
 use super::params::RuntimeParams;
 use super::{convert, RosError};
-use crate::control::TaskKind;
+use crate::control::{Phase, TaskKind};
+use crate::kinematics::Robot;
 use crate::nodes::loop_delay::LoopDelayMonitor;
 use crate::nodes::{ControlOutput, ControllerParams, ForceController};
-use crate::params::{layered_flat_params, FlatParams, ParamsError};
+use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
 use estimates::{take_estimate, EstimatePart};
 use status::{diagnostics_msg, keep};
 
@@ -55,9 +66,41 @@ fn lock(s: &Mutex<Shared>) -> std::sync::MutexGuard<'_, Shared> {
     s.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// What the node publishes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CommandInterface {
+    /// Joint velocities on `velocity_controller/commands`.
+    JointVelocities,
+    /// The BioTac's twist on `twist_commands`.
+    Twist,
+}
+
+impl CommandInterface {
+    fn parse(s: &str) -> Result<Self, ParamsError> {
+        match s {
+            "joint_velocities" => Ok(CommandInterface::JointVelocities),
+            "twist" => Ok(CommandInterface::Twist),
+            other => Err(ParamsError::Invalid {
+                key: "command_interface".into(),
+                value: other.into(),
+                expected: "joint_velocities or twist".into(),
+            }),
+        }
+    }
+}
+
 /// What the loop, the subscriptions and the action share.
 struct Shared {
-    controller: ForceController,
+    /// None until a robot description arrives.
+    controller: Option<ForceController>,
+    /// The robot of the description in use.
+    robot: Option<Robot>,
+    /// The description in use.
+    description: Option<String>,
+    /// The arm's joints on joint_states, in chain order.
+    names: Vec<String>,
+    /// The `joint_names` parameter (empty: the URDF's).
+    remap: Vec<String>,
     base: ControllerParams,
     /// The task running: the parameter's, or guarded after a goal.
     task: TaskKind,
@@ -75,11 +118,13 @@ struct Shared {
     delays: LoopDelayMonitor,
 }
 
-/// The shipped defaults of the guarded scene, with every task's section
+/// The shipped defaults of the guarded scene on the world's robot defaults
+/// (the links empty: the URDF's root and leaf), with every task's section
 /// from its own scene, so that `task` can switch while running.
 fn defaults() -> Result<FlatParams, ParamsError> {
     let name = "force_controller";
-    let mut d = layered_flat_params(&TaskKind::Guarded.shipped_layers(), name)?;
+    let scene = TaskKind::Guarded.scene_yaml();
+    let mut d = layered_flat_params(&[WORLD_YAML, scene], name)?;
     for task in TaskKind::ALL {
         let section = format!("{}.", task.name());
         let own = layered_flat_params(&[task.scene_yaml()], name)?;
@@ -90,6 +135,64 @@ fn defaults() -> Result<FlatParams, ParamsError> {
         }
     }
     Ok(d)
+}
+
+impl Shared {
+    /// True while a task runs: a goal, or a task that has begun and not
+    /// stopped.
+    fn running(&self) -> bool {
+        let begun = self
+            .controller
+            .as_ref()
+            .is_some_and(ForceController::started);
+        let stopped = self
+            .last
+            .as_ref()
+            .is_some_and(|o| o.phase == Phase::Stopped);
+        self.goal_active || (begun && !stopped)
+    }
+
+    /// Takes the robot of a description: the controller is built for it
+    /// with the task that runs now.
+    fn install(&mut self, robot: Robot, text: String) -> Result<(), ParamsError> {
+        let names = joint_names(&robot, &self.remap)?;
+        let c = ForceController::switched(&self.base, self.task, robot.clone())?;
+        tracing::info!(
+            "robot {}: {} -> {}, {} joints {names:?}; commanding it",
+            robot.name,
+            robot.links.0,
+            robot.links.1,
+            robot.dof()
+        );
+        self.controller = Some(c);
+        self.robot = Some(robot);
+        self.names = names;
+        self.description = Some(text);
+        self.last = None;
+        Ok(())
+    }
+
+    /// A description from the topic: taken unless it is the one in use, or
+    /// a task runs, or it is refused (the reason is logged; the robot in use,
+    /// if any, stays).
+    fn take_description(&mut self, text: String) {
+        if self.description.as_deref() == Some(text.as_str()) {
+            return;
+        }
+        if self.running() {
+            tracing::warn!(
+                "robot description refused: a task is running (a new description is taken \
+                 once it has stopped, or with no goal active)"
+            );
+            return;
+        }
+        let taken = Robot::from_urdf(&text, &self.base.robot)
+            .map_err(|e| e.to_string())
+            .and_then(|robot| self.install(robot, text).map_err(|e| e.to_string()));
+        if let Err(e) = taken {
+            tracing::error!("robot description refused: {e}");
+        }
+    }
 }
 
 /// Applies (or, `apply` false, checks) a new value of `task`.
@@ -108,7 +211,18 @@ fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> R
     if task == g.task {
         return Ok(()); // nothing to change (a stopped task stays stopped)
     }
-    let c = ForceController::switched(&g.base, task).map_err(|e| e.to_string())?;
+    let switched = ControllerParams {
+        task,
+        ..g.base.clone()
+    };
+    let c = match g.robot.clone() {
+        Some(robot) => Some(ForceController::new(switched, robot).map_err(|e| e.to_string())?),
+        // Checked now, built when a description arrives.
+        None => {
+            ForceController::check(&switched).map_err(|e| e.to_string())?;
+            None
+        }
+    };
     if apply {
         g.controller = c;
         g.task = task;
@@ -118,16 +232,35 @@ fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> R
     Ok(())
 }
 
+/// What the loop publishes: joint velocities or a twist.
+enum Command {
+    Joints(Float64MultiArray),
+    Twist(TwistStamped),
+}
+
+/// The command of the last step, in the node's interface.
+fn command(g: &Shared, interface: CommandInterface, now: f64) -> Option<Command> {
+    let c = g.controller.as_ref()?;
+    Some(match interface {
+        CommandInterface::JointVelocities => Command::Joints(convert::commands_msg(c.command())),
+        CommandInterface::Twist => {
+            let frame = &c.robot().links.0;
+            Command::Twist(convert::twist_msg(now, frame, c.twist()))
+        }
+    })
+}
+
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
     let mut node = super::create_node("force_controller")?;
-    let joint_names = super::own_strings(
+    let remap = joint_names_param(&node)?;
+    let interface = CommandInterface::parse(&super::own_string(
         &node,
-        "joint_names",
-        &PA10_JOINTS,
-        "Arm joints in chain order: read from joint_states by name, commanded in this order.",
-    )?;
-    let skip = ["joint_names"];
+        "command_interface",
+        "joint_velocities",
+        "joint_velocities (velocity_controller/commands) or twist (twist_commands).",
+    )?)?;
+    let skip = ["joint_names", "robot_description", "command_interface"];
     let base: ControllerParams = super::node_params(
         &node,
         "force_controller",
@@ -135,22 +268,25 @@ pub async fn run() -> Result<(), RosError> {
         &skip,
         super::describe_shared,
     )?;
+    ForceController::check(&base)?;
     let period = Duration::from_secs_f64(base.control_period_s);
-    let controller = ForceController::new(base.clone())?;
-    let envelope = controller.envelope();
+    let envelope = crate::nodes::controller::task_envelope(&base)?.envelope;
     tracing::info!(
-        "task {:?} on {}, gains {:?} m/s per N, loop delays {:?}, \
-         speed limit {:.1} mm/s (safety envelope for the stiffest permitted body, {:.1e} N/m), \
-         joints {joint_names:?}",
+        "task {:?} on {}, loop delays {:?}, speed limit {:.1} mm/s (safety envelope for the \
+         stiffest permitted body, {:.1e} N/m), commands: {interface:?}",
         base.task,
         base.object,
-        controller.gains(),
         base.loop_delays,
         envelope.max_speed_mps() * 1e3,
         envelope.stiffness_n_per_m,
     );
-    let shared = Arc::new(Mutex::new(Shared {
-        controller,
+    let description = robot_description(&mut node)?;
+    let mut shared = Shared {
+        controller: None,
+        robot: None,
+        description: None,
+        names: Vec::new(),
+        remap,
         task: base.task,
         goal_active: false,
         delays: LoopDelayMonitor::new(base.loop_delays.transport_delay_s),
@@ -161,7 +297,23 @@ pub async fn run() -> Result<(), RosError> {
         force: nalgebra::Vector3::zeros(),
         last: None,
         rejected: 0,
-    }));
+    };
+    let mut topic = None;
+    match description {
+        Description::Given(text) => {
+            let robot = Robot::from_urdf(&text, &shared.base.robot)?;
+            shared.install(robot, text)?;
+        }
+        Description::Topic(stream) => {
+            tracing::info!(
+                "waiting for the robot description on {}: commanding nothing until it comes \
+                 (or set the robot_description parameter)",
+                super::description::DESCRIPTION_TOPIC
+            );
+            topic = Some(stream);
+        }
+    }
+    let shared = Arc::new(Mutex::new(shared));
 
     let mut joints = node.subscribe::<JointStateMsg>("joint_states", QosProfile::default())?;
     let wrench = node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?;
@@ -171,6 +323,7 @@ pub async fn run() -> Result<(), RosError> {
         "velocity_controller/commands",
         QosProfile::default(),
     )?;
+    let twists = node.create_publisher::<TwistStamped>("twist_commands", QosProfile::default())?;
     let diagnostics =
         node.create_publisher::<DiagnosticArray>("/diagnostics", QosProfile::default())?;
     #[cfg(not(feature = "ros2-doc-only"))]
@@ -188,14 +341,25 @@ pub async fn run() -> Result<(), RosError> {
     super::spin_with_action_server(node);
 
     // Callbacks only check and store (STYLE 3); the loop below runs the pipeline.
+    if let Some(mut topic) = topic {
+        let s = shared.clone();
+        tokio::spawn(async move {
+            while let Some(text) = topic.next().await {
+                lock(&s).take_description(text);
+            }
+        });
+    }
     let s = shared.clone();
-    let names = joint_names.clone();
     tokio::spawn(async move {
         while let Some(m) = joints.next().await {
             let mut g = lock(&s);
-            let ok = convert::joint_state_from_msg(&m, &names)
+            let g = &mut *g;
+            let Some(c) = g.controller.as_mut() else {
+                continue;
+            };
+            let ok = convert::joint_state_from_msg(&m, &g.names)
                 .map_err(|e| e.to_string())
-                .and_then(|js| g.controller.on_joint_state(js).map_err(|e| e.to_string()));
+                .and_then(|js| c.on_joint_state(&js).map_err(|e| e.to_string()));
             if let Err(e) = ok {
                 g.rejected += 1;
                 tracing::debug!("joint_states refused: {e}");
@@ -226,7 +390,7 @@ pub async fn run() -> Result<(), RosError> {
     loop {
         // Each step stores its output under the lock it ran in, so that a
         // goal or a task switch in between cannot see the old one.
-        let qdot = tokio::select! {
+        let command = tokio::select! {
             part = estimates.next() => {
                 let Some(part) = part else { return Ok(()) };
                 let mut g = lock(&shared);
@@ -234,15 +398,21 @@ pub async fn run() -> Result<(), RosError> {
                 let now = clock.now_s();
                 g.delays.record(stamp_s, now);
                 deadline = tokio::time::Instant::now() + wait;
-                let out = g.controller.tick(now);
-                keep(&mut g, out)
+                let Some(out) = g.controller.as_mut().map(|c| c.tick(now)) else { continue };
+                keep(&mut g, out);
+                command(&g, interface, now)
             }
             // No estimate for 1.5 periods: zero velocity, every period.
             _ = tokio::time::sleep_until(deadline) => {
                 deadline = tokio::time::Instant::now() + period;
                 let mut g = lock(&shared);
-                let out = g.controller.estimate_late(clock.now_s(), wait.as_secs_f64());
-                keep(&mut g, out)
+                let now = clock.now_s();
+                let late = wait.as_secs_f64();
+                let Some(out) = g.controller.as_mut().map(|c| c.estimate_late(now, late)) else {
+                    continue;
+                };
+                keep(&mut g, out);
+                command(&g, interface, now)
             }
             _ = report.tick() => {
                 let msg = diagnostics_msg(&mut lock(&shared), clock.now_s(), &mut delay_warned);
@@ -252,8 +422,13 @@ pub async fn run() -> Result<(), RosError> {
                 continue;
             }
         };
-        if let Err(e) = commands.publish(&convert::commands_msg(&qdot)) {
-            tracing::warn!("velocity_controller/commands: {e}");
+        let sent = match command {
+            Some(Command::Joints(m)) => commands.publish(&m),
+            Some(Command::Twist(m)) => twists.publish(&m),
+            None => Ok(()),
+        };
+        if let Err(e) = sent {
+            tracing::warn!("command: {e}");
         }
     }
 }

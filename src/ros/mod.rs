@@ -14,6 +14,7 @@
 
 pub mod biotac_driver;
 pub mod convert;
+pub mod description;
 pub mod force_controller;
 pub mod log;
 pub mod params;
@@ -24,6 +25,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use crate::control::TaskKind;
+use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
 use crate::learn::model::ModelError;
 use crate::nodes::estimator::EstimatorError;
@@ -62,6 +64,9 @@ pub enum RosError {
     /// A parameter is missing, unknown or out of range.
     #[error(transparent)]
     Params(#[from] ParamsError),
+    /// The robot description given as a parameter, or the robot's parameters.
+    #[error(transparent)]
+    Robot(#[from] RobotError),
     /// The model file cannot be read or is not a model.
     #[error(transparent)]
     Model(#[from] ModelError),
@@ -84,7 +89,10 @@ impl RosError {
     /// refused (nothing started), 1 for a failure while starting or running.
     pub fn exit_code(&self) -> u8 {
         match self {
-            RosError::Params(_) | RosError::Model(_) | RosError::Estimator(_) => 2,
+            RosError::Params(_)
+            | RosError::Robot(_)
+            | RosError::Model(_)
+            | RosError::Estimator(_) => 2,
             _ => 1,
         }
     }
@@ -257,7 +265,7 @@ pub fn describe_shared(name: &str) -> &'static str {
         "skin" => "BioTac skin law (config/world.yaml).",
         "objects" => "Objects the arm may touch, by name (config/world.yaml).",
         "object" => "The object of this run (launch argument `object`).",
-        "robot" => "The arm: DH parameters, limits, tool (config/pa10.yaml).",
+        "robot" => "The arm: the links of the robot description, the BioTac's mount, limits.",
         "stale_periods" => "Inputs older than this many periods stop the arm.",
         "axes" => "Wrench axes the task controls.",
         "task" => "The task (guarded or guided); may be changed while running.",
@@ -272,7 +280,7 @@ pub fn describe_shared(name: &str) -> &'static str {
         "physics_rate_hz" => "Physics rate of the simulation (Hz).",
         "command_latency_s" => "Delay before a joint velocity command acts (s).",
         "velocity_lag_s" => "Time constant of the joints' velocity tracking (s).",
-        "start_joints_deg" => "Joint positions at the start (deg).",
+        "start_joints_deg" => "Joint positions at the start (deg, mm if prismatic).",
         "contact_x_mm" => "Where the pad touches, along the BioTac axis (mm).",
         "object_gap_mm" => "Distance from the pad to the body at the start (mm).",
         "finger_path" => "The guided move's finger path (wait/push/circle lines).",

@@ -182,15 +182,19 @@ impl r2r::RosParams for RuntimeParams {
 mod tests {
     use super::*;
     use crate::control::TaskKind;
+    use crate::kinematics::ShippedRobot;
     use crate::params::layered_flat_params;
     use crate::runtime::scene::Scene;
 
     #[test]
     fn every_shipped_parameter_survives_the_trip_through_ros_values() {
-        for task in [TaskKind::Guarded, TaskKind::Guided] {
-            let scene = Scene::builtin(task).unwrap();
+        let runs = TaskKind::ALL
+            .into_iter()
+            .flat_map(|t| ShippedRobot::ALL.map(|r| (t, r)));
+        for (task, robot) in runs {
+            let scene = Scene::shipped(task, robot).unwrap();
             for node in ["force_controller", "sim_robot", "wrench_estimator"] {
-                let defaults = layered_flat_params(&task.shipped_layers(), node).unwrap();
+                let defaults = layered_flat_params(&task.shipped_layers(robot), node).unwrap();
                 let mut params = indexmap::IndexMap::new();
                 declare(&mut params, &defaults, |_| "test");
                 assert_eq!(
@@ -223,7 +227,7 @@ mod tests {
 
     #[test]
     fn a_launch_override_wins_and_a_bad_one_is_named() {
-        let layers = TaskKind::Guarded.shipped_layers();
+        let layers = TaskKind::Guarded.shipped_layers(ShippedRobot::Pa10);
         let defaults = layered_flat_params(&layers, "force_controller").unwrap();
         let mut params = indexmap::IndexMap::new();
         params.insert(

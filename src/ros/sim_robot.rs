@@ -1,5 +1,9 @@
 //! `sim_robot`: the simulated arm, object or finger, F/T sensor and BioTac
-//! ([`SimRobot`]), paced by the wall clock. Every period it publishes
+//! ([`SimRobot`]), paced by the wall clock. The arm is the chain between
+//! `robot.base_link` and `robot.tip_link` of the robot description (the
+//! `robot_description` parameter, or else the first valid one on
+//! `/robot_description`); until it comes the node simulates nothing, and it
+//! keeps that arm for the rest of its run. Every period it publishes
 //! `joint_states`, `ft_sensor/wrench` (ground truth, BioTac frame) and
 //! `biotac/readings` (the simulated BioTac lives here, as in the embedded
 //! runtime: its contact comes from this node's physics), then applies the
@@ -20,39 +24,26 @@ use r2r::rosgraph_msgs::msg::Clock as ClockMsg;
 use r2r::sensor_msgs::msg::JointState as JointStateMsg;
 use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
-use serde::Deserialize;
 use std::sync::{Arc, Mutex};
 
-use super::convert::PA10_JOINTS;
+use super::description::{joint_names, joint_names_param, robot_description, Description};
 use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacSimConfig;
 use crate::control::TaskKind;
-use crate::kinematics::{JointVector, RobotParams};
+use crate::kinematics::{JointVector, Robot};
 use crate::nodes::{JointState, SimRobot, SimRobotParams};
 use crate::params::layered_flat_params;
-use crate::params::node_params;
-use crate::params::{ParamsError, PA10_YAML};
+use crate::params::{ParamsError, WORLD_YAML};
 
 /// The fastest simulated time: a period of 0.1 ms of wall clock at 100 Hz.
 const MAX_REAL_TIME_FACTOR: f64 = 100.0;
 
-/// The arm of config/pa10.yaml (the simulated arm is the PA10-7C).
-#[derive(Deserialize)]
-struct Arm {
-    robot: RobotParams,
-}
-
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
     let mut node = super::create_node("sim_robot")?;
-    let names = super::own_strings(
-        &node,
-        "joint_names",
-        &PA10_JOINTS,
-        "Names of the simulated joints on joint_states.",
-    )?;
+    let remap = joint_names_param(&node)?;
     let frame_id = super::own_string(
         &node,
         "frame_id",
@@ -101,15 +92,21 @@ pub async fn run() -> Result<(), RosError> {
             ),
         }));
     }
+    let scene = TaskKind::Guarded.scene_yaml();
     let p: SimRobotParams = super::node_params(
         &node,
         "sim_robot",
-        layered_flat_params(&TaskKind::Guarded.shipped_layers(), "sim_robot")?,
-        &["joint_names", "frame_id", "seed", "real_time_factor"],
+        layered_flat_params(&[WORLD_YAML, scene], "sim_robot")?,
+        &[
+            "joint_names",
+            "frame_id",
+            "seed",
+            "real_time_factor",
+            "robot_description",
+        ],
         super::describe_shared,
     )?;
-    let arm: Arm = node_params(PA10_YAML, "force_controller")?;
-    let robot = arm.robot.validate()?;
+    let description = robot_description(&mut node)?;
     tracing::info!(
         "object {}, BioTac unit {}, noise seed {seed}, period {} s, {}",
         p.object,
@@ -122,7 +119,6 @@ pub async fn run() -> Result<(), RosError> {
         }
     );
     let p_unit = p.sensor_unit;
-    let mut sim = SimRobot::new(p, robot, &BioTacSimConfig::default(), seed)?;
 
     let joints = node.create_publisher::<JointStateMsg>("joint_states", QosProfile::default())?;
     let ft = node.create_publisher::<WrenchStamped>("ft_sensor/wrench", QosProfile::default())?;
@@ -142,11 +138,61 @@ pub async fn run() -> Result<(), RosError> {
     let clock = super::serve_parameters(&mut node, RuntimeParams::none())?;
     super::spin(node);
 
-    let qdot = Arc::new(Mutex::new(JointVector::zeros()));
+    // The arm: from the parameter, or the first valid description on the
+    // topic (a refused one is logged, and the next awaited).
+    let build = |text: &str| -> Result<(SimRobot, Vec<String>), RosError> {
+        let robot = Robot::from_urdf(text, &p.robot)?;
+        let names = joint_names(&robot, &remap)?;
+        let sim = SimRobot::new(p.clone(), robot, &BioTacSimConfig::default(), seed)?;
+        Ok((sim, names))
+    };
+    let (mut sim, names, rest) = match description {
+        Description::Given(text) => {
+            let (sim, names) = build(&text)?;
+            (sim, names, None)
+        }
+        Description::Topic(mut topic) => {
+            tracing::info!(
+                "waiting for the robot description on {}: simulating nothing until it comes",
+                super::description::DESCRIPTION_TOPIC
+            );
+            loop {
+                let Some(text) = topic.next().await else {
+                    return Ok(());
+                };
+                match build(&text) {
+                    Ok((sim, names)) => break (sim, names, Some((topic, text))),
+                    Err(e) => tracing::error!("robot description refused: {e}"),
+                }
+            }
+        }
+    };
+    let robot = sim.robot();
+    tracing::info!(
+        "simulating {}: {} -> {}, joints {names:?}",
+        robot.name,
+        robot.links.0,
+        robot.links.1
+    );
+    if let Some((mut topic, used)) = rest {
+        tokio::spawn(async move {
+            while let Some(text) = topic.next().await {
+                if text != used {
+                    tracing::warn!(
+                        "robot description refused: sim_robot simulates the arm it started \
+                         with; restart it for another"
+                    );
+                }
+            }
+        });
+    }
+
+    let dof = sim.robot().dof();
+    let qdot = Arc::new(Mutex::new(JointVector::zeros(dof)));
     let q = qdot.clone();
     tokio::spawn(async move {
         while let Some(m) = commands.next().await {
-            match convert::qdot_from_msg(&m) {
+            match convert::qdot_from_msg(&m, dof) {
                 Ok(v) => *q.lock().unwrap_or_else(|e| e.into_inner()) = v,
                 Err(e) => tracing::debug!("command refused: {e}"),
             }
@@ -197,7 +243,7 @@ pub async fn run() -> Result<(), RosError> {
         if let Err(e) = sent {
             tracing::warn!("publish: {e}");
         }
-        sim.command(*qdot.lock().unwrap_or_else(|e| e.into_inner()));
+        sim.command(&qdot.lock().unwrap_or_else(|e| e.into_inner()));
         sim.advance();
     }
     Ok(())

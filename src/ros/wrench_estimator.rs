@@ -29,7 +29,7 @@ use crate::control::TaskKind;
 use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::{Dropped, EstimatorParams};
 use crate::nodes::{EstimatorNode, WrenchEstimate};
-use crate::params::layered_flat_params;
+use crate::params::{layered_flat_params, WORLD_YAML};
 use crate::sensor::{SensorInput, SensorSpec};
 
 /// Runs the node until the process ends.
@@ -75,7 +75,10 @@ pub async fn run() -> Result<(), RosError> {
     let params: EstimatorParams = super::node_params(
         &node,
         "wrench_estimator",
-        layered_flat_params(&TaskKind::Guarded.shipped_layers(), "wrench_estimator")?,
+        layered_flat_params(
+            &[WORLD_YAML, TaskKind::Guarded.scene_yaml()],
+            "wrench_estimator",
+        )?,
         &skip,
         super::describe_shared,
     )?;

@@ -122,7 +122,7 @@ impl Scene {
     }
 
     /// The world, `robot`'s file and the scene text `scene` (a task's
-    /// shipped scene, or a user's file read with [`read_scene`]).
+    /// shipped scene, or a user's file read with [`Scene::read_scene`]).
     pub fn with_robot(robot: &RobotChoice, scene: &str) -> Result<Self, ParamsError> {
         let mut layers = vec![WORLD_YAML];
         layers.extend(robot.yaml());

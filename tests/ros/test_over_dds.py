@@ -30,11 +30,19 @@ independent rclpy peer that checks them from the topics and the action.
   use_sim_time: the guarded move holds as in real time.
 - biotac_driver on the serial bridge emulator's pseudo-terminal: readings
   at 100 Hz over DDS, and a tare through its ~/tare service.
+- `command_interface: twist`: the approach as the BioTac's twist on
+  twist_commands (geometry_msgs/TwistStamped, base link frame).
+- The UR5 (config/ur5.urdf, ur5.yaml), its URDF published on
+  /robot_description (transient local) by the peer: until it comes nothing
+  is commanded and the nodes say so; then the guarded move on the wooden
+  box meets the bounds above, a new description while it holds is refused
+  and the hold kept; the guided move meets its bounds.
 
 Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
 check, the figures, and "N passed, N failed".
 """
 
+import json
 import os
 import random
 import shutil
@@ -50,6 +58,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from rclpy.serialization import serialize_message
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
+from std_msgs.msg import String
 from rcl_interfaces.srv import SetParameters
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -69,6 +78,12 @@ CONTACT_N = 0.05
 PERIOD_S = 0.01
 
 
+def urdf(robot):
+    """A shipped robot's description, config/<robot>.urdf."""
+    with open(os.path.join(REPO, "config", f"{robot}.urdf")) as f:
+        return f.read()
+
+
 def check(name, ok, detail):
     RESULTS.append(ok)
     print(f"{'ok  ' if ok else 'FAIL'} {name}: {detail}", flush=True)
@@ -80,14 +95,21 @@ class Nodes:
     estimator first, until its model is loaded (training it on first use
     takes 10-20 s), so that the others start with estimates flowing."""
 
-    def __init__(self, scene, object_name, port=None, only=None, speed=None):
+    def __init__(self, scene, object_name, port=None, only=None, speed=None, robot="pa10",
+                 description_topic=False, controller=None):
         self.domain = random.randint(10, 200)
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
         self.procs = {}
+        # The URDF as a parameter, as the launch files give it, or none: the
+        # nodes then wait for /robot_description.
+        description = None if description_topic else urdf(robot)
         started = nodes(scene, port is None, object_name, "", port or "",
-                        sim_time=speed is not None, real_time_factor=speed or 1.0)
+                        sim_time=speed is not None, real_time_factor=speed or 1.0,
+                        robot=robot, description=description)
+        self.robot = robot
         self.specs = {exe: (files, overrides) for exe, files, overrides in started}
+        self.specs["force_controller"][1].update(controller or {})
         # Each scenario tares anew: its own tare file.
         self.specs["wrench_estimator"][1]["tare_file"] = os.path.join(self.logs, "tare.json")
         order = ["wrench_estimator"] + [exe for exe in self.specs if exe != "wrench_estimator"]
@@ -109,7 +131,9 @@ class Nodes:
         with open(extra, "w") as f:
             f.write("/**:\n  ros__parameters:\n")
             for k, v in overrides.items():
-                value = str(v).lower() if isinstance(v, bool) else v if isinstance(v, (int, float)) else f'"{v}"'
+                # A JSON string is a YAML double-quoted scalar (a URDF's
+                # quotes and line breaks escaped).
+                value = str(v).lower() if isinstance(v, bool) else v if isinstance(v, (int, float)) else json.dumps(v)
                 f.write(f"    {k}: {value}\n")
         cmd = [exe, "--ros-args", "-r", f"__node:={exe}"]
         for name in files:
@@ -191,6 +215,15 @@ class Peer:
         self.node.create_subscription(Log, "/rosout", lambda m: self.logs.append((m.name, m.level, m.msg)), rosout)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.client = ActionClient(self.node, GuardedMove, "force_controller/guarded_move")
+        # robot_state_publisher's QoS: a late subscriber gets the latest.
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.description = self.node.create_publisher(String, "/robot_description", latched)
+
+    def publish_description(self, robot):
+        """Publishes config/<robot>.urdf on /robot_description, as
+        robot_state_publisher does."""
+        self.description.publish(String(data=urdf(robot)))
 
     def _on_ft(self, m):
         f = m.wrench.force
@@ -284,14 +317,29 @@ def check_hold(label, peer, t0, seconds, wall_timeout):
     check(f"{label}: sd over the last 2 s <= 0.02 N", sd <= 0.02, f"{sd:.4f} N")
 
 
-def guarded(object_name, speed=None, label=None):
+def description_by_topic(n, peer, label):
+    """The nodes wait for /robot_description, commanding nothing and saying
+    so; then the peer publishes the robot's URDF there."""
+    peer.spin(2)
+    said = [exe for exe in ("sim_robot", "force_controller")
+            if "waiting for the robot description on /robot_description" in n.log(exe)]
+    check(f"{label}: no description, nothing commanded, and said", not peer.commands and len(said) == 2,
+          f"{len(peer.commands)} commands in 2 s; waiting logged by {said}")
+    peer.publish_description(n.robot)
+
+
+def guarded(object_name, speed=None, label=None, robot="pa10"):
     """The guarded move on `object_name`; `speed`: simulated time on /clock
-    at that many times real time."""
+    at that many times real time; `robot`: the PA10 gets its URDF as a
+    parameter, another robot from the peer on /robot_description."""
     label = label or object_name
-    n = Nodes("guarded_move.yaml", object_name, speed=speed)
+    n = Nodes("guarded_move.yaml", object_name, speed=speed, robot=robot,
+              description_topic=robot != "pa10")
     peer = Peer(n.domain)
     ok = False
     try:
+        if robot != "pa10":
+            description_by_topic(n, peer, label)
         touched = peer.spin(60, lambda: any(abs(f) > CONTACT_N for _, f in peer.ft_stamped))
         check(f"{label}: contact", touched, f"{len(peer.forces)} ft_sensor/wrench messages")
         if touched:
@@ -304,7 +352,9 @@ def guarded(object_name, speed=None, label=None):
                       f"{ratio:.2f} simulated s per wall-clock s")
         if touched and not speed:
             by_goal(label, peer)
-        if touched and object_name == "wooden_box" and not speed:
+        if touched and robot != "pa10":
+            new_description_refused(n, peer, label)
+        if touched and object_name == "wooden_box" and not speed and robot == "pa10":
             startup_logs(peer)
             holding(n, peer)
             goals(peer)
@@ -314,6 +364,17 @@ def guarded(object_name, speed=None, label=None):
     finally:
         peer.destroy()
         n.stop(keep_logs=not ok)
+
+
+def new_description_refused(n, peer, label):
+    """Another robot's description while the move holds: refused, said, and
+    the hold kept."""
+    since = len(n.log("force_controller"))
+    peer.publish_description("pa10")
+    refused = peer.spin(3, lambda: "robot description refused: a task is running"
+                        in n.log("force_controller")[since:])
+    check(f"{label}: a new description while holding is refused", refused and holding_on(peer),
+          "refused and logged, the hold kept" if refused else n.tail("force_controller", 3))
 
 
 def startup_logs(peer):
@@ -539,8 +600,9 @@ def off_axis_ratio(arm, finger, since):
     return worst, where
 
 
-def guided():
-    n = Nodes("guided_move.yaml", "fingertip")
+def guided(robot="pa10"):
+    label = "guided" if robot == "pa10" else f"{robot}, guided"
+    n = Nodes("guided_move.yaml", "fingertip", robot=robot, description_topic=robot != "pa10")
     peer = Peer(n.domain)
     arm, finger = {}, {}
     stamp = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec  # noqa: E731
@@ -551,16 +613,18 @@ def guided():
                                   lambda m: finger.__setitem__(stamp(m), linear(m)), 100)
     ok = False
     try:
+        if robot != "pa10":
+            description_by_topic(n, peer, label)
         # The finger's path (config/guided_move.yaml) takes 20 s from the
-        # start of sim_robot.
+        # start of sim_robot's simulation.
         peer.spin(22)
         t0 = contact_time(peer.forces)
-        check("guided: contact", t0 is not None, f"{len(peer.forces)} ft_sensor/wrench messages")
+        check(f"{label}: contact", t0 is not None, f"{len(peer.forces)} ft_sensor/wrench messages")
         if t0 is not None:
             after = [f for t, f in peer.forces if t >= t0]
             targets = (0.0, 0.0, 1.0)
             rms = [(sum((f[i] - targets[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
-            check("guided: RMS force error <= 0.3 N per axis", max(rms) <= 0.3,
+            check(f"{label}: RMS force error <= 0.3 N per axis", max(rms) <= 0.3,
                   "fx %.3f, fy %.3f, fz %.3f N" % tuple(rms))
             # The finger's path runs from the start of sim_robot: when the
             # first estimates come late (DDS discovery, the tare), its first
@@ -568,13 +632,47 @@ def guided():
             # it still approaches along z. Pushes from 1 s after contact.
             touch = next(t for t, f in peer.ft_stamped if abs(f) > CONTACT_N)
             ratio, where = off_axis_ratio(arm, finger, touch + 1.0)
-            check("guided: off-axis speed <= 10 % of the finger's", ratio <= 0.10,
+            check(f"{label}: off-axis speed <= 10 % of the finger's", ratio <= 0.10,
                   f"{100 * ratio:.1f} % at most ({where})")
-        for task in ("guarded", "guided"):
+        for task in ("guarded", "guided") if robot == "pa10" else ():
             done, why = peer.set_param("force_controller", "task", task)
             running = peer.diagnostic("force_controller", "task")
             check(f"task switched to {task} while running", done and running == task,
                   f"set: {done} {why}; /diagnostics says {running}")
+        ok = all(RESULTS)
+    finally:
+        peer.destroy()
+        n.stop(keep_logs=not ok)
+
+
+def twist_interface():
+    """command_interface: twist: the BioTac's twist on twist_commands, in the
+    base link's frame, instead of joint velocities. sim_robot reads joint
+    velocities, so the arm stays where it is and the approach goes on."""
+    n = Nodes("guarded_move.yaml", "wooden_box", controller={"command_interface": "twist"})
+    peer = Peer(n.domain)
+    twists = []
+    peer.node.create_subscription(TwistStamped, "twist_commands", twists.append, 100)
+    ok = False
+    try:
+        peer.spin(30, lambda: len(twists) > 10)
+        since = len(twists)
+        t0 = time.monotonic()
+        peer.spin(3)
+        rate = (len(twists) - since) / (time.monotonic() - t0)
+        last = twists[-1] if twists else None
+        lin = (last.twist.linear.x, last.twist.linear.y, last.twist.linear.z) if last else (0, 0, 0)
+        ang = (last.twist.angular.x, last.twist.angular.y, last.twist.angular.z) if last else (1, 1, 1)
+        # The PA10's pad faces the floor at the start: the approach, 10 mm/s
+        # along the pad's normal, is straight down in the base frame.
+        ok_twist = (last is not None and last.header.frame_id == "base_link"
+                    and max(abs(a - b) for a, b in zip(lin, (0.0, 0.0, -0.01))) < 1e-9
+                    and max(abs(a) for a in ang) == 0.0)
+        check("command_interface twist: the approach as a twist in base_link, no joint command",
+              90 <= rate <= 110 and ok_twist and not peer.commands,
+              f"{rate:.1f} twists per s, frame {last.header.frame_id if last else None!r}, "
+              f"linear {tuple(round(v, 6) for v in lin)} m/s, angular {ang}; "
+              f"{len(peer.commands)} joint commands")
         ok = all(RESULTS)
     finally:
         peer.destroy()
@@ -627,6 +725,9 @@ def main():
         guarded(object_name)
     guarded("wooden_box", speed=2.0, label="wooden_box, simulated time at 2x")
     guided()
+    guarded("wooden_box", label="ur5, wooden_box", robot="ur5")
+    guided(robot="ur5")
+    twist_interface()
     driver()
     failed = RESULTS.count(False)
     print(f"{len(RESULTS) - failed} passed, {failed} failed")

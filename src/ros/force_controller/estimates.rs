@@ -33,7 +33,10 @@ pub(super) fn take_estimate(g: &mut Shared, part: EstimatePart) -> Option<f64> {
         .map_err(|e| e.to_string())
         .and_then(|e| {
             g.force = e.mean.force;
-            g.controller.on_estimate(e).map_err(|e| e.to_string())
+            match g.controller.as_mut() {
+                Some(c) => c.on_estimate(e).map_err(|e| e.to_string()),
+                None => Err("no robot description yet".into()),
+            }
         });
     match ok {
         Ok(()) => Some(stamp_s),

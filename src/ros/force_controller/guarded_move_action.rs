@@ -20,8 +20,12 @@ pub(super) async fn serve(
         };
         let started = {
             let mut g = lock(&shared);
-            goal.start(&g.base).map(|c| {
-                g.controller = c;
+            match g.robot.clone() {
+                Some(robot) => goal.start(&g.base, robot).map_err(|e| e.to_string()),
+                None => Err("no robot description yet".to_string()),
+            }
+            .map(|c| {
+                g.controller = Some(c);
                 g.task = TaskKind::Guarded;
                 g.goal_active = true;
                 g.last = None;
@@ -43,7 +47,9 @@ pub(super) async fn serve(
         loop {
             ticker.tick().await;
             if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
-                lock(&shared).controller.stop();
+                if let Some(c) = lock(&shared).controller.as_mut() {
+                    c.stop();
+                }
                 c.accept();
                 let _ = handle.cancel(GuardedMove::Result {
                     reason: "canceled".into(),

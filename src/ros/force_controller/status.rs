@@ -8,16 +8,21 @@ use crate::nodes::ControlOutput;
 use crate::ros::convert;
 use crate::ros::convert::level::{OK, WARN};
 
-/// Logs what changed and keeps `out` as the last output; its velocities.
-pub(super) fn keep(g: &mut Shared, out: ControlOutput) -> crate::kinematics::JointVector {
-    log_change(g.last.as_ref(), &out);
-    let qdot = out.qdot;
+/// Logs what changed and keeps `out` as the last output.
+pub(super) fn keep(g: &mut Shared, out: ControlOutput) {
+    let refusal = g.controller.as_ref().and_then(|c| c.refusal());
+    log_change(g.last.as_ref(), &out, refusal);
     g.last = Some(out);
-    qdot
 }
 
-/// Logs a new phase (with the stop reason), a halt and the end of a halt.
-fn log_change(before: Option<&ControlOutput>, now: &ControlOutput) {
+/// Logs a new phase (with the stop reason, and why a task was refused at
+/// its start pose), a halt and the end of a halt.
+fn log_change(before: Option<&ControlOutput>, now: &ControlOutput, refusal: Option<&str>) {
+    if before.is_none() {
+        if let Some(why) = refusal {
+            tracing::error!("task refused at its start pose: {why}");
+        }
+    }
     let Some(before) = before else { return };
     if before.phase != now.phase {
         match now.reason {
@@ -38,6 +43,13 @@ fn log_change(before: Option<&ControlOutput>, now: &ControlOutput) {
 pub(super) fn diagnostics_msg(g: &mut Shared, now: f64, warned: &mut bool) -> DiagnosticArray {
     let mut values = vec![("task", g.task.name().to_string())];
     let (mut level, mut message) = (OK, g.task.name().to_string());
+    match &g.robot {
+        Some(r) => values.push(("robot", r.name.clone())),
+        None => {
+            level = WARN;
+            message = format!("{message}, waiting for the robot description");
+        }
+    }
     if let Some(out) = &g.last {
         values.push(("phase", out.phase.name().to_string()));
         message = format!("{message}, {}", out.phase.name());
