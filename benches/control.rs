@@ -29,6 +29,7 @@ use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::biotac::BioTacReading;
 use tactile_force::control::Phase;
 use tactile_force::control::TaskKind;
+use tactile_force::kinematics::ShippedRobot;
 use tactile_force::learn::default_model::{self, Recipe};
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
@@ -59,12 +60,11 @@ impl Run {
     /// whose command moves the arm.
     fn new(
         name: &'static str,
-        task: TaskKind,
+        scene: Scene,
         model: WrenchGp,
         ready: fn(&SimSample, &ControlOutput) -> bool,
     ) -> Self {
-        let mut nodes = Scene::builtin(task)
-            .unwrap()
+        let mut nodes = scene
             .build(model, &BioTacSimConfig::default(), SEED)
             .expect("shipped scene");
         let mut readings = Vec::new();
@@ -188,16 +188,40 @@ fn benches(c: &mut Criterion) {
     };
     let six = train("guarded recipe, six axes", &six_axes);
     let hold = |_: &SimSample, out: &ControlOutput| out.phase == Phase::Hold;
-    let mut guarded = Run::new("guarded_hold", TaskKind::Guarded, fz.clone(), hold);
+    let pushed =
+        |s: &SimSample, _: &ControlOutput| s.finger.is_some_and(|f| f.velocity != Vector3::zeros());
+    let scene = |task, robot| Scene::shipped(task, robot).expect("shipped scene");
+    let mut guarded = Run::new(
+        "guarded_hold",
+        scene(TaskKind::Guarded, ShippedRobot::Pa10),
+        fz.clone(),
+        hold,
+    );
     let mut guarded_six = Run::new(
         "guarded_hold_six_axes",
-        TaskKind::Guarded,
+        scene(TaskKind::Guarded, ShippedRobot::Pa10),
         six.clone(),
         hold,
     );
-    let mut guided = Run::new("guided_follow", TaskKind::Guided, forces.clone(), |s, _| {
-        s.finger.is_some_and(|f| f.velocity != Vector3::zeros())
-    });
+    let mut guided = Run::new(
+        "guided_follow",
+        scene(TaskKind::Guided, ShippedRobot::Pa10),
+        forces.clone(),
+        pushed,
+    );
+    // The tick on other arms: six joints by a singularity (damped), seven.
+    let guided_ur5 = Run::new(
+        "guided_follow_ur5",
+        scene(TaskKind::Guided, ShippedRobot::Ur5),
+        forces.clone(),
+        pushed,
+    );
+    let guided_panda = Run::new(
+        "guided_follow_panda",
+        scene(TaskKind::Guided, ShippedRobot::Panda),
+        forces.clone(),
+        pushed,
+    );
     let period_s = guarded.nodes.sim.period_s();
     let mut summary = Vec::new();
 
@@ -214,7 +238,7 @@ fn benches(c: &mut Criterion) {
     }
     summary.extend(measure(c, "estimator", period_s, estimators));
 
-    let ticks = [&guarded, &guided].map(|run| {
+    let ticks = [&guarded, &guided, &guided_ur5, &guided_panda].map(|run| {
         let (mut controller, t) = (run.nodes.controller.clone(), run.t);
         assert_ne!(
             controller.tick(t).velocity,
