@@ -246,17 +246,18 @@ impl Robot {
         key: &str,
         values: &[f64],
     ) -> Result<JointVector, ParamsError> {
-        let q = JointVector::from_iterator(
-            values.len(),
-            values.iter().zip(self.chain.joints()).map(|(v, j)| {
+        let converted: Vec<f64> = values
+            .iter()
+            .zip(self.chain.joints())
+            .map(|(v, j)| {
                 if j.kind.turns() {
                     v.to_radians()
                 } else {
                     v * 1e-3
                 }
-            }),
-        );
-        self.check_positions(key, &q, values)
+            })
+            .collect();
+        self.check_positions(key, &JointVector::from_vec(converted), values)
     }
 
     /// Refuses positions (rad or m) of the wrong length, not finite or
@@ -379,11 +380,13 @@ mod tests {
         assert!(e.contains("no link `hand`") && e.contains("link7"), "{e}");
 
         let robot = Robot::pa10();
-        let e = robot
-            .positions_from_deg_mm("start_joints_deg", &[0.0; 6])
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("7 values") && e.contains("S1, S2"), "{e}");
+        for n in [6, 8] {
+            let e = robot
+                .positions_from_deg_mm("start_joints_deg", &vec![0.0; n])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("7 values") && e.contains("S1, S2"), "{e}");
+        }
         let e = robot
             .positions_from_deg_mm("start_joints_deg", &[0.0, 95.0, 0.0, 0.0, 0.0, 0.0, 0.0])
             .unwrap_err()
