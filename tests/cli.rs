@@ -57,6 +57,13 @@ fn collect(dir: &Path, seed: &str) -> PathBuf {
     data
 }
 
+/// Asserts that `o` exited 2 (refused input) with `says` in its message.
+fn refused_saying(o: &Output, says: &str) {
+    let (_, err) = text(o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains(says), "{err}");
+}
+
 fn last_json(stdout: &str) -> serde_json::Value {
     serde_json::from_str(stdout.lines().last().expect("output")).expect("last line is JSON")
 }
@@ -556,15 +563,9 @@ fn demo_refuses_bad_requests_before_any_training() {
 #[test]
 fn robot_prints_the_chain_pose_and_jacobian_and_refuses_bad_input() {
     let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/config/ur5.urdf");
-    let base = [
-        "robot",
-        "--urdf",
-        urdf,
-        "--base",
-        "base_link",
-        "--tip",
-        "tool0",
-    ];
+    let on = |file, base, tip| vec!["robot", "--urdf", file, "--base", base, "--tip", tip];
+    let chain = |base, tip| on(urdf, base, tip);
+    let base = chain("base_link", "tool0");
     // At zero the UR5 lies stretched along its base's x (base_link is UR's
     // base turned by pi): tool0 at (a2 + a3, d4 + d6, d1 - d5).
     let o = run(&[&base[..], &["--q=0,0,0,0,0,0", "--json"]].concat());
@@ -590,12 +591,7 @@ fn robot_prints_the_chain_pose_and_jacobian_and_refuses_bad_input() {
     let o = run(&[&base[..], &["--json"]].concat());
     assert_eq!(last_json(&text(&o).0)["position_m"], j["position_m"]);
 
-    let refused = |args: &[&str], says: &str| {
-        let o = run(args);
-        let (_, err) = text(&o);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(says), "{args:?}: {err}");
-    };
+    let refused = |args: &[&str], says: &str| refused_saying(&run(args), says);
     refused(&[&base[..], &["--q", "1,2,3"]].concat(), "6 values");
     refused(
         &[&base[..], &["--q=0,0,0,0,0,7"]].concat(),
@@ -606,56 +602,18 @@ fn robot_prints_the_chain_pose_and_jacobian_and_refuses_bad_input() {
         "wrist_3_joint = NaN",
     );
     refused(
-        &[
-            "robot",
-            "--urdf",
-            urdf,
-            "--base",
-            "base_link",
-            "--tip",
-            "tool9",
-        ],
+        &chain("base_link", "tool9"),
         "no link `tool9` (its links: base_link, base,",
     );
     refused(
-        &[
-            "robot",
-            "--urdf",
-            urdf,
-            "--base",
-            "tool0",
-            "--tip",
-            "base_link",
-        ],
+        &chain("tool0", "base_link"),
         "no chain from `tool0` down to `base_link`",
     );
-    refused(
-        &[
-            "robot",
-            "--urdf",
-            "/nonexistent.urdf",
-            "--base",
-            "a",
-            "--tip",
-            "b",
-        ],
-        "/nonexistent.urdf",
-    );
+    refused(&on("/nonexistent.urdf", "a", "b"), "/nonexistent.urdf");
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.urdf");
     std::fs::write(&bad, "<robot name=\"x\"><link name=\"a\"></robot>").unwrap();
-    refused(
-        &[
-            "robot",
-            "--urdf",
-            bad.to_str().unwrap(),
-            "--base",
-            "a",
-            "--tip",
-            "a",
-        ],
-        "not a valid URDF",
-    );
+    refused(&on(bad.to_str().unwrap(), "a", "a"), "not a valid URDF");
 }
 
 #[test]
@@ -713,9 +671,7 @@ fn demo_runs_any_arm_and_refuses_an_axis_the_arm_cannot_make() {
         ),
     ] {
         let o = run_cached(&[&["demo", "guarded"][..], &args].concat(), dir.path());
-        let (_, err) = text(&o);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(says), "{args:?}: {err}");
+        refused_saying(&o, says);
     }
 }
 

@@ -3,38 +3,23 @@
 //! five, six and seven joints, counted by a global allocator (this binary
 //! holds one test so nothing else allocates).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use tactile_force::control::TaskKind;
-use tactile_force::kinematics::{JointVector, Robot, ShippedRobot};
+use tactile_force::kinematics::{JointVector, Robot, RobotParams, ShippedRobot};
 use tactile_force::nodes::{ForceController, JointState, WrenchEstimate};
+use tactile_force::params::WORLD_YAML;
 use tactile_force::runtime::Scene;
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
+#[path = "common/counting_alloc.rs"]
+mod counting_alloc;
+use counting_alloc::{allocations, Counting};
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// The five-joint test arm, the BioTac frame at its flange.
+/// The five-joint test arm with the world's robot defaults: the chain from
+/// its root to its one leaf, the BioTac frame at the flange.
 fn five_joints() -> Robot {
-    let mut p = ShippedRobot::Pa10.robot_params().unwrap();
-    p.base_link = String::new();
-    p.tip_link = String::new();
-    p.tool_xyz_m = [0.0; 3];
-    p.tool_rpy_deg = [0.0; 3];
+    let p = RobotParams::from_layers(&[WORLD_YAML]).unwrap();
     Robot::from_urdf(include_str!("data/five_joint_arm.urdf"), &p).unwrap()
 }
 
@@ -84,11 +69,11 @@ fn a_control_period_allocates_nothing_after_the_first() {
         for k in 0..5 {
             step(k);
         }
-        let before = ALLOCATIONS.load(Ordering::Relaxed);
+        let before = allocations();
         for k in 5..505 {
             step(k);
         }
-        let during = ALLOCATIONS.load(Ordering::Relaxed) - before;
+        let during = allocations() - before;
         assert_eq!(during, 0, "{n} joints: {during} allocations in 500 periods");
     }
 }

@@ -1,27 +1,14 @@
 //! The single-sample prediction path allocates nothing per call (counted by a
 //! global allocator; this binary holds one test so nothing else allocates).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use ndarray::Array2;
 use tactile_force::learn::dataset::Dataset;
 use tactile_force::learn::gp::{Gp, GpParams};
 use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
+#[path = "common/counting_alloc.rs"]
+mod counting_alloc;
+use counting_alloc::{allocations, Counting};
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
@@ -61,13 +48,13 @@ fn predict_one_allocates_nothing_after_warm_up() {
                 .predict_one(&input, &mut ws, with_std, &mut out)
                 .unwrap();
         }
-        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        let before = allocations();
         for _ in 0..100 {
             model
                 .predict_one(&input, &mut ws, with_std, &mut out)
                 .unwrap();
         }
-        let allocated = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        let allocated = allocations() - before;
         assert_eq!(allocated, 0, "with_std = {with_std}");
         assert!(out.iter().all(|e| e.mean.is_finite()));
     }
@@ -91,13 +78,13 @@ fn predict_one_allocates_nothing_after_warm_up() {
         for _ in 0..50 {
             gp.predict_one(&z, &mut ws, with_var);
         }
-        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        let before = allocations();
         let mut sum = 0.0;
         for _ in 0..100 {
             let (m, v) = gp.predict_one(&z, &mut ws, with_var);
             sum += m + v;
         }
-        let allocated = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        let allocated = allocations() - before;
         assert_eq!(allocated, 0, "sparse, with_var = {with_var}");
         assert!(sum.is_finite());
     }

@@ -357,23 +357,16 @@ mod tests {
             matches!(&e, UrdfError::Mimic { joint, .. } if joint == "finger_b"),
             "{e}"
         );
-        let floating = arm(
-            r#"<link name="cam"/><joint name="free" type="floating"><parent link="flange"/>
-            <child link="cam"/></joint>"#,
-        );
-        let e = read_chain(&floating, "base", "cam")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("`free`") && e.contains("floating"), "{e}");
-        read_chain(&floating, "base", "flange").expect("a floating joint off the chain");
-        let planar = arm(
-            r#"<link name="slide"/><joint name="table" type="planar"><parent link="flange"/>
-            <child link="slide"/></joint>"#,
-        );
-        let e = read_chain(&planar, "base", "slide")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("`table`") && e.contains("planar"), "{e}");
+        // A joint that cannot be driven, on the chain and off it.
+        for kind in ["floating", "planar"] {
+            let odd = arm(&format!(
+                r#"<link name="cam"/><joint name="odd" type="{kind}"><parent link="flange"/>
+                <child link="cam"/></joint>"#
+            ));
+            let e = read_chain(&odd, "base", "cam").unwrap_err().to_string();
+            assert!(e.contains("`odd`") && e.contains(kind), "{e}");
+            read_chain(&odd, "base", "flange").expect("off the chain");
+        }
 
         let e = read_chain(&arm(""), "base", "flang")
             .unwrap_err()

@@ -655,15 +655,10 @@ mod tests {
         assert_eq!(c.rejected(), 1);
     }
 
-    /// The five-joint test arm, the BioTac frame at its flange.
+    /// The five-joint test arm with the world's robot defaults: the chain
+    /// from its root to its one leaf, the BioTac frame at the flange.
     fn five_joints() -> Robot {
-        let mut p = crate::kinematics::ShippedRobot::Pa10
-            .robot_params()
-            .unwrap();
-        p.base_link = String::new();
-        p.tip_link = String::new();
-        p.tool_xyz_m = [0.0; 3];
-        p.tool_rpy_deg = [0.0; 3];
+        let p = RobotParams::from_layers(&[crate::params::WORLD_YAML]).unwrap();
         Robot::from_urdf(include_str!("../../tests/data/five_joint_arm.urdf"), &p).unwrap()
     }
 
