@@ -11,7 +11,7 @@ use std::time::Instant;
 use criterion::{criterion_group, criterion_main, Criterion};
 use faer::Side;
 use tactile_force::biotac::sim::BioTacSimConfig;
-use tactile_force::learn::dataset::{electrode_columns, write_csv, Dataset};
+use tactile_force::learn::dataset::{electrode_columns, write_csv, Counts, Dataset};
 use tactile_force::learn::gp::exact::neg_lml_and_grad;
 use tactile_force::learn::gp::kernel::{scale_rows, se_gram};
 use tactile_force::learn::gp::{GpParams, KernelKind, SeHyper};
@@ -33,6 +33,7 @@ fn data() -> Dataset {
         file.path(),
         &electrode_columns(),
         &"fx,fy,fz".parse().unwrap(),
+        Counts::Raw,
     )
     .expect("read CSV");
     ds.tare_per_trial(50).expect("tare");

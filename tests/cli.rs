@@ -324,6 +324,57 @@ fn collect_short(dir: &Path, unit: &str, seed: &str) -> String {
     d.to_string()
 }
 
+#[test]
+fn training_data_that_cannot_be_true_is_refused_and_a_model_that_explains_nothing_is_not_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = collect_short(dir.path(), "1", "1");
+    let text_of = std::fs::read_to_string(&clean).unwrap();
+    // One cell of row 4001 (line 4002) changed: (column, value).
+    let glitch = |column: &str, value: &str| {
+        let mut lines: Vec<String> = text_of.lines().map(String::from).collect();
+        let k = lines[0].split(',').position(|h| h == column).unwrap();
+        let mut cells: Vec<&str> = lines[4001].split(',').collect();
+        cells[k] = value;
+        lines[4001] = cells.join(",");
+        let path = dir.path().join(format!("{column}_{value}.csv"));
+        std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let model = dir.path().join("model.json");
+    let m = model.to_str().unwrap();
+    let o = run(&["train", "--data", &clean, "--out", m]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("fit on its own training data: fx RMSE"),
+        "{out}"
+    );
+    let before = std::fs::read(&model).unwrap();
+    for (column, value) in [("e5", "1e300"), ("pdc", "65535"), ("fz", "-2e6")] {
+        let bad = glitch(column, value);
+        let o = run(&["train", "--data", &bad, "--out", m]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        let at = format!("{bad}: line 4002, column \"{column}\"");
+        assert!(err.contains(&at) && err.contains("cannot be true"), "{err}");
+    }
+    // A force a sensor could give but this data cannot explain: the fit
+    // on the training data says so, and the model in place is kept.
+    let bad = glitch("fz", "90000");
+    let o = run(&["train", "--data", &bad, "--out", m]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("of fz's variance on its own training data"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read(&model).unwrap(),
+        before,
+        "the model in place kept"
+    );
+}
+
 /// The GP's pooled fx and fz RMSE from `eval ... --json`.
 fn gp_rmse(args: &[&str]) -> ([f64; 2], serde_json::Value, String) {
     let o = run(args);

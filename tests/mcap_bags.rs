@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use tactile_force::learn::bag::{read_bag, Bag, BagError, BagTopics};
-use tactile_force::learn::dataset::{electrode_columns, Dataset};
+use tactile_force::learn::dataset::{electrode_columns, Counts, Dataset};
 use tactile_force::wrench::{Axis, AxisSet};
 
 /// The directory of the bags; fails when unset, so that run.sh's
@@ -31,7 +31,8 @@ fn the_good_bag_gives_every_csv_row_with_its_values() {
     let mut features = electrode_columns();
     features.extend(["pdc", "tdc", "tac", "pac_mean"].map(String::from));
     let axes = AxisSet::new(Axis::ALL.to_vec()).unwrap();
-    let csv = Dataset::read_csv(&bags().join("session.csv"), &features, &axes).unwrap();
+    let csv =
+        Dataset::read_csv(&bags().join("session.csv"), &features, &axes, Counts::Raw).unwrap();
     let bag = read("good.mcap").unwrap();
     assert_eq!(bag.records.len(), csv.len());
     assert_eq!((bag.unpaired_readings, bag.unpaired_wrenches), (0, 0));

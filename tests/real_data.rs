@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use tactile_force::learn::dataset::{channel_columns, Channel, Dataset};
+use tactile_force::learn::dataset::{channel_columns, Channel, Counts, Dataset};
 use tactile_force::learn::evaluate::{cross_validate, EvalOptions};
 use tactile_force::learn::gp::GpParams;
 use tactile_force::learn::model::TareSpec;
@@ -32,7 +32,8 @@ fn recording() -> PathBuf {
 /// a model of the other two.
 fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
     let features = channel_columns(channels);
-    let mut ds = Dataset::read_csv(&recording(), &features, &AxisSet::forces()).unwrap();
+    let mut ds =
+        Dataset::read_csv(&recording(), &features, &AxisSet::forces(), Counts::Raw).unwrap();
     // The F/T sensor presses along its -z; the BioTac frame has the press along +z.
     let to_biotac: FrameTransform = "180,0,0,0,0,0".parse().unwrap();
     let fz: Vec<f64> =

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Args;
 
-use tactile_force::learn::evaluate::Progress;
+use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::gp::GpParams;
 use tactile_force::learn::model::{AdaptedFrom, WrenchGp};
 
@@ -68,6 +68,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
     })?;
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    training_fit(&adapted, &data)?;
     adapted
         .save(&a.out)
         .with_context(|| format!("saving the model to {}", a.out.display()))?;

@@ -9,7 +9,7 @@ use clap::Args;
 use nalgebra::Vector3;
 
 use tactile_force::learn::bag::{read_bag, BagTopics};
-use tactile_force::learn::dataset::Dataset;
+use tactile_force::learn::dataset::{Counts, Dataset};
 use tactile_force::learn::model::TareSpec;
 use tactile_force::nail::collect::is_nail_dir;
 use tactile_force::sensor::nail::{self, read_nail_dirs};
@@ -48,7 +48,12 @@ pub(crate) fn load_session(
     tare_samples: usize,
     source: &SourceArgs,
 ) -> Result<(Dataset, Vec<f64>)> {
-    let mut ds = read_data(path, features, axes, source)?;
+    // Untared files hold raw counts; tared ones may go below zero.
+    let counts = match tare_samples {
+        0 => Counts::Tared,
+        _ => Counts::Raw,
+    };
+    let mut ds = read_data(path, features, axes, counts, source)?;
     let baseline = match tare_samples {
         0 => vec![0.0; ds.features.len()],
         n => ds
@@ -58,12 +63,14 @@ pub(crate) fn load_session(
     Ok((ds, baseline))
 }
 
-/// Reads a CSV or, by its `.mcap` extension, a ROS bag; wrenches moved to
-/// the BioTac frame when `--ft-to-biotac` says where the F/T sensor is.
+/// Reads a CSV (its BioTac channels holding `counts`) or, by its `.mcap`
+/// extension, a ROS bag (raw readings); wrenches moved to the BioTac frame
+/// when `--ft-to-biotac` says where the F/T sensor is.
 pub(crate) fn read_data(
     path: &Path,
     features: &[String],
     axes: &AxisSet,
+    counts: Counts,
     source: &SourceArgs,
 ) -> Result<Dataset> {
     let name = path.display().to_string();
@@ -90,7 +97,7 @@ pub(crate) fn read_data(
         return Ok(Dataset::from_records(&bag.records, features, axes, &name)?);
     }
     if source.ft_to_biotac.is_none() {
-        return Ok(Dataset::read_csv(path, features, axes)?);
+        return Ok(Dataset::read_csv(path, features, axes, counts)?);
     }
     // Every BioTac-frame component needs the whole force (and torque).
     let torques = axes.axes().iter().any(|a| a.index() >= 3);
@@ -100,7 +107,7 @@ pub(crate) fn read_data(
         "fx,fy,fz"
     }
     .parse()?;
-    let mut ds = Dataset::read_csv(path, features, &read)?;
+    let mut ds = Dataset::read_csv(path, features, &read, counts)?;
     let y = ndarray::Array2::from_shape_fn((ds.len(), axes.len()), |(i, j)| {
         let row = ds.y.row(i);
         let torque = if torques {

@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::learn::dataset::{channel_columns, Channel};
-use tactile_force::learn::evaluate::Progress;
+use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::gp::{GpParams, KernelKind, MeanKind, Subset};
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::learn::scale::InputScaling;
@@ -146,6 +146,7 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     .with_sensor(sessions.sensor);
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    let fit = training_fit(&model, &ds)?;
     model
         .save(&a.out)
         .with_context(|| format!("saving the model to {}", a.out.display()))?;
@@ -156,6 +157,12 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
             gp.describe(), info.evaluations, info.full_evaluations, info.neg_lml_per_sample, h.signal_var, h.noise_var
         );
     }
+    let on_own: Vec<String> = fit
+        .rmse
+        .iter()
+        .map(|(axis, e)| format!("{axis} RMSE {e:.4}, R2 {:.4}", fit.r2[axis]))
+        .collect();
+    println!("fit on its own training data: {}", on_own.join("; "));
     println!(
         "trained {} axes ({}) on {} samples in {:.2} s; model written to {}",
         model.axes().len(),

@@ -24,7 +24,7 @@ use std::path::Path;
 use ndarray::{Array2, Array3, Axis as NdAxis};
 
 use crate::biotac::reading::Column;
-use crate::biotac::N_ELECTRODES;
+use crate::biotac::{ADC_MAX, N_ELECTRODES};
 use crate::record::Record;
 use crate::wrench::{Axis, AxisSet};
 
@@ -78,6 +78,20 @@ pub enum DatasetError {
         /// Field text.
         value: String,
     },
+    /// A value no BioTac or F/T sensor can give: a logging glitch.
+    #[error("{path}: {at}, column {column:?}: {value:e} cannot be true: expected {expected}")]
+    Implausible {
+        /// File path.
+        path: String,
+        /// Where: "line N" (CSV) or "reading N" (bag).
+        at: String,
+        /// Column name.
+        column: String,
+        /// The value.
+        value: f64,
+        /// What such a column holds.
+        expected: String,
+    },
     /// The file has a header but no rows.
     #[error("{path}: no data rows")]
     Empty {
@@ -99,6 +113,50 @@ pub enum DatasetError {
         /// Rows needed.
         needed: usize,
     },
+}
+
+/// What the BioTac channel columns of a file hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Counts {
+    /// Raw 12-bit ADC counts, 0 to 4095 (docs/ARCHITECTURE.md, "BioTac").
+    Raw,
+    /// Counts already tared: -4095 to 4095.
+    Tared,
+}
+
+/// The largest force (N) in a data file that can be true: a million
+/// newtons, beyond what any six-axis F/T sensor measures and anything a
+/// fingertip survives. A modelling bound that catches logging glitches.
+pub const MAX_FORCE_N: f64 = 1e6;
+/// The same for torques (Nm).
+pub const MAX_TORQUE_NM: f64 = 1e5;
+
+/// What column `name` must hold when `value` cannot be true there: a
+/// BioTac channel beyond the 12-bit range, a force or torque beyond any
+/// sensor's. None when the value can be true (or the column is no
+/// BioTac channel or wrench axis).
+fn implausible(name: &str, value: f64, counts: Counts) -> Option<String> {
+    let adc = f64::from(ADC_MAX);
+    if Column::from_name(name).is_some() {
+        let low = match counts {
+            Counts::Raw => 0.0,
+            Counts::Tared => -adc,
+        };
+        let what = match counts {
+            Counts::Raw => "a raw",
+            Counts::Tared => "a tared",
+        };
+        return (!(low..=adc).contains(&value))
+            .then(|| format!("{what} 12-bit BioTac count, {low} to {adc}"));
+    }
+    let axis: Axis = name.parse().ok()?;
+    let (max, unit) = if axis.index() < 3 {
+        (MAX_FORCE_N, "N")
+    } else {
+        (MAX_TORQUE_NM, "Nm")
+    };
+    (value.abs() > max)
+        .then(|| format!("a wrench within +-{max:e} {unit}, what an F/T sensor can measure"))
 }
 
 /// Names of the 19 electrode columns, `e1..e19`: the GP's features.
@@ -204,14 +262,18 @@ pub struct Dataset {
 }
 
 impl Dataset {
-    /// Reads the named feature columns and the target columns of `axes`.
+    /// Reads the named feature columns and the target columns of `axes`;
+    /// BioTac channel columns hold `counts`. A value that cannot be true
+    /// (a count beyond 12 bits, a force beyond any F/T sensor's) is refused
+    /// with its line and column.
     pub fn read_csv(
         path: &Path,
         features: &[String],
         axes: &AxisSet,
+        counts: Counts,
     ) -> Result<Self, DatasetError> {
         let p = path.display().to_string();
-        let file = std::fs::File::open(path).map_err(|source| DatasetError::Io {
+        let bytes = std::fs::read(path).map_err(|source| DatasetError::Io {
             path: p.clone(),
             source,
         })?;
@@ -219,9 +281,19 @@ impl Dataset {
             path: p.clone(),
             source,
         };
+        // The line a record starts on, counted here: in files with CRLF
+        // line ends the csv crate's count, and its record offset, fall one
+        // line end short (the offset is at the '\n' of the previous one).
+        let line_at = |byte: u64| {
+            let mut end = usize::try_from(byte).unwrap_or(usize::MAX).min(bytes.len());
+            while bytes.get(end).is_some_and(|b| matches!(b, b'\r' | b'\n')) {
+                end += 1;
+            }
+            1 + bytes[..end].iter().filter(|&&b| b == b'\n').count() as u64
+        };
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(file);
+            .from_reader(bytes.as_slice());
         let header: Vec<String> = reader
             .headers()
             .map_err(csv_err)?
@@ -252,18 +324,29 @@ impl Dataset {
         let (mut set, mut trial) = (Vec::new(), Vec::new());
         for rec in reader.records() {
             let rec = rec.map_err(csv_err)?;
-            let line = rec.position().map_or(0, |pos| pos.line());
+            let line = || rec.position().map_or(0, |pos| line_at(pos.byte()));
             let num = |i: usize| -> Result<f64, DatasetError> {
                 let text = rec.get(i).unwrap_or("");
-                text.parse::<f64>()
+                let value = text
+                    .parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())
                     .ok_or_else(|| DatasetError::BadValue {
                         path: p.clone(),
-                        line,
+                        line: line(),
                         column: header[i].clone(),
                         value: text.to_string(),
-                    })
+                    })?;
+                match implausible(&header[i], value, counts) {
+                    None => Ok(value),
+                    Some(expected) => Err(DatasetError::Implausible {
+                        path: p.clone(),
+                        at: format!("line {}", line()),
+                        column: header[i].clone(),
+                        value,
+                        expected,
+                    }),
+                }
             };
             for &i in &feature_idx {
                 xs.push(num(i)?);
@@ -322,6 +405,29 @@ impl Dataset {
         let y = Array2::from_shape_fn((n, axes.len()), |(i, j)| {
             records[i].wrench.get(axes.axes()[j])
         });
+        // Readings are raw counts; a reading or wrench that cannot be true
+        // is refused with its place.
+        let names = features
+            .iter()
+            .map(String::as_str)
+            .zip(x.columns())
+            .chain(axes.axes().iter().map(|a| a.name()).zip(y.columns()));
+        for (name, column) in names {
+            for (i, &value) in column.iter().enumerate() {
+                let bad = (!value.is_finite())
+                    .then(|| "a finite number".to_string())
+                    .or_else(|| implausible(name, value, Counts::Raw));
+                if let Some(expected) = bad {
+                    return Err(DatasetError::Implausible {
+                        path: source.to_string(),
+                        at: format!("reading {}", i + 1),
+                        column: name.to_string(),
+                        value,
+                        expected,
+                    });
+                }
+            }
+        }
         Ok(Dataset {
             features: features.to_vec(),
             x,
@@ -503,14 +609,89 @@ mod tests {
     fn reads_only_the_needed_columns_and_names_a_missing_one() {
         let f = write("t,set,trial,e1,junk,fz,fx\n0,1,1,10,x,0.5,0.1\n0.01,1,2,12,y,0.7,0.2\n");
         let axes: AxisSet = "fx,fz".parse().unwrap();
-        let ds = Dataset::read_csv(f.path(), &["e1".into()], &axes).unwrap();
+        let ds = Dataset::read_csv(f.path(), &["e1".into()], &axes, Counts::Raw).unwrap();
         assert_eq!(ds.x.column(0).to_vec(), vec![10.0, 12.0]);
         assert_eq!(ds.y.row(1).to_vec(), vec![0.2, 0.7]);
         assert_eq!(ds.trial, vec![1, 2]);
-        let err = Dataset::read_csv(f.path(), &["e2".into()], &axes).unwrap_err();
+        let err = Dataset::read_csv(f.path(), &["e2".into()], &axes, Counts::Raw).unwrap_err();
         assert!(err.to_string().contains("missing column \"e2\""), "{err}");
-        let err = Dataset::read_csv(f.path(), &["junk".into()], &axes).unwrap_err();
+        let err = Dataset::read_csv(f.path(), &["junk".into()], &axes, Counts::Raw).unwrap_err();
         assert!(err.to_string().contains("line 2, column \"junk\""), "{err}");
+    }
+
+    #[test]
+    fn values_that_cannot_be_true_are_refused_with_their_line_even_in_crlf_files() {
+        let axes: AxisSet = "fz,tx".parse().unwrap();
+        let e1 = ["e1".to_string()];
+        for (row, says, counts) in [
+            ("1,1,1e300,0.5,0", "1e300 cannot be true", Counts::Raw),
+            ("1,1,4096,0.5,0", "0 to 4095", Counts::Raw),
+            ("1,1,-1,0.5,0", "a raw 12-bit", Counts::Raw),
+            ("1,1,-4096,0.5,0", "a tared 12-bit", Counts::Tared),
+            ("1,1,10,2e6,0", "column \"fz\"", Counts::Raw),
+            ("1,1,10,0.5,-2e5", "column \"tx\"", Counts::Raw),
+        ] {
+            for end in ["\n", "\r\n"] {
+                let text = format!("set,trial,e1,fz,tx{end}1,1,10,0.5,0{end}{row}{end}");
+                let f = write(&text);
+                let err = Dataset::read_csv(f.path(), &e1, &axes, counts).unwrap_err();
+                let msg = err.to_string();
+                assert!(
+                    msg.contains("line 3,") && msg.contains(says),
+                    "{end:?}: {msg}"
+                );
+            }
+        }
+        // Tared counts may go below zero; raw ones up to 4095.
+        let f = write("set,trial,e1,fz,tx\n1,1,-40,0.5,0\n1,1,4095,-0.5,1\n");
+        Dataset::read_csv(f.path(), &e1, &axes, Counts::Tared).unwrap();
+        let f = write("set,trial,e1,fz,tx\n1,1,40,0.5,0\n1,1,4095,-0.5,1\n");
+        Dataset::read_csv(f.path(), &e1, &axes, Counts::Raw).unwrap();
+    }
+
+    #[test]
+    fn a_bag_reading_or_wrench_that_cannot_be_true_is_refused_with_its_place() {
+        use crate::biotac::{BioTacReading, N_PAC};
+        use crate::wrench::Wrench;
+        let record = |e1: u16, fz: f64| {
+            let mut electrodes = [2000; N_ELECTRODES];
+            electrodes[0] = e1;
+            Record {
+                t: 0.0,
+                set: 1,
+                trial: 1,
+                reading: BioTacReading {
+                    seq: 0,
+                    stamp_s: 0.0,
+                    electrodes,
+                    pdc: 2000,
+                    pac: [2000; N_PAC],
+                    tdc: 2000,
+                    tac: 2000,
+                },
+                wrench: Wrench::new(nalgebra::Vector3::new(0.0, 0.0, fz), Default::default()),
+            }
+        };
+        let (e1, fz): (Vec<String>, AxisSet) = (vec!["e1".into()], "fz".parse().unwrap());
+        let from = |records: &[Record]| Dataset::from_records(records, &e1, &fz, "bag.mcap");
+        from(&[record(2000, 1.0), record(4095, -2.0)]).unwrap();
+        let e = from(&[record(2000, 1.0), record(4096, 1.0)])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bag.mcap: reading 2, column \"e1\"") && e.contains("4095"),
+            "{e}"
+        );
+        let e = from(&[record(2000, f64::NAN)]).unwrap_err().to_string();
+        assert!(
+            e.contains("reading 1, column \"fz\"") && e.contains("finite"),
+            "{e}"
+        );
+        let e = from(&[record(2000, 3e6)]).unwrap_err().to_string();
+        assert!(
+            e.contains("reading 1, column \"fz\"") && e.contains("1e6 N"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -529,7 +710,7 @@ mod tests {
         ];
         let features = channel_columns(&all);
         assert_eq!(features.len(), 22);
-        let read = Dataset::read_csv(f.path(), &features, &axes).unwrap();
+        let read = Dataset::read_csv(f.path(), &features, &axes, Counts::Raw).unwrap();
         let mem = Dataset::from_records(records, &features, &axes, "memory").unwrap();
         assert_eq!((mem.x, mem.set, mem.trial), (read.x, read.set, read.trial));
         let err = Dataset::from_records(records, &["pressure".into()], &axes, "memory");
@@ -555,7 +736,13 @@ mod tests {
             }
         }
         let f = write(&text);
-        let ds = Dataset::read_csv(f.path(), &["e1".into()], &"fz".parse().unwrap()).unwrap();
+        let ds = Dataset::read_csv(
+            f.path(),
+            &["e1".into()],
+            &"fz".parse().unwrap(),
+            Counts::Raw,
+        )
+        .unwrap();
         let folds = trialwise_folds(&ds, 5);
         let mut tested = vec![0; ds.len()];
         for (train, test) in &folds {
@@ -574,7 +761,13 @@ mod tests {
         let f = write(
             "set,trial,e1,fz\n1,1,100,0\n1,1,102,0\n1,1,90,1\n1,2,50,0\n1,2,50,0\n1,2,40,1\n",
         );
-        let mut ds = Dataset::read_csv(f.path(), &["e1".into()], &"fz".parse().unwrap()).unwrap();
+        let mut ds = Dataset::read_csv(
+            f.path(),
+            &["e1".into()],
+            &"fz".parse().unwrap(),
+            Counts::Raw,
+        )
+        .unwrap();
         ds.tare_per_trial(2).unwrap();
         assert_eq!(
             ds.x.column(0).to_vec(),

@@ -39,6 +39,22 @@ pub enum EvalError {
     /// Fewer than two folds.
     #[error("cross-validation needs at least 2 folds, got {0}")]
     Folds(usize),
+    /// A trained model that does not explain its own training data: a
+    /// value in the data far from all others (a logging glitch) can do
+    /// that.
+    #[error(
+        "the model explains {r2_pct:.0} % of {axis}'s variance on its own training data (at \
+         least {min_pct:.0} % expected): look for a glitch in the data (a value far from the \
+         others); nothing written"
+    )]
+    ExplainsNothing {
+        /// The worst axis.
+        axis: Axis,
+        /// Its R2 as a percentage.
+        r2_pct: f64,
+        /// The smallest accepted, as a percentage.
+        min_pct: f64,
+    },
     /// Too few trials for the requested folds.
     #[error("{folds} folds need at least {folds} trials per set; set {set} has {trials}")]
     TooFewTrials {
@@ -384,6 +400,33 @@ fn evaluate_splits(
             _ => Some(score(&stack(&cnns)?, cnn_time / nf)),
         },
     })
+}
+
+/// The least share of its training targets' variance (R2) a model must
+/// explain on every axis. Models of real and simulated BioTac data explain
+/// 0.96-0.9999 of theirs (README, "Training data that cannot be true"); one
+/// force of 90000 N among 8000 rows left 0.14.
+pub const MIN_TRAINING_R2: f64 = 0.5;
+
+/// Rows the training fit is scored on at most (evenly spread).
+const TRAINING_FIT_ROWS: usize = 5000;
+
+/// The model's fit on its own training data `data` (at most 5000 rows,
+/// evenly spread), refused ([`EvalError::ExplainsNothing`]) when an axis's
+/// R2 is below [`MIN_TRAINING_R2`].
+pub fn training_fit(model: &WrenchGp, data: &Dataset) -> Result<Scores, EvalError> {
+    let step = data.len().div_ceil(TRAINING_FIT_ROWS).max(1);
+    let rows: Vec<usize> = (0..data.len()).step_by(step).collect();
+    let s = score_model(model, &data.select(&rows), f64::INFINITY)?;
+    let worst = s.r2.iter().min_by(|a, b| a.1.total_cmp(b.1));
+    match worst {
+        Some((&axis, &r2)) if r2 < MIN_TRAINING_R2 => Err(EvalError::ExplainsNothing {
+            axis,
+            r2_pct: r2.max(0.0) * 100.0,
+            min_pct: MIN_TRAINING_R2 * 100.0,
+        }),
+        _ => Ok(s),
+    }
 }
 
 /// Scores a trained model on `test` (tared, with the model's features and axes).
