@@ -375,6 +375,69 @@ fn training_data_that_cannot_be_true_is_refused_and_a_model_that_explains_nothin
     );
 }
 
+#[test]
+fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("two.csv");
+    let d = data.to_str().unwrap();
+    let o = run(&["collect", "--trials", "2", "--out", d]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let model = dir.path().join("sel.json");
+    let m = model.to_str().unwrap();
+    let o = run(&[
+        "train",
+        "--select",
+        "--budget-s",
+        "4",
+        "--axes",
+        "fz",
+        "--data",
+        d,
+        "--out",
+        m,
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("--select: 2-fold trial-wise cross-validation of"),
+        "{out}"
+    );
+    assert!(out.contains("* ") && out.contains("chosen: "), "{out}");
+    // Four seconds leave most candidates untried, and it says so.
+    assert!(
+        out.contains("not tried: ") && out.contains("the time budget ran out"),
+        "{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    let table = json["selection"]["table"].as_array().unwrap();
+    assert!(
+        !table.is_empty() && json["selection"]["budget_s"] == 4.0,
+        "{json}"
+    );
+    assert_eq!(json["version"], 6);
+    // `eval --model` prints the table it was chosen by.
+    let o = run(&["eval", "--model", m, "--test", d, "--axes", "fz"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("chosen by `train --select`") && out.contains("--select: 2-fold"),
+        "{out}"
+    );
+    // What it chooses cannot be given too; a budget must be a time; one
+    // trial per set cannot be cross-validated by trials.
+    for (args, says) in [
+        (vec!["--channels", "pdc"], "cannot be used with"),
+        (vec!["--budget-s", "0"], "--budget-s 0"),
+    ] {
+        let o = run(&[&["train", "--select", "--data", d, "--out", m][..], &args].concat());
+        refused_saying(&o, says);
+    }
+    let one = collect_short(dir.path(), "1", "3");
+    let o = run(&["train", "--select", "--data", &one, "--out", m]);
+    refused_saying(&o, "at least 2 needed");
+}
+
 /// The GP's pooled fx and fz RMSE from `eval ... --json`.
 fn gp_rmse(args: &[&str]) -> ([f64; 2], serde_json::Value, String) {
     let o = run(args);

@@ -6,6 +6,7 @@
 
 use std::path::PathBuf;
 
+use tactile_force::learn::choice::{select, Choice};
 use tactile_force::learn::dataset::{channel_columns, Channel, Counts, Dataset};
 use tactile_force::learn::evaluate::{cross_validate, EvalOptions};
 use tactile_force::learn::gp::GpParams;
@@ -28,12 +29,11 @@ fn recording() -> PathBuf {
     path
 }
 
-/// Per press and overall: (RMSE, R2) of the GP on fz, each press tested on
-/// a model of the other two.
-fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
-    let features = channel_columns(channels);
+/// The recording's `features` and fz in the BioTac frame, each press
+/// tared on its first 50 rows.
+fn recording_fz(features: &[String]) -> (Dataset, TareSpec) {
     let mut ds =
-        Dataset::read_csv(&recording(), &features, &AxisSet::forces(), Counts::Raw).unwrap();
+        Dataset::read_csv(&recording(), features, &AxisSet::forces(), Counts::Raw).unwrap();
     // The F/T sensor presses along its -z; the BioTac frame has the press along +z.
     let to_biotac: FrameTransform = "180,0,0,0,0,0".parse().unwrap();
     let fz: Vec<f64> =
@@ -53,10 +53,17 @@ fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
         samples: 50,
         mean_baseline,
     };
+    (ds, tare)
+}
+
+/// Per press and overall: (RMSE, R2) of the GP on fz with the options of
+/// `choice`, each press tested on a model of the other two (learn::evaluate).
+fn leave_one_press_out(choice: &Choice) -> (Vec<(f64, f64)>, (f64, f64)) {
+    let (ds, tare) = recording_fz(&choice.features());
     let opts = EvalOptions {
-        scaling: Default::default(),
+        scaling: choice.input,
         max_train: 2000,
-        gp: GpParams::default().validate().unwrap(),
+        gp: choice.gp_params(&GpParams::default()).validate().unwrap(),
         nn: None,
         cnn: None,
         seed: 0,
@@ -70,9 +77,18 @@ fn leave_one_press_out(channels: &[Channel]) -> (Vec<(f64, f64)>, (f64, f64)) {
     )
 }
 
+/// The defaults with other channels.
+fn channels(channels: &[Channel]) -> Choice {
+    Choice {
+        channels: channels.to_vec(),
+        ..Choice::default_options()
+    }
+}
+
 #[test]
 fn electrodes_with_pdc_estimate_every_press_of_a_real_biotac() {
-    let (presses, (rmse, r2)) = leave_one_press_out(&[Channel::Electrodes, Channel::Pdc]);
+    let (presses, (rmse, r2)) =
+        leave_one_press_out(&channels(&[Channel::Electrodes, Channel::Pdc]));
     println!("electrodes + pdc: per press {presses:?}, overall RMSE {rmse:.4} N, R2 {r2:.4}");
     assert_eq!(presses.len(), 3);
     assert!(rmse <= 0.03, "RMSE {rmse} N");
@@ -81,7 +97,36 @@ fn electrodes_with_pdc_estimate_every_press_of_a_real_biotac() {
     }
     // The electrodes alone miss the press that goes beyond the others (the
     // third): why PDC is in the default features.
-    let (presses, (rmse_e, _)) = leave_one_press_out(&[Channel::Electrodes]);
+    let (presses, (rmse_e, _)) = leave_one_press_out(&channels(&[Channel::Electrodes]));
     println!("electrodes: per press {presses:?}, overall RMSE {rmse_e:.4} N");
     assert!(presses[2].1 < 0.97 && rmse_e > 2.0 * rmse, "{presses:?}");
+}
+
+#[test]
+fn select_picks_what_leaving_one_press_out_favours() {
+    let every = [
+        Channel::Electrodes,
+        Channel::Pdc,
+        Channel::Tdc,
+        Channel::Tac,
+    ];
+    let (ds, tare) = recording_fz(&channel_columns(&every));
+    let s = select(&ds, &tare, 5, 600.0, &GpParams::default(), &mut |_, _| {}).unwrap();
+    assert_eq!(s.folds, 3, "three presses: leave one press out");
+    assert!(s.untried.is_empty(), "{:?}", s.untried);
+    let best = s
+        .table
+        .iter()
+        .map(|r| r.score)
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(s.table[s.chosen].score, best, "the best of the table");
+    // Scored again by eval's own leave-one-press-out, the chosen options
+    // beat the defaults.
+    let chosen = leave_one_press_out(s.choice()).1 .0;
+    let defaults = leave_one_press_out(&Choice::default_options()).1 .0;
+    println!(
+        "chosen {}: RMSE {chosen:.4} N; defaults {defaults:.4} N",
+        s.choice()
+    );
+    assert!(chosen < defaults, "{chosen} against {defaults}");
 }

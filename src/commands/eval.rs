@@ -18,7 +18,7 @@ use tactile_force::learn::nn::NnParams;
 use tactile_force::sensor::SensorSpec;
 
 use super::data::{load_sessions, SourceArgs};
-use super::output::{file_labels, print_table, progress_bar, show};
+use super::output::{file_labels, print_selection, print_table, progress_bar, show};
 use super::train::{gp_params, FitArgs};
 use super::BadArgument;
 
@@ -177,6 +177,10 @@ pub(crate) fn run_score(
     json: bool,
 ) -> Result<()> {
     let model = WrenchGp::load(model)?;
+    if let Some(s) = model.selection() {
+        println!("the model's options were chosen by `train --select`:");
+        print_selection(s);
+    }
     let sessions = load_sessions(
         tests,
         model.features(),

@@ -15,6 +15,7 @@ pub mod train;
 use tactile_force::biotac::sim::ConfigError;
 use tactile_force::kinematics::RobotError;
 use tactile_force::learn::bag::BagError;
+use tactile_force::learn::choice::SelectError;
 use tactile_force::learn::dataset::DatasetError;
 use tactile_force::learn::evaluate::EvalError;
 use tactile_force::learn::model::ModelError;
@@ -46,6 +47,8 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
             || c.is::<ParamsError>()
             || c.is::<SceneError>()
             || c.is::<RobotError>()
+            || c.downcast_ref::<SelectError>()
+                .is_some_and(|e| matches!(e, SelectError::TooFewTrials { .. }))
             || c.is::<ConfigError>()
             || c.is::<AxisSetError>()
             || c.is::<BagError>()

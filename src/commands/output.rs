@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+use tactile_force::learn::choice::Selection;
 use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
 use tactile_force::learn::metrics::DirectionError;
 use tactile_force::wrench::{Axis, AxisSet};
@@ -31,6 +32,42 @@ pub(crate) fn show(bar: &ProgressBar, p: Progress) {
         )),
         Progress::Nn => bar.set_message("neural network: training"),
         Progress::Cnn => bar.set_message("CNN: training"),
+    }
+}
+
+/// What `train --select` did: the table of candidates (`*` the chosen),
+/// and what it left untried.
+pub(crate) fn print_selection(s: &Selection) {
+    println!(
+        "--select: {}-fold trial-wise cross-validation of {} candidates in {:.1} s (budget {:.0} s); \
+         score = mean over axes of RMSE / sd of the targets",
+        s.folds,
+        s.table.len(),
+        s.spent_s,
+        s.budget_s
+    );
+    let axes: Vec<Axis> = s
+        .table
+        .first()
+        .map_or(Vec::new(), |r| r.rmse.keys().copied().collect());
+    let heads: Vec<String> = axes
+        .iter()
+        .map(|a| format!("{:>8}", format!("{a} RMSE")))
+        .collect();
+    println!("    score {} seconds  options", heads.join(" "));
+    for (i, r) in s.table.iter().enumerate() {
+        let mark = if i == s.chosen { '*' } else { ' ' };
+        let cells: Vec<String> = axes.iter().map(|a| format!("{:>8.4}", r.rmse[a])).collect();
+        println!(
+            "  {mark} {:.4} {} {:>7.1}  {}",
+            r.score,
+            cells.join(" "),
+            r.seconds,
+            r.choice
+        );
+    }
+    for (c, why) in &s.untried {
+        println!("    not tried: {c} ({why})");
     }
 }
 

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Args;
 
-use tactile_force::learn::dataset::{channel_columns, Channel};
+use tactile_force::learn::choice::select;
+use tactile_force::learn::dataset::{channel_columns, Channel, DatasetError};
 use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::gp::{GpParams, KernelKind, MeanKind, Subset};
 use tactile_force::learn::model::WrenchGp;
@@ -14,7 +15,7 @@ use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
 
 use super::data::{load_sessions, SourceArgs};
-use super::output::{progress_bar, show};
+use super::output::{print_selection, progress_bar, show};
 use super::BadArgument;
 
 /// Options shared by `train` and `eval`.
@@ -98,6 +99,18 @@ pub(crate) struct TrainArgs {
     /// Model file to write (JSON).
     #[arg(long)]
     out: PathBuf,
+    /// Choose the channels, the input scaling, exact or sparse and its size,
+    /// and the prior mean by trial-wise cross-validation on this data (the
+    /// model file records the choice and the table; `eval --model` prints
+    /// it). BioTac data only.
+    #[arg(long, conflicts_with_all = ["channels", "input", "inducing", "mean", "max_train"])]
+    select: bool,
+    /// Time budget of --select (s): the search stops when it is spent.
+    #[arg(long, default_value_t = 60.0, requires = "select")]
+    budget_s: f64,
+    /// Trial-wise folds of --select (fewer when a set has fewer trials).
+    #[arg(long, default_value_t = 5, requires = "select")]
+    folds: usize,
     #[command(flatten)]
     fit: FitArgs,
 }
@@ -127,6 +140,9 @@ pub(crate) fn gp_params(
 }
 
 pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
+    if a.select {
+        return run_select(&a);
+    }
     let sessions = load_sessions(
         &a.data,
         &channel_columns(&a.fit.channels),
@@ -144,9 +160,96 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
         show(&bar, Progress::Gp(axis, p))
     })?
     .with_sensor(sessions.sensor);
-    let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let fit = training_fit(&model, &ds)?;
+    save_checked(&a, model, &ds, t0)
+}
+
+/// `train --select`: the options chosen by cross-validation on the data,
+/// then the model trained with them on all of it.
+fn run_select(a: &TrainArgs) -> Result<()> {
+    if !(a.budget_s > 0.0 && a.budget_s.is_finite()) {
+        return Err(BadArgument(format!("--budget-s {}: a positive time (s)", a.budget_s)).into());
+    }
+    // Every channel the search may take, or electrodes and PDC when the
+    // data have no more (the others' candidates are then left untried).
+    let every = [
+        Channel::Electrodes,
+        Channel::Pdc,
+        Channel::Tdc,
+        Channel::Tac,
+    ];
+    let load = |channels: &[Channel]| {
+        load_sessions(
+            &a.data,
+            &channel_columns(channels),
+            &a.fit.axes,
+            a.fit.tare_samples,
+            &a.fit.source,
+            None,
+        )
+    };
+    let sessions = load(&every).or_else(|e| {
+        let missing = e.chain().any(|c| {
+            matches!(
+                c.downcast_ref::<DatasetError>(),
+                Some(DatasetError::MissingColumn { .. })
+            )
+        });
+        if missing {
+            load(&every[..2])
+        } else {
+            Err(e)
+        }
+    })?;
+    if !matches!(sessions.sensor, SensorSpec::Biotac) {
+        let msg = "--select chooses among BioTac channels; nail-camera data take their own options";
+        return Err(BadArgument(msg.into()).into());
+    }
+    let ds = sessions.pooled()?;
+    let base = gp_params(&a.fit, &sessions.sensor)?.get().clone();
+    let bar = progress_bar();
+    let t0 = std::time::Instant::now();
+    let selection = select(
+        &ds,
+        &sessions.tare,
+        a.folds,
+        a.budget_s,
+        &base,
+        &mut |c, p| {
+            bar.set_message(format!(
+                "--select: {c}: {} likelihood evaluations",
+                p.evaluations
+            ));
+        },
+    )?;
+    bar.finish_and_clear();
+    print_selection(&selection);
+    let choice = selection.choice().clone();
+    let (data, tare) = choice
+        .cut(&ds, &sessions.tare)
+        .map_err(|e| anyhow::anyhow!("the chosen options: {e}"))?;
+    let params = choice.gp_params(&base).validate()?;
+    let bar = progress_bar();
+    let model = WrenchGp::train_scaled(&data, tare, choice.input, &params, &mut |axis, p| {
+        show(&bar, Progress::Gp(axis, p))
+    })?
+    .with_sensor(sessions.sensor)
+    .with_selection(selection);
+    bar.finish_and_clear();
+    println!("chosen: {choice}");
+    save_checked(a, model, &data, t0)
+}
+
+/// Checks the model's fit on its own training data `ds`, writes it and
+/// says what it did.
+fn save_checked(
+    a: &TrainArgs,
+    model: WrenchGp,
+    ds: &tactile_force::learn::dataset::Dataset,
+    t0: std::time::Instant,
+) -> Result<()> {
+    let fit_s = t0.elapsed().as_secs_f64();
+    let fit = training_fit(&model, ds)?;
     model
         .save(&a.out)
         .with_context(|| format!("saving the model to {}", a.out.display()))?;

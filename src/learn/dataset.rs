@@ -165,7 +165,8 @@ pub fn electrode_columns() -> Vec<String> {
 }
 
 /// A group of BioTac channels a model may take as features.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Channel {
     /// The 19 impedance electrodes, `e1..e19`.
     Electrodes,
@@ -188,6 +189,18 @@ impl std::str::FromStr for Channel {
             other => Err(format!(
                 "unknown channel {other:?}: expected electrodes, pdc, tdc or tac"
             )),
+        }
+    }
+}
+
+impl Channel {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Channel::Electrodes => "electrodes",
+            Channel::Pdc => "pdc",
+            Channel::Tdc => "tdc",
+            Channel::Tac => "tac",
         }
     }
 }

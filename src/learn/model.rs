@@ -17,6 +17,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
+use super::choice::Selection;
 use super::dataset::Dataset;
 use super::gp::fit::FitProgress;
 use super::gp::{FitInfo, Gp, GpData, GpError, GpWorkspace, LinearMean, ValidGpParams};
@@ -29,9 +30,10 @@ use crate::wrench::{Axis, AxisSet};
 pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// The model-file version this build writes (2: the GP of an axis is tagged
 /// exact or sparse; 3: an adapted model holds the model it was adapted
-/// from; 4: an axis may have a linear prior mean; 5: that mean may bend).
-/// It reads versions 2 to 5.
-pub const MODEL_VERSION: u32 = 5;
+/// from; 4: an axis may have a linear prior mean; 5: that mean may bend;
+/// 6: how its options were selected on the data, `train --select`).
+/// It reads versions 2 to 6.
+pub const MODEL_VERSION: u32 = 6;
 
 /// Errors saving, loading or using a model.
 #[derive(Debug, thiserror::Error)]
@@ -189,6 +191,9 @@ struct ModelFile<G> {
     outputs: Vec<AxisModel<G>>,
     #[serde(default = "no_prior", skip_serializing_if = "Option::is_none")]
     prior: Option<Prior<G>>,
+    /// How its options were chosen (`train --select`), with the CV table.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    selection: Option<Selection>,
     /// Which features are electrodes (for the pattern), from their names.
     #[serde(skip)]
     electrode: Vec<bool>,
@@ -382,6 +387,7 @@ impl WrenchGp {
             n_train: data.len(),
             outputs,
             prior: None,
+            selection: None,
             electrode,
         }))
     }
@@ -417,6 +423,17 @@ impl WrenchGp {
             base: Box::new(self.0.clone()),
         });
         Ok(adapted)
+    }
+
+    /// The model, recording how its options were chosen.
+    pub fn with_selection(mut self, selection: Selection) -> Self {
+        self.0.selection = Some(selection);
+        self
+    }
+
+    /// How its options were chosen, when `train --select` chose them.
+    pub fn selection(&self) -> Option<&Selection> {
+        self.0.selection.as_ref()
     }
 
     /// What the model was adapted from, when it was (`adapt`).
@@ -662,6 +679,7 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         n_train: file.n_train,
         outputs,
         prior,
+        selection: file.selection,
         electrode,
     })
 }

@@ -108,6 +108,15 @@ impl std::str::FromStr for InputScaling {
 }
 
 impl InputScaling {
+    /// Its name on the command line and in the model file.
+    pub fn name(self) -> &'static str {
+        match self {
+            InputScaling::Standard => "standard",
+            InputScaling::Raw => "raw",
+            InputScaling::Pattern => "pattern",
+        }
+    }
+
     /// Columns of the GP's input for features of which `electrode[j]` says
     /// which are electrodes.
     pub fn dim(self, electrode: &[bool]) -> usize {

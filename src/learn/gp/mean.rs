@@ -38,6 +38,15 @@ pub enum MeanKind {
 }
 
 impl MeanKind {
+    /// Its name on the command line and in the model file.
+    pub fn name(self) -> &'static str {
+        match self {
+            MeanKind::Zero => "zero",
+            MeanKind::Linear => "linear",
+            MeanKind::Cubic => "cubic",
+        }
+    }
+
     /// The means of this kind, one per column of the targets `y` (n x k),
     /// through row-major inputs `x` (n x d); None for a zero mean.
     pub fn fit(
