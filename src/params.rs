@@ -11,6 +11,8 @@ pub const WORLD_YAML: &str = include_str!("../config/world.yaml");
 pub const GUARDED_YAML: &str = include_str!("../config/guarded_move.yaml");
 /// The shipped guided-move scene.
 pub const GUIDED_YAML: &str = include_str!("../config/guided_move.yaml");
+/// The shipped calibration scene.
+pub const CALIBRATE_YAML: &str = include_str!("../config/calibrate.yaml");
 
 /// Errors reading a parameter file.
 #[derive(Debug, thiserror::Error)]

@@ -438,6 +438,79 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
     refused_saying(&o, "at least 2 needed");
 }
 
+#[test]
+fn demo_calibrate_writes_the_session_and_a_model_and_refuses_what_it_cannot_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("u2.json");
+    let m = model.to_str().unwrap();
+    let o = run_cached(
+        &["demo", "calibrate", "--unit", "2", "--out", m, "--json"],
+        dir.path(),
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let j = last_json(&out);
+    assert_eq!(
+        (j["task"].as_str(), j["unit"].as_u64()),
+        (Some("calibrate"), Some(2))
+    );
+    assert!(j["motion_s"].as_f64().unwrap() <= 90.0, "{j}");
+    assert!(
+        j["peak_force_n"].as_f64() <= j["force_limit_n"].as_f64(),
+        "{j}"
+    );
+    assert!(
+        ["adapted", "from scratch"].contains(&j["chosen"].as_str().unwrap()),
+        "{j}"
+    );
+    // The session is a rosbag2 MCAP file that eval reads; the model records
+    // its calibration.
+    let session = dir.path().join("u2.mcap");
+    assert_eq!(j["session"].as_str(), session.to_str());
+    let o = run(&["eval", "--model", m, "--test", session.to_str().unwrap()]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(file["calibration"]["chosen"], j["chosen"]);
+    // Then the guarded move on unit 2 holds with it.
+    let o = run(&["demo", "guarded", "--unit", "2", "--model", m, "--json"]);
+    let g = last_json(&text(&o).0);
+    assert_eq!(g["final_phase"].as_str(), Some("hold"), "{g}");
+    for (args, says) in [
+        (vec!["demo", "calibrate"], "needs --out"),
+        (
+            vec!["demo", "guarded", "--out", m],
+            "go with `demo calibrate`",
+        ),
+    ] {
+        refused_saying(&run_cached(&args, dir.path()), says);
+    }
+    // Nothing to touch: the arm stops, no model is written (exit 1).
+    let far = dir.path().join("far.yaml");
+    let scene = include_str!("../config/calibrate.yaml")
+        .replace("    object_gap_mm: 10.0", "    object_gap_mm: 50.0");
+    std::fs::write(&far, scene).unwrap();
+    let other = dir.path().join("other.json");
+    let o = run_cached(
+        &[
+            "demo",
+            "calibrate",
+            "--scene",
+            far.to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("no contact found") && err.contains("no model written"),
+        "{err}"
+    );
+    assert!(!other.exists());
+}
+
 /// The GP's pooled fx and fz RMSE from `eval ... --json`.
 fn gp_rmse(args: &[&str]) -> ([f64; 2], serde_json::Value, String) {
     let o = run(args);

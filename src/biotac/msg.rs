@@ -235,14 +235,12 @@ pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgEr
 }
 
 /// A reading as a serialized message (little-endian CDR with its
-/// encapsulation header), for the tests of the readers.
-#[cfg(test)]
+/// encapsulation header), as DDS sends it and rosbag2 records it.
 pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
     cdr::serialize::<_, _, cdr::CdrLe>(&CdrBioTac::new(r, meta), cdr::Infinite)
         .expect("CDR of a BioTac message")
 }
 
-#[cfg(test)]
 impl CdrBioTac {
     /// The message's fields for `r` and `meta`.
     fn new(r: &BioTacReading, meta: &BioTacMeta) -> Self {

@@ -1,5 +1,5 @@
-//! `demo`: the closed loop in simulation (guarded or guided move), and the
-//! approach-speed sweep.
+//! `demo`: the closed loop in simulation (guarded or guided move, or the
+//! calibration of `commands::calibrate`), and the approach-speed sweep.
 
 use std::path::{Path, PathBuf};
 
@@ -25,9 +25,11 @@ use super::BadArgument;
 
 #[derive(Args)]
 pub struct DemoArgs {
-    /// The task: guarded (approach an object, stop on contact, hold 1 N) or
+    /// The task: guarded (approach an object, stop on contact, hold 1 N),
     /// guided (follow a person's finger like a joystick: 1 N along z, 0 N
-    /// along x/y).
+    /// along x/y), or calibrate (press a calibration block in a pattern with
+    /// the F/T sensor as the force, then make a model of the BioTac from it:
+    /// needs --out).
     #[arg(value_parser = PossibleValuesParser::new(TaskKind::ALL.map(TaskKind::name))
         .try_map(|s| s.parse::<TaskKind>()))]
     task: TaskKind,
@@ -63,19 +65,30 @@ pub struct DemoArgs {
     speed: Option<f64>,
     /// Seed of the sensor and F/T noise.
     #[arg(long, default_value_t = 1)]
-    seed: u64,
+    pub(crate) seed: u64,
+    /// The simulated BioTac unit (as `collect --unit` numbers them; the
+    /// default models are trained on unit 1). Default: the scene's.
+    #[arg(long)]
+    unit: Option<u64>,
+    /// Calibrate: the model file to write.
+    #[arg(long)]
+    pub(crate) out: Option<PathBuf>,
+    /// Calibrate: the recording, as a rosbag2 MCAP file (readable by
+    /// `train`, `eval`). Default: --out with the extension .mcap.
+    #[arg(long)]
+    pub(crate) session: Option<PathBuf>,
     /// Pace the simulation by the wall clock.
     #[arg(long)]
     realtime: bool,
     /// Write a PNG plot (forces over time; with --sweep-speed, overshoot over speed).
     #[arg(long)]
-    plot: Option<PathBuf>,
+    pub(crate) plot: Option<PathBuf>,
     /// Write the run, one row per control period, as CSV.
     #[arg(long, conflicts_with = "sweep_speed")]
-    csv: Option<PathBuf>,
+    pub(crate) csv: Option<PathBuf>,
     /// Print the figures as one JSON object on the last line.
     #[arg(long)]
-    json: bool,
+    pub(crate) json: bool,
     /// Guarded move: sweep the approach speed against the peak force, per
     /// object (each alone in the scene, so with its own safety envelope),
     /// measured and as the envelope predicts; speeds above it are refused.
@@ -102,6 +115,12 @@ const OVERSHOOT_BOUND_N: f64 = 0.1;
 
 pub fn run_demo(a: DemoArgs) -> Result<()> {
     let task = a.task;
+    if (a.out.is_some() || a.session.is_some()) != (task == TaskKind::Calibrate) {
+        return Err(BadArgument(
+            "--out (and --session) go with `demo calibrate`, which needs --out".into(),
+        )
+        .into());
+    }
     if task == TaskKind::Guided && (a.sweep_speed || a.speed.is_some()) {
         return Err(
             BadArgument("--speed and --sweep-speed are for the guarded move".into()).into(),
@@ -120,9 +139,15 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     if let Some(v) = a.speed {
         scene = scene.with_approach_speed(v)?;
     }
+    if let Some(u) = a.unit {
+        scene.sim.sensor_unit = u;
+    }
     // Check the scene before a possibly long training.
     scene.check()?;
     let model = demo_model(a.model.as_deref(), &scene.estimator.default_model)?;
+    if task == TaskKind::Calibrate {
+        return super::calibrate::run_calibrate(&a, &scene, model);
+    }
     if a.sweep_speed {
         return run_sweep(&a, &scene, &model);
     }

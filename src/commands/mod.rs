@@ -2,6 +2,7 @@
 //! (`data`), the printed output (`output`) and the exit codes.
 
 pub mod adapt;
+pub mod calibrate;
 pub mod collect;
 pub mod data;
 pub mod demo;

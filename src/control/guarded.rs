@@ -219,7 +219,7 @@ impl GuardedMove {
                 }
                 -p.retract_speed_mps
             }
-            Phase::Stopped | Phase::Follow => 0.0,
+            Phase::Stopped | Phase::Follow | Phase::Rest | Phase::Tilt | Phase::Shear => 0.0,
         }
     }
 

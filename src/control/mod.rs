@@ -3,6 +3,7 @@
 //! task may move towards a body). Everything here is in the BioTac (tool) frame and in SI units;
 //! [`crate::nodes::controller`] turns the result into joint velocities.
 
+pub mod calibrate;
 pub mod envelope;
 pub mod guarded;
 pub mod guided;
@@ -10,6 +11,7 @@ pub mod pd;
 pub mod safety;
 pub mod task;
 
+pub use calibrate::{CalibrateMove, CalibrateParams, Push, PushKind};
 pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
 pub use guided::{GuidedMove, GuidedParams};
@@ -33,6 +35,12 @@ pub enum Phase {
     Retract,
     /// Following a person's finger (guided move).
     Follow,
+    /// Calibration: out of contact, still (a push's tare).
+    Rest,
+    /// Calibration: turning the BioTac about its axis.
+    Tilt,
+    /// Calibration: pressed, sliding along the block.
+    Shear,
     /// Finished: no motion any more.
     Stopped,
 }
@@ -46,6 +54,9 @@ impl Phase {
             Phase::Hold => "hold",
             Phase::Retract => "retract",
             Phase::Follow => "follow",
+            Phase::Rest => "rest",
+            Phase::Tilt => "tilt",
+            Phase::Shear => "shear",
             Phase::Stopped => "stopped",
         }
     }

@@ -10,6 +10,7 @@
 use nalgebra::{Isometry3, Vector3};
 use serde::Deserialize;
 
+use super::calibrate::{CalibrateMove, CalibrateParams, PressLoop};
 use super::guarded::GuardedInput;
 use super::{
     Envelope, GuardedMove, GuardedParams, GuidedMove, GuidedParams, LoopDelays, PdParams, Phase,
@@ -17,7 +18,10 @@ use super::{
 };
 use crate::contact::{series_stiffness, shear_stiffness, BodyParams, SkinParams};
 use crate::kinematics::ShippedRobot;
-use crate::params::{Check, Checked, ParamsError, GUARDED_YAML, GUIDED_YAML, WORLD_YAML};
+use crate::kinematics::Twist;
+use crate::params::{
+    Check, Checked, ParamsError, CALIBRATE_YAML, GUARDED_YAML, GUIDED_YAML, WORLD_YAML,
+};
 use crate::wrench::{Axis, AxisSet};
 
 /// Which task the controller runs (the parameter `task`).
@@ -28,17 +32,20 @@ pub enum TaskKind {
     Guarded,
     /// Follow a person's finger.
     Guided,
+    /// Press a calibration block in a pattern, the F/T sensor as the force.
+    Calibrate,
 }
 
 impl TaskKind {
     /// Every task.
-    pub const ALL: [TaskKind; 2] = [TaskKind::Guarded, TaskKind::Guided];
+    pub const ALL: [TaskKind; 3] = [TaskKind::Guarded, TaskKind::Guided, TaskKind::Calibrate];
 
     /// The name in the parameters, the JSON output and the command line.
     pub fn name(self) -> &'static str {
         match self {
             TaskKind::Guarded => "guarded",
             TaskKind::Guided => "guided",
+            TaskKind::Calibrate => "calibrate",
         }
     }
 
@@ -47,6 +54,7 @@ impl TaskKind {
         match self {
             TaskKind::Guarded => GUARDED_YAML,
             TaskKind::Guided => GUIDED_YAML,
+            TaskKind::Calibrate => CALIBRATE_YAML,
         }
     }
 
@@ -56,10 +64,13 @@ impl TaskKind {
         [WORLD_YAML, robot.yaml(), self.scene_yaml()]
     }
 
-    /// The names of every task, for messages ("guarded or guided").
+    /// The names of every task, for messages ("guarded, guided or calibrate").
     pub fn names() -> String {
         let names: Vec<&str> = Self::ALL.iter().map(|t| t.name()).collect();
-        names.join(" or ")
+        match names.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            _ => names.join(""),
+        }
     }
 }
 
@@ -85,12 +96,14 @@ impl std::str::FromStr for TaskKind {
 }
 
 /// The checked section of the task that runs.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum TaskParams {
     /// `guarded`.
     Guarded(Checked<GuardedParams>),
     /// `guided`.
     Guided(Checked<GuidedParams>),
+    /// `calibrate`.
+    Calibrate(Checked<CalibrateParams>),
 }
 
 impl TaskParams {
@@ -99,6 +112,7 @@ impl TaskParams {
         kind: TaskKind,
         guarded: Option<GuardedParams>,
         guided: Option<GuidedParams>,
+        calibrate: Option<CalibrateParams>,
     ) -> Result<Self, ParamsError> {
         let key = kind.name();
         let absent = || ParamsError::Invalid {
@@ -109,6 +123,9 @@ impl TaskParams {
         Ok(match kind {
             TaskKind::Guarded => TaskParams::Guarded(guarded.ok_or_else(absent)?.checked(key)?),
             TaskKind::Guided => TaskParams::Guided(guided.ok_or_else(absent)?.checked(key)?),
+            TaskKind::Calibrate => {
+                TaskParams::Calibrate(calibrate.ok_or_else(absent)?.checked(key)?)
+            }
         })
     }
 
@@ -140,6 +157,28 @@ impl TaskParams {
                     .ok_or_else(|| missing_axis(lp.axes, Axis::Fz))?;
                 (envelope, "pd.max_speed_mps", lp.pd.max_speed_mps)
             }
+            TaskParams::Calibrate(c) => {
+                let top = c
+                    .ladder_n
+                    .iter()
+                    .chain(&c.shear_force_n)
+                    .copied()
+                    .fold(c.tilt_force_n, f64::max);
+                let envelope = Envelope {
+                    skin: **lp.skin,
+                    stiffness_n_per_m: body.stiffness_n_per_m,
+                    shear: false,
+                    trigger_n: c.contact_force_n,
+                    target_n: top,
+                    limit_n: c.force_limit_n,
+                    reaction_s,
+                };
+                (
+                    envelope,
+                    "calibrate.approach_speed_mps",
+                    c.approach_speed_mps,
+                )
+            }
         };
         Ok(TaskEnvelope {
             envelope,
@@ -152,6 +191,16 @@ impl TaskParams {
     /// The task, its gains set for a contact with `body` in `lp`.
     pub fn build(self, lp: &TaskLoop, body: &BodyParams) -> Task {
         match self {
+            TaskParams::Calibrate(c) => Task::Calibrate(Box::new(CalibrateMove::new(
+                c,
+                PressLoop {
+                    skin: *lp.skin,
+                    body: *body,
+                    pd: *lp.pd,
+                    delays: *lp.delays,
+                    period_s: lp.period_s,
+                },
+            ))),
             TaskParams::Guarded(g) => {
                 let k = series_stiffness(lp.skin, body, g.target_force_n);
                 Task::Guarded(GuardedMove::new(g, lp.pd, k, lp.period_s, lp.delays))
@@ -276,12 +325,21 @@ pub enum Task {
     Guarded(GuardedMove),
     /// The guided move.
     Guided(GuidedMove),
+    /// The calibration.
+    Calibrate(Box<CalibrateMove>),
+}
+
+/// A twist with a linear velocity only (the orientation held).
+fn translation(v: Vector3<f64>) -> Twist {
+    Twist::new(v.x, v.y, v.z, 0.0, 0.0, 0.0)
 }
 
 impl Task {
-    /// One cycle: the BioTac's velocity (m/s, base frame).
-    pub fn step(&mut self, i: &TaskInput) -> Vector3<f64> {
+    /// One cycle: the BioTac's twist (m/s, rad/s, base frame); the guarded
+    /// and guided moves hold the orientation.
+    pub fn step(&mut self, i: &TaskInput) -> Twist {
         match self {
+            Task::Calibrate(c) => c.step(i),
             Task::Guarded(g) => {
                 let d_tool = g.direction();
                 let d_world = i.start.rotation * d_tool;
@@ -293,9 +351,18 @@ impl Task {
                     out_of_range: i.out_of_range,
                     dt: i.dt,
                 };
-                d_world * g.step(&input)
+                translation(d_world * g.step(&input))
             }
-            Task::Guided(g) => i.pose.rotation * g.step(i.force, i.out_of_range, i.dt),
+            Task::Guided(g) => translation(i.pose.rotation * g.step(i.force, i.out_of_range, i.dt)),
+        }
+    }
+
+    /// The calibration's push running (0-based) and the set its rows are
+    /// labelled with; None for the other tasks.
+    pub fn push(&self) -> Option<(usize, u32)> {
+        match self {
+            Task::Calibrate(c) => c.current().map(|(i, p)| (i, p.kind.set())),
+            _ => None,
         }
     }
 
@@ -311,6 +378,7 @@ impl Task {
                 out
             }
             Task::Guided(g) => g.gains(),
+            Task::Calibrate(c) => [None, None, c.gain()],
         }
     }
 
@@ -325,14 +393,20 @@ impl Task {
                 t
             }
             Task::Guided(g) => g.targets(),
+            Task::Calibrate(c) => [None, None, c.target_n()],
         }
     }
 
     /// The directions the task moves the BioTac along (BioTac frame), each
     /// with its name for messages: the guarded move's approach, the guided
-    /// move's controlled axes.
+    /// move's controlled axes, the calibration's press and slides.
     pub fn directions(&self) -> Vec<(String, Vector3<f64>)> {
         match self {
+            Task::Calibrate(_) => vec![
+                ("-z of the BioTac frame (its presses)".into(), -Vector3::z()),
+                ("x of the BioTac frame (its slides)".into(), Vector3::x()),
+                ("y of the BioTac frame (its slides)".into(), Vector3::y()),
+            ],
             Task::Guarded(g) => {
                 let d = g.direction();
                 let name = format!("the approach direction [{}, {}, {}]", d.x, d.y, d.z);
@@ -361,6 +435,7 @@ impl Task {
                 .zip(g.targets())
                 .filter_map(|(a, t)| t.map(|_| a))
                 .collect(),
+            Task::Calibrate(_) => vec![Axis::Fz],
         }
     }
 
@@ -369,6 +444,7 @@ impl Task {
         match self {
             Task::Guarded(g) => g.phase(),
             Task::Guided(g) => g.phase(),
+            Task::Calibrate(c) => c.phase(),
         }
     }
 
@@ -377,6 +453,7 @@ impl Task {
         match self {
             Task::Guarded(g) => g.reason(),
             Task::Guided(g) => g.reason(),
+            Task::Calibrate(c) => c.reason(),
         }
     }
 
@@ -385,6 +462,7 @@ impl Task {
         match self {
             Task::Guarded(g) => g.pause(),
             Task::Guided(g) => g.pause(),
+            Task::Calibrate(c) => c.pause(),
         }
     }
 
@@ -393,6 +471,7 @@ impl Task {
         match self {
             Task::Guarded(g) => g.stop(),
             Task::Guided(g) => g.stop(),
+            Task::Calibrate(c) => c.stop(),
         }
     }
 
@@ -401,6 +480,7 @@ impl Task {
         match self {
             Task::Guarded(g) => g.stop_on(reason),
             Task::Guided(g) => g.stop_on(reason),
+            Task::Calibrate(c) => c.stop_on(Some(reason)),
         }
     }
 }
@@ -416,12 +496,12 @@ mod tests {
             assert!(!t.scene_yaml().is_empty());
         }
         let e = "joystick".parse::<TaskKind>().unwrap_err().to_string();
-        assert!(e.contains("guarded or guided"), "{e}");
+        assert!(e.contains("guarded, guided or calibrate"), "{e}");
     }
 
     #[test]
     fn an_absent_section_is_named() {
-        let e = TaskParams::select(TaskKind::Guided, None, None).unwrap_err();
+        let e = TaskParams::select(TaskKind::Guided, None, None, None).unwrap_err();
         assert!(e.to_string().contains("`guided` section"), "{e}");
     }
 }

@@ -410,7 +410,7 @@ fn pair(
 }
 
 /// `geometry_msgs/msg/WrenchStamped` in CDR order.
-#[derive(serde::Deserialize)]
+#[derive(serde::Deserialize, serde::Serialize)]
 struct CdrWrenchStamped {
     sec: i32,
     nanosec: u32,
@@ -418,6 +418,104 @@ struct CdrWrenchStamped {
     _frame_id: String,
     force: [f64; 3],
     torque: [f64; 3],
+}
+
+/// The BioTac message's definition, as rosbag2 stores a schema (`ros2msg`:
+/// the message, then each type it uses after a line of `=`).
+const BIOTAC_SCHEMA: &str = concat!(
+    include_str!("../../msg/msg/BioTac.msg"),
+    "\n================================================================================\n",
+    "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n",
+    "================================================================================\n",
+    "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n",
+);
+
+/// geometry_msgs/msg/WrenchStamped's definition (ROS 2 common_interfaces),
+/// as rosbag2 stores it.
+const WRENCH_STAMPED_SCHEMA: &str = concat!(
+    "std_msgs/Header header\nWrench wrench\n",
+    "================================================================================\n",
+    "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n",
+    "================================================================================\n",
+    "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n",
+    "================================================================================\n",
+    "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n",
+    "================================================================================\n",
+    "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n",
+);
+
+/// Writes `records` as a rosbag2 MCAP file that [`read_bag`] reads back:
+/// each reading on `topics.biotac` and its wrench (BioTac frame,
+/// `frame_id`) on `topics.ft`, both stamped `t0_s + t` (their header stamp
+/// and log time). What a ROS deployment records with `ros2 bag record`.
+pub fn write_bag(
+    path: &Path,
+    records: &[Record],
+    topics: &BagTopics,
+    frame_id: &str,
+    t0_s: f64,
+) -> Result<(), BagError> {
+    use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
+    let p = path.display().to_string();
+    let io = |source| BagError::Open {
+        path: p.clone(),
+        source,
+    };
+    let corrupt = |source| BagError::Corrupt {
+        path: p.clone(),
+        messages: 0,
+        source,
+    };
+    let file = File::create(path).map_err(io)?;
+    let mut w = mcap::Writer::new(std::io::BufWriter::new(file)).map_err(corrupt)?;
+    let none = BTreeMap::new();
+    let schema = w
+        .add_schema(BIOTAC_MSG_TYPE, "ros2msg", BIOTAC_SCHEMA.as_bytes())
+        .map_err(corrupt)?;
+    let readings = w
+        .add_channel(schema, &topics.biotac, MESSAGE_ENCODING, &none)
+        .map_err(corrupt)?;
+    let schema = w
+        .add_schema(
+            WRENCH_STAMPED_TYPE,
+            "ros2msg",
+            WRENCH_STAMPED_SCHEMA.as_bytes(),
+        )
+        .map_err(corrupt)?;
+    let wrenches = w
+        .add_channel(schema, &topics.ft, MESSAGE_ENCODING, &none)
+        .map_err(corrupt)?;
+    let meta = BioTacMeta {
+        frame_id: frame_id.into(),
+        ..BioTacMeta::default()
+    };
+    for (k, r) in records.iter().enumerate() {
+        let stamp_s = t0_s + r.t;
+        let (sec, nanosec) = split_stamp(stamp_s);
+        let log_time = u64::try_from(sec).unwrap_or(0) * 1_000_000_000 + u64::from(nanosec);
+        let mut reading = r.reading;
+        reading.stamp_s = stamp_s;
+        let wrench = CdrWrenchStamped {
+            sec,
+            nanosec,
+            _frame_id: frame_id.into(),
+            force: r.wrench.force.into(),
+            torque: r.wrench.torque.into(),
+        };
+        let wrench = cdr::serialize::<_, _, cdr::CdrLe>(&wrench, cdr::Infinite)
+            .map_err(|e| io(std::io::Error::other(e.to_string())))?;
+        for (channel, data) in [(readings, to_cdr(&reading, &meta)), (wrenches, wrench)] {
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: k as u32,
+                log_time,
+                publish_time: log_time,
+            };
+            w.write_to_known_channel(&header, &data).map_err(corrupt)?;
+        }
+    }
+    w.finish().map_err(corrupt)?;
+    Ok(())
 }
 
 /// (header stamp in s, wrench) of a serialized WrenchStamped (CDR with its
@@ -550,6 +648,44 @@ mod tests {
             assert_eq!(r.reading.electrodes[0], row as u16);
             assert_eq!(r.wrench.force, Vector3::new(row as f64, -2.0, 3.5));
             assert_eq!(r.wrench.torque, Vector3::new(0.01, -0.02, 0.03));
+        }
+    }
+
+    #[test]
+    fn a_written_session_reads_back_record_for_record() {
+        let records: Vec<Record> = (0..50)
+            .map(|i| {
+                let mut electrodes = [3000; N_ELECTRODES];
+                electrodes[3] = 2000 + i as u16;
+                Record {
+                    t: 0.01 * f64::from(i),
+                    set: 3,
+                    trial: 1 + i / 20,
+                    reading: BioTacReading {
+                        seq: i as u16,
+                        stamp_s: 0.0,
+                        electrodes,
+                        pdc: 2100,
+                        pac: [2048; N_PAC],
+                        tdc: 1800,
+                        tac: 2000,
+                    },
+                    wrench: Wrench::new(
+                        Vector3::new(0.1, -0.2, 0.05 * f64::from(i)),
+                        Vector3::new(0.0, 0.001, 0.0),
+                    ),
+                }
+            })
+            .collect();
+        let f = tempfile::NamedTempFile::new().unwrap();
+        write_bag(f.path(), &records, &BagTopics::default(), "biotac", 1e6).unwrap();
+        let back = read_bag(f.path(), &BagTopics::default()).unwrap();
+        assert_eq!(back.records.len(), 50);
+        assert_eq!((back.unpaired_readings, back.unpaired_wrenches), (0, 0));
+        for (a, b) in records.iter().zip(&back.records) {
+            assert!((a.t - b.t).abs() < 1e-6, "{} {}", a.t, b.t);
+            assert_eq!(a.reading.electrodes, b.reading.electrodes);
+            assert_eq!(a.wrench, b.wrench);
         }
     }
 

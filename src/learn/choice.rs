@@ -79,6 +79,7 @@ impl Choice {
     /// `data` and `tare` cut to its features; the reason when the data lack one.
     pub fn cut(&self, data: &Dataset, tare: &TareSpec) -> Result<(Dataset, TareSpec), String> {
         columns(data, tare, &self.features())
+            .map_err(|column| format!("the data have no column {column:?}"))
     }
 
     /// `base` with this choice's GP and mean.
@@ -342,9 +343,9 @@ fn cross_validate(
     }))
 }
 
-/// `data` and `tare` cut to the columns `features`; the reason when one is
+/// `data` and `tare` cut to the columns `features`; the name of one that is
 /// missing.
-fn columns(
+pub(crate) fn columns(
     data: &Dataset,
     tare: &TareSpec,
     features: &[String],
@@ -355,7 +356,7 @@ fn columns(
             data.features
                 .iter()
                 .position(|g| g == f)
-                .ok_or_else(|| format!("the data have no column {f:?}"))
+                .ok_or_else(|| f.clone())
         })
         .collect::<Result<Vec<_>, _>>()?;
     let sub = Dataset {

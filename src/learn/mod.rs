@@ -3,6 +3,7 @@
 //! camera's CNN baseline, metrics and the model file.
 
 pub mod bag;
+pub mod calibration;
 pub mod choice;
 pub mod cnn;
 pub mod dataset;

@@ -17,6 +17,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
+use super::calibration::CalibrationRecord;
 use super::choice::Selection;
 use super::dataset::Dataset;
 use super::gp::fit::FitProgress;
@@ -31,7 +32,8 @@ pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// The model-file version this build writes (2: the GP of an axis is tagged
 /// exact or sparse; 3: an adapted model holds the model it was adapted
 /// from; 4: an axis may have a linear prior mean; 5: that mean may bend;
-/// 6: how its options were selected on the data, `train --select`).
+/// 6: how its options were selected on the data, `train --select`, and the
+/// calibration on the robot that made it).
 /// It reads versions 2 to 6.
 pub const MODEL_VERSION: u32 = 6;
 
@@ -194,6 +196,9 @@ struct ModelFile<G> {
     /// How its options were chosen (`train --select`), with the CV table.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     selection: Option<Selection>,
+    /// The calibration on the robot that made it, with its validation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    calibration: Option<CalibrationRecord>,
     /// Which features are electrodes (for the pattern), from their names.
     #[serde(skip)]
     electrode: Vec<bool>,
@@ -388,6 +393,7 @@ impl WrenchGp {
             outputs,
             prior: None,
             selection: None,
+            calibration: None,
             electrode,
         }))
     }
@@ -429,6 +435,17 @@ impl WrenchGp {
     pub fn with_selection(mut self, selection: Selection) -> Self {
         self.0.selection = Some(selection);
         self
+    }
+
+    /// The model, recording the calibration that made it.
+    pub fn with_calibration(mut self, record: CalibrationRecord) -> Self {
+        self.0.calibration = Some(record);
+        self
+    }
+
+    /// The calibration that made it, when one did.
+    pub fn calibration(&self) -> Option<&CalibrationRecord> {
+        self.0.calibration.as_ref()
     }
 
     /// How its options were chosen, when `train --select` chose them.
@@ -680,6 +697,7 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         outputs,
         prior,
         selection: file.selection,
+        calibration: file.calibration,
         electrode,
     })
 }

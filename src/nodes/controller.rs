@@ -20,8 +20,9 @@ use super::{JointState, WrenchEstimate};
 use crate::contact::{object_body, BodyParams, SkinParams};
 use crate::control::task::{missing_axis, TaskInput};
 use crate::control::{
-    Envelope, GuardedParams, GuidedParams, Halt, LoopDelays, PdParams, Phase, SafetyParams,
-    StopReason, Task, TaskEnvelope, TaskKind, TaskLoop, TaskParams, Watchdog, UNKNOWN_OBJECT,
+    CalibrateParams, Envelope, GuardedParams, GuidedParams, Halt, LoopDelays, PdParams, Phase,
+    SafetyParams, StopReason, Task, TaskEnvelope, TaskKind, TaskLoop, TaskParams, Watchdog,
+    UNKNOWN_OBJECT,
 };
 use crate::kinematics::{Dls, JointVector, Robot, RobotParams, Twist};
 use crate::params::{positive, Check, Checked, ParamsError};
@@ -62,6 +63,9 @@ pub struct ControllerParams {
     pub guarded: Option<GuardedParams>,
     /// Guided-move settings (needed when `task` is guided).
     pub guided: Option<GuidedParams>,
+    /// Calibration settings (needed when `task` is calibrate).
+    #[serde(default)]
+    pub calibrate: Option<CalibrateParams>,
 }
 
 /// Limits beyond which the BioTac input is outside what the estimator
@@ -144,7 +148,7 @@ impl CheckedTask {
         let speed = sections.envelope(p)?;
         speed.check()?;
         let body = permitted_body(p, &sections.safety, &p.object)?;
-        let task = sections.task.build(&lp, &body);
+        let task = sections.task.clone().build(&lp, &body);
         let needed = task.force_axes();
         if let Some(axis) = needed.iter().find(|a| !p.axes.axes().contains(a)) {
             return Err(missing_axis(&p.axes, *axis));
@@ -229,6 +233,12 @@ impl ForceController {
     /// chain order); zero when halted or stopped.
     pub fn command(&self) -> &JointVector {
         &self.command
+    }
+
+    /// The calibration's push running (0-based) and the set its rows are
+    /// labelled with; None for the other tasks, and once it has stopped.
+    pub fn push(&self) -> Option<(usize, u32)> {
+        self.task.push()
     }
 
     /// The BioTac's twist of the last tick (base frame, m/s and rad/s: zero
@@ -365,7 +375,7 @@ impl ForceController {
             }
         }
         let start = *self.start.get_or_insert(pose);
-        let v_world = self.task.step(&TaskInput {
+        self.twist = self.task.step(&TaskInput {
             force: &est.mean.force,
             pdc_rise: est.pdc_rise,
             pose: &pose,
@@ -373,8 +383,8 @@ impl ForceController {
             out_of_range,
             dt,
         });
-        self.twist = Twist::new(v_world.x, v_world.y, v_world.z, 0.0, 0.0, 0.0);
-        if v_world == Vector3::zeros() {
+        let v_world: Vector3<f64> = self.twist.fixed_rows::<3>(0).into();
+        if self.twist == Twist::zeros() {
             self.command.fill(0.0);
             return Ok((v_world, 0.0));
         }
@@ -464,7 +474,7 @@ impl Sections {
         let delays = p.loop_delays.checked("loop_delays")?;
         let safety = p.safety.clone().checked("safety")?;
         permitted_body(p, &safety, &p.object)?;
-        let task = TaskParams::select(p.task, p.guarded, p.guided)?;
+        let task = TaskParams::select(p.task, p.guarded, p.guided, p.calibrate.clone())?;
         Ok(Sections {
             skin,
             pd,
@@ -565,7 +575,7 @@ mod tests {
         assert_eq!("guided".parse::<TaskKind>().unwrap(), TaskKind::Guided);
         let err = "fast".parse::<TaskKind>().unwrap_err().to_string();
         assert!(
-            err.contains("fast") && err.contains("guarded or guided"),
+            err.contains("fast") && err.contains("guarded, guided or calibrate"),
             "{err}"
         );
         let pa10 = Robot::pa10;

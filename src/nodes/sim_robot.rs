@@ -5,7 +5,9 @@
 //!
 //! Geometry: the body's surface is a plane facing the pad (its normal is +z
 //! of the BioTac frame at the start), `object_gap_mm` below the pad point.
-//! The pad point is the skin point at `contact_x_mm` on the pad midline.
+//! The pad point is the skin point at `contact_x_mm` that faces the body:
+//! on the pad midline while the BioTac keeps its start orientation, around
+//! the skin when it turns about its axis (the calibration's tilted presses).
 //! The F/T sensor reports the wrench on the finger in the BioTac frame about
 //! its origin, averaged over the physics steps of a period, each with
 //! Gaussian noise.
@@ -106,7 +108,9 @@ pub struct SimRobot {
     biotac: BioTacSim,
     path: Option<FingerPath>,
     contact_x_mm: f64,
-    pad_tool: Vector3<f64>,
+    /// The contact point's angle about the BioTac's axis (rad), from its
+    /// orientation to the body.
+    contact_angle: f64,
     start: Isometry3<f64>,
     plane0: Vector3<f64>,
     normal: Vector3<f64>,
@@ -199,7 +203,7 @@ impl SimRobot {
             biotac,
             path,
             contact_x_mm: p.contact_x_mm,
-            pad_tool,
+            contact_angle: 0.0,
             start,
             plane0: plane0.coords,
             normal,
@@ -271,7 +275,13 @@ impl SimRobot {
             self.steps += 1;
             self.t = self.steps as f64 * self.dt;
             let pose = self.robot.chain.forward(self.arm.q());
-            let pad = (pose * nalgebra::Point3::from(self.pad_tool)).coords;
+            // The skin point whose outward normal faces the body: the
+            // body's normal n in the BioTac frame, the point's normal
+            // (0, sin a, -cos a) = -n about the axis.
+            let n = pose.rotation.inverse() * self.normal;
+            self.contact_angle = (-n.y).atan2(n.z);
+            let point = SurfacePoint::at(self.contact_x_mm, self.contact_angle).point_mm * 1e-3;
+            let pad = (pose * nalgebra::Point3::from(point)).coords;
             let plane = match &self.path {
                 Some(path) => self.plane0 + self.start.rotation * path.at(self.t).offset,
                 None => self.plane0,
@@ -291,7 +301,7 @@ impl SimRobot {
     pub fn sample(&mut self) -> SimSample {
         let contact = (self.last_force != Vector3::zeros()).then_some(Contact {
             x_mm: self.contact_x_mm,
-            angle_rad: 0.0,
+            angle_rad: self.contact_angle,
             force: self.last_force,
         });
         let period_s = (self.steps_in_period.max(1) as f64 * self.dt).max(self.dt);
@@ -305,7 +315,7 @@ impl SimRobot {
         };
         let truth = Contact {
             x_mm: self.contact_x_mm,
-            angle_rad: 0.0,
+            angle_rad: self.contact_angle,
             force: mean_force,
         }
         .wrench();

@@ -95,10 +95,13 @@ type Drawn = Result<(), Box<dyn Error>>;
 /// estimate and its ±2σ band, the F/T force and the desired force over
 /// time, on a background marking the task phases.
 pub fn plot_run(path: &Path, title: &str, rows: &[TraceRow]) -> Result<(), PlotError> {
-    let Some(last) = rows.last() else {
+    if rows.is_empty() {
         return Err(PlotError::empty(path, "no rows"));
-    };
-    let axes: Vec<usize> = (0..3).filter(|&i| last.targets[i].is_some()).collect();
+    }
+    // The axes controlled at some time (a calibration presses in turns).
+    let axes: Vec<usize> = (0..3)
+        .filter(|&i| rows.iter().any(|r| r.targets[i].is_some()))
+        .collect();
     if axes.is_empty() {
         return Err(PlotError::empty(path, "no controlled axis"));
     }
@@ -481,6 +484,8 @@ fn phase_color(phase: Phase) -> RGBColor {
         Phase::Hold => RGBColor(218, 240, 218),
         Phase::Retract => RGBColor(250, 215, 215),
         Phase::Follow => RGBColor(218, 232, 250),
+        Phase::Rest | Phase::Tilt => RGBColor(245, 245, 235),
+        Phase::Shear => RGBColor(250, 232, 210),
         Phase::Stopped => RGBColor(235, 235, 235),
     }
 }

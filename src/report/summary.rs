@@ -55,6 +55,7 @@ impl RunInfo {
             object: params.object.clone(),
             approach_speed_mps: match params.task {
                 TaskKind::Guarded => params.guarded.map(|g| g.approach_speed_mps),
+                TaskKind::Calibrate => params.calibrate.as_ref().map(|c| c.approach_speed_mps),
                 TaskKind::Guided => None,
             },
         }
@@ -166,6 +167,8 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         (outside + 1 < rows.len()).then(|| rows[outside + 1].t - rows[c].t)
     });
     let (off_speed, off_ratio) = match info.task {
+        // The calibration slides and turns on purpose: nothing is off-axis.
+        TaskKind::Calibrate => (0.0, None),
         TaskKind::Guarded => {
             let d = nalgebra::Vector3::ith(normal, 1.0);
             let s = rows

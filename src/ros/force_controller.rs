@@ -204,6 +204,14 @@ fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> R
         ));
     };
     let task: TaskKind = name.parse().map_err(|e: ParamsError| e.to_string())?;
+    if task == TaskKind::Calibrate {
+        // Its force is the F/T sensor's, not the estimate this node reads.
+        return Err(
+            "calibrate presses with the F/T sensor as its force: run `tactile_force \
+                    demo calibrate` (the calibration over ROS 2 is not built yet)"
+                .into(),
+        );
+    }
     let mut g = lock(s);
     if g.goal_active {
         return Err("a guarded_move goal is running: cancel it first".into());

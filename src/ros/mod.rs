@@ -268,7 +268,7 @@ pub fn describe_shared(name: &str) -> &'static str {
         "robot" => "The arm: the links of the robot description, the BioTac's mount, limits.",
         "stale_periods" => "Inputs older than this many periods stop the arm.",
         "axes" => "Wrench axes the task controls.",
-        "task" => "The task (guarded or guided); may be changed while running.",
+        "task" => "The task (guarded or guided; may be changed while running; calibrate: demo).",
         "pd" => "PD force law (config/world.yaml).",
         "loop_delays" => {
             "Delays of the force loop: they set the gains and the safety envelope (s)."

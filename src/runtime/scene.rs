@@ -212,7 +212,7 @@ impl Scene {
     /// The controller, the simulated robot and the estimate's link, checked,
     /// and checked against each other: the controller's gains and safety envelope must assume an
     /// arm and a transport no faster than the simulated ones.
-    fn controller_and_sim(
+    pub fn controller_and_sim(
         &self,
         sensor: &BioTacSimConfig,
         seed: u64,

@@ -454,7 +454,7 @@ def parameters_guarded(peer):
     check("task guided refused on a wooden box", not ok and "pd.max_speed_mps" in why and "wooden_box" in why,
           why[:140] + "...")
     ok, why = peer.set_param("force_controller", "task", "fast")
-    check("task fast refused", not ok and "guarded or guided" in why, why)
+    check("task fast refused", not ok and "guarded, guided or calibrate" in why, why)
     ok, why = peer.set_param("force_controller", "pd.gain_ratio", 2.0)
     check("pd.gain_ratio refused while running", not ok and "read at start-up only" in why, why)
     peer.spin(0.5)

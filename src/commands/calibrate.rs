@@ -1,0 +1,117 @@
+//! `demo calibrate`: the calibration on the simulated robot. The arm presses
+//! the calibration block in its pattern with the F/T sensor as the force;
+//! the recording is written as a rosbag2 MCAP file; the current model is
+//! adapted to it, or a model trained on it from scratch, whichever
+//! estimates the held-out pushes better, and written with what was chosen
+//! and the validation figures. A calibration that cannot succeed writes no
+//! model (exit 1) and says why.
+
+use std::time::Instant;
+
+use anyhow::{anyhow, Context, Result};
+use serde_json::json;
+
+use tactile_force::control::TaskKind;
+use tactile_force::learn::bag::{write_bag, BagTopics};
+use tactile_force::learn::calibration::{fit, Recorded};
+use tactile_force::learn::gp::GpParams;
+use tactile_force::learn::model::WrenchGp;
+use tactile_force::runtime::calibrate::record;
+use tactile_force::runtime::Scene;
+
+use super::demo::DemoArgs;
+use super::output::progress_bar;
+
+/// The from-scratch candidate's search for options (s): with the fits, the
+/// compute stays within 10 s.
+const SELECT_BUDGET_S: f64 = 3.0;
+
+pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> Result<()> {
+    let out = a.out.as_ref().context("demo calibrate needs --out")?;
+    let session = a
+        .session
+        .clone()
+        .unwrap_or_else(|| out.with_extension("mcap"));
+    let limit = scene
+        .controller
+        .calibrate
+        .as_ref()
+        .map_or(f64::NAN, |c| c.force_limit_n);
+    let bar = progress_bar();
+    bar.set_message("calibrating: pressing the block");
+    let rec = record(scene, a.seed, &mut |_, _| {})?;
+    bar.finish_and_clear();
+    let unit = scene.sim.sensor_unit;
+    println!(
+        "calibration, BioTac unit {unit}: {} pushes, {} rows, {:.1} s of motion; peak force \
+         {:.2} N on the F/T sensor (limit {limit} N)",
+        rec.records.last().map_or(0, |r| r.trial),
+        rec.records.len(),
+        rec.motion_s,
+        rec.peak_force_n,
+    );
+    if let Some(path) = &a.csv {
+        tactile_force::report::trace::write_csv(path, &rec.rows)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &a.plot {
+        let title = format!("calibration, BioTac unit {unit}");
+        tactile_force::report::plot::plot_run(path, &title, &rec.rows)?;
+        println!("plot written to {}", path.display());
+    }
+    if let Some(why) = rec.ended.failure() {
+        return Err(anyhow!(
+            "calibration failed: {why}; the arm stopped; no model written (the current one is kept)"
+        ));
+    }
+    write_bag(&session, &rec.records, &BagTopics::default(), "biotac", 0.0)?;
+    println!("session written to {}", session.display());
+    let t0 = Instant::now();
+    let recorded = Recorded {
+        motion_s: rec.motion_s,
+        peak_force_n: rec.peak_force_n,
+        session: Some(session.display().to_string()),
+    };
+    let (model, r) = fit(
+        &rec.records,
+        &current,
+        recorded,
+        SELECT_BUDGET_S,
+        &GpParams::default(),
+    )
+    .context("calibration: no model written (the current one is kept)")?;
+    let compute_s = t0.elapsed().as_secs_f64();
+    model
+        .save(out)
+        .with_context(|| format!("saving the model to {}", out.display()))?;
+    let held: Vec<String> = r.held_out.iter().map(u32::to_string).collect();
+    println!("held-out pushes {}: RMSE (score)", held.join(", "));
+    for v in &r.validation {
+        let rmse: Vec<String> = v.rmse.iter().map(|(a, e)| format!("{a} {e:.3}")).collect();
+        println!("  {:<13} {} N ({:.4})", v.model, rmse.join(", "), v.score);
+    }
+    println!(
+        "chose the model {}; {compute_s:.1} s of compute; model written to {}",
+        r.chosen,
+        out.display()
+    );
+    if a.json {
+        let line = json!({
+            "task": TaskKind::Calibrate.name(),
+            "unit": unit,
+            "pushes": r.pushes,
+            "rows": r.rows,
+            "motion_s": r.motion_s,
+            "compute_s": compute_s,
+            "peak_force_n": r.peak_force_n,
+            "force_limit_n": limit,
+            "chosen": r.chosen,
+            "validation": r.validation,
+            "held_out": r.held_out,
+            "session": session.display().to_string(),
+            "model": out.display().to_string(),
+        });
+        println!("{line}");
+    }
+    Ok(())
+}

@@ -1,0 +1,257 @@
+//! A model from a calibration's recording: the current model adapted to it,
+//! or a model trained on it from scratch (its options chosen by
+//! [`super::choice::select`] within the compute budget), whichever
+//! estimates the held-out pushes (every fourth) better; refused when
+//! neither beats the current model there. The winner is trained again on
+//! every push, checked on its own training data, and records what was
+//! chosen and the validation figures.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::choice::{select, Choice};
+use super::dataset::{channel_columns, Channel, Dataset, DatasetError};
+use super::evaluate::{score_model, training_fit, EvalError};
+use super::gp::GpParams;
+use super::model::{AdaptedFrom, ModelError, TareSpec, WrenchGp};
+use crate::record::Record;
+use crate::wrench::Axis;
+
+/// Every fourth push is held out to validate the candidates.
+pub const HELD_OUT_EVERY: u32 = 4;
+/// The fewest pushes a calibration needs (three to train on, one held out).
+pub const MIN_PUSHES: u32 = 4;
+
+/// One model scored on the held-out pushes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Validation {
+    /// "current", "adapted" or "from scratch".
+    pub model: String,
+    /// RMSE per axis on the held-out pushes (N or Nm).
+    pub rmse: BTreeMap<Axis, f64>,
+    /// Mean over axes of the RMSE over the targets' standard deviation.
+    pub score: f64,
+}
+
+/// What a calibration did (in the model file it made).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationRecord {
+    /// "adapted" or "from scratch".
+    pub chosen: String,
+    /// The current model and both candidates on the held-out pushes.
+    pub validation: Vec<Validation>,
+    /// The from-scratch candidate's options.
+    pub scratch_options: Option<Choice>,
+    /// Pushes recorded, and those held out (1-based).
+    pub pushes: u32,
+    /// The held-out pushes.
+    pub held_out: Vec<u32>,
+    /// Rows recorded.
+    pub rows: usize,
+    /// Seconds the arm moved.
+    pub motion_s: f64,
+    /// Seconds of compute (training and validation).
+    pub compute_s: f64,
+    /// The largest force the F/T sensor measured (N).
+    pub peak_force_n: f64,
+    /// The recording's file (MCAP), when written.
+    pub session: Option<String>,
+}
+
+/// Why a calibration made no model.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrationError {
+    /// Too little was recorded.
+    #[error("too few rows to calibrate: {pushes} pushes ({rows} rows), at least {MIN_PUSHES} pushes needed")]
+    TooFew {
+        /// Pushes recorded.
+        pushes: u32,
+        /// Rows recorded.
+        rows: usize,
+    },
+    /// Neither candidate beats the current model on the held-out pushes.
+    #[error("neither model beats the current one on the held-out pushes (score: current {current:.4}, adapted {adapted:.4}, from scratch {scratch:.4}); the current model is kept")]
+    NotBetter {
+        /// The current model's score.
+        current: f64,
+        /// The adapted model's.
+        adapted: f64,
+        /// The model from scratch's.
+        scratch: f64,
+    },
+    /// The recording cannot be true.
+    #[error(transparent)]
+    Data(#[from] DatasetError),
+    /// A fit failed.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// Scoring failed, or the model explains nothing of its data.
+    #[error(transparent)]
+    Eval(#[from] EvalError),
+}
+
+/// What the recording is and where it came from, besides its records.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recorded {
+    /// Seconds the arm moved.
+    pub motion_s: f64,
+    /// The largest force the F/T sensor measured (N).
+    pub peak_force_n: f64,
+    /// The recording's file, when written.
+    pub session: Option<String>,
+}
+
+/// The calibration's model from `records` (trial = push, starting out of
+/// contact) with `current` as the model it may adapt; the from-scratch
+/// candidate's options are chosen within `select_budget_s`; `base` holds
+/// the other GP options.
+pub fn fit(
+    records: &[Record],
+    current: &WrenchGp,
+    recorded: Recorded,
+    select_budget_s: f64,
+    base: &GpParams,
+) -> Result<(WrenchGp, CalibrationRecord), CalibrationError> {
+    let t0 = Instant::now();
+    let pushes = records.iter().map(|r| r.trial).max().unwrap_or(0);
+    if pushes < MIN_PUSHES {
+        return Err(CalibrationError::TooFew {
+            pushes,
+            rows: records.len(),
+        });
+    }
+    let every = channel_columns(&[
+        Channel::Electrodes,
+        Channel::Pdc,
+        Channel::Tdc,
+        Channel::Tac,
+    ]);
+    let mut all = Dataset::from_records(records, &every, current.axes(), "calibration")?;
+    let samples = current.tare().samples;
+    let tare = TareSpec {
+        samples,
+        mean_baseline: all.tare_per_trial(samples)?,
+    };
+    let held_out: Vec<u32> = (1..=pushes).filter(|p| p % HELD_OUT_EVERY == 0).collect();
+    let rows = |keep: &dyn Fn(u32) -> bool| -> Vec<usize> {
+        (0..all.len()).filter(|&i| keep(all.trial[i])).collect()
+    };
+    let (train, test) = (
+        all.select(&rows(&|t| !held_out.contains(&t))),
+        all.select(&rows(&|t| held_out.contains(&t))),
+    );
+    let current_features = current.features().to_vec();
+    let cut = |d: &Dataset| -> Result<(Dataset, TareSpec), CalibrationError> {
+        cut_to(d, &tare, &current_features)
+    };
+    // Scores in units of each axis's spread over the whole recording.
+    let sd: Vec<f64> = all
+        .y
+        .columns()
+        .into_iter()
+        .map(|c| c.std(0.0).max(1e-9))
+        .collect();
+    let validate =
+        |name: &str, model: &WrenchGp, test: &Dataset| -> Result<Validation, CalibrationError> {
+            let s = score_model(model, test, f64::INFINITY)?;
+            let score = s.rmse.values().zip(&sd).map(|(e, s)| e / s).sum::<f64>() / sd.len() as f64;
+            Ok(Validation {
+                model: name.into(),
+                rmse: s.rmse,
+                score,
+            })
+        };
+    let (train_cur, train_tare) = cut(&train)?;
+    let (test_cur, _) = cut(&test)?;
+    let from = |data: Vec<String>| AdaptedFrom {
+        model: "the current model".into(),
+        data,
+        seconds: recorded.motion_s,
+    };
+    let session: Vec<String> = recorded.session.iter().cloned().collect();
+    let params = base.clone().validate().map_err(ModelError::from)?;
+    let adapted = current.adapt(
+        &train_cur,
+        train_tare.clone(),
+        from(session.clone()),
+        &params,
+        &mut |_, _| {},
+    )?;
+    // The from-scratch candidate: options chosen by pushes (one set).
+    let mut by_push = train.clone();
+    by_push.set.iter_mut().for_each(|s| *s = 1);
+    let choice = select(&by_push, &tare, 5, select_budget_s, base, &mut |_, _| {})
+        .map(|s| s.choice().clone())
+        .unwrap_or_else(|_| Choice::default_options());
+    let (train_new, new_tare) = cut_to(&train, &tare, &choice.features())?;
+    let (test_new, _) = cut_to(&test, &tare, &choice.features())?;
+    let new_params = choice
+        .gp_params(base)
+        .validate()
+        .map_err(ModelError::from)?;
+    let scratch = WrenchGp::train_scaled(
+        &train_new,
+        new_tare,
+        choice.input,
+        &new_params,
+        &mut |_, _| {},
+    )?;
+    let validation = vec![
+        validate("current", current, &test_cur)?,
+        validate("adapted", &adapted, &test_cur)?,
+        validate("from scratch", &scratch, &test_new)?,
+    ];
+    let [cur, ada, new] = [0, 1, 2].map(|i| validation[i].score);
+    if !(ada < cur || new < cur) {
+        return Err(CalibrationError::NotBetter {
+            current: cur,
+            adapted: ada,
+            scratch: new,
+        });
+    }
+    // The winner again, on every push.
+    let (model, chosen, data) = if ada <= new {
+        let (data, t) = cut(&all)?;
+        let m = current.adapt(&data, t, from(session), &params, &mut |_, _| {})?;
+        (m, "adapted", data)
+    } else {
+        let (data, t) = cut_to(&all, &tare, &choice.features())?;
+        let m = WrenchGp::train_scaled(&data, t, choice.input, &new_params, &mut |_, _| {})?
+            .with_sensor(current.sensor().clone());
+        (m, "from scratch", data)
+    };
+    training_fit(&model, &data)?;
+    let record = CalibrationRecord {
+        chosen: chosen.into(),
+        validation,
+        scratch_options: Some(choice),
+        pushes,
+        held_out,
+        rows: all.len(),
+        motion_s: recorded.motion_s,
+        compute_s: t0.elapsed().as_secs_f64(),
+        peak_force_n: recorded.peak_force_n,
+        session: recorded.session,
+    };
+    Ok((model.with_calibration(record.clone()), record))
+}
+
+/// `data` and `tare` cut to the columns `features`.
+fn cut_to(
+    data: &Dataset,
+    tare: &TareSpec,
+    features: &[String],
+) -> Result<(Dataset, TareSpec), CalibrationError> {
+    super::choice::columns(data, tare, features).map_err(|column| {
+        CalibrationError::Data(DatasetError::MissingColumn {
+            path: "calibration".into(),
+            column,
+            header: data.features.join(","),
+        })
+    })
+}

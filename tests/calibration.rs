@@ -1,0 +1,151 @@
+//! The calibration on the simulated robot (runtime::calibrate,
+//! learn::calibration): BioTac unit 2, which the default models never saw.
+//! Its guarded move stops out of range with the default model; calibrated,
+//! it holds 1 N on every object. No press passes the force limit on the
+//! F/T sensor; a calibration that cannot succeed stops the arm and says why.
+
+use tactile_force::control::{StopReason, TaskKind};
+use tactile_force::kinematics::ShippedRobot;
+use tactile_force::learn::calibration::{fit, CalibrationError, Recorded};
+use tactile_force::learn::gp::GpParams;
+use tactile_force::learn::model::WrenchGp;
+use tactile_force::runtime::calibrate::{record, Ended, Recording};
+use tactile_force::runtime::demo::run_scene;
+use tactile_force::runtime::{Pacing, Scene};
+
+mod common;
+use common::model;
+
+fn calibration(unit: u64) -> Scene {
+    let mut s = Scene::shipped(TaskKind::Calibrate, ShippedRobot::Pa10).unwrap();
+    s.sim.sensor_unit = unit;
+    s
+}
+
+fn recorded(r: &Recording) -> Recorded {
+    Recorded {
+        motion_s: r.motion_s,
+        peak_force_n: r.peak_force_n,
+        session: None,
+    }
+}
+
+fn guarded(unit: u64, object: &str, m: &WrenchGp) -> tactile_force::report::summary::Summary {
+    let mut s = Scene::builtin(TaskKind::Guarded)
+        .unwrap()
+        .with_object(object);
+    s.sim.sensor_unit = unit;
+    run_scene(&s, m.clone(), 1, Pacing::Lockstep, &mut |_| {})
+        .unwrap()
+        .summary
+}
+
+#[test]
+fn a_calibration_of_unit_2_makes_a_model_that_holds_the_guarded_move_on_every_object() {
+    let scene = calibration(2);
+    let limit = scene.controller.calibrate.as_ref().unwrap().force_limit_n;
+    let rec = record(&scene, 1, &mut |_, _| {}).unwrap();
+    assert_eq!(rec.ended, Ended::Done);
+    assert!(rec.motion_s <= 90.0, "{} s", rec.motion_s);
+    assert!(rec.peak_force_n <= limit, "{} N", rec.peak_force_n);
+    assert_eq!(rec.records.last().unwrap().trial, 20);
+    let current = model();
+    // Before: the default model doubts unit 2's readings and stops.
+    let before = guarded(2, "wooden_box", &current);
+    assert_eq!(before.reason, Some("out_of_range"), "{before:?}");
+    let (calibrated, r) = fit(
+        &rec.records,
+        &current,
+        recorded(&rec),
+        3.0,
+        &GpParams::default(),
+    )
+    .unwrap();
+    let score = |name: &str| r.validation.iter().find(|v| v.model == name).unwrap().score;
+    assert!(score(&r.chosen) < score("current"), "{r:?}");
+    assert_eq!(calibrated.calibration(), Some(&r));
+    for object in ["wooden_box", "carton_box", "stuffed_animal"] {
+        let s = guarded(2, object, &calibrated);
+        assert!(s.final_phase == "hold" && !s.aborted, "{object}: {s:?}");
+        assert!(s.overshoot_n <= 0.1, "{object}: {s:?}");
+        assert!(s.steady_state_error_n.unwrap() <= 0.05, "{object}: {s:?}");
+        assert!(s.final_sd_n.unwrap() <= 0.02, "{object}: {s:?}");
+    }
+}
+
+#[test]
+fn no_press_of_the_calibration_passes_the_force_limit_across_seeds_and_objects() {
+    for object in [
+        "calibration_block",
+        "wooden_box",
+        "carton_box",
+        "stuffed_animal",
+    ] {
+        for seed in 1..=3 {
+            let scene = calibration(2).with_only_object(object);
+            let limit = scene.controller.calibrate.as_ref().unwrap().force_limit_n;
+            let rec = record(&scene, seed, &mut |_, _| {}).unwrap();
+            assert!(
+                rec.peak_force_n <= limit,
+                "{object}, seed {seed}: {} N",
+                rec.peak_force_n
+            );
+            // The soft animal cannot be pressed to 10 N within the approach
+            // distance: the calibration stops there, no contact found at
+            // that force, and nothing is pressed harder.
+            if object == "stuffed_animal" {
+                assert_eq!(
+                    rec.ended,
+                    Ended::Stopped(StopReason::Timeout),
+                    "seed {seed}"
+                );
+            } else {
+                assert_eq!(rec.ended, Ended::Done, "{object}, seed {seed}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_calibration_that_cannot_succeed_stops_the_arm_and_says_why() {
+    // The F/T sensor falls silent at 5 s: the arm is halted (zero commands),
+    // the calibration stops and says so.
+    let rec = record(&calibration(2), 1, &mut |t, ft| {
+        if t >= 5.0 {
+            *ft = None
+        }
+    })
+    .unwrap();
+    assert!(
+        matches!(rec.ended, Ended::FtStale(t) if (5.0..5.6).contains(&t)),
+        "{:?}",
+        rec.ended
+    );
+    let last = rec.rows.last().unwrap();
+    assert!(last.halted && last.commanded.norm() == 0.0, "{last:?}");
+    assert!(rec
+        .ended
+        .failure()
+        .unwrap()
+        .contains("F/T sensor went stale"));
+    // Nothing within the approach distance: no contact found.
+    let mut far = calibration(2);
+    far.sim.object_gap_mm = 50.0;
+    let rec = record(&far, 1, &mut |_, _| {}).unwrap();
+    assert_eq!(rec.ended, Ended::Stopped(StopReason::Timeout));
+    assert!(rec.ended.failure().unwrap().contains("no contact found"));
+    assert!(rec.peak_force_n < 0.2, "{}", rec.peak_force_n);
+    // Three pushes are too few to train on and validate.
+    let rec = record(&calibration(2), 1, &mut |_, _| {}).unwrap();
+    let three: Vec<_> = rec
+        .records
+        .iter()
+        .filter(|r| r.trial <= 3)
+        .cloned()
+        .collect();
+    let e = fit(&three, &model(), recorded(&rec), 3.0, &GpParams::default()).unwrap_err();
+    assert!(
+        matches!(e, CalibrationError::TooFew { pushes: 3, .. }),
+        "{e}"
+    );
+}
