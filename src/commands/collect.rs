@@ -59,6 +59,11 @@ pub(crate) struct CollectArgs {
     /// The protocol.
     #[arg(long, value_enum, default_value = "sets")]
     protocol: ProtocolArg,
+    /// The finger mounted as the simulated arm holds it (`demo`, `demo
+    /// calibrate`): no mount offset and nominal sensitivity. The session's
+    /// temperature, pushes and noise are still the seed's (BioTac only).
+    #[arg(long)]
+    on_the_arm: bool,
     /// Simulator and protocol parameters (YAML); default: the shipped
     /// config/biotac_sim.yaml, or config/nail_sim.yaml for the nail camera.
     #[arg(long)]
@@ -67,6 +72,9 @@ pub(crate) struct CollectArgs {
 
 pub(crate) fn run_collect(a: CollectArgs) -> Result<()> {
     if a.sensor == SensorArg::Nail {
+        if a.on_the_arm {
+            return Err(BadArgument("--on-the-arm is the BioTac's".into()).into());
+        }
         return run_collect_nail(&a);
     }
     if a.protocol == ProtocolArg::Radial {
@@ -80,6 +88,11 @@ pub(crate) fn run_collect(a: CollectArgs) -> Result<()> {
     let protocol = match a.trials {
         Some(n) => protocol.with_trials(n).context("--trials")?,
         None => protocol,
+    };
+    let protocol = if a.on_the_arm {
+        protocol.on_the_arm()
+    } else {
+        protocol
     };
     let records = collect(&protocol, &sensor, a.unit, a.seed);
     write_csv(&a.out, &records)?;

@@ -6,9 +6,11 @@
 //!
 //! - normal presses up a force ladder (`ladder_n`);
 //! - shear pushes: pressed at `shear_force_n`, the pad slides
-//!   `shear_distance_m` along +x, -x, +y and -y of the BioTac frame;
-//! - tilted presses: the BioTac turned about its axis (`tilt_deg`) so that
-//!   the block touches other points of the pad.
+//!   `shear_distance_m` along each of `shear_directions_deg` in the pad's
+//!   plane (0 = +x of the BioTac frame, 90 = +y);
+//! - every push with the BioTac turned about its axis to the next of
+//!   `roll_deg` (in turn), so that the block touches other points of the
+//!   pad.
 //!
 //! Every press is a guarded move ([`GuardedMove`]) along the block's
 //! normal: approach, regulate, hold; over the force limit it retracts and
@@ -40,16 +42,17 @@ pub struct CalibrateParams {
     pub ladder_n: Vec<f64>,
     /// Normal forces held while the pad slides, one round of slides each (N).
     pub shear_force_n: Vec<f64>,
+    /// Directions of the slides in the pad's plane (deg; 0 = +x, 90 = +y).
+    pub shear_directions_deg: Vec<f64>,
     /// How far the pad slides along the block in a shear push (m).
     pub shear_distance_m: f64,
     /// How fast it slides (m/s).
     pub shear_speed_mps: f64,
-    /// Turns of the BioTac about its axis for the tilted presses (deg).
-    pub tilt_deg: Vec<f64>,
-    /// Normal force of the tilted presses (N).
-    pub tilt_force_n: f64,
+    /// Turns of the BioTac about its axis from the start, one per push in
+    /// turn (deg).
+    pub roll_deg: Vec<f64>,
     /// How fast it turns (deg/s).
-    pub tilt_rate_deg_s: f64,
+    pub roll_rate_deg_s: f64,
     /// Approach and retract speed (m/s).
     pub approach_speed_mps: f64,
     /// Force that means contact (N).
@@ -79,8 +82,7 @@ impl Check for CalibrateParams {
             .ladder_n
             .iter()
             .map(|f| ("ladder_n", *f))
-            .chain(self.shear_force_n.iter().map(|f| ("shear_force_n", *f)))
-            .chain([("tilt_force_n", self.tilt_force_n)]);
+            .chain(self.shear_force_n.iter().map(|f| ("shear_force_n", *f)));
         for (field, f) in forces {
             if !(f > self.contact_force_n && f < self.force_limit_n) {
                 return Err(invalid(
@@ -96,7 +98,7 @@ impl Check for CalibrateParams {
         for (field, v) in [
             ("shear_distance_m", self.shear_distance_m),
             ("shear_speed_mps", self.shear_speed_mps),
-            ("tilt_rate_deg_s", self.tilt_rate_deg_s),
+            ("roll_rate_deg_s", self.roll_rate_deg_s),
             ("approach_speed_mps", self.approach_speed_mps),
             ("hold_s", self.hold_s),
             ("rest_s", self.rest_s),
@@ -106,8 +108,18 @@ impl Check for CalibrateParams {
         ] {
             positive(&name(field), v)?;
         }
-        if let Some(t) = self.tilt_deg.iter().find(|t| t.is_nan() || t.abs() > 30.0) {
-            return Err(invalid(&name("tilt_deg"), *t, "turns within +-30 deg"));
+        if let Some(d) = self.shear_directions_deg.iter().find(|d| !d.is_finite()) {
+            return Err(invalid(&name("shear_directions_deg"), *d, "a finite angle"));
+        }
+        if self.roll_deg.is_empty() {
+            return Err(invalid(
+                &name("roll_deg"),
+                0.0,
+                "at least one turn (0: none)",
+            ));
+        }
+        if let Some(t) = self.roll_deg.iter().find(|t| t.is_nan() || t.abs() > 30.0) {
+            return Err(invalid(&name("roll_deg"), *t, "turns within +-30 deg"));
         }
         Ok(self)
     }
@@ -119,22 +131,28 @@ impl Check for CalibrateParams {
 pub enum PushKind {
     /// A normal press.
     Normal,
-    /// A press that slides along x of the BioTac frame (sign: the direction).
-    ShearX(f64),
-    /// A press that slides along y.
-    ShearY(f64),
-    /// A press with the BioTac turned about its axis (rad).
-    Tilted(f64),
+    /// A press that slides in the pad's plane along a direction (rad; 0 =
+    /// +x of the BioTac frame, pi/2 = +y).
+    Shear(f64),
 }
 
 impl PushKind {
-    /// The set number of its rows.
+    /// The set number of its rows: a slide within 22.5 deg of x is set 1,
+    /// of y set 2, between them set 4; a press set 3.
     pub fn set(self) -> u32 {
         match self {
-            PushKind::ShearX(_) => 1,
-            PushKind::ShearY(_) => 2,
+            PushKind::Shear(a) => {
+                let (s, c) = a.sin_cos();
+                let axis = std::f64::consts::FRAC_PI_8.cos();
+                if c.abs() >= axis {
+                    1
+                } else if s.abs() >= axis {
+                    2
+                } else {
+                    4
+                }
+            }
             PushKind::Normal => 3,
-            PushKind::Tilted(_) => 4,
         }
     }
 }
@@ -146,36 +164,44 @@ pub struct Push {
     pub kind: PushKind,
     /// Its normal force (N).
     pub target_n: f64,
+    /// The BioTac's turn about its axis from the start (rad).
+    pub roll_rad: f64,
 }
 
-/// The pattern: the ladder, the shear pushes both ways along x and y, the
-/// tilted presses, interleaved so that every fourth push covers every kind.
+/// The pattern: the ladder's presses and the slides (every direction, each
+/// at every shear force), spread evenly among each other, each push at the
+/// next turn of `roll_deg`.
 pub fn pattern(p: &CalibrateParams) -> Vec<Push> {
-    let normal = p.ladder_n.iter().map(|&f| Push {
-        kind: PushKind::Normal,
-        target_n: f,
+    let presses = p.ladder_n.iter().map(|&f| (PushKind::Normal, f));
+    // Direction by direction, each at every shear force: the pushes held
+    // out for validation (every fourth) leave a twin of each in training.
+    let slides = p.shear_directions_deg.iter().flat_map(|&d| {
+        p.shear_force_n
+            .iter()
+            .map(move |&f| (PushKind::Shear(d.to_radians()), f))
     });
-    let shear = p.shear_force_n.iter().flat_map(|&target_n| {
-        [
-            PushKind::ShearX(1.0),
-            PushKind::ShearY(1.0),
-            PushKind::ShearX(-1.0),
-            PushKind::ShearY(-1.0),
-        ]
-        .map(|kind| Push { kind, target_n })
-    });
-    let tilted = p.tilt_deg.iter().map(|&t| Push {
-        kind: PushKind::Tilted(t.to_radians()),
-        target_n: p.tilt_force_n,
-    });
-    let mut queues: Vec<Vec<Push>> = vec![normal.collect(), shear.collect(), tilted.collect()];
-    let mut out = Vec::new();
-    while queues.iter().any(|q| !q.is_empty()) {
-        for q in queues.iter_mut().filter(|q| !q.is_empty()) {
-            out.push(q.remove(0));
-        }
-    }
-    out
+    // Each kind's pushes at (i + 1/2) / n of the way through: merged in
+    // that order, neither kind bunches at one end.
+    let spread = |n: usize| move |(i, push)| ((i as f64 + 0.5) / n as f64, push);
+    let (np, ns) = (
+        p.ladder_n.len(),
+        p.shear_force_n.len() * p.shear_directions_deg.len(),
+    );
+    let mut order: Vec<(f64, (PushKind, f64))> = presses
+        .enumerate()
+        .map(spread(np))
+        .chain(slides.enumerate().map(spread(ns)))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    order
+        .into_iter()
+        .zip(p.roll_deg.iter().cycle())
+        .map(|((_, (kind, target_n)), roll)| Push {
+            kind,
+            target_n,
+            roll_rad: roll.to_radians(),
+        })
+        .collect()
 }
 
 /// Where a push is.
@@ -371,13 +397,7 @@ impl CalibrateMove {
         let kind = std::mem::discriminant(&stage);
         let (next, twist) = match stage {
             Stage::Rest(left) if left > i.dt / 2.0 => (Stage::Rest(left - i.dt), Twist::zeros()),
-            Stage::Rest(_) => {
-                let roll = match self.pushes[self.push].kind {
-                    PushKind::Tilted(r) => r,
-                    _ => 0.0,
-                };
-                (Stage::Tilt(roll), Twist::zeros())
-            }
+            Stage::Rest(_) => (Stage::Tilt(self.pushes[self.push].roll_rad), Twist::zeros()),
             Stage::Tilt(to) => self.turn(to, i, &into, here, false),
             Stage::Untilt => self.turn(0.0, i, &into, here, true),
             Stage::Press(g, hold) => self.pressing(g, hold, i, travelled, &into, here),
@@ -430,7 +450,7 @@ impl CalibrateMove {
     ) -> (Stage, Twist) {
         let rel = Rotation3::from(i.start.rotation.inverse() * i.pose.rotation);
         let left = to - rel[(2, 1)].atan2(rel[(2, 2)]);
-        let rate = self.p.tilt_rate_deg_s.to_radians();
+        let rate = self.p.roll_rate_deg_s.to_radians();
         let same = if last { Stage::Untilt } else { Stage::Tilt(to) };
         if left.abs() <= TILT_TOLERANCE_RAD {
             if last {
@@ -491,14 +511,11 @@ impl CalibrateMove {
         if !hold.is_some_and(|left| left <= i.dt / 2.0) {
             return (Stage::Press(g, hold), v);
         }
-        let push = self.pushes[self.push];
-        let (axis, sign) = match push.kind {
-            PushKind::ShearX(s) => (Vector3::x(), s),
-            PushKind::ShearY(s) => (Vector3::y(), s),
-            _ => return (Stage::Retract(self.touched_m - self.p.clearance_m), v),
+        let PushKind::Shear(a) = self.pushes[self.push].kind else {
+            return (Stage::Retract(self.touched_m - self.p.clearance_m), v);
         };
         // Along the block: the tangent's part across the normal.
-        let t = i.pose.rotation * axis * sign;
+        let t = i.pose.rotation * Vector3::new(a.cos(), a.sin(), 0.0);
         let t = (t - into * t.dot(into)).normalize();
         (Stage::Shear(g, t, here), v)
     }
@@ -534,23 +551,45 @@ mod tests {
     fn the_pattern_interleaves_every_kind_and_labels_it_with_the_thesis_sets() {
         let p = shipped().checked("calibrate").unwrap();
         let pushes = pattern(&p);
-        let n = p.ladder_n.len() + 4 * p.shear_force_n.len() + p.tilt_deg.len();
+        let n = p.ladder_n.len() + p.shear_force_n.len() * p.shear_directions_deg.len();
         assert_eq!(pushes.len(), n);
-        // A normal press, a slide, a tilted press, in turn while each lasts.
-        let sets: Vec<u32> = pushes.iter().map(|p| p.kind.set()).collect();
-        assert_eq!(&sets[..6], &[3, 1, 4, 3, 2, 4]);
-        // Every slide both ways along x and y, at each of its forces.
-        for (f, kind) in p.shear_force_n.iter().flat_map(|f| {
-            [
-                PushKind::ShearX(1.0),
-                PushKind::ShearX(-1.0),
-                PushKind::ShearY(1.0),
-                PushKind::ShearY(-1.0),
-            ]
-            .map(|k| (*f, k))
-        }) {
-            assert!(pushes.iter().any(|p| p.kind == kind && p.target_n == f));
+        // Presses and slides spread among each other: in every window of
+        // four pushes, both kinds.
+        for w in pushes.windows(4) {
+            assert!(w.iter().any(|p| p.kind == PushKind::Normal), "{w:?}");
+            assert!(w.iter().any(|p| p.kind != PushKind::Normal), "{w:?}");
         }
+        // Each push at the next turn, in order.
+        for (push, roll) in pushes.iter().zip(p.roll_deg.iter().cycle()) {
+            assert_eq!(push.roll_rad, roll.to_radians());
+        }
+        // Every slide direction at each of its forces.
+        for f in &p.shear_force_n {
+            for d in &p.shear_directions_deg {
+                let kind = PushKind::Shear(d.to_radians());
+                assert!(pushes.iter().any(|p| p.kind == kind && p.target_n == *f));
+            }
+        }
+        // Every push held out for validation has a twin in training: a
+        // press, or a slide the same way at another force.
+        let every = crate::learn::calibration::HELD_OUT_EVERY as usize;
+        let (out, kept): (Vec<_>, Vec<_>) = pushes
+            .iter()
+            .enumerate()
+            .partition(|(i, _)| (i + 1) % every == 0);
+        for (i, push) in out {
+            assert!(
+                kept.iter().any(|(_, k)| k.kind == push.kind),
+                "push {}",
+                i + 1
+            );
+        }
+        // Labelled as the thesis' sets: along x 1, along y 2, between 4, presses 3.
+        let set = |deg: f64| PushKind::Shear(f64::to_radians(deg)).set();
+        assert_eq!([set(0.0), set(180.0), set(-20.0)], [1, 1, 1]);
+        assert_eq!([set(90.0), set(270.0), set(110.0)], [2, 2, 2]);
+        assert_eq!([set(45.0), set(135.0), set(-45.0)], [4, 4, 4]);
+        assert_eq!(PushKind::Normal.set(), 3);
         // The ladder in order, up to its top.
         let ladder: Vec<f64> = pushes
             .iter()
@@ -574,9 +613,9 @@ mod tests {
         let e = p.checked("calibrate").unwrap_err().to_string();
         assert!(e.contains("calibrate.shear_force_n"), "{e}");
         let mut p = shipped();
-        p.tilt_deg = vec![45.0];
+        p.roll_deg = vec![45.0];
         let e = p.checked("calibrate").unwrap_err().to_string();
-        assert!(e.contains("calibrate.tilt_deg = 45"), "{e}");
+        assert!(e.contains("calibrate.roll_deg = 45"), "{e}");
         let mut p = shipped();
         p.rest_s = 0.0;
         assert!(p.checked("calibrate").is_err());

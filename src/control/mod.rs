@@ -11,7 +11,7 @@ pub mod pd;
 pub mod safety;
 pub mod task;
 
-pub use calibrate::{CalibrateMove, CalibrateParams, Push, PushKind};
+pub use calibrate::{pattern, CalibrateMove, CalibrateParams, Push, PushKind};
 pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
 pub use guided::{GuidedMove, GuidedParams};

@@ -163,7 +163,7 @@ impl TaskParams {
                     .iter()
                     .chain(&c.shear_force_n)
                     .copied()
-                    .fold(c.tilt_force_n, f64::max);
+                    .fold(0.0, f64::max);
                 let envelope = Envelope {
                     skin: **lp.skin,
                     stiffness_n_per_m: body.stiffness_n_per_m,

@@ -295,6 +295,16 @@ impl CollectConfig {
         .validate()
     }
 
+    /// The same protocol with the finger mounted as the simulated arm holds
+    /// it (`demo`): no mount offset and nominal sensitivity in every session.
+    pub fn on_the_arm(&self) -> Self {
+        let mut params = self.params.clone();
+        params.session.mount_offset_x_mm = [0.0, 0.0];
+        params.session.mount_offset_angle_deg = [0.0, 0.0];
+        params.session.sensitivity_spread = 0.0;
+        CollectConfig { params }
+    }
+
     /// Samples per trial: `round(trial_duration_s * rate_hz)`.
     pub fn samples_per_trial(&self) -> usize {
         (self.params.trial_duration_s * self.params.rate_hz).round() as usize
@@ -703,18 +713,10 @@ mod tests {
         }
     }
 
-    #[test]
-    fn reference_torque_is_r_cross_f_for_a_point_on_the_pad() {
-        let c = noise_free_reference();
-        let p = c.params();
-        let records = collect(&c, &BioTacSimConfig::default(), 1, 5);
-        let m = &p.session;
-        let (x0, x1) = (
-            p.contact_x_mm[0] + m.mount_offset_x_mm[0],
-            p.contact_x_mm[1] + m.mount_offset_x_mm[1],
-        );
-        let angle_max = p.contact_angle_deg[1] + m.mount_offset_angle_deg[1];
-        let mut checked = 0;
+    /// Where the plate touched the pad in every row pressed with more than
+    /// 0.5 N, from the reference wrench: (x in mm, angle about +x in deg).
+    fn touched(records: &[Record]) -> Vec<(f64, f64)> {
+        let mut points = Vec::new();
         for r in records.iter().filter(|r| r.wrench.force.norm() > 0.5) {
             let (f, tau) = (r.wrench.force, r.wrench.torque * 1e3); // torque in N mm
             assert!(
@@ -737,12 +739,55 @@ mod tests {
                         m
                     }
                 });
-            let angle = hit.y.atan2(-hit.z).to_degrees();
-            assert!(hit.x > x0 - 1e-6 && hit.x < x1 + 1e-6, "{hit:?}");
-            assert!(angle.abs() <= angle_max + 1e-6, "{angle}");
-            checked += 1;
+            points.push((hit.x, hit.y.atan2(-hit.z).to_degrees()));
         }
-        assert!(checked > 40_000, "{checked} rows in contact");
+        points
+    }
+
+    #[test]
+    fn reference_torque_is_r_cross_f_for_a_point_on_the_pad() {
+        let c = noise_free_reference();
+        let p = c.params();
+        let records = collect(&c, &BioTacSimConfig::default(), 1, 5);
+        let m = &p.session;
+        let (x0, x1) = (
+            p.contact_x_mm[0] + m.mount_offset_x_mm[0],
+            p.contact_x_mm[1] + m.mount_offset_x_mm[1],
+        );
+        let angle_max = p.contact_angle_deg[1] + m.mount_offset_angle_deg[1];
+        let points = touched(&records);
+        for &(x, angle) in &points {
+            assert!(x > x0 - 1e-6 && x < x1 + 1e-6, "{x}");
+            assert!(angle.abs() <= angle_max + 1e-6, "{angle}");
+        }
+        assert!(points.len() > 40_000, "{} rows in contact", points.len());
+    }
+
+    #[test]
+    fn on_the_arm_every_session_touches_where_the_protocol_says() {
+        let c = noise_free_reference().with_trials(1).unwrap();
+        let p = c.params();
+        let sim = BioTacSimConfig::default();
+        // Mounted by hand, sessions shift the contact (mount_offset_x_mm).
+        let off: Vec<_> = (1..=4)
+            .map(|s| touched(&collect(&c, &sim, 1, s)))
+            .filter(|t| t.iter().any(|&(x, _)| x < p.contact_x_mm[0] - 0.01))
+            .collect();
+        assert!(
+            !off.is_empty(),
+            "no session mounted off the protocol's range"
+        );
+        // On the arm, none does.
+        let arm = c.on_the_arm();
+        for s in 1..=4 {
+            for (x, angle) in touched(&collect(&arm, &sim, 1, s)) {
+                assert!(
+                    x >= p.contact_x_mm[0] - 1e-6 && x <= p.contact_x_mm[1] + 1e-6,
+                    "{x}"
+                );
+                assert!(angle.abs() <= p.contact_angle_deg[1] + 1e-6, "{angle}");
+            }
+        }
     }
 
     #[test]
