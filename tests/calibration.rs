@@ -13,7 +13,8 @@ use tactile_force::learn::dataset::Dataset;
 use tactile_force::learn::evaluate::score_model;
 use tactile_force::learn::gp::GpParams;
 use tactile_force::learn::model::WrenchGp;
-use tactile_force::runtime::calibrate::{record, Ended, Recording};
+use tactile_force::nodes::calibration::Ended;
+use tactile_force::runtime::calibrate::{record, Recording};
 use tactile_force::runtime::demo::run_scene;
 use tactile_force::runtime::{Pacing, Scene};
 use tactile_force::sim::collect::{collect, CollectConfig};
@@ -145,7 +146,7 @@ fn a_calibration_that_cannot_succeed_stops_the_arm_and_says_why() {
     })
     .unwrap();
     assert!(
-        matches!(rec.ended, Ended::FtStale(t) if (5.0..5.6).contains(&t)),
+        matches!(rec.ended, Ended::FtStale(t) if (4.9..5.0).contains(&t)),
         "{:?}",
         rec.ended
     );

@@ -6,25 +6,17 @@
 //! and the validation figures. A calibration that cannot succeed writes no
 //! model (exit 1) and says why.
 
-use std::time::Instant;
-
 use anyhow::{anyhow, Context, Result};
 use serde_json::json;
 
 use tactile_force::control::TaskKind;
-use tactile_force::learn::bag::{write_bag, BagTopics};
-use tactile_force::learn::calibration::{fit, Recorded};
-use tactile_force::learn::gp::GpParams;
+use tactile_force::learn::calibration::fit_and_save;
 use tactile_force::learn::model::WrenchGp;
 use tactile_force::runtime::calibrate::record;
 use tactile_force::runtime::Scene;
 
 use super::demo::DemoArgs;
 use super::output::progress_bar;
-
-/// The from-scratch candidate's search for options (s): with the fits, the
-/// compute stays within 10 s.
-const SELECT_BUDGET_S: f64 = 3.0;
 
 pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> Result<()> {
     let out = a.out.as_ref().context("demo calibrate needs --out")?;
@@ -64,26 +56,22 @@ pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> R
             "calibration failed: {why}; the arm stopped; no model written (the current one is kept)"
         ));
     }
-    write_bag(&session, &rec.records, &BagTopics::default(), "biotac", 0.0)?;
-    println!("session written to {}", session.display());
-    let t0 = Instant::now();
-    let recorded = Recorded {
-        motion_s: rec.motion_s,
-        peak_force_n: rec.peak_force_n,
-        session: Some(session.display().to_string()),
-    };
-    let (model, r) = fit(
+    let r = fit_and_save(
         &rec.records,
         &current,
-        recorded,
-        SELECT_BUDGET_S,
-        &GpParams::default(),
+        rec.motion_s,
+        rec.peak_force_n,
+        &session,
+        out,
     )
-    .context("calibration: no model written (the current one is kept)")?;
-    let compute_s = t0.elapsed().as_secs_f64();
-    model
-        .save(out)
-        .with_context(|| format!("saving the model to {}", out.display()))?;
+    .with_context(|| {
+        format!(
+            "calibration (session written to {}): no model written (the current one is kept)",
+            session.display()
+        )
+    })?;
+    let compute_s = r.compute_s;
+    println!("session written to {}", session.display());
     let held: Vec<String> = r.held_out.iter().map(u32::to_string).collect();
     println!("held-out pushes {}: RMSE (score)", held.join(", "));
     for v in &r.validation {

@@ -15,7 +15,8 @@
 //! Every press is a guarded move ([`GuardedMove`]) along the block's
 //! normal: approach, regulate, hold; over the force limit it retracts and
 //! the calibration stops; nothing touched within `max_distance_m` stops it
-//! with a timeout (no contact found). Between pushes the pad backs off to
+//! with a timeout (no contact found); a force above `contact_force_n`
+//! during a rest (the push's tare) stops it in contact. Between pushes the pad backs off to
 //! `clearance_m` above where it touched.
 //!
 //! ```text
@@ -396,6 +397,11 @@ impl CalibrateMove {
         let stage = std::mem::replace(&mut self.stage, Stage::Done);
         let kind = std::mem::discriminant(&stage);
         let (next, twist) = match stage {
+            // A rest is the push's tare: out of contact, or no calibration.
+            Stage::Rest(_) if i.force.norm() > self.p.contact_force_n => {
+                self.stop_on(Some(StopReason::InContact));
+                (Stage::Done, Twist::zeros())
+            }
             Stage::Rest(left) if left > i.dt / 2.0 => (Stage::Rest(left - i.dt), Twist::zeros()),
             Stage::Rest(_) => (Stage::Tilt(self.pushes[self.push].roll_rad), Twist::zeros()),
             Stage::Tilt(to) => self.turn(to, i, &into, here, false),

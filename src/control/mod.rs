@@ -76,6 +76,9 @@ pub enum StopReason {
     /// The arm (fewer than six joints) cannot move the BioTac along an axis
     /// of the task at its start pose.
     Unrealisable,
+    /// The calibration's pad touched something during a rest, which must be
+    /// out of contact (its tare).
+    InContact,
 }
 
 impl StopReason {
@@ -86,6 +89,7 @@ impl StopReason {
             StopReason::ForceLimit => "force_limit",
             StopReason::OutOfRange => "out_of_range",
             StopReason::Unrealisable => "unrealisable_axis",
+            StopReason::InContact => "in_contact",
         }
     }
 }

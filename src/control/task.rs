@@ -366,6 +366,14 @@ impl Task {
         }
     }
 
+    /// The calibration's number of pushes; None for another task.
+    pub fn pushes(&self) -> Option<usize> {
+        match self {
+            Task::Calibrate(c) => Some(c.pushes().len()),
+            _ => None,
+        }
+    }
+
     /// Proportional gain of each force axis x, y, z (m/s per N), None where
     /// not controlled. For the guarded move, the gain along its direction is
     /// reported on the axis it mostly points along.

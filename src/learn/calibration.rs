@@ -7,10 +7,12 @@
 //! chosen and the validation figures.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use super::bag::{write_bag, BagError, BagTopics};
 use super::choice::{select, Choice};
 use super::dataset::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{score_model, training_fit, EvalError};
@@ -23,6 +25,9 @@ use crate::wrench::Axis;
 pub const HELD_OUT_EVERY: u32 = 4;
 /// The fewest pushes a calibration needs (three to train on, one held out).
 pub const MIN_PUSHES: u32 = 4;
+/// The from-scratch candidate's search for options (s): with the fits, a
+/// calibration's compute stays within 10 s on 2 cores.
+pub const SELECT_BUDGET_S: f64 = 3.0;
 
 /// One model scored on the held-out pushes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -93,6 +98,9 @@ pub enum CalibrationError {
     /// Scoring failed, or the model explains nothing of its data.
     #[error(transparent)]
     Eval(#[from] EvalError),
+    /// The session could not be written.
+    #[error(transparent)]
+    Bag(#[from] BagError),
 }
 
 /// What the recording is and where it came from, besides its records.
@@ -239,6 +247,30 @@ pub fn fit(
         session: recorded.session,
     };
     Ok((model.with_calibration(record.clone()), record))
+}
+
+/// What a calibration does once the arm has stopped: writes the recording
+/// to `session` (a rosbag2 MCAP file that `train` and `eval` read, written
+/// first, so that a refused fit loses nothing), fits ([`fit`], default GP
+/// options, [`SELECT_BUDGET_S`]) and saves the model to `out`.
+pub fn fit_and_save(
+    records: &[Record],
+    current: &WrenchGp,
+    motion_s: f64,
+    peak_force_n: f64,
+    session: &Path,
+    out: &Path,
+) -> Result<CalibrationRecord, CalibrationError> {
+    write_bag(session, records, &BagTopics::default(), "biotac", 0.0)?;
+    let recorded = Recorded {
+        motion_s,
+        peak_force_n,
+        session: Some(session.display().to_string()),
+    };
+    let base = GpParams::default();
+    let (model, record) = fit(records, current, recorded, SELECT_BUDGET_S, &base)?;
+    model.save(out)?;
+    Ok(record)
 }
 
 /// `data` and `tare` cut to the columns `features`.

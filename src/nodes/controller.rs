@@ -241,6 +241,11 @@ impl ForceController {
         self.task.push()
     }
 
+    /// The calibration's number of pushes; None for another task.
+    pub fn pushes(&self) -> Option<usize> {
+        self.task.pushes()
+    }
+
     /// The BioTac's twist of the last tick (base frame, m/s and rad/s: zero
     /// angular velocity, the orientation held); zero when halted or stopped.
     /// What an arm driven by a Cartesian controller is sent instead of

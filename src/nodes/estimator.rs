@@ -86,7 +86,17 @@ pub enum EstimatorError {
     /// The stale timeout is not a positive number of seconds.
     #[error("stale_timeout_s = {0}: expected a time > 0 s")]
     StaleTimeout(f64),
+    /// A new model while the finger is pressed.
+    #[error("the finger is pressed (estimated |F| = {force_n:.2} N, above {PRESSED_N} N): a new model now would step the force a hold sees; take it out of contact")]
+    Pressed {
+        /// The last estimate's force (N).
+        force_n: f64,
+    },
 }
+
+/// Above this estimated force (N) the finger counts as pressed: no new
+/// model is taken ([`EstimatorNode::take_model`]).
+pub const PRESSED_N: f64 = 0.3;
 
 /// The estimator node, for the sensor `S` (the BioTac by default).
 #[derive(Debug, Clone)]
@@ -100,6 +110,8 @@ pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     stale_timeout_s: Option<f64>,
     dropped: Dropped,
     estimates: u64,
+    /// The last estimate's force magnitude (N).
+    force_n: f64,
 }
 
 impl<S: SensorInput> EstimatorNode<S> {
@@ -116,6 +128,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             stale_timeout_s: None,
             dropped: Dropped::default(),
             estimates: 0,
+            force_n: 0.0,
         })
     }
 
@@ -209,6 +222,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             std.set(*axis, e.std);
             estimated[axis.index()] = true;
         }
+        self.force_n = mean.force.norm();
         let (stamp_s, seq) = S::stamp(r);
         Ok(Some(WrenchEstimate {
             stamp_s,
@@ -231,6 +245,27 @@ impl EstimatorNode<BioTacInput> {
     /// spent on it.
     pub fn set_tare(&mut self, tare: Tare) {
         self.sensor.set_tare(tare);
+    }
+
+    /// Estimates with `model` from the next reading on, keeping the tare
+    /// (it holds every channel, so it serves a model of other channels)
+    /// and the counts; refused when `model` is not a BioTac model, and
+    /// while the last estimate says the finger is pressed ([`PRESSED_N`]).
+    pub fn take_model(&mut self, model: WrenchGp) -> Result<(), EstimatorError> {
+        if self.force_n > PRESSED_N {
+            return Err(EstimatorError::Pressed {
+                force_n: self.force_n,
+            });
+        }
+        let mut next = EstimatorNode::new(model, self.with_std)?;
+        if let Some(tare) = self.tare() {
+            next.set_tare(tare.clone());
+        }
+        next.stale_timeout_s = self.stale_timeout_s;
+        next.dropped = self.dropped;
+        next.estimates = self.estimates;
+        *self = next;
+        Ok(())
     }
 }
 
@@ -350,5 +385,34 @@ mod tests {
             err.to_string().contains("\"pressure\"]; this node feeds"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_new_model_keeps_the_tare_and_is_refused_while_pressed() {
+        let mut node = EstimatorNode::<BioTacInput>::new(model_on(&["pdc"]), false).unwrap();
+        for i in 0..3 {
+            node.on_received(&reading(i as f64, 0), i as f64);
+        }
+        // Pressed (PDC 60 counts up: about 0.6 N): refused, the model kept.
+        let pressed = node.on_received(&reading(3.0, 60), 3.0).unwrap();
+        let e = node.take_model(model_on(&["pdc", "e1"])).unwrap_err();
+        let said = e.to_string();
+        assert!(
+            matches!(e, EstimatorError::Pressed { .. }) && said.contains("0.3 N"),
+            "{said}"
+        );
+        assert_eq!(
+            node.on_received(&reading(3.0, 60), 3.0).unwrap().mean,
+            pressed.mean
+        );
+        assert_eq!(node.model().features(), ["pdc"]);
+        // Out of contact: taken, on the same tare (no readings spent on a
+        // new one), the counts kept.
+        node.on_received(&reading(4.0, 0), 4.0).unwrap();
+        node.take_model(model_on(&["pdc", "e1"])).unwrap();
+        assert_eq!(node.model().features(), ["pdc", "e1"]);
+        let e = node.on_received(&reading(5.0, 50), 5.0).unwrap();
+        assert!((e.mean.force.z - 0.5).abs() < 0.1, "{:?}", e.mean);
+        assert_eq!(node.estimates(), 4);
     }
 }

@@ -5,9 +5,12 @@
 //! - [`estimator::EstimatorNode`]: BioTac readings -> wrench estimates (GP);
 //! - [`controller::ForceController`]: estimates and joint states -> joint velocities;
 //!   [`guarded_goal`]: a guarded-move goal applied to it, and its outcome;
+//!   [`calibration`]: a calibration goal, and the F/T wrench as its force,
+//!   recorded with the BioTac's readings;
 //!   [`loop_delay`]: the delay it actually sees, from header stamps;
 //! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac.
 
+pub mod calibration;
 pub mod controller;
 pub mod estimator;
 pub mod guarded_goal;

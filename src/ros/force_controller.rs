@@ -23,9 +23,18 @@
 //! reported on `/diagnostics` once a second, with a warning when it exceeds
 //! what the gains assume.
 //!
-//! The parameter `task` (`guarded` or `guided`) may be set while running:
-//! the controller is rebuilt for it and checked as at start-up, or the set
-//! is refused with the reason. Every other parameter is read at start-up.
+//! The parameter `task` (`guarded`, `guided` or `calibrate`) may be set
+//! while running: the controller is rebuilt for it and checked as at
+//! start-up, or the set is refused with the reason (`calibrate` waits, the
+//! arm still, for a calibration goal). Every other parameter is read at
+//! start-up.
+//!
+//! The calibration is an action, `~/calibrate`
+//! (tactile_force_msgs/action/Calibrate): while it runs, the force is the
+//! F/T sensor's (`ft_sensor/wrench`, moved to the BioTac frame by
+//! `ft_to_biotac`), not the estimate, and each wrench is recorded with the
+//! BioTac reading of its stamp (`biotac/readings`); see
+//! [`calibrate_action`].
 //! The guarded move is also an action, `~/guarded_move`
 //! (tactile_force_msgs/action/GuardedMove): see
 //! [`crate::nodes::guarded_goal`]. A goal the
@@ -36,6 +45,8 @@
 //! types for our interface package, so the action server is compiled only
 //! in a real ROS build (`cfg(not(feature = "ros2-doc-only"))`).
 
+#[cfg(not(feature = "ros2-doc-only"))]
+mod calibrate_action;
 mod estimates;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod guarded_move_action;
@@ -56,9 +67,11 @@ use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::control::{Phase, TaskKind};
 use crate::kinematics::Robot;
+use crate::nodes::calibration::{CalibrateGoal, CalibrationRecorder};
 use crate::nodes::loop_delay::LoopDelayMonitor;
 use crate::nodes::{ControlOutput, ControllerParams, ForceController};
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
+use crate::wrench::FrameTransform;
 use estimates::{take_estimate, EstimatePart};
 use status::{diagnostics_msg, keep};
 
@@ -104,8 +117,15 @@ struct Shared {
     base: ControllerParams,
     /// The task running: the parameter's, or guarded after a goal.
     task: TaskKind,
-    /// A guarded_move goal is running (a task switch then is refused).
+    /// A guarded_move or calibrate goal is running (a task switch then is
+    /// refused).
     goal_active: bool,
+    /// While a calibration runs, its recording: the F/T wrench, not the
+    /// estimate, is then the force.
+    calibration: Option<CalibrationRecorder>,
+    /// Where the F/T sensor sits in the BioTac frame (None: its wrenches
+    /// are in the BioTac frame already).
+    ft_to_biotac: Option<FrameTransform>,
     pdc: Option<FluidPressure>,
     /// The newest mean and std not yet stepped on.
     mean: Option<WrenchStamped>,
@@ -156,7 +176,7 @@ impl Shared {
     /// with the task that runs now.
     fn install(&mut self, robot: Robot, text: String) -> Result<(), ParamsError> {
         let names = joint_names(&robot, &self.remap)?;
-        let c = ForceController::switched(&self.base, self.task, robot.clone())?;
+        let c = built(&self.base, self.task, robot.clone())?;
         tracing::info!(
             "robot {}: {} -> {}, {} joints {names:?}; commanding it",
             robot.name,
@@ -195,6 +215,22 @@ impl Shared {
     }
 }
 
+/// The controller of `task` outside a goal; the calibration's waits, the
+/// arm still, for a calibrate goal.
+fn built(
+    base: &ControllerParams,
+    task: TaskKind,
+    robot: Robot,
+) -> Result<ForceController, ParamsError> {
+    if task != TaskKind::Calibrate {
+        return ForceController::switched(base, task, robot);
+    }
+    let mut c = CalibrateGoal::default().start(base, robot)?;
+    c.stop();
+    tracing::info!("task calibrate: the arm waits for a ~/calibrate goal");
+    Ok(c)
+}
+
 /// Applies (or, `apply` false, checks) a new value of `task`.
 fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> Result<(), String> {
     let r2r::ParameterValue::String(name) = value else {
@@ -204,17 +240,9 @@ fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> R
         ));
     };
     let task: TaskKind = name.parse().map_err(|e: ParamsError| e.to_string())?;
-    if task == TaskKind::Calibrate {
-        // Its force is the F/T sensor's, not the estimate this node reads.
-        return Err(
-            "calibrate presses with the F/T sensor as its force: run `tactile_force \
-                    demo calibrate` (the calibration over ROS 2 is not built yet)"
-                .into(),
-        );
-    }
     let mut g = lock(s);
     if g.goal_active {
-        return Err("a guarded_move goal is running: cancel it first".into());
+        return Err("a goal is running (guarded_move or calibrate): cancel it first".into());
     }
     if task == g.task {
         return Ok(()); // nothing to change (a stopped task stays stopped)
@@ -224,10 +252,16 @@ fn switch_task(s: &Mutex<Shared>, value: &r2r::ParameterValue, apply: bool) -> R
         ..g.base.clone()
     };
     let c = match g.robot.clone() {
-        Some(robot) => Some(ForceController::new(switched, robot).map_err(|e| e.to_string())?),
+        Some(robot) => Some(built(&g.base, task, robot).map_err(|e| e.to_string())?),
         // Checked now, built when a description arrives.
         None => {
-            ForceController::check(&switched).map_err(|e| e.to_string())?;
+            let checked = match task {
+                TaskKind::Calibrate => CalibrateGoal::default().apply(&switched),
+                _ => Ok(switched),
+            };
+            checked
+                .and_then(|p| ForceController::check(&p))
+                .map_err(|e| e.to_string())?;
             None
         }
     };
@@ -268,7 +302,34 @@ pub async fn run() -> Result<(), RosError> {
         "joint_velocities",
         "joint_velocities (velocity_controller/commands) or twist (twist_commands).",
     )?)?;
-    let skip = ["joint_names", "robot_description", "command_interface"];
+    let ft_to_biotac = match super::own_string(
+        &node,
+        "ft_to_biotac",
+        "",
+        "Where the F/T sensor sits in the BioTac frame, roll,pitch,yaw,x,y,z (deg, fixed-axis x-y-z; m): its wrenches are moved to the BioTac frame for the calibration; empty: they are in it already.",
+    )?
+    .as_str()
+    {
+        "" => None,
+        t => Some(t.parse::<FrameTransform>().map_err(|e| ParamsError::Invalid {
+            key: "ft_to_biotac".into(),
+            value: t.into(),
+            expected: e,
+        })?),
+    };
+    let estimator = super::own_string(
+        &node,
+        "estimator_node",
+        "wrench_estimator",
+        "The estimator whose model the calibration adapts and then sets (its model_file parameter).",
+    )?;
+    let skip = [
+        "joint_names",
+        "robot_description",
+        "command_interface",
+        "ft_to_biotac",
+        "estimator_node",
+    ];
     let base: ControllerParams = super::node_params(
         &node,
         "force_controller",
@@ -297,6 +358,8 @@ pub async fn run() -> Result<(), RosError> {
         remap,
         task: base.task,
         goal_active: false,
+        calibration: None,
+        ft_to_biotac,
         delays: LoopDelayMonitor::new(base.loop_delays.transport_delay_s),
         base,
         pdc: None,
@@ -327,6 +390,12 @@ pub async fn run() -> Result<(), RosError> {
     let wrench = node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?;
     let mut pdc = node.subscribe::<FluidPressure>("biotac/pdc_rise", QosProfile::default())?;
     let stddev = node.subscribe::<WrenchStamped>("biotac/wrench_stddev", QosProfile::default())?;
+    let ft = node.subscribe::<WrenchStamped>("ft_sensor/wrench", QosProfile::default())?;
+    let mut readings = node.subscribe_raw(
+        "biotac/readings",
+        crate::biotac::msg::BIOTAC_MSG_TYPE,
+        QosProfile::sensor_data(),
+    )?;
     let commands = node.create_publisher::<Float64MultiArray>(
         "velocity_controller/commands",
         QosProfile::default(),
@@ -338,6 +407,13 @@ pub async fn run() -> Result<(), RosError> {
     let goals = node.create_action_server::<r2r::tactile_force_msgs::action::GuardedMove::Action>(
         "~/guarded_move",
     )?;
+    #[cfg(not(feature = "ros2-doc-only"))]
+    let calibrations = node
+        .create_action_server::<r2r::tactile_force_msgs::action::Calibrate::Action>(
+            "~/calibrate",
+        )?;
+    #[cfg(not(feature = "ros2-doc-only"))]
+    let link = calibrate_action::EstimatorLink::new(&mut node, &estimator)?;
     let s = shared.clone();
     let live = RuntimeParams::new(
         &["task"],
@@ -384,13 +460,41 @@ pub async fn run() -> Result<(), RosError> {
             }
         }
     });
+    // BioTac readings are decoded only while a calibration records them.
+    let s = shared.clone();
+    tokio::spawn(async move {
+        while let Some(bytes) = readings.next().await {
+            if lock(&s).calibration.is_none() {
+                continue;
+            }
+            match crate::biotac::msg::from_cdr(&bytes) {
+                Ok((r, meta)) if meta.invalid_channels.is_empty() => {
+                    if let Some(rec) = lock(&s).calibration.as_mut() {
+                        rec.on_reading(r);
+                    }
+                }
+                _ => lock(&s).rejected += 1,
+            }
+        }
+    });
     #[cfg(not(feature = "ros2-doc-only"))]
     tokio::spawn(guarded_move_action::serve(goals, shared.clone(), period));
+    #[cfg(not(feature = "ros2-doc-only"))]
+    tokio::spawn(calibrate_action::serve(
+        calibrations,
+        shared.clone(),
+        period,
+        clock.clone(),
+        link,
+    ));
+    #[cfg(feature = "ros2-doc-only")]
+    let _ = estimator;
 
-    let mut estimates = futures::stream::select(
-        wrench.map(EstimatePart::Mean),
-        stddev.map(EstimatePart::Std),
-    );
+    let mut estimates = futures::stream::select_all([
+        wrench.map(EstimatePart::Mean).boxed(),
+        stddev.map(EstimatePart::Std).boxed(),
+        ft.map(EstimatePart::Ft).boxed(),
+    ]);
     let wait = period.mul_f64(1.5);
     let mut deadline = tokio::time::Instant::now() + wait;
     let mut report = tokio::time::interval(Duration::from_secs(1));

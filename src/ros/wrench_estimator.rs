@@ -9,6 +9,10 @@
 //! - a nail-camera model reads `camera/image` (sensor_msgs/Image, mono8,
 //!   rgb8 or bgr8): [`nail`].
 //!
+//! `model_file` may be set while the node runs: see [`biotac`]. With none
+//! given the node estimates with the default model and sets `model_file` to
+//! its cache file, so that `ros2 param get` (and the calibration) read which.
+//!
 //! Nothing is published for a message that does not decode, a reading with
 //! invalid channels, a reading older than `stale_timeout_s`, or a non-finite
 //! estimate: each is counted, on `/diagnostics` once a second.
@@ -16,6 +20,7 @@
 mod biotac;
 mod nail;
 
+use std::path::PathBuf;
 use std::time::Duration;
 
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
@@ -26,6 +31,7 @@ use r2r::QosProfile;
 use super::convert::level::{OK, WARN};
 use super::{convert, RosClock, RosError};
 use crate::control::TaskKind;
+use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::{Dropped, EstimatorParams};
 use crate::nodes::{EstimatorNode, WrenchEstimate};
@@ -39,7 +45,7 @@ pub async fn run() -> Result<(), RosError> {
         &node,
         "model_file",
         "",
-        "GP model file from `tactile_force train`; empty: the demos' default model (trained on first use, cached).",
+        "GP model file from `tactile_force train`; empty: the demos' default model (trained on first use, cached), and the node then sets it to that model's cache file. May be set while running (BioTac, out of contact): estimates come from the new model from the next reading.",
     )?;
     let frame_id = super::own_string(
         &node,
@@ -82,35 +88,26 @@ pub async fn run() -> Result<(), RosError> {
         &skip,
         super::describe_shared,
     )?;
-    let model = if model_file.is_empty() {
-        let recipe = &params.default_model;
-        crate::learn::default_model::load_or_train(recipe, &mut || {
-            tracing::info!(
-                "training the default model ({}, about 10 s)",
-                recipe.describe()
-            )
-        })?
-        .0
+    let (model, file) = load_model(&model_file, &params.default_model)?;
+    if let (true, Some(file)) = (model_file.is_empty(), &file) {
+        // Says which file it estimates with (the calibration adapts it).
+        let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(param) = p.get_mut("model_file") {
+            param.value = r2r::ParameterValue::String(file.display().to_string());
+        }
+    }
+    let name = if model_file.is_empty() {
+        "default"
     } else {
-        WrenchGp::load(std::path::Path::new(&model_file))?
+        &model_file
     };
-    let gps: Vec<String> = model
-        .fits()
-        .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))
-        .collect();
     tracing::info!(
-        "model {} ({}; {} training samples), axes {}, with_std {}, stale after {stale_s} s",
-        if model_file.is_empty() {
-            "default"
-        } else {
-            &model_file
-        },
-        gps.join(", "),
-        model.n_train(),
-        model.axes(),
+        "{}, with_std {}, stale after {stale_s} s",
+        describe_model(name, &model),
         params.with_std,
     );
     let settings = Settings {
+        default_model: params.default_model.clone(),
         with_std: params.with_std,
         stale_s,
         frame_id,
@@ -123,8 +120,46 @@ pub async fn run() -> Result<(), RosError> {
     }
 }
 
+/// The model of `model_file`, or with none the demos' default model of
+/// `recipe` (trained on first use, cached), and the file it is in (none for
+/// a default model the cache could not keep).
+fn load_model(model_file: &str, recipe: &Recipe) -> Result<(WrenchGp, Option<PathBuf>), RosError> {
+    if !model_file.is_empty() {
+        let path = PathBuf::from(model_file);
+        return Ok((WrenchGp::load(&path)?, Some(path)));
+    }
+    let mut said = || {
+        tracing::info!(
+            "training the default model ({}, about 10 s)",
+            recipe.describe()
+        )
+    };
+    let (model, origin) = crate::learn::default_model::load_or_train(recipe, &mut said)?;
+    let path = match origin {
+        Origin::Cached(p) | Origin::TrainedAndCached(p) => Some(p),
+        Origin::TrainedNotCached(_) => None,
+    };
+    Ok((model, path))
+}
+
+/// One line on a model: its GPs, training size and axes.
+fn describe_model(name: &str, model: &WrenchGp) -> String {
+    let gps: Vec<String> = model
+        .fits()
+        .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))
+        .collect();
+    format!(
+        "model {name} ({}; {} training samples), axes {}",
+        gps.join(", "),
+        model.n_train(),
+        model.axes()
+    )
+}
+
 /// The node's own parameters that the sensor loops read.
 struct Settings {
+    /// The model made for an empty `model_file`.
+    default_model: Recipe,
     with_std: bool,
     stale_s: f64,
     frame_id: String,

@@ -1,52 +1,17 @@
 //! A calibration in the embedded runtime: the simulated arm presses the
 //! calibration block in the calibration task's pattern
 //! ([`crate::control::calibrate`]), the F/T sensor's wrench handed to the
-//! controller as its force (no model is trusted yet), and every period's
-//! BioTac reading and F/T wrench is recorded, labelled with its push.
+//! controller as its force and recorded with each period's BioTac reading
+//! ([`CalibrationRecorder`]).
 
 use crate::biotac::BioTacSimConfig;
-use crate::control::{Phase, StopReason};
-use crate::nodes::WrenchEstimate;
+use crate::control::Phase;
+use crate::nodes::calibration::{CalibrationRecorder, Ended};
 use crate::record::Record;
 use crate::report::TraceRow;
 use crate::runtime::lockstep::Period;
 use crate::runtime::scene::{Scene, SceneError};
 use crate::wrench::Wrench;
-
-/// Readings that tare PDC before the first press (out of contact).
-const PDC_TARE_READINGS: usize = 50;
-/// Without an F/T wrench this long the calibration stops (s).
-pub const FT_STALE_S: f64 = 0.5;
-
-/// How a calibration's motion ended.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Ended {
-    /// Every push of the pattern done.
-    Done,
-    /// The task stopped: no contact found (timeout), the force limit, an
-    /// axis the arm cannot make, out of its time.
-    Stopped(StopReason),
-    /// No F/T wrench for [`FT_STALE_S`]: the arm was halted, the task stopped.
-    FtStale(f64),
-}
-
-impl Ended {
-    /// What went wrong, for a message; None when done.
-    pub fn failure(self) -> Option<String> {
-        match self {
-            Ended::Done => None,
-            Ended::Stopped(StopReason::Timeout) => Some(
-                "no contact found within the approach distance, or out of time \
-                 (calibrate.max_distance_m, max_duration_s)"
-                    .into(),
-            ),
-            Ended::Stopped(r) => Some(format!("the calibration stopped: {}", r.name())),
-            Ended::FtStale(t) => Some(format!(
-                "the F/T sensor went stale at {t:.2} s (no wrench for {FT_STALE_S} s): the arm was halted"
-            )),
-        }
-    }
-}
 
 /// What a calibration's motion recorded.
 #[derive(Debug, Clone)]
@@ -73,49 +38,18 @@ pub type FtTamper<'a> = &'a mut dyn FnMut(f64, &mut Option<Wrench>);
 pub fn record(scene: &Scene, seed: u64, tamper: FtTamper) -> Result<Recording, SceneError> {
     let (mut controller, mut sim, _) =
         scene.controller_and_sim(&BioTacSimConfig::default(), seed)?;
-    let period = sim.period_s();
-    let periods = (sim.duration_s() / period).round() as usize;
-    let mut pdc = Vec::with_capacity(PDC_TARE_READINGS);
-    let (mut records, mut rows) = (Vec::new(), Vec::with_capacity(periods + 1));
-    let (mut peak, mut since_ft) = (0.0f64, 0.0f64);
-    let mut ended = Ended::Stopped(StopReason::Timeout);
+    let periods = (sim.duration_s() / sim.period_s()).round() as usize;
+    let mut recorder = CalibrationRecorder::new(0.0);
+    let mut rows = Vec::with_capacity(periods + 1);
+    let mut ended = Ended::Stopped(crate::control::StopReason::Timeout);
     for _ in 0..=periods {
         let sample = sim.sample();
         let mut ft = Some(sample.ft);
         tamper(sample.t, &mut ft);
-        if pdc.len() < PDC_TARE_READINGS {
-            pdc.push(f64::from(sample.reading.pdc));
-        }
-        let pdc_rise = if pdc.len() == PDC_TARE_READINGS {
-            f64::from(sample.reading.pdc) - pdc.iter().sum::<f64>() / pdc.len() as f64
-        } else {
-            0.0
-        };
-        let label = controller.push();
-        match ft {
-            Some(w) => {
-                since_ft = 0.0;
-                peak = peak.max(w.force.norm());
-                // Refused when not finite: the watchdog then halts the arm.
-                let _ = controller.on_estimate(WrenchEstimate {
-                    stamp_s: sample.t,
-                    seq: sample.reading.seq,
-                    mean: w,
-                    std: Wrench::default(),
-                    estimated: [true; 6],
-                    pdc_rise,
-                });
-                if let Some((push, set)) = label {
-                    records.push(Record {
-                        t: sample.t,
-                        set,
-                        trial: push as u32 + 1,
-                        reading: sample.reading,
-                        wrench: w,
-                    });
-                }
-            }
-            None => since_ft += period,
+        recorder.on_reading(sample.reading);
+        if let Some(w) = ft {
+            // Refused when not finite: the watchdog then halts the arm.
+            let _ = controller.on_estimate(recorder.on_ft(sample.t, w, controller.push()));
         }
         let _ = controller.on_joint_state(&sample.joints);
         let output = controller.tick(sample.t);
@@ -130,21 +64,21 @@ pub fn record(scene: &Scene, seed: u64, tamper: FtTamper) -> Result<Recording, S
             }
             .row(),
         );
-        if since_ft >= FT_STALE_S {
+        if recorder.ft_stale(t) {
             controller.stop();
-            ended = Ended::FtStale(t);
+            ended = Ended::FtStale(recorder.motion_s());
             break;
         }
         if output.phase == Phase::Stopped {
-            ended = output.reason.map_or(Ended::Done, Ended::Stopped);
+            ended = Ended::from_stop(output.reason);
             break;
         }
     }
     Ok(Recording {
-        records,
         motion_s: rows.last().map_or(0.0, |r| r.t),
         rows,
-        peak_force_n: peak,
+        peak_force_n: recorder.peak_force_n(),
+        records: recorder.into_records(),
         ended,
     })
 }

@@ -32,6 +32,14 @@ independent rclpy peer that checks them from the topics and the action.
   at 100 Hz over DDS, and a tare through its ~/tare service.
 - `command_interface: twist`: the approach as the BioTac's twist on
   twist_commands (geometry_msgs/TwistStamped, base link frame).
+- Calibration on BioTac unit 2 (a unit the default model never saw):
+  the force_controller/calibrate action presses the calibration block
+  (config/calibrate.yaml) and ends `calibrated`, within 90 s of motion and
+  10 s of compute, the F/T sensor never above the 12 N limit; the estimator
+  takes the new model without a restart (its model_file says so); then,
+  sim_robot and force_controller restarted on the wooden box, the guarded
+  move holds within the bounds above, and while it holds the estimator
+  refuses another model (the finger is pressed).
 - The UR5 (config/ur5.urdf, ur5.yaml), its URDF published on
   /robot_description (transient local) by the peer: until it comes nothing
   is commanded and the nodes say so; then the guarded move on the wooden
@@ -59,14 +67,14 @@ from rclpy.serialization import serialize_message
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
 from std_msgs.msg import String
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import GetParameters, SetParameters
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from diagnostic_msgs.msg import DiagnosticArray
 from action_msgs.msg import GoalStatus
-from tactile_force_msgs.action import GuardedMove
+from tactile_force_msgs.action import Calibrate, GuardedMove
 from tactile_force_msgs.msg import BioTac
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -96,7 +104,7 @@ class Nodes:
     takes 10-20 s), so that the others start with estimates flowing."""
 
     def __init__(self, scene, object_name, port=None, only=None, speed=None, robot="pa10",
-                 description_topic=False, controller=None):
+                 description_topic=False, controller=None, sim=None):
         self.domain = random.randint(10, 200)
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
@@ -110,6 +118,8 @@ class Nodes:
         self.robot = robot
         self.specs = {exe: (files, overrides) for exe, files, overrides in started}
         self.specs["force_controller"][1].update(controller or {})
+        if "sim_robot" in self.specs:
+            self.specs["sim_robot"][1].update(sim or {})
         # Each scenario tares anew: its own tare file.
         self.specs["wrench_estimator"][1]["tare_file"] = os.path.join(self.logs, "tare.json")
         order = ["wrench_estimator"] + [exe for exe in self.specs if exe != "wrench_estimator"]
@@ -125,11 +135,12 @@ class Nodes:
             raise RuntimeError("the estimator did not load its model:\n" + self.tail(exe))
 
     def _start(self, exe, files, overrides):
-        # Overrides in a parameter file, as launch_ros passes them (an empty
-        # string survives this way; `-p model_file:=` does not).
+        # Overrides in a parameter file (an empty string survives this way;
+        # `-p model_file:=` does not), under the node's name: a node's own
+        # section of the config files wins over `/**`, whatever the order.
         extra = os.path.join(self.logs, f"{exe}_overrides.yaml")
         with open(extra, "w") as f:
-            f.write("/**:\n  ros__parameters:\n")
+            f.write(f"{exe}:\n  ros__parameters:\n")
             for k, v in overrides.items():
                 # A JSON string is a YAML double-quoted scalar (a URDF's
                 # quotes and line breaks escaped).
@@ -141,6 +152,16 @@ class Nodes:
         cmd += ["--params-file", extra]
         log = open(os.path.join(self.logs, f"{exe}.log"), "a")
         self.procs[exe] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=REPO)
+
+    def restart(self, exe, scene, object_name, overrides):
+        """Stops `exe` and starts it again as the launch files would for
+        `scene` on `object_name`, with `overrides`."""
+        self.procs[exe].terminate()
+        self.procs[exe].wait(timeout=10)
+        spec = next(s for s in nodes(scene, True, object_name, "", "", robot=self.robot,
+                                     description=urdf(self.robot)) if s[0] == exe)
+        self.specs[exe] = (spec[1], dict(spec[2], **overrides))
+        self.start(exe)
 
     def wait_log(self, exe, text, timeout, since=0):
         """Waits for `text` in the log of `exe` after its first `since` bytes."""
@@ -257,6 +278,16 @@ class Peer:
         self.node.destroy_client(client)
         return r.successful, r.reason
 
+    def get_param(self, node, name):
+        """A string parameter of `node`, or None."""
+        client = self.node.create_client(GetParameters, f"{node}/get_parameters")
+        if not client.wait_for_service(timeout_sec=10):
+            return None
+        future = client.call_async(GetParameters.Request(names=[name]))
+        answered = self.spin(10, future.done)
+        self.node.destroy_client(client)
+        return future.result().values[0].string_value if answered and future.result().values else None
+
     def diagnostic(self, name, key, timeout=3.0):
         """The next value of `key` in the `name` status on /diagnostics."""
         self.diagnostics.pop(name, None)
@@ -271,8 +302,9 @@ class Peer:
                 return True
         return until is None
 
-    def goal(self, goal, timeout, cancel_after=None):
-        future = self.client.send_goal_async(goal)
+    def goal(self, goal, timeout, cancel_after=None, client=None):
+        client = client or self.client
+        future = client.send_goal_async(goal)
         if not self.spin(10, future.done):
             return None, "no answer to the goal"
         handle = future.result()
@@ -645,6 +677,71 @@ def guided(robot="pa10"):
         n.stop(keep_logs=not ok)
 
 
+def calibration():
+    """The calibration action on unit 2, the estimator taking up the new
+    model, then the guarded move on the wooden box with it."""
+    unit2 = {"sensor_unit": 2}
+    n = Nodes("calibrate.yaml", "calibration_block", sim=unit2)
+    peer = Peer(n.domain)
+    client = ActionClient(peer.node, Calibrate, "force_controller/calibrate")
+    feedback = []
+    ok = False
+    try:
+        before = peer.get_param("wrench_estimator", "model_file")
+        check("calibration: the estimator says its model file", bool(before) and before.endswith(".json"),
+              f"model_file {before!r}")
+        if not client.wait_for_server(timeout_sec=10):
+            check("calibration: action server", False, "force_controller/calibrate")
+            return
+        model = os.path.join(n.logs, "unit2.json")
+        goal = Calibrate.Goal(model_file=model)
+        peer.forces.clear()
+        sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback))
+        peer.spin(10, sent.done)
+        result = sent.result().get_result_async() if sent.done() and sent.result().accepted else None
+        done = result is not None and peer.spin(240, result.done)
+        r = result.result().result if done else None
+        status = result.result().status if done else None
+        check("calibration: the action ends calibrated", r is not None and status == GoalStatus.STATUS_SUCCEEDED
+              and r.reason == "calibrated",
+              "no result" if r is None else f"status {status}, reason {r.reason!r}, chose {r.chosen!r}; "
+              f"held-out RMSE before {[round(v, 3) for v in r.current_rmse_n]}, "
+              f"after {[round(v, 3) for v in r.chosen_rmse_n]} N")
+        if r is None:
+            return
+        peak = max((sum(v * v for v in f) ** 0.5 for _, f in peer.forces), default=0.0)
+        check("calibration: at most 90 s of motion, 10 s of compute", r.motion_s <= 90 and r.compute_s <= 10,
+              f"{r.pushes} pushes, {r.motion_s:.1f} s of motion, {r.compute_s:.1f} s of compute; "
+              f"{len(feedback)} feedback messages, the last {feedback[-1].phase if feedback else None!r}")
+        check("calibration: the F/T sensor never above the 12 N limit", peak <= 12.0 and r.peak_force_n <= 12.0,
+              f"peak {peak:.2f} N on ft_sensor/wrench (the node measured {r.peak_force_n:.2f} N)")
+        check("calibration: model and session written", os.path.exists(model) and os.path.exists(r.session_file),
+              f"{r.model_file}, {r.session_file}")
+        after = peer.get_param("wrench_estimator", "model_file")
+        said = "estimating with it from the next reading" in n.log("wrench_estimator")
+        check("calibration: the estimator took the new model, no restart",
+              r.estimator_updated and after == model and said,
+              f"{r.estimator_message}; model_file {after!r}")
+        # The guarded move with the calibrated model: the arm and the block
+        # give way to the wooden box; the estimator runs on.
+        for exe in ("sim_robot", "force_controller"):
+            n.restart(exe, "guarded_move.yaml", "wooden_box", unit2 if exe == "sim_robot" else {})
+        peer.ft_stamped.clear()
+        touched = peer.spin(60, lambda: any(abs(f) > CONTACT_N for _, f in peer.ft_stamped))
+        check("unit 2, calibrated: contact", touched, f"{len(peer.ft_stamped)} ft_sensor/wrench messages")
+        if touched:
+            t0 = next(t for t, f in peer.ft_stamped if abs(f) > CONTACT_N)
+            check_hold("unit 2, calibrated, wooden_box", peer, t0, 6.0, 30)
+            refused, why = peer.set_param("wrench_estimator", "model_file", before)
+            check("a new model while pressed is refused", not refused and "pressed" in why and holding_on(peer),
+                  why[:120])
+        ok = all(RESULTS)
+    finally:
+        client.destroy()
+        peer.destroy()
+        n.stop(keep_logs=not ok)
+
+
 def twist_interface():
     """command_interface: twist: the BioTac's twist on twist_commands, in the
     base link's frame, instead of joint velocities. sim_robot reads joint
@@ -727,6 +824,7 @@ def main():
     guided()
     guarded("wooden_box", label="ur5, wooden_box", robot="ur5")
     guided(robot="ur5")
+    calibration()
     twist_interface()
     driver()
     failed = RESULTS.count(False)

@@ -1,15 +1,16 @@
 //! The estimate's two messages (mean and std), paired by stamp and handed
-//! to the controller.
+//! to the controller; while a calibration runs, the F/T wrench instead.
 
 use r2r::geometry_msgs::msg::WrenchStamped;
 
 use super::Shared;
 use crate::ros::convert;
 
-/// One of the two messages of an estimate.
+/// One of the two messages of an estimate, or the F/T sensor's wrench.
 pub(super) enum EstimatePart {
     Mean(WrenchStamped),
     Std(WrenchStamped),
+    Ft(WrenchStamped),
 }
 
 /// Stores `part`; once the mean and the std of one reading are both in,
@@ -19,6 +20,9 @@ pub(super) enum EstimatePart {
 /// late-estimate halt stops the arm).
 pub(super) fn take_estimate(g: &mut Shared, part: EstimatePart) -> Option<f64> {
     match part {
+        // While calibrating, the estimates wait; otherwise the F/T does.
+        _ if g.calibration.is_some() != matches!(part, EstimatePart::Ft(_)) => return None,
+        EstimatePart::Ft(m) => return take_ft(g, &m),
         EstimatePart::Mean(m) => g.mean = Some(m),
         EstimatePart::Std(m) => g.stddev = Some(m),
     }
@@ -46,4 +50,23 @@ pub(super) fn take_estimate(g: &mut Shared, part: EstimatePart) -> Option<f64> {
             None
         }
     }
+}
+
+/// Hands the F/T wrench of a running calibration to the controller as its
+/// force, recorded with the push running; its stamp (time to step), or None
+/// for a wrench refused (not finite: no step, the late-input halt stops the arm).
+fn take_ft(g: &mut Shared, m: &WrenchStamped) -> Option<f64> {
+    let (stamp_s, w) = match convert::wrench_from_msg(m, "ft_sensor/wrench") {
+        Ok(x) => x,
+        Err(e) => {
+            g.rejected += 1;
+            tracing::debug!("{e}");
+            return None;
+        }
+    };
+    let w = g.ft_to_biotac.map_or(w, |t| t.apply(&w));
+    let c = g.controller.as_mut()?;
+    let e = g.calibration.as_mut()?.on_ft(stamp_s, w, c.push());
+    g.force = w.force;
+    c.on_estimate(e).ok().map(|()| stamp_s)
 }

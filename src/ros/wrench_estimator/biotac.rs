@@ -2,14 +2,21 @@
 //! is saved (`tare_file`): restarted within `tare_max_age_s`, for the same
 //! sensor serial, the node takes it up rather than taring again, since the
 //! finger may be pressed (a hold) when it comes back.
+//!
+//! `model_file` may be set while the node runs (the calibration action
+//! does): the model is loaded and checked, and estimates come from it from
+//! the next reading on, on the same tare; refused, with the reason, when it
+//! does not load or fit the BioTac, and while the finger is pressed
+//! ([`crate::nodes::estimator::PRESSED_N`]).
 
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use futures::StreamExt;
 use r2r::QosProfile;
 
-use super::{Outputs, Settings, REPORT};
+use super::{describe_model, load_model, Outputs, Settings, REPORT};
 use crate::biotac::msg::{self as biotac_msg, BIOTAC_MSG_TYPE};
 use crate::biotac::tare::SavedTare;
 use crate::learn::model::WrenchGp;
@@ -24,9 +31,39 @@ fn unix_s() -> f64 {
         .map_or(0.0, |d| d.as_secs_f64())
 }
 
+fn lock(
+    e: &Mutex<EstimatorNode<BioTacInput>>,
+) -> std::sync::MutexGuard<'_, EstimatorNode<BioTacInput>> {
+    e.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Checks (or, `apply`, takes) the model of a new `model_file` value.
+fn take_model(
+    estimator: &Mutex<EstimatorNode<BioTacInput>>,
+    recipe: &crate::learn::default_model::Recipe,
+    value: &r2r::ParameterValue,
+    apply: bool,
+) -> Result<(), String> {
+    let r2r::ParameterValue::String(file) = value else {
+        return Err(format!(
+            "{value:?}: expected a model file's path (a string)"
+        ));
+    };
+    let (model, _) = load_model(file, recipe).map_err(|e| e.to_string())?;
+    let said = describe_model(if file.is_empty() { "default" } else { file }, &model);
+    let mut e = lock(estimator);
+    if !apply {
+        // Checked on a copy: the running node is left as it is.
+        return e.clone().take_model(model).map_err(|e| e.to_string());
+    }
+    e.take_model(model).map_err(|e| e.to_string())?;
+    tracing::info!("{said}: estimating with it from the next reading, on the same tare");
+    Ok(())
+}
+
 /// Runs the BioTac estimator until the process ends.
 pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Result<(), RosError> {
-    let mut estimator = EstimatorNode::<BioTacInput>::new(model, s.with_std)
+    let estimator = EstimatorNode::<BioTacInput>::new(model, s.with_std)
         .and_then(|e| e.with_stale_timeout(s.stale_s))?;
     let tare_path = match s.tare_file.as_str() {
         "" => {
@@ -53,7 +90,17 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
         QosProfile::sensor_data(),
     )?;
     let mut out = Outputs::new(&mut node, s.frame_id)?;
-    let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none())?;
+    let estimator = Arc::new(Mutex::new(estimator));
+    let shared = estimator.clone();
+    let recipe = s.default_model;
+    let live = RuntimeParams::new(
+        &["model_file"],
+        Box::new(move |_, value, apply| {
+            take_model(&shared, &recipe, value, apply)
+                .inspect_err(|e| tracing::warn!("model_file refused: {e}"))
+        }),
+    );
+    let clock = crate::ros::serve_parameters(&mut node, live)?;
     crate::ros::spin(node);
 
     let mut report = tokio::time::interval(REPORT);
@@ -64,10 +111,11 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
                 None => return Ok(()),
             },
             _ = report.tick() => {
-                out.report(&estimator, &clock);
+                out.report(&lock(&estimator), &clock);
                 continue;
             }
         };
+        let mut estimator = lock(&estimator);
         let (reading, meta) = match biotac_msg::from_cdr(&msg) {
             Ok((r, meta)) if meta.invalid_channels.is_empty() => (r, meta),
             Ok(_) => {

@@ -1,0 +1,375 @@
+//! The calibration as a node runs it, whatever the transport (the embedded
+//! runtime, the `force_controller/calibrate` action of the ROS 2 node):
+//!
+//! - [`CalibrateGoal`]: the start-up parameters with the calibration task on
+//!   the surface to press, checked like any scene (its safety envelope);
+//! - [`CalibrationRecorder`]: the F/T wrench becomes the controller's force
+//!   (no model is trusted yet); each wrench is paired with the BioTac reading
+//!   of the same stamp and recorded, labelled with its push; the F/T sensor
+//!   falling silent is noticed.
+
+use std::collections::VecDeque;
+
+use super::{ControllerParams, ForceController, WrenchEstimate};
+use crate::biotac::BioTacReading;
+use crate::control::{StopReason, TaskKind};
+use crate::kinematics::Robot;
+use crate::params::ParamsError;
+use crate::record::Record;
+use crate::wrench::{AxisSet, Wrench};
+
+/// The surface pressed when a goal names none: the world's calibration block.
+pub const DEFAULT_SURFACE: &str = "calibration_block";
+
+/// Without an F/T wrench this long the calibration stops (s).
+pub const FT_STALE_S: f64 = 0.5;
+
+/// Readings that tare PDC before the first press (out of contact).
+const PDC_TARE_READINGS: usize = 50;
+
+/// Largest stamp difference between a reading and its F/T wrench (s): half
+/// a 100 Hz period, as a bag is read ([`crate::learn::bag::BagTopics`]).
+pub const PAIR_TOLERANCE_S: f64 = 0.005;
+
+/// Readings or wrenches kept while waiting for their pair.
+const UNPAIRED: usize = 16;
+
+/// A calibration goal: the surface to press (empty: [`DEFAULT_SURFACE`]).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct CalibrateGoal {
+    /// An object of the world file.
+    pub surface: String,
+}
+
+impl CalibrateGoal {
+    /// The start-up parameters with the calibration task on the goal's
+    /// surface: every force axis (the F/T sensor gives them all), the
+    /// surface as the one body the envelope allows for.
+    pub fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
+        let mut p = base.clone();
+        if p.calibrate.is_none() {
+            return Err(ParamsError::Invalid {
+                key: "calibrate".into(),
+                value: "absent".into(),
+                expected: "a `calibrate` section in the parameters (config/calibrate.yaml)".into(),
+            });
+        }
+        let surface = match self.surface.as_str() {
+            "" => DEFAULT_SURFACE,
+            s => s,
+        };
+        p.task = TaskKind::Calibrate;
+        p.axes = AxisSet::forces();
+        p.object = surface.to_string();
+        p.safety.objects = vec![surface.to_string()];
+        Ok(p)
+    }
+
+    /// The controller that runs this goal, or why it is refused (an unknown
+    /// surface, a speed beyond its safety envelope).
+    pub fn start(
+        &self,
+        base: &ControllerParams,
+        robot: Robot,
+    ) -> Result<ForceController, ParamsError> {
+        ForceController::new(self.apply(base)?, robot)
+    }
+}
+
+/// How a calibration's motion ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Ended {
+    /// Every push of the pattern done.
+    Done,
+    /// The task stopped: no contact found (timeout), the force limit, an
+    /// axis the arm cannot make, out of its time.
+    Stopped(StopReason),
+    /// No F/T wrench for [`FT_STALE_S`] after this many seconds of motion:
+    /// the arm was halted, the task stopped.
+    FtStale(f64),
+    /// Stopped from outside (a canceled goal).
+    Canceled,
+}
+
+impl Ended {
+    /// How it ended, from the task's stop reason (None: the pattern's end).
+    pub fn from_stop(reason: Option<StopReason>) -> Self {
+        reason.map_or(Ended::Done, Ended::Stopped)
+    }
+
+    /// What went wrong, for a message; None when done.
+    pub fn failure(self) -> Option<String> {
+        match self {
+            Ended::Done => None,
+            Ended::Stopped(StopReason::Timeout) => Some(
+                "no contact found within the approach distance, or out of time \
+                 (calibrate.max_distance_m, max_duration_s)"
+                    .into(),
+            ),
+            Ended::Stopped(StopReason::InContact) => Some(
+                "the pad was pressed during a rest, which must be out of contact (its tare): \
+                 move it off the surface first"
+                    .into(),
+            ),
+            Ended::Stopped(r) => Some(format!("the calibration stopped: {}", r.name())),
+            Ended::FtStale(t) => Some(format!(
+                "the F/T sensor went stale after {t:.2} s (no wrench for {FT_STALE_S} s): the arm was halted"
+            )),
+            Ended::Canceled => Some("canceled".into()),
+        }
+    }
+}
+
+/// An F/T wrench waiting for its reading: stamp, wrench, push label.
+type Unpaired = (f64, Wrench, Option<(usize, u32)>);
+
+/// The records of a calibration, as they come.
+#[derive(Debug, Clone, Default)]
+pub struct CalibrationRecorder {
+    pdc: Vec<f64>,
+    last_pdc: f64,
+    readings: VecDeque<BioTacReading>,
+    wrenches: VecDeque<Unpaired>,
+    records: Vec<Record>,
+    peak_force_n: f64,
+    start_s: f64,
+    first_s: Option<f64>,
+    last_ft_s: Option<f64>,
+    last_force: Wrench,
+}
+
+impl CalibrationRecorder {
+    /// An empty recording, started at `start_s` (s).
+    pub fn new(start_s: f64) -> Self {
+        CalibrationRecorder {
+            start_s,
+            ..Self::default()
+        }
+    }
+
+    /// Takes a BioTac reading: the PDC tare's first readings; recorded with
+    /// the F/T wrench of its stamp when that has come.
+    pub fn on_reading(&mut self, r: BioTacReading) {
+        self.last_pdc = f64::from(r.pdc);
+        if self.pdc.len() < PDC_TARE_READINGS {
+            self.pdc.push(self.last_pdc);
+        }
+        let paired = self
+            .wrenches
+            .iter()
+            .position(|(t, ..)| (t - r.stamp_s).abs() <= PAIR_TOLERANCE_S);
+        match paired {
+            Some(i) => {
+                let (t, w, label) = self.wrenches.remove(i).expect("found");
+                self.record(t, r, w, label);
+            }
+            None => keep_last(&mut self.readings, r),
+        }
+    }
+
+    /// Takes the F/T wrench (BioTac frame) stamped `stamp_s` while the
+    /// controller runs push `label` (its index and set): the estimate that
+    /// hands it to the controller. Recorded with the reading of its stamp.
+    pub fn on_ft(
+        &mut self,
+        stamp_s: f64,
+        w: Wrench,
+        label: Option<(usize, u32)>,
+    ) -> WrenchEstimate {
+        self.first_s.get_or_insert(stamp_s);
+        self.last_ft_s = Some(stamp_s);
+        self.last_force = w;
+        if w.is_finite() {
+            self.peak_force_n = self.peak_force_n.max(w.force.norm());
+        }
+        let paired = self
+            .readings
+            .iter()
+            .position(|r| (r.stamp_s - stamp_s).abs() <= PAIR_TOLERANCE_S);
+        match paired {
+            Some(i) => {
+                let r = self.readings.remove(i).expect("found");
+                self.record(stamp_s, r, w, label);
+            }
+            None => keep_last(&mut self.wrenches, (stamp_s, w, label)),
+        }
+        let pdc_rise = match self.pdc.len() {
+            PDC_TARE_READINGS => {
+                self.last_pdc - self.pdc.iter().sum::<f64>() / PDC_TARE_READINGS as f64
+            }
+            _ => 0.0,
+        };
+        WrenchEstimate {
+            stamp_s,
+            seq: 0,
+            mean: w,
+            std: Wrench::default(),
+            estimated: [true; 6],
+            pdc_rise,
+        }
+    }
+
+    fn record(
+        &mut self,
+        t: f64,
+        reading: BioTacReading,
+        wrench: Wrench,
+        label: Option<(usize, u32)>,
+    ) {
+        if let Some((push, set)) = label {
+            if wrench.is_finite() {
+                self.records.push(Record {
+                    t,
+                    set,
+                    trial: push as u32 + 1,
+                    reading,
+                    wrench,
+                });
+            }
+        }
+    }
+
+    /// True when no F/T wrench has come for [`FT_STALE_S`] before `now_s`
+    /// (since the start when none has come: the sensor is absent).
+    pub fn ft_stale(&self, now_s: f64) -> bool {
+        now_s - self.last_ft_s.unwrap_or(self.start_s) >= FT_STALE_S
+    }
+
+    /// The last F/T wrench.
+    pub fn last_force(&self) -> &Wrench {
+        &self.last_force
+    }
+
+    /// The records so far: one per paired reading of a push.
+    pub fn records(&self) -> &[Record] {
+        &self.records
+    }
+
+    /// Seconds from the first F/T wrench to the last.
+    pub fn motion_s(&self) -> f64 {
+        match (self.first_s, self.last_ft_s) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    }
+
+    /// The largest force the F/T sensor measured (N): the safety figure.
+    pub fn peak_force_n(&self) -> f64 {
+        self.peak_force_n
+    }
+
+    /// The records.
+    pub fn into_records(self) -> Vec<Record> {
+        self.records
+    }
+}
+
+/// Pushes `item`, dropping the oldest beyond [`UNPAIRED`].
+fn keep_last<T>(q: &mut VecDeque<T>, item: T) {
+    if q.len() == UNPAIRED {
+        q.pop_front();
+    }
+    q.push_back(item);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::runtime::scene::Scene;
+    use nalgebra::Vector3;
+
+    fn reading(t: f64, pdc: u16) -> BioTacReading {
+        BioTacReading {
+            seq: 0,
+            stamp_s: t,
+            electrodes: [3000; crate::biotac::N_ELECTRODES],
+            pdc,
+            pac: [2000; crate::biotac::N_PAC],
+            tdc: 1800,
+            tac: 2000,
+        }
+    }
+
+    fn force(fz: f64) -> Wrench {
+        Wrench::new(Vector3::new(0.0, 0.0, fz), Vector3::zeros())
+    }
+
+    #[test]
+    fn wrenches_pair_with_the_reading_of_their_stamp_in_either_order() {
+        let mut r = CalibrationRecorder::new(0.0);
+        // Reading first, then its wrench; wrench first, then its reading;
+        // a wrench with no reading near it; one outside a push.
+        r.on_reading(reading(0.00, 2000));
+        r.on_ft(0.001, force(1.0), Some((0, 3)));
+        r.on_ft(0.010, force(2.0), Some((0, 3)));
+        r.on_reading(reading(0.012, 2000));
+        r.on_ft(0.020, force(3.0), Some((1, 1)));
+        r.on_reading(reading(0.030, 2000));
+        r.on_ft(0.031, force(4.0), None);
+        let got: Vec<(f64, u32, u32)> = r
+            .records()
+            .iter()
+            .map(|x| (x.wrench.force.z, x.set, x.trial))
+            .collect();
+        assert_eq!(got, [(1.0, 3, 1), (2.0, 3, 1)]);
+        assert_eq!(r.peak_force_n(), 4.0);
+        assert!((r.motion_s() - 0.030).abs() < 1e-12);
+        // A wrench that is not finite is handed on (the controller refuses
+        // it) but neither recorded nor counted in the peak.
+        r.on_reading(reading(0.04, 2000));
+        let e = r.on_ft(0.04, force(f64::NAN), Some((1, 1)));
+        assert!(!e.mean.is_finite());
+        assert_eq!((r.records().len(), r.peak_force_n()), (2, 4.0));
+    }
+
+    #[test]
+    fn pdc_rises_from_its_tare_and_a_silent_sensor_is_stale() {
+        let mut r = CalibrationRecorder::new(0.0);
+        assert!(!r.ft_stale(FT_STALE_S - 0.01));
+        assert!(r.ft_stale(FT_STALE_S), "no wrench since the start: absent");
+        for i in 0..PDC_TARE_READINGS {
+            r.on_reading(reading(i as f64 * 0.01, 2000));
+        }
+        r.on_reading(reading(0.6, 2040));
+        let e = r.on_ft(0.6, force(1.0), None);
+        assert_eq!(e.pdc_rise, 40.0);
+        assert_eq!(e.mean, force(1.0));
+        assert!(!r.ft_stale(0.6 + FT_STALE_S - 0.01));
+        assert!(r.ft_stale(0.6 + FT_STALE_S));
+    }
+
+    #[test]
+    fn a_goal_presses_its_surface_on_every_force_axis_and_is_checked() {
+        // A node launched for the guarded move, with every task's section.
+        let guarded = Scene::builtin(TaskKind::Guarded).unwrap().controller;
+        let base = ControllerParams {
+            calibrate: Scene::builtin(TaskKind::Calibrate)
+                .unwrap()
+                .controller
+                .calibrate,
+            ..guarded.clone()
+        };
+        let e = CalibrateGoal::default()
+            .apply(&guarded)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("calibrate"), "{e}");
+        let p = CalibrateGoal::default().apply(&base).unwrap();
+        assert_eq!(p.task, TaskKind::Calibrate);
+        assert_eq!(
+            (p.object.as_str(), &p.safety.objects[..]),
+            (DEFAULT_SURFACE, &[DEFAULT_SURFACE.to_string()][..])
+        );
+        assert_eq!(p.axes, AxisSet::forces());
+        CalibrateGoal::default()
+            .start(&base, Robot::pa10())
+            .unwrap();
+        let e = CalibrateGoal {
+            surface: "granite".into(),
+        }
+        .start(&base, Robot::pa10())
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("granite"), "{e}");
+    }
+}
