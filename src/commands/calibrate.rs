@@ -16,7 +16,7 @@ use tactile_force::runtime::calibrate::record;
 use tactile_force::runtime::Scene;
 
 use super::demo::DemoArgs;
-use super::output::progress_bar;
+use super::output::{print_validation, progress_bar};
 
 pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> Result<()> {
     let out = a.out.as_ref().context("demo calibrate needs --out")?;
@@ -72,12 +72,7 @@ pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> R
     })?;
     let compute_s = r.compute_s;
     println!("session written to {}", session.display());
-    let held: Vec<String> = r.held_out.iter().map(u32::to_string).collect();
-    println!("held-out pushes {}: RMSE (score)", held.join(", "));
-    for v in &r.validation {
-        let rmse: Vec<String> = v.rmse.iter().map(|(a, e)| format!("{a} {e:.3}")).collect();
-        println!("  {:<13} {} N ({:.4})", v.model, rmse.join(", "), v.score);
-    }
+    print_validation(&r);
     println!(
         "chose the model {}; {compute_s:.1} s of compute; model written to {}",
         r.chosen,

@@ -18,7 +18,9 @@ use tactile_force::learn::nn::NnParams;
 use tactile_force::sensor::SensorSpec;
 
 use super::data::{load_sessions, SourceArgs};
-use super::output::{file_labels, print_selection, print_table, progress_bar, show};
+use super::output::{
+    file_labels, print_selection, print_table, print_validation, progress_bar, show,
+};
 use super::train::{gp_params, FitArgs};
 use super::BadArgument;
 
@@ -180,6 +182,14 @@ pub(crate) fn run_score(
     if let Some(s) = model.selection() {
         println!("the model's options were chosen by `train --select`:");
         print_selection(s);
+    }
+    if let Some(r) = model.calibration() {
+        println!(
+            "the model comes from a calibration on the robot: {} pushes, {:.1} s of motion, \
+             {:.1} s of compute, peak {:.2} N; chose the model {}",
+            r.pushes, r.motion_s, r.compute_s, r.peak_force_n, r.chosen
+        );
+        print_validation(r);
     }
     let sessions = load_sessions(
         tests,

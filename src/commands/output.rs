@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+use tactile_force::learn::calibration::CalibrationRecord;
 use tactile_force::learn::choice::Selection;
 use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
 use tactile_force::learn::metrics::DirectionError;
@@ -37,6 +38,16 @@ pub(crate) fn show(bar: &ProgressBar, p: Progress) {
 
 /// What `train --select` did: the table of candidates (`*` the chosen),
 /// and what it left untried.
+/// A calibration's validation: each model's RMSE on the held-out pushes.
+pub(crate) fn print_validation(r: &CalibrationRecord) {
+    let held: Vec<String> = r.held_out.iter().map(u32::to_string).collect();
+    println!("held-out pushes {}: RMSE (score)", held.join(", "));
+    for v in &r.validation {
+        let rmse: Vec<String> = v.rmse.iter().map(|(a, e)| format!("{a} {e:.3}")).collect();
+        println!("  {:<13} {} N ({:.4})", v.model, rmse.join(", "), v.score);
+    }
+}
+
 pub(crate) fn print_selection(s: &Selection) {
     println!(
         "--select: {}-fold trial-wise cross-validation of {} candidates in {:.1} s (budget {:.0} s); \

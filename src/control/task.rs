@@ -3,7 +3,7 @@
 //! ([`TaskKind`]), its checked section ([`TaskParams`]), its gains from the
 //! contact law and the safety envelope of its motion, and how it steps
 //! ([`Task`]). The tasks themselves live in their own modules
-//! ([`super::guarded`], [`super::guided`]). A third task adds its module,
+//! ([`super::guarded`], [`super::guided`], [`super::calibrate`]). A task adds its module,
 //! a variant to each enum here, its section to
 //! [`crate::nodes::ControllerParams`] and its scene file.
 
@@ -49,7 +49,8 @@ impl TaskKind {
         }
     }
 
-    /// The shipped scene file of the task (`config/<task>_move.yaml`).
+    /// The shipped scene file of the task (`config/guarded_move.yaml`,
+    /// `guided_move.yaml`, `calibrate.yaml`).
     pub fn scene_yaml(self) -> &'static str {
         match self {
             TaskKind::Guarded => GUARDED_YAML,

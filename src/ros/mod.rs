@@ -258,7 +258,7 @@ pub fn spin_with_action_server(mut node: r2r::Node) -> tokio::task::JoinHandle<(
 pub fn describe_shared(name: &str) -> &'static str {
     let section = name.split('.').next().unwrap_or("");
     if section.parse::<TaskKind>().is_ok() {
-        return "Settings of the task of this name (config/<task>_move.yaml).";
+        return "Settings of the task of this name (its scene file in config/).";
     }
     match section {
         "control_period_s" => "Sensing and control period (s).",
