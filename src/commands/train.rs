@@ -27,7 +27,7 @@ pub(crate) struct FitArgs {
     /// BioTac channels the model takes as features, comma-separated: any of
     /// electrodes (e1..e19), pdc, tdc, tac; each tared per trial. The
     /// default was chosen by leave-one-out results on simulated and real
-    /// data (README, "Sensor units and sessions").
+    /// data (docs/results.md, "Sensor units and sessions").
     #[arg(long, value_delimiter = ',', default_value = "electrodes,pdc")]
     pub(crate) channels: Vec<Channel>,
     /// How the tared features reach the GP: standard (each standardised),
@@ -52,7 +52,7 @@ pub(crate) struct FitArgs {
     /// The GPs' prior mean: zero; linear (a least-squares line on every
     /// training row; the GP models what it leaves out); or cubic (that line
     /// plus the products and cubes of the trained axes' lines). Default:
-    /// zero for the BioTac, cubic for the nail camera (README, "Nail camera").
+    /// zero for the BioTac, cubic for the nail camera (docs/nail-camera.md).
     #[arg(long)]
     pub(crate) mean: Option<MeanKind>,
     /// Optimiser starts of the hyperparameter fit.

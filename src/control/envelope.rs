@@ -41,7 +41,7 @@
 //! This is an upper bound: the guarded move's derivative term brakes
 //! before the trigger force, and a retracting command stops the arm faster
 //! than a zero one. `demo guarded --sweep-speed` prints the predicted peak
-//! beside the measured one (README, "Safety envelope"). "Peak force on first
+//! beside the measured one (docs/demos.md, "Safety envelope"). "Peak force on first
 //! contact ~ latency x approach speed x stiffness" (architecture page,
 //! "Force control facts").
 

@@ -404,7 +404,7 @@ fn evaluate_splits(
 
 /// The least share of its training targets' variance (R2) a model must
 /// explain on every axis. Models of real and simulated BioTac data explain
-/// 0.96-0.9999 of theirs (README, "Training data that cannot be true"); one
+/// 0.96-0.9999 of theirs (docs/training.md, "Training data that cannot be true"); one
 /// force of 90000 N among 8000 rows left 0.14.
 pub const MIN_TRAINING_R2: f64 = 0.5;
 

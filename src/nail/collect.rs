@@ -5,7 +5,7 @@
 //!
 //! A person (`--unit`) presses a fixed F/T sensor with the fingertip while
 //! wearing the camera, at the camera's rate: the BioTac protocol's sets and
-//! trials of raised-cosine pushes ([`crate::sim::collect`]), or Watanabe's
+//! trials of raised-cosine pushes ([`crate::sim::collect()`]), or Watanabe's
 //! 360° test of load cycles in fixed directions ([`super::radial`]). Per
 //! push (or cycle) the centre of pressure and a twisting moment are drawn; the centre
 //! rolls with the force. The torques are about the pad centre:

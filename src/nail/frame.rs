@@ -111,7 +111,7 @@ impl NailFrame {
 
     /// Reads an image file: a grey image as it is, a colour one by its
     /// green channel (Watanabe et al. 2023 keep the green component: "a 500
-    /// [nm] peak light length is absorbed by hemoglobin").
+    /// \[nm\] peak light length is absorbed by hemoglobin").
     pub fn read_png(path: &Path) -> Result<Self, FrameError> {
         let err = |source| FrameError::Image {
             path: path.display().to_string(),

@@ -16,7 +16,7 @@
 //!   preserving the aspect ratio"), each output pixel the mean of 2 x 2
 //!   bilinear samples.
 //! - **Mask.** From the reference frame only ("the nail is stationary in the
-//!   video stream [so] we can apply the same mask for every frame"): the
+//!   video stream \[so\] we can apply the same mask for every frame"): the
 //!   pixels brighter than Otsu's threshold connected to the centre (the
 //!   nail, without the dark markers and the skin around it), eroded by one
 //!   pixel so that the edge does not follow registration errors. Urban uses

@@ -34,7 +34,7 @@
 //! F/T sensor's (`ft_sensor/wrench`, moved to the BioTac frame by
 //! `ft_to_biotac`), not the estimate, and each wrench is recorded with the
 //! BioTac reading of its stamp (`biotac/readings`); see
-//! [`calibrate_action`].
+//! `force_controller/calibrate_action.rs`.
 //! The guarded move is also an action, `~/guarded_move`
 //! (tactile_force_msgs/action/GuardedMove): see
 //! [`crate::nodes::guarded_goal`]. A goal the

@@ -22,7 +22,7 @@ use tracing_subscriber::Layer;
 /// then the node's logger (its name after remapping).
 static LOGGER: OnceLock<String> = OnceLock::new();
 
-/// Routes `tracing` to ROS logging under `name` (until [`set_logger`]).
+/// Routes `tracing` to ROS logging under `name` (until [`attach`]).
 pub fn init(name: &str) {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,tactile_force=debug"));

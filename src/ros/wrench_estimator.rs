@@ -5,11 +5,12 @@
 //! model file says which sensor ([`crate::sensor::SensorSpec`]):
 //!
 //! - a BioTac model reads `biotac/readings` (tactile_force_msgs/BioTac, taken
-//!   as CDR bytes and decoded here): [`biotac`];
+//!   as CDR bytes and decoded here): `wrench_estimator/biotac.rs`;
 //! - a nail-camera model reads `camera/image` (sensor_msgs/Image, mono8,
-//!   rgb8 or bgr8): [`nail`].
+//!   rgb8 or bgr8): `wrench_estimator/nail.rs`.
 //!
-//! `model_file` may be set while the node runs: see [`biotac`]. With none
+//! `model_file` may be set while the node runs: see
+//! `wrench_estimator/biotac.rs`. With none
 //! given the node estimates with the default model and sets `model_file` to
 //! its cache file, so that `ros2 param get` (and the calibration) read which.
 //!

@@ -9,7 +9,7 @@ the node publishes biotac/wrench for each.
   node's baseline and get no estimate; at least 95 % of the others get
   one, and its fz is within 0.5 N RMS of the label. The model was trained on these frames, so this checks
   the transport (frames that arrive, decode and register as on disk), not
-  the model's accuracy (README "Nail camera").
+  the model's accuracy (docs/results.md, "Nail camera").
 - 20 frames are sent as 16UC1 (not a nail image): they are counted as
   refused on /diagnostics, and the node goes on estimating.
 

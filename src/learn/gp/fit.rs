@@ -14,7 +14,7 @@
 //!
 //! Why no polish by default: on `collect --seed 1` (n = 2000, held-out
 //! trials) 15 polish iterations made the fit 12x slower (1.7 s -> 19.9 s for
-//! three axes) and did not lower the test RMSE (README, "Training choices").
+//! three axes) and did not lower the test RMSE (docs/results.md, "Training choices").
 
 use std::borrow::Cow;
 use std::cell::{Cell, RefCell};

@@ -5,8 +5,8 @@
 //! least-squares values (a plug-in, not integrated over): the weights are
 //! fitted on every training row, the GP then models what the line leaves
 //! out. It pays where the targets are nearly linear in the inputs, as the
-//! nail camera's shear forces are in its projected pixels (README, "Nail
-//! camera"); with thousands of inputs an isotropic SE kernel alone cannot
+//! nail camera's shear forces are in its projected pixels
+//! (docs/nail-camera.md); with thousands of inputs an isotropic SE kernel alone cannot
 //! lengthen the one direction a force lies along.
 //!
 //! A cubic mean adds basis functions in the standardised values `u` of the
