@@ -421,12 +421,14 @@ fn draw_axis(panel: &Area, rows: &[TraceRow], axis: usize, spans: &[PhaseSpan]) 
         let mean = run.iter().map(|&(t, (m, _))| (t, m));
         chart.draw_series(LineSeries::new(mean, estimate_style))?;
     }
-    let entries = [
-        ("GP estimate", Icon::Line(estimate_style)),
-        ("estimate ± 2σ", Icon::Band(band)),
-        ("measured (F/T)", Icon::Line(MEASURED_COLOR.stroke_width(2))),
-        ("desired", Icon::Dashed(target_style)),
-    ];
+    // A calibration has no estimate (its force is the F/T sensor's alone).
+    let mut entries = Vec::with_capacity(4);
+    if !estimate.is_empty() {
+        entries.push(("GP estimate", Icon::Line(estimate_style)));
+        entries.push(("estimate ± 2σ", Icon::Band(band)));
+    }
+    entries.push(("measured (F/T)", Icon::Line(MEASURED_COLOR.stroke_width(2))));
+    entries.push(("desired", Icon::Dashed(target_style)));
     draw_legend(&legend, &chart, &entries)
 }
 
