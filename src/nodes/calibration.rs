@@ -10,10 +10,9 @@
 
 use std::collections::VecDeque;
 
-use super::{ControllerParams, ForceController, WrenchEstimate};
+use super::{ControllerParams, Goal, WrenchEstimate};
 use crate::biotac::BioTacReading;
 use crate::control::{StopReason, TaskKind};
-use crate::kinematics::Robot;
 use crate::params::ParamsError;
 use crate::record::Record;
 use crate::wrench::{AxisSet, Wrench};
@@ -41,11 +40,11 @@ pub struct CalibrateGoal {
     pub surface: String,
 }
 
-impl CalibrateGoal {
+impl Goal for CalibrateGoal {
     /// The start-up parameters with the calibration task on the goal's
     /// surface: every force axis (the F/T sensor gives them all), the
     /// surface as the one body the envelope allows for.
-    pub fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
+    fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
         let mut p = base.clone();
         if p.calibrate.is_none() {
             return Err(ParamsError::Invalid {
@@ -63,16 +62,6 @@ impl CalibrateGoal {
         p.object = surface.to_string();
         p.safety.objects = vec![surface.to_string()];
         Ok(p)
-    }
-
-    /// The controller that runs this goal, or why it is refused (an unknown
-    /// surface, a speed beyond its safety envelope).
-    pub fn start(
-        &self,
-        base: &ControllerParams,
-        robot: Robot,
-    ) -> Result<ForceController, ParamsError> {
-        ForceController::new(self.apply(base)?, robot)
     }
 }
 
@@ -275,6 +264,7 @@ fn keep_last<T>(q: &mut VecDeque<T>, item: T) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::Robot;
     use crate::runtime::scene::Scene;
     use nalgebra::Vector3;
 

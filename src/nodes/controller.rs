@@ -105,6 +105,20 @@ pub struct ControlOutput {
     pub damping: f64,
 }
 
+/// A goal of the controller's actions: the start-up parameters with the goal
+/// applied, checked like any scene, and the controller that runs it.
+pub trait Goal {
+    /// The start-up parameters with this goal applied.
+    fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError>;
+
+    /// The controller that runs this goal, or why the goal is refused (a
+    /// value out of range, an unknown surface, a speed beyond the safety
+    /// envelope).
+    fn start(&self, base: &ControllerParams, robot: Robot) -> Result<ForceController, ParamsError> {
+        ForceController::new(self.apply(base)?, robot)
+    }
+}
+
 /// The force controller.
 #[derive(Debug, Clone)]
 pub struct ForceController {

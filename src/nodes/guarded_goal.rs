@@ -3,9 +3,8 @@
 //! parameters with the goal's fields applied, checked like any scene (the
 //! safety envelope included), and how the move ended, for the result.
 
-use super::{ControlOutput, ControllerParams, ForceController};
+use super::{ControlOutput, ControllerParams, Goal};
 use crate::control::{GuardedParams, Phase, TaskKind};
-use crate::kinematics::Robot;
 use crate::params::ParamsError;
 
 /// A guarded-move goal; zero fields keep the parameter's value.
@@ -21,9 +20,9 @@ pub struct GuardedGoal {
     pub max_distance_m: f64,
 }
 
-impl GuardedGoal {
+impl Goal for GuardedGoal {
     /// The start-up parameters with this goal applied (task = guarded).
-    pub fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
+    fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
         let mut p = base.clone();
         p.task = TaskKind::Guarded;
         let mut g: GuardedParams = p.guarded.ok_or_else(|| ParamsError::Invalid {
@@ -45,16 +44,6 @@ impl GuardedGoal {
         p.guarded = Some(g);
         Ok(p)
     }
-
-    /// The controller that runs this goal, or why the goal is refused (a
-    /// value out of range, a speed beyond the safety envelope).
-    pub fn start(
-        &self,
-        base: &ControllerParams,
-        robot: Robot,
-    ) -> Result<ForceController, ParamsError> {
-        ForceController::new(self.apply(base)?, robot)
-    }
 }
 
 /// How a guarded move ended, for the action result; None while it runs.
@@ -70,6 +59,7 @@ pub fn guarded_outcome(out: &ControlOutput) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::Robot;
     use crate::runtime::scene::Scene;
 
     fn goal(speed_mps: f64) -> GuardedGoal {

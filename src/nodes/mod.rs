@@ -17,7 +17,7 @@ pub mod guarded_goal;
 pub mod loop_delay;
 pub mod sim_robot;
 
-pub use controller::{ControlOutput, ControllerParams, ForceController};
+pub use controller::{ControlOutput, ControllerParams, ForceController, Goal};
 pub use estimator::{EstimatorNode, WrenchEstimate};
 pub use sim_robot::{SimRobot, SimRobotParams, SimSample};
 

@@ -69,7 +69,7 @@ use crate::control::{Phase, TaskKind};
 use crate::kinematics::Robot;
 use crate::nodes::calibration::{CalibrateGoal, CalibrationRecorder};
 use crate::nodes::loop_delay::LoopDelayMonitor;
-use crate::nodes::{ControlOutput, ControllerParams, ForceController};
+use crate::nodes::{ControlOutput, ControllerParams, ForceController, Goal};
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
 use crate::wrench::FrameTransform;
 use estimates::{take_estimate, EstimatePart};
