@@ -50,6 +50,7 @@
 #![deny(missing_docs)]
 
 pub mod biotac;
+pub mod calibration;
 pub mod contact;
 pub mod control;
 pub mod kinematics;

@@ -253,6 +253,32 @@ impl Wrench {
     }
 }
 
+/// One estimate (the `biotac/wrench` and `biotac/wrench_stddev` topics).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WrenchEstimate {
+    /// Time of the reading it came from (s).
+    pub stamp_s: f64,
+    /// Sequence number of that reading.
+    pub seq: u16,
+    /// Posterior mean, BioTac frame (N, Nm); 0 on axes the model lacks.
+    pub mean: Wrench,
+    /// Posterior standard deviation (N, Nm); 0 on axes the model lacks.
+    pub std: Wrench,
+    /// Which axes (in [`Axis::ALL`] order) the model estimates.
+    pub estimated: [bool; 6],
+    /// PDC above its tare (counts): a contact indicator; 0 for a sensor
+    /// without PDC.
+    pub pdc_rise: f64,
+}
+
+impl WrenchEstimate {
+    /// True when every number is finite.
+    pub fn is_finite(&self) -> bool {
+        let w = |w: &Wrench| w.force.iter().chain(w.torque.iter()).all(|v| v.is_finite());
+        self.stamp_s.is_finite() && w(&self.mean) && w(&self.std) && self.pdc_rise.is_finite()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

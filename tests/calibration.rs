@@ -6,14 +6,14 @@
 //! F/T sensor; a calibration that cannot succeed stops the arm and says why.
 
 use tactile_force::biotac::sim::BioTacSimConfig;
-use tactile_force::control::{pattern, StopReason, TaskKind};
+use tactile_force::calibration::{pattern, CalibrateParams, Ended};
+use tactile_force::control::{StopReason, TaskKind};
 use tactile_force::kinematics::ShippedRobot;
 use tactile_force::learn::calibration::{fit, CalibrationError, Recorded};
 use tactile_force::learn::dataset::Dataset;
 use tactile_force::learn::evaluate::score_model;
 use tactile_force::learn::gp::GpParams;
 use tactile_force::learn::model::WrenchGp;
-use tactile_force::nodes::calibration::Ended;
 use tactile_force::runtime::calibrate::{record, Recording};
 use tactile_force::runtime::demo::run_scene;
 use tactile_force::runtime::{Pacing, Scene};
@@ -50,7 +50,7 @@ fn guarded(unit: u64, object: &str, m: &WrenchGp) -> tactile_force::report::summ
 #[test]
 fn a_calibration_of_unit_2_makes_a_model_that_holds_the_guarded_move_on_every_object() {
     let scene = calibration(2);
-    let params = scene.controller.calibrate.as_ref().unwrap();
+    let params: CalibrateParams = scene.controller.section().unwrap();
     let rec = record(&scene, 1, &mut |_, _| {}).unwrap();
     assert_eq!(rec.ended, Ended::Done);
     assert!(rec.motion_s <= 90.0, "{} s", rec.motion_s);
@@ -59,7 +59,7 @@ fn a_calibration_of_unit_2_makes_a_model_that_holds_the_guarded_move_on_every_ob
         "{} N",
         rec.peak_force_n
     );
-    let pushes = pattern(params).len() as u32;
+    let pushes = pattern(&params).len() as u32;
     assert_eq!(rec.records.last().unwrap().trial, pushes);
     let current = model();
     // Before: the default model doubts unit 2's readings and stops.
@@ -112,7 +112,11 @@ fn no_press_of_the_calibration_passes_the_force_limit_across_seeds_and_objects()
     ] {
         for seed in 1..=3 {
             let scene = calibration(2).with_only_object(object);
-            let limit = scene.controller.calibrate.as_ref().unwrap().force_limit_n;
+            let limit = scene
+                .controller
+                .section::<CalibrateParams>()
+                .unwrap()
+                .force_limit_n;
             let rec = record(&scene, seed, &mut |_, _| {}).unwrap();
             assert!(
                 rec.peak_force_n <= limit,

@@ -180,7 +180,8 @@ fn over_force_retracts_in_the_same_cycle_then_stops() {
     let c = &mut scene.controller;
     c.object = "stuffed_animal".into();
     c.safety.objects = vec!["stuffed_animal".into()];
-    c.guarded.as_mut().unwrap().force_limit_n = 1.2;
+    c.edit_section(|g: &mut tactile_force::control::GuardedParams| g.force_limit_n = 1.2)
+        .unwrap();
     let run = run(&scene, 1);
     assert_eq!(run.summary.reason, Some("force_limit"), "{:?}", run.summary);
     assert!(run.summary.aborted);
@@ -209,7 +210,7 @@ fn over_force_retracts_in_the_same_cycle_then_stops() {
 fn run_tampered(
     nodes: &mut Nodes,
     seconds: f64,
-    tamper: &mut dyn FnMut(f64, &mut Option<tactile_force::nodes::WrenchEstimate>),
+    tamper: &mut dyn FnMut(f64, &mut Option<tactile_force::wrench::WrenchEstimate>),
 ) -> Vec<TraceRow> {
     (0..(seconds * 100.0) as usize)
         .map(|_| nodes.step_period(&mut |_, _| {}, tamper).unwrap().row())

@@ -5,7 +5,7 @@
 
 use tactile_force::biotac::{BioTacReading, ADC_MAX};
 use tactile_force::contact::BodyParams;
-use tactile_force::control::{Phase, StopReason, TaskKind};
+use tactile_force::control::{GuardedParams, GuidedParams, Phase, StopReason, TaskKind};
 use tactile_force::report::summary::{summarize, RunInfo, Summary};
 use tactile_force::report::TraceRow;
 use tactile_force::runtime::demo::{run_scene, DemoRun};
@@ -36,7 +36,7 @@ fn run_faulty(scene: &Scene, fault: ReadingTamper) -> DemoRun {
             period.expect("the model takes 19 electrodes").row()
         })
         .collect();
-    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name);
+    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name).unwrap();
     DemoRun {
         summary: summarize(&info, &rows),
         gains: nodes.controller.gains(),
@@ -188,9 +188,13 @@ fn pushing_harder_than_the_training_data_stops_on_the_estimators_doubt() {
 
 /// `scene` with the guarded move's target force and force limit (N).
 fn with_forces(mut scene: Scene, target_n: f64, limit_n: f64) -> Scene {
-    let g = scene.controller.guarded.as_mut().unwrap();
-    g.target_force_n = target_n;
-    g.force_limit_n = limit_n;
+    scene
+        .controller
+        .edit_section(|g: &mut GuardedParams| {
+            g.target_force_n = target_n;
+            g.force_limit_n = limit_n;
+        })
+        .unwrap();
     scene
 }
 
@@ -353,7 +357,7 @@ fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
     );
     assert_sane(&r.rows, MAX_SPEED);
     let stop = at(&r.rows, 1.0);
-    let limit = short_guided().controller.guided.unwrap();
+    let limit: GuidedParams = short_guided().controller.section().unwrap();
     let mean = r.rows[stop].estimate.unwrap().0;
     assert!(mean.norm() > limit.force_limit_n, "{mean}");
     assert_eq!(r.rows[stop - 1].phase, Phase::Follow);

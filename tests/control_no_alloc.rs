@@ -5,9 +5,10 @@
 
 use tactile_force::control::TaskKind;
 use tactile_force::kinematics::{JointVector, Robot, RobotParams, ShippedRobot};
-use tactile_force::nodes::{ForceController, JointState, WrenchEstimate};
+use tactile_force::nodes::{ForceController, JointState};
 use tactile_force::params::WORLD_YAML;
 use tactile_force::runtime::Scene;
+use tactile_force::wrench::WrenchEstimate;
 
 #[path = "common/counting_alloc.rs"]
 mod counting_alloc;

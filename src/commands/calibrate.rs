@@ -9,6 +9,7 @@
 use anyhow::{anyhow, Context, Result};
 use serde_json::json;
 
+use tactile_force::calibration::CalibrateParams;
 use tactile_force::control::TaskKind;
 use tactile_force::learn::calibration::fit_and_save;
 use tactile_force::learn::model::WrenchGp;
@@ -24,11 +25,7 @@ pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> R
         .session
         .clone()
         .unwrap_or_else(|| out.with_extension("mcap"));
-    let limit = scene
-        .controller
-        .calibrate
-        .as_ref()
-        .map_or(f64::NAN, |c| c.force_limit_n);
+    let limit = scene.controller.section::<CalibrateParams>()?.force_limit_n;
     let bar = progress_bar();
     bar.set_message("calibrating: pressing the block");
     let rec = record(scene, a.seed, &mut |_, _| {})?;

@@ -143,7 +143,7 @@ impl Envelope {
     /// naming the limit and why; `body` names what is touched.
     pub fn check(&self, key: &str, v: f64, body: &str) -> Result<(), ParamsError> {
         let max = self.max_speed_mps();
-        if v.is_finite() && v > 0.0 && v <= max {
+        if v.is_finite() && v >= 0.0 && v <= max {
             return Ok(());
         }
         let hint = if v > 1.0 {
@@ -155,7 +155,7 @@ impl Envelope {
             key: key.into(),
             value: format!("{v} m/s{hint}"),
             expected: format!(
-                "a speed > 0 and at most {max:.4} m/s, the safety envelope: against {body} \
+                "a speed >= 0 and at most {max:.4} m/s, the safety envelope: against {body} \
                  ({:.1e} N/m), the stiffest body the scene permits, the BioTac moves on for \
                  {:.0} ms (control period + transport delay + command latency + arm lag, \
                  loop_delays.*) after the force passes {:.2} N, so faster it would press past the \
@@ -248,7 +248,9 @@ mod tests {
         let e = envelope(1e5);
         e.check("guarded.approach_speed_mps", 0.05, "wooden_box")
             .unwrap();
-        for v in [0.2, 5.0, f64::NAN, -0.01, 0.0, f64::INFINITY] {
+        // No motion towards the body is within any envelope.
+        e.check("hold_still", 0.0, "wooden_box").unwrap();
+        for v in [0.2, 5.0, f64::NAN, -0.01, f64::INFINITY] {
             let msg = e
                 .check("guarded.approach_speed_mps", v, "wooden_box")
                 .unwrap_err()

@@ -14,14 +14,18 @@
 //! direction (positive = towards the object).
 
 use nalgebra::Vector3;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::pd::{LoopDelays, PdAxis, PdParams};
-use super::{Phase, StopReason};
+use super::task::{translation, Task, TaskEnvelope, TaskInput, TaskLoop, TaskSection};
+use super::{Envelope, Phase, StopReason};
+use crate::contact::{series_stiffness, BodyParams};
+use crate::kinematics::Twist;
 use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
+use crate::wrench::Axis;
 
 /// Guarded-move settings (`force_controller.guarded` in the scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct GuardedParams {
     /// Approach direction in the BioTac frame (normalised on validation);
@@ -137,16 +141,6 @@ impl GuardedMove {
         Vector3::from(self.p.direction)
     }
 
-    /// Current phase.
-    pub fn phase(&self) -> Phase {
-        self.phase
-    }
-
-    /// Why the move stopped, if it stopped on its own.
-    pub fn reason(&self) -> Option<StopReason> {
-        self.reason
-    }
-
     /// The force being held (N).
     pub fn target_force_n(&self) -> f64 {
         self.p.target_force_n
@@ -157,25 +151,8 @@ impl GuardedMove {
         &self.pd
     }
 
-    /// Forgets the force history after a pause in the estimates.
-    pub fn pause(&mut self) {
-        self.pd.reset();
-        self.in_band_s = 0.0;
-    }
-
-    /// Stops where it is (a canceled goal): no motion any more.
-    pub fn stop(&mut self) {
-        self.phase = Phase::Stopped;
-    }
-
-    /// Stops for good, with `reason`, before any motion.
-    pub fn stop_on(&mut self, reason: StopReason) {
-        self.phase = Phase::Stopped;
-        self.reason = Some(reason);
-    }
-
     /// One cycle: the speed along the approach direction (m/s).
-    pub fn step(&mut self, i: &GuardedInput) -> f64 {
+    pub fn speed(&mut self, i: &GuardedInput) -> f64 {
         let p = self.p;
         let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
         let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
@@ -239,6 +216,105 @@ impl GuardedMove {
     }
 }
 
+impl TaskSection for GuardedParams {
+    const NAME: &'static str = "guarded";
+
+    fn build(p: Checked<Self>, lp: &TaskLoop, body: &BodyParams) -> Box<dyn Task> {
+        let k = series_stiffness(lp.skin, body, p.target_force_n);
+        Box::new(GuardedMove::new(p, lp.pd, k, lp.period_s, lp.delays))
+    }
+
+    fn envelope(
+        p: &Checked<Self>,
+        lp: &TaskLoop,
+        body: &BodyParams,
+        name: &str,
+    ) -> Result<TaskEnvelope, ParamsError> {
+        Ok(TaskEnvelope {
+            envelope: Envelope {
+                skin: **lp.skin,
+                stiffness_n_per_m: body.stiffness_n_per_m,
+                shear: false,
+                trigger_n: p.contact_force_n,
+                target_n: p.target_force_n,
+                limit_n: p.force_limit_n,
+                reaction_s: lp.reaction_s(),
+            },
+            body: name.into(),
+            key: "guarded.approach_speed_mps",
+            speed_mps: p.approach_speed_mps,
+        })
+    }
+}
+
+/// The guarded move as the controller runs it: along its direction in the
+/// BioTac frame at the start, the orientation held.
+impl Task for GuardedMove {
+    fn step(&mut self, i: &TaskInput) -> Twist {
+        let d_tool = self.direction();
+        let d_world = i.start.rotation * d_tool;
+        let input = GuardedInput {
+            force_n: -d_tool.dot(i.force),
+            pdc_rise: i.pdc_rise,
+            travelled_m: (i.pose.translation.vector - i.start.translation.vector).dot(&d_world),
+            out_of_range: i.out_of_range,
+            dt: i.dt,
+        };
+        translation(d_world * self.speed(&input))
+    }
+
+    fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    fn reason(&self) -> Option<StopReason> {
+        self.reason
+    }
+
+    /// The target on the axis the direction mostly points along.
+    fn targets(&self) -> [Option<f64>; 3] {
+        let d = self.direction();
+        let mut t = [None; 3];
+        t[d.iamax()] = Some(self.p.target_force_n * -d[d.iamax()]);
+        t
+    }
+
+    /// The gain along the direction, on the axis it mostly points along.
+    fn gains(&self) -> [Option<f64>; 3] {
+        let mut out = [None; 3];
+        out[self.direction().iamax()] = Some(self.pd.gain());
+        out
+    }
+
+    fn directions(&self) -> Vec<(String, Vector3<f64>)> {
+        let d = self.direction();
+        let name = format!("the approach direction [{}, {}, {}]", d.x, d.y, d.z);
+        vec![(name, d)]
+    }
+
+    fn force_axes(&self) -> Vec<Axis> {
+        let d = self.direction();
+        [Axis::Fx, Axis::Fy, Axis::Fz]
+            .into_iter()
+            .filter(|a| d[a.index()] != 0.0)
+            .collect()
+    }
+
+    fn pause(&mut self) {
+        self.pd.reset();
+        self.in_band_s = 0.0;
+    }
+
+    fn stop(&mut self) {
+        self.phase = Phase::Stopped;
+    }
+
+    fn stop_on(&mut self, reason: StopReason) {
+        self.phase = Phase::Stopped;
+        self.reason = Some(reason);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -294,7 +370,7 @@ mod tests {
         let mut phases = vec![];
         for _ in 0..300 {
             let f = (1000.0 * (x - 0.005)).max(0.0);
-            let v = g.step(&input(f, x));
+            let v = g.speed(&input(f, x));
             assert!(v <= 0.01 + 1e-12, "never faster than the approach");
             x += v * 0.01;
             if phases.last() != Some(&g.phase()) {
@@ -309,7 +385,7 @@ mod tests {
     #[test]
     fn pdc_alone_detects_contact() {
         let mut g = guarded();
-        g.step(&GuardedInput {
+        g.speed(&GuardedInput {
             pdc_rise: 40.0,
             ..input(0.0, 0.001)
         });
@@ -319,21 +395,21 @@ mod tests {
     #[test]
     fn timeout_stops_at_the_distance() {
         let mut g = guarded();
-        assert_eq!(g.step(&input(0.0, 0.049)), 0.01);
-        assert_eq!(g.step(&input(0.0, 0.05)), 0.0);
+        assert_eq!(g.speed(&input(0.0, 0.049)), 0.01);
+        assert_eq!(g.speed(&input(0.0, 0.05)), 0.0);
         assert_eq!(
             (g.phase(), g.reason()),
             (Phase::Stopped, Some(StopReason::Timeout))
         );
-        assert_eq!(g.step(&input(0.0, 0.05)), 0.0, "stays stopped");
+        assert_eq!(g.speed(&input(0.0, 0.05)), 0.0, "stays stopped");
     }
 
     #[test]
     fn a_stopped_move_stays_still() {
         let mut g = guarded();
-        assert_eq!(g.step(&input(0.0, 0.0)), 0.01);
+        assert_eq!(g.speed(&input(0.0, 0.0)), 0.01);
         g.stop();
-        assert_eq!(g.step(&input(0.0, 0.001)), 0.0);
+        assert_eq!(g.speed(&input(0.0, 0.001)), 0.0);
         assert_eq!((g.phase(), g.reason()), (Phase::Stopped, None));
     }
 
@@ -346,10 +422,10 @@ mod tests {
             pdc_rise: 100.0,
             ..input(-1.0, travelled_m)
         };
-        assert!(g.step(&touch(0.0)) > 0.0);
+        assert!(g.speed(&touch(0.0)) > 0.0);
         assert_eq!(g.phase(), Phase::Regulate);
-        assert!(g.step(&touch(0.049)) > 0.0);
-        assert_eq!(g.step(&touch(0.05)), 0.0);
+        assert!(g.speed(&touch(0.049)) > 0.0);
+        assert_eq!(g.speed(&touch(0.05)), 0.0);
         assert_eq!(
             (g.phase(), g.reason()),
             (Phase::Stopped, Some(StopReason::Timeout))
@@ -361,12 +437,12 @@ mod tests {
         for start in [Phase::Approach, Phase::Regulate] {
             let mut g = guarded();
             if start == Phase::Regulate {
-                g.step(&input(0.5, 0.010));
+                g.speed(&input(0.5, 0.010));
             }
-            let v = g.step(&input(3.5, 0.012));
+            let v = g.speed(&input(3.5, 0.012));
             assert_eq!((v, g.phase()), (-0.01, Phase::Retract), "from {start:?}");
-            assert_eq!(g.step(&input(0.0, 0.008)), -0.01);
-            assert_eq!(g.step(&input(0.0, 0.007)), 0.0);
+            assert_eq!(g.speed(&input(0.0, 0.008)), -0.01);
+            assert_eq!(g.speed(&input(0.0, 0.007)), 0.0);
             assert_eq!(
                 (g.phase(), g.reason()),
                 (Phase::Stopped, Some(StopReason::ForceLimit))
@@ -379,8 +455,8 @@ mod tests {
         // Even over the limit (3 N): the estimate is not trusted.
         for force_n in [1.0, 3.5] {
             let mut g = guarded();
-            g.step(&input(0.5, 0.010));
-            let v = g.step(&GuardedInput {
+            g.speed(&input(0.5, 0.010));
+            let v = g.speed(&GuardedInput {
                 out_of_range: true,
                 ..input(force_n, 0.011)
             });

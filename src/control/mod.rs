@@ -1,23 +1,24 @@
-//! Force control: the PD law, the guarded and guided tasks behind one task
-//! seam ([`task`]), the safety checks and the safety envelope (how fast a
-//! task may move towards a body). Everything here is in the BioTac (tool) frame and in SI units;
+//! Force control: the controller's parameters, the PD force law, the
+//! guarded and guided tasks behind one task seam ([`task`]), the safety
+//! checks and the safety envelope (how fast a task may move towards a
+//! body). Everything here is in the BioTac (tool) frame and in SI units;
 //! [`crate::nodes::controller`] turns the result into joint velocities.
 
-pub mod calibrate;
 pub mod envelope;
 pub mod guarded;
 pub mod guided;
+pub mod params;
 pub mod pd;
 pub mod safety;
 pub mod task;
 
-pub use calibrate::{pattern, CalibrateMove, CalibrateParams, Push, PushKind};
 pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
 pub use guided::{GuidedMove, GuidedParams};
+pub use params::{ControllerParams, Goal, OutOfRangeParams};
 pub use pd::{LoopDelays, PdAxis, PdParams};
 pub use safety::{Halt, Watchdog};
-pub use task::{Task, TaskEnvelope, TaskKind, TaskLoop, TaskParams};
+pub use task::{Task, TaskEnvelope, TaskKind, TaskLoop, TaskRegistry, TaskSection};
 
 use serde::Serialize;
 

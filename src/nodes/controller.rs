@@ -11,76 +11,20 @@
 //! -> command. A tick allocates nothing: the command is read with
 //! [`ForceController::command`].
 
-use std::collections::BTreeMap;
-
 use nalgebra::{Isometry3, Vector3};
-use serde::Deserialize;
 
-use super::{JointState, WrenchEstimate};
-use crate::contact::{object_body, BodyParams, SkinParams};
-use crate::control::task::{missing_axis, TaskInput};
+use super::tasks;
+use super::JointState;
+use crate::contact::SkinParams;
+use crate::contact::{object_body, BodyParams};
+use crate::control::task::{missing_axis, TaskInput, TaskRegistry};
 use crate::control::{
-    CalibrateParams, Envelope, GuardedParams, GuidedParams, Halt, LoopDelays, PdParams, Phase,
-    SafetyParams, StopReason, Task, TaskEnvelope, TaskKind, TaskLoop, TaskParams, Watchdog,
-    UNKNOWN_OBJECT,
+    ControllerParams, Envelope, Goal, Halt, LoopDelays, OutOfRangeParams, PdParams, Phase,
+    SafetyParams, StopReason, Task, TaskEnvelope, TaskLoop, Watchdog, UNKNOWN_OBJECT,
 };
-use crate::kinematics::{Dls, JointVector, Robot, RobotParams, Twist};
+use crate::kinematics::{Dls, JointVector, Robot, Twist};
 use crate::params::{positive, Check, Checked, ParamsError};
-use crate::wrench::{Axis, AxisSet};
-
-/// The `force_controller` parameters (robot file + scene file).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ControllerParams {
-    /// Sensing and control period (s).
-    pub control_period_s: f64,
-    /// The BioTac skin law.
-    pub skin: SkinParams,
-    /// Objects the arm may touch, by name.
-    pub objects: BTreeMap<String, BodyParams>,
-    /// The object of this run: its stiffness sets the gains. One of
-    /// `safety.objects`; `unknown` takes `safety.worst_case_stiffness_n_per_m`.
-    pub object: String,
-    /// The arm: the links of its robot description, the BioTac's mount,
-    /// limits and inverse-kinematics settings.
-    pub robot: RobotParams,
-    /// Estimates older than this many periods stop the arm.
-    pub stale_periods: f64,
-    /// When the estimate cannot be trusted.
-    pub out_of_range: OutOfRangeParams,
-    /// What the safety envelope assumes: delays, the bodies the scene may touch.
-    pub safety: SafetyParams,
-    /// Wrench axes the task controls (and the estimator must provide).
-    pub axes: AxisSet,
-    /// The task.
-    pub task: TaskKind,
-    /// PD law.
-    pub pd: PdParams,
-    /// Delays of the loop: they set the PD's derivative time and gain cap,
-    /// and the safety envelope's reaction time.
-    pub loop_delays: LoopDelays,
-    /// Guarded-move settings (needed when `task` is guarded).
-    pub guarded: Option<GuardedParams>,
-    /// Guided-move settings (needed when `task` is guided).
-    pub guided: Option<GuidedParams>,
-    /// Calibration settings (needed when `task` is calibrate).
-    #[serde(default)]
-    pub calibrate: Option<CalibrateParams>,
-}
-
-/// Limits beyond which the BioTac input is outside what the estimator
-/// knows. Far from its training data a GP's mean falls back to the prior
-/// (zero force) while its standard deviation grows, and PDC saturates with
-/// force (architecture page): either means the force may be larger than
-/// estimated, so the task stops (guarded: retracts).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OutOfRangeParams {
-    /// Largest trusted standard deviation on a controlled axis (N).
-    pub max_std_n: f64,
-    /// Largest trusted PDC rise above the tare (counts).
-    pub max_pdc_rise_counts: f64,
-}
+use crate::wrench::{Axis, AxisSet, WrenchEstimate};
 
 /// A motion an arm with fewer than six joints may leave undone, as a
 /// fraction of the commanded motion, for a task direction to count as
@@ -105,20 +49,6 @@ pub struct ControlOutput {
     pub damping: f64,
 }
 
-/// A goal of the controller's actions: the start-up parameters with the goal
-/// applied, checked like any scene, and the controller that runs it.
-pub trait Goal {
-    /// The start-up parameters with this goal applied.
-    fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError>;
-
-    /// The controller that runs this goal, or why the goal is refused (a
-    /// value out of range, an unknown surface, a speed beyond the safety
-    /// envelope).
-    fn start(&self, base: &ControllerParams, robot: Robot) -> Result<ForceController, ParamsError> {
-        ForceController::new(self.apply(base)?, robot)
-    }
-}
-
 /// The force controller.
 #[derive(Debug, Clone)]
 pub struct ForceController {
@@ -126,7 +56,7 @@ pub struct ForceController {
     dls: Dls,
     command: JointVector,
     twist: Twist,
-    task: Task,
+    task: Box<dyn Task>,
     axes: AxisSet,
     task_axes: Vec<Axis>,
     out_of_range: OutOfRangeParams,
@@ -143,26 +73,26 @@ pub struct ForceController {
 
 /// The task of checked parameters, its envelope and the force axes it reads.
 struct CheckedTask {
-    task: Task,
+    task: Box<dyn Task>,
     envelope: Envelope,
     needed: Vec<Axis>,
 }
 
 impl CheckedTask {
-    /// Checks every parameter but the robot's and builds the task.
-    fn new(p: &ControllerParams) -> Result<Self, ParamsError> {
+    /// Checks every parameter but the robot's and builds the task of
+    /// `tasks`.
+    fn new(p: &ControllerParams, tasks: &TaskRegistry) -> Result<Self, ParamsError> {
         positive("stale_periods", p.stale_periods)?;
         positive("out_of_range.max_std_n", p.out_of_range.max_std_n)?;
         positive(
             "out_of_range.max_pdc_rise_counts",
             p.out_of_range.max_pdc_rise_counts,
         )?;
-        let sections = Sections::check(p)?;
-        let lp = sections.task_loop(p);
+        let sections = Sections::check(p, tasks)?;
         let speed = sections.envelope(p)?;
         speed.check()?;
         let body = permitted_body(p, &sections.safety, &p.object)?;
-        let task = sections.task.clone().build(&lp, &body);
+        let task = sections.build(p, &body)?;
         let needed = task.force_axes();
         if let Some(axis) = needed.iter().find(|a| !p.axes.axes().contains(a)) {
             return Err(missing_axis(&p.axes, *axis));
@@ -178,19 +108,45 @@ impl CheckedTask {
 impl ForceController {
     /// Checks every parameter but the robot's (`robot.*` is checked with
     /// the robot description): what a ROS node does at start-up, before a
-    /// description arrives.
+    /// description arrives. The task is one of the shipped ones.
     pub fn check(p: &ControllerParams) -> Result<(), ParamsError> {
-        CheckedTask::new(p).map(|_| ())
+        Self::check_with(p, &tasks::shipped())
+    }
+
+    /// [`ForceController::check`] for a task of `tasks`.
+    pub fn check_with(p: &ControllerParams, tasks: &TaskRegistry) -> Result<(), ParamsError> {
+        CheckedTask::new(p, tasks).map(|_| ())
     }
 
     /// Checks the parameters and builds the controller for `robot` (built
-    /// from the robot description with `p.robot`).
+    /// from the robot description with `p.robot`), its task one of the
+    /// shipped ones.
     pub fn new(p: ControllerParams, robot: Robot) -> Result<Self, ParamsError> {
+        Self::with_tasks(p, robot, &tasks::shipped())
+    }
+
+    /// The controller that runs `goal` applied to `base`, or why the goal
+    /// is refused (a value out of range, an unknown surface, a speed beyond
+    /// the safety envelope).
+    pub fn for_goal(
+        goal: &impl Goal,
+        base: &ControllerParams,
+        robot: Robot,
+    ) -> Result<Self, ParamsError> {
+        Self::new(goal.apply(base)?, robot)
+    }
+
+    /// [`ForceController::new`] for a task of `tasks`.
+    pub fn with_tasks(
+        p: ControllerParams,
+        robot: Robot,
+        tasks: &TaskRegistry,
+    ) -> Result<Self, ParamsError> {
         let CheckedTask {
             task,
             envelope,
             needed,
-        } = CheckedTask::new(&p)?;
+        } = CheckedTask::new(&p, tasks)?;
         Ok(ForceController {
             dls: Dls::new(&robot),
             command: JointVector::zeros(robot.dof()),
@@ -216,17 +172,18 @@ impl ForceController {
         })
     }
 
-    /// A controller for `task` with the other parameters of `base`: a task
-    /// switch while running, checked as at start-up (the other task's
-    /// section, its safety envelope against the scene's bodies).
+    /// A controller for the task `task` with the other parameters of
+    /// `base`: a task switch while running, checked as at start-up (the
+    /// other task's section, its safety envelope against the scene's
+    /// bodies).
     pub fn switched(
         base: &ControllerParams,
-        task: TaskKind,
+        task: &str,
         robot: Robot,
     ) -> Result<Self, ParamsError> {
         ForceController::new(
             ControllerParams {
-                task,
+                task: task.into(),
                 ..base.clone()
             },
             robot,
@@ -249,15 +206,9 @@ impl ForceController {
         &self.command
     }
 
-    /// The calibration's push running (0-based) and the set its rows are
-    /// labelled with; None for the other tasks, and once it has stopped.
-    pub fn push(&self) -> Option<(usize, u32)> {
-        self.task.push()
-    }
-
-    /// The calibration's number of pushes; None for another task.
-    pub fn pushes(&self) -> Option<usize> {
-        self.task.pushes()
+    /// The task running.
+    pub fn task(&self) -> &dyn Task {
+        self.task.as_ref()
     }
 
     /// The BioTac's twist of the last tick (base frame, m/s and rad/s: zero
@@ -284,7 +235,7 @@ impl ForceController {
     /// its orientation, naming the direction. Arms with six joints or more
     /// pass (near a singularity the damping slows them instead).
     pub fn check_start(&mut self, q: &JointVector) -> Result<(), ParamsError> {
-        realisable(&self.robot, &mut self.dls, &self.task, q)
+        realisable(&self.robot, &mut self.dls, self.task.as_ref(), q)
     }
 
     /// Proportional gain of each force axis x, y, z (m/s per N), None where
@@ -388,7 +339,7 @@ impl ForceController {
         let out_of_range = self.is_out_of_range(&est);
         let pose = self.robot.chain.forward(&js.q);
         if self.start.is_none() {
-            if let Err(e) = realisable(&self.robot, &mut self.dls, &self.task, &js.q) {
+            if let Err(e) = realisable(&self.robot, &mut self.dls, self.task.as_ref(), &js.q) {
                 self.task.stop_on(StopReason::Unrealisable);
                 self.refusal = Some(e.to_string());
             }
@@ -442,7 +393,7 @@ impl ForceController {
 fn realisable(
     robot: &Robot,
     dls: &mut Dls,
-    task: &Task,
+    task: &dyn Task,
     q: &JointVector,
 ) -> Result<(), ParamsError> {
     let dof = robot.dof();
@@ -473,27 +424,29 @@ fn realisable(
 /// The safety envelope of the task of `p` (src/control/envelope.rs)
 /// against the stiffest body the scene permits.
 pub fn task_envelope(p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
-    Sections::check(p)?.envelope(p)
+    Sections::check(p, &tasks::shipped())?.envelope(p)
 }
 
 /// The checked sections of the parameters that the task is built from.
-struct Sections {
+struct Sections<'t> {
     skin: Checked<SkinParams>,
     pd: Checked<PdParams>,
     delays: Checked<LoopDelays>,
     safety: Checked<SafetyParams>,
-    task: TaskParams,
+    task: &'t crate::control::task::TaskEntry,
 }
 
-impl Sections {
-    fn check(p: &ControllerParams) -> Result<Self, ParamsError> {
+impl<'t> Sections<'t> {
+    fn check(p: &ControllerParams, tasks: &'t TaskRegistry) -> Result<Self, ParamsError> {
         positive("control_period_s", p.control_period_s)?;
+        p.check_sections(tasks)?;
         let skin = p.skin.checked("skin")?;
         let pd = p.pd.checked("pd")?;
         let delays = p.loop_delays.checked("loop_delays")?;
         let safety = p.safety.clone().checked("safety")?;
         permitted_body(p, &safety, &p.object)?;
-        let task = TaskParams::select(p.task, p.guarded, p.guided, p.calibrate.clone())?;
+        let task = tasks.get(&p.task)?;
+        p.raw_section(task.name())?;
         Ok(Sections {
             skin,
             pd,
@@ -513,10 +466,17 @@ impl Sections {
         }
     }
 
+    /// The task, its gains set for `body`.
+    fn build(&self, p: &ControllerParams, body: &BodyParams) -> Result<Box<dyn Task>, ParamsError> {
+        let raw = p.raw_section(self.task.name())?;
+        self.task.build(raw, &self.task_loop(p), body)
+    }
+
     /// The task's envelope against the stiffest body the scene permits.
     fn envelope(&self, p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
         let (body, name) = stiffest_permitted(p, &self.safety)?;
-        self.task.envelope(&self.task_loop(p), &body, &name)
+        let raw = p.raw_section(self.task.name())?;
+        self.task.envelope(raw, &self.task_loop(p), &body, &name)
     }
 }
 
@@ -572,6 +532,8 @@ fn stiffest_permitted(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control::TaskKind;
+    use crate::kinematics::RobotParams;
     use crate::runtime::scene::Scene;
 
     /// A scene's parameters with both tasks' sections, as the ROS node
@@ -584,8 +546,8 @@ mod tests {
         } else {
             guided.clone()
         };
-        p.guarded = guarded.guarded;
-        p.guided = guided.guided;
+        p.sections.extend(guarded.sections);
+        p.sections.extend(guided.sections);
         p
     }
 
@@ -600,16 +562,16 @@ mod tests {
         let pa10 = Robot::pa10;
         // The joystick scene may switch to the guarded move, and back.
         let guided = both_sections(TaskKind::Guided);
-        let c = ForceController::switched(&guided, TaskKind::Guarded, pa10()).unwrap();
+        let c = ForceController::switched(&guided, "guarded", pa10()).unwrap();
         assert!(c.gains()[2].is_some() && c.gains()[0].is_none());
-        ForceController::switched(&guided, TaskKind::Guided, pa10()).unwrap();
+        ForceController::switched(&guided, "guided", pa10()).unwrap();
         // Without the other task's section the switch names what is missing.
         let only = Scene::builtin(TaskKind::Guided).unwrap().controller;
-        let err = ForceController::switched(&only, TaskKind::Guarded, pa10()).unwrap_err();
+        let err = ForceController::switched(&only, "guarded", pa10()).unwrap_err();
         assert!(err.to_string().contains("guarded"), "{err}");
         // The guided move's speeds are beyond the envelope of a wooden box.
         let guarded = both_sections(TaskKind::Guarded);
-        let err = ForceController::switched(&guarded, TaskKind::Guided, pa10())
+        let err = ForceController::switched(&guarded, "guided", pa10())
             .unwrap_err()
             .to_string();
         assert!(

@@ -11,33 +11,7 @@ use crate::learn::default_model::Recipe;
 use crate::learn::model::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
 use crate::sensor::biotac::BioTacInput;
 use crate::sensor::{SensorError, SensorInput};
-use crate::wrench::Wrench;
-
-/// One estimate (the `biotac/wrench` and `biotac/wrench_stddev` topics).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WrenchEstimate {
-    /// Time of the reading it came from (s).
-    pub stamp_s: f64,
-    /// Sequence number of that reading.
-    pub seq: u16,
-    /// Posterior mean, BioTac frame (N, Nm); 0 on axes the model lacks.
-    pub mean: Wrench,
-    /// Posterior standard deviation (N, Nm); 0 on axes the model lacks.
-    pub std: Wrench,
-    /// Which axes (in [`crate::wrench::Axis::ALL`] order) the model estimates.
-    pub estimated: [bool; 6],
-    /// PDC above its tare (counts): a contact indicator; 0 for a sensor
-    /// without PDC.
-    pub pdc_rise: f64,
-}
-
-impl WrenchEstimate {
-    /// True when every number is finite.
-    pub fn is_finite(&self) -> bool {
-        let w = |w: &Wrench| w.force.iter().chain(w.torque.iter()).all(|v| v.is_finite());
-        self.stamp_s.is_finite() && w(&self.mean) && w(&self.std) && self.pdc_rise.is_finite()
-    }
-}
+use crate::wrench::{Wrench, WrenchEstimate};
 
 /// Parameters of the estimator node (`wrench_estimator` in the scene files).
 ///

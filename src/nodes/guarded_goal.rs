@@ -3,12 +3,12 @@
 //! parameters with the goal's fields applied, checked like any scene (the
 //! safety envelope included), and how the move ended, for the result.
 
-use super::{ControlOutput, ControllerParams, Goal};
-use crate::control::{GuardedParams, Phase, TaskKind};
+use super::ControlOutput;
+use crate::control::{ControllerParams, Goal, GuardedParams, Phase, TaskSection};
 use crate::params::ParamsError;
 
 /// A guarded-move goal; zero fields keep the parameter's value.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GuardedGoal {
     /// Approach direction, BioTac frame (zero vector: keep).
     pub direction: [f64; 3],
@@ -24,12 +24,8 @@ impl Goal for GuardedGoal {
     /// The start-up parameters with this goal applied (task = guarded).
     fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
         let mut p = base.clone();
-        p.task = TaskKind::Guarded;
-        let mut g: GuardedParams = p.guarded.ok_or_else(|| ParamsError::Invalid {
-            key: "guarded".into(),
-            value: "absent".into(),
-            expected: "a `guarded` section in the parameters".into(),
-        })?;
+        p.task = GuardedParams::NAME.into();
+        let mut g: GuardedParams = p.section()?;
         if self.direction != [0.0; 3] {
             g.direction = self.direction;
         }
@@ -41,7 +37,7 @@ impl Goal for GuardedGoal {
         set(&mut g.approach_speed_mps, self.speed_mps);
         set(&mut g.target_force_n, self.target_force_n);
         set(&mut g.max_distance_m, self.max_distance_m);
-        p.guarded = Some(g);
+        p.set_section(&g);
         Ok(p)
     }
 }
@@ -59,7 +55,9 @@ pub fn guarded_outcome(out: &ControlOutput) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control::TaskKind;
     use crate::kinematics::Robot;
+    use crate::nodes::ForceController;
     use crate::runtime::scene::Scene;
 
     fn goal(speed_mps: f64) -> GuardedGoal {
@@ -78,20 +76,22 @@ mod tests {
         assert!(goal(0.02).apply(&base).is_err());
         let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
         let p = goal(0.02).apply(&base).unwrap();
-        let (g, b) = (p.guarded.as_ref().unwrap(), base.guarded.as_ref().unwrap());
+        let (g, b) = (
+            p.section::<GuardedParams>().unwrap(),
+            base.section::<GuardedParams>().unwrap(),
+        );
         assert_eq!(g.approach_speed_mps, 0.02);
         assert_eq!(g.target_force_n, b.target_force_n);
         assert_eq!(g.direction, b.direction);
-        goal(0.02).start(&base, Robot::pa10()).unwrap();
-        assert!(goal(f64::NAN).start(&base, Robot::pa10()).is_err());
+        ForceController::for_goal(&goal(0.02), &base, Robot::pa10()).unwrap();
+        assert!(ForceController::for_goal(&goal(f64::NAN), &base, Robot::pa10()).is_err());
     }
 
     #[test]
     fn a_goal_beyond_the_safety_envelope_is_refused_with_the_limit() {
         let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
         for speed in [0.2, 5.0] {
-            let e = goal(speed)
-                .start(&base, Robot::pa10())
+            let e = ForceController::for_goal(&goal(speed), &base, Robot::pa10())
                 .unwrap_err()
                 .to_string();
             assert!(
@@ -103,18 +103,16 @@ mod tests {
             target_force_n: 4.0,
             ..goal(0.01)
         };
-        let e = over.start(&base, Robot::pa10()).unwrap_err().to_string();
+        let e = ForceController::for_goal(&over, &base, Robot::pa10())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("force_limit_n"), "a target past the limit: {e}");
     }
 
     #[test]
     fn the_outcome_is_known_only_when_the_move_holds_or_stops() {
-        let mut c = goal(0.0)
-            .start(
-                &Scene::builtin(TaskKind::Guarded).unwrap().controller,
-                Robot::pa10(),
-            )
-            .unwrap();
+        let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
+        let mut c = ForceController::for_goal(&goal(0.0), &base, Robot::pa10()).unwrap();
         let out = c.tick(0.0);
         assert!(out.halt.is_some(), "no input yet: the watchdog halts");
         assert_eq!(guarded_outcome(&out), None);

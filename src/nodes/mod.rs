@@ -3,25 +3,29 @@
 //! ([`crate::runtime`]) and the ROS 2 adapter only move messages between them.
 //!
 //! - [`estimator::EstimatorNode`]: BioTac readings -> wrench estimates (GP);
-//! - [`controller::ForceController`]: estimates and joint states -> joint velocities;
+//! - [`controller::ForceController`]: estimates and joint states -> joint velocities,
+//!   running a task of [`tasks`] (the registration);
+//!   [`force_controller::ForceControllerNode`]: the node around it (robot
+//!   description, task switch, goals, the estimate's halves, status);
 //!   [`guarded_goal`]: a guarded-move goal applied to it, and its outcome;
-//!   [`calibration`]: a calibration goal, and the F/T wrench as its force,
-//!   recorded with the BioTac's readings;
 //!   [`loop_delay`]: the delay it actually sees, from header stamps;
 //! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac.
 
-pub mod calibration;
 pub mod controller;
 pub mod estimator;
+pub mod force_controller;
 pub mod guarded_goal;
 pub mod loop_delay;
 pub mod sim_robot;
+pub mod status;
+pub mod tasks;
 
-pub use controller::{ControlOutput, ControllerParams, ForceController, Goal};
-pub use estimator::{EstimatorNode, WrenchEstimate};
+pub use controller::{ControlOutput, ForceController};
+pub use estimator::EstimatorNode;
 pub use sim_robot::{SimRobot, SimRobotParams, SimSample};
 
-use crate::kinematics::JointVector;
+use crate::kinematics::{JointVector, Robot};
+use crate::params::ParamsError;
 
 /// Joint positions at a time (the `joint_states` topic).
 #[derive(Debug, Clone, PartialEq)]
@@ -30,4 +34,40 @@ pub struct JointState {
     pub stamp_s: f64,
     /// Joint positions (rad or m), one per joint in chain order.
     pub q: JointVector,
+}
+
+/// The arm's joint names on `joint_states`: `remap` (one per joint of the
+/// chain), or the URDF's when `remap` is empty.
+pub fn joint_names(robot: &Robot, remap: &[String]) -> Result<Vec<String>, ParamsError> {
+    if remap.is_empty() {
+        return Ok(robot.joint_names());
+    }
+    if remap.len() != robot.dof() {
+        return Err(ParamsError::Invalid {
+            key: "joint_names".into(),
+            value: format!("{remap:?}"),
+            expected: format!(
+                "one name per joint of the chain, {} in order ({}), or none",
+                robot.dof(),
+                robot.joint_names().join(", ")
+            ),
+        });
+    }
+    Ok(remap.to_vec())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::ShippedRobot;
+
+    #[test]
+    fn joint_names_come_from_the_chain_unless_remapped_one_to_one() {
+        let ur5 = ShippedRobot::Ur5.robot().unwrap();
+        assert_eq!(joint_names(&ur5, &[]).unwrap()[0], "shoulder_pan_joint");
+        let remap: Vec<String> = (1..=6).map(|i| format!("j{i}")).collect();
+        assert_eq!(joint_names(&ur5, &remap).unwrap(), remap);
+        let e = joint_names(&ur5, &remap[..5]).unwrap_err().to_string();
+        assert!(e.contains("6 in order (shoulder_pan_joint,"), "{e}");
+    }
 }

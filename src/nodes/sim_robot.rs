@@ -345,3 +345,45 @@ impl SimRobot {
         }
     }
 }
+
+/// The fastest simulated time a node may run at: a period of 0.1 ms of
+/// wall clock at 100 Hz.
+pub const MAX_REAL_TIME_FACTOR: f64 = 100.0;
+
+/// Refuses a real-time factor (simulated seconds per wall-clock second)
+/// other than 1 without simulated time (`use_sim_time`), or outside
+/// 1..=[`MAX_REAL_TIME_FACTOR`].
+pub fn check_real_time_factor(speed: f64, sim_time: bool) -> Result<(), ParamsError> {
+    if (1.0..=MAX_REAL_TIME_FACTOR).contains(&speed) && (sim_time || speed == 1.0) {
+        return Ok(());
+    }
+    Err(ParamsError::Invalid {
+        key: "real_time_factor".into(),
+        value: speed.to_string(),
+        expected: format!(
+            "1, or up to {MAX_REAL_TIME_FACTOR} with use_sim_time:=true (stamps on the \
+             system clock cannot run faster than it; slower than real time the \
+             controller would take each estimate for late)"
+        ),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_real_time_factor_needs_simulated_time_and_stays_within_100() {
+        check_real_time_factor(1.0, false).unwrap();
+        check_real_time_factor(20.0, true).unwrap();
+        for (speed, sim_time) in [(2.0, false), (0.5, true), (101.0, true), (f64::NAN, true)] {
+            let e = check_real_time_factor(speed, sim_time)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("real_time_factor") && e.contains("use_sim_time"),
+                "{e}"
+            );
+        }
+    }
+}

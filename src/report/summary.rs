@@ -17,8 +17,10 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::TraceRow;
+use crate::calibration::CalibrateParams;
 use crate::control::TaskKind;
-use crate::nodes::controller::ControllerParams;
+use crate::control::{ControllerParams, GuardedParams};
+use crate::params::ParamsError;
 use crate::wrench::Axis;
 
 /// Measured force that counts as contact (N): 8 sigma of the F/T noise
@@ -47,18 +49,21 @@ pub struct RunInfo {
 }
 
 impl RunInfo {
-    /// The run of a controller with `params` on the robot named `robot`.
-    pub fn new(params: &ControllerParams, robot: &str) -> Self {
-        RunInfo {
+    /// The run of a controller with `params` (a shipped task) on the
+    /// robot named `robot`.
+    pub fn new(params: &ControllerParams, robot: &str) -> Result<Self, ParamsError> {
+        let task: TaskKind = params.task.parse()?;
+        let approach_speed_mps = match task {
+            TaskKind::Guarded => Some(params.section::<GuardedParams>()?.approach_speed_mps),
+            TaskKind::Calibrate => Some(params.section::<CalibrateParams>()?.approach_speed_mps),
+            TaskKind::Guided => None,
+        };
+        Ok(RunInfo {
             robot: robot.into(),
-            task: params.task,
+            task,
             object: params.object.clone(),
-            approach_speed_mps: match params.task {
-                TaskKind::Guarded => params.guarded.map(|g| g.approach_speed_mps),
-                TaskKind::Calibrate => params.calibrate.as_ref().map(|c| c.approach_speed_mps),
-                TaskKind::Guided => None,
-            },
-        }
+            approach_speed_mps,
+        })
     }
 }
 

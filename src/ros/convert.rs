@@ -12,8 +12,10 @@ use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiAr
 use crate::biotac::msg::{join_stamp, split_stamp};
 use crate::kinematics::{JointVector, Twist as TwistVector};
 use crate::nail::NailFrame;
-use crate::nodes::{JointState, WrenchEstimate};
+use crate::nodes::status::{Level, Status};
+use crate::nodes::JointState;
 use crate::wrench::Wrench;
+use crate::wrench::WrenchEstimate;
 
 /// Why a message was refused (the adapters count these and drop the message).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -341,6 +343,16 @@ pub fn diagnostics_msg(
             values,
         }],
     }
+}
+
+/// A node's status on `/diagnostics` (`hardware_id` names its device).
+pub fn status_msg(stamp_s: f64, name: &str, hardware_id: &str, s: Status) -> DiagnosticArray {
+    let level = match s.level {
+        Level::Ok => level::OK,
+        Level::Warn => level::WARN,
+        Level::Error => level::ERROR,
+    };
+    diagnostics_msg(stamp_s, level, name, s.message, hardware_id, s.values)
 }
 
 #[cfg(test)]

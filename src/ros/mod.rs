@@ -84,6 +84,21 @@ pub enum RosError {
     Join(#[from] tokio::task::JoinError),
 }
 
+impl From<crate::nodes::force_controller::DescriptionError> for RosError {
+    fn from(e: crate::nodes::force_controller::DescriptionError) -> Self {
+        use crate::nodes::force_controller::DescriptionError as D;
+        match e {
+            D::Robot(r) => RosError::Robot(r),
+            D::Params(p) => RosError::Params(p),
+            other => RosError::Params(ParamsError::Invalid {
+                key: "robot_description".into(),
+                value: "a new description".into(),
+                expected: other.to_string(),
+            }),
+        }
+    }
+}
+
 impl RosError {
     /// The process's exit code: 2 when the node's parameters or model were
     /// refused (nothing started), 1 for a failure while starting or running.
@@ -220,6 +235,21 @@ fn wrong_type(name: &str, expected: &str, found: &r2r::ParameterValue) -> RosErr
         value: format!("{found:?}"),
         expected: expected.into(),
     })
+}
+
+/// Hands each message of `stream` to `f` with the node state `shared`
+/// locked, on a task of its own.
+pub fn each<M: Send + 'static, S: Send + 'static>(
+    mut stream: impl futures::Stream<Item = M> + Unpin + Send + 'static,
+    shared: &Arc<Mutex<S>>,
+    mut f: impl FnMut(&mut S, M) + Send + 'static,
+) {
+    let shared = shared.clone();
+    tokio::spawn(async move {
+        while let Some(m) = futures::StreamExt::next(&mut stream).await {
+            f(&mut shared.lock().unwrap_or_else(|e| e.into_inner()), m);
+        }
+    });
 }
 
 /// Spins the node on a blocking task until the process ends.

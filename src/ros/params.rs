@@ -208,7 +208,7 @@ mod tests {
                 );
                 match node {
                     "force_controller" => {
-                        let p: crate::nodes::ControllerParams = read(&params, &[], node).unwrap();
+                        let p: crate::control::ControllerParams = read(&params, &[], node).unwrap();
                         assert_eq!(p, scene.controller);
                     }
                     "sim_robot" => {
@@ -239,7 +239,7 @@ mod tests {
             Parameter::new(ParameterValue::String("fast".into())),
         );
         declare(&mut params, &defaults, |_| "test");
-        let err = read::<crate::nodes::ControllerParams>(&params, &[], "force_controller")
+        let err = read::<crate::control::ControllerParams>(&params, &[], "force_controller")
             .unwrap_err()
             .to_string();
         // serde names the node and the bad value (not the key) for a type error.
@@ -251,7 +251,7 @@ mod tests {
             "pd.gain_ratio".to_string(),
             Parameter::new(ParameterValue::Integer(1)),
         );
-        let p: crate::nodes::ControllerParams = read(&params, &[], "force_controller").unwrap();
+        let p: crate::control::ControllerParams = read(&params, &[], "force_controller").unwrap();
         assert_eq!(p.object, "carton_box");
         assert_eq!(p.pd.gain_ratio, 1.0);
     }

@@ -26,19 +26,17 @@ use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 use std::sync::{Arc, Mutex};
 
-use super::description::{joint_names, joint_names_param, robot_description, Description};
+use super::description::{joint_names_param, robot_description, Description};
 use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacSimConfig;
 use crate::control::TaskKind;
 use crate::kinematics::{JointVector, Robot};
-use crate::nodes::{JointState, SimRobot, SimRobotParams};
+use crate::nodes::sim_robot::check_real_time_factor;
+use crate::nodes::{joint_names, JointState, SimRobot, SimRobotParams};
 use crate::params::layered_flat_params;
 use crate::params::{ParamsError, WORLD_YAML};
-
-/// The fastest simulated time: a period of 0.1 ms of wall clock at 100 Hz.
-const MAX_REAL_TIME_FACTOR: f64 = 100.0;
 
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
@@ -81,17 +79,7 @@ pub async fn run() -> Result<(), RosError> {
         1.0,
         "Simulated seconds per wall-clock second (with use_sim_time:=true); at least 1.",
     )?;
-    if !((1.0..=MAX_REAL_TIME_FACTOR).contains(&speed) && (sim_time || speed == 1.0)) {
-        return Err(RosError::Params(ParamsError::Invalid {
-            key: "real_time_factor".into(),
-            value: speed.to_string(),
-            expected: format!(
-                "1, or up to {MAX_REAL_TIME_FACTOR} with use_sim_time:=true (stamps on the \
-                 system clock cannot run faster than it; slower than real time the \
-                 controller would take each estimate for late)"
-            ),
-        }));
-    }
+    check_real_time_factor(speed, sim_time)?;
     let scene = TaskKind::Guarded.scene_yaml();
     let p: SimRobotParams = super::node_params(
         &node,

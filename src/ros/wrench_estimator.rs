@@ -35,9 +35,10 @@ use crate::control::TaskKind;
 use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::{Dropped, EstimatorParams};
-use crate::nodes::{EstimatorNode, WrenchEstimate};
+use crate::nodes::EstimatorNode;
 use crate::params::{layered_flat_params, WORLD_YAML};
 use crate::sensor::{SensorInput, SensorSpec};
+use crate::wrench::WrenchEstimate;
 
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {

@@ -1,12 +1,12 @@
 //! A calibration in the embedded runtime: the simulated arm presses the
 //! calibration block in the calibration task's pattern
-//! ([`crate::control::calibrate`]), the F/T sensor's wrench handed to the
+//! ([`crate::calibration::task`]), the F/T sensor's wrench handed to the
 //! controller as its force and recorded with each period's BioTac reading
 //! ([`CalibrationRecorder`]).
 
 use crate::biotac::BioTacSimConfig;
+use crate::calibration::{CalibrateMove, CalibrationRecorder, Ended};
 use crate::control::Phase;
-use crate::nodes::calibration::{CalibrationRecorder, Ended};
 use crate::record::Record;
 use crate::report::TraceRow;
 use crate::runtime::lockstep::Period;
@@ -49,7 +49,8 @@ pub fn record(scene: &Scene, seed: u64, tamper: FtTamper) -> Result<Recording, S
         recorder.on_reading(sample.reading);
         if let Some(w) = ft {
             // Refused when not finite: the watchdog then halts the arm.
-            let _ = controller.on_estimate(recorder.on_ft(sample.t, w, controller.push()));
+            let label = CalibrateMove::of(controller.task()).and_then(CalibrateMove::label);
+            let _ = controller.on_estimate(recorder.on_ft(sample.t, w, label));
         }
         let _ = controller.on_joint_state(&sample.joints);
         let output = controller.tick(sample.t);

@@ -34,7 +34,7 @@ pub fn run_scene(
     on_row: &mut dyn FnMut(&TraceRow),
 ) -> Result<DemoRun, SceneError> {
     let mut nodes = scene.build(model, &BioTacSimConfig::default(), seed)?;
-    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name);
+    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name)?;
     let rows = run(&mut nodes, pacing, on_row)?;
     Ok(DemoRun {
         summary: summarize(&info, &rows),

@@ -15,10 +15,9 @@ use rand_chacha::ChaCha8Rng;
 use crate::biotac::BioTacReading;
 use crate::control::Phase;
 use crate::nodes::estimator::EstimatorError;
-use crate::nodes::{
-    ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample, WrenchEstimate,
-};
+use crate::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
 use crate::report::TraceRow;
+use crate::wrench::WrenchEstimate;
 
 /// Time a run goes on after its task stopped (s), to show the arm at rest.
 const AFTER_STOP_S: f64 = 1.0;

@@ -11,11 +11,12 @@ use std::path::{Path, PathBuf};
 
 use crate::biotac::BioTacSimConfig;
 use crate::contact::BodyParams;
-use crate::control::TaskKind;
+use crate::control::ControllerParams;
+use crate::control::{GuardedParams, TaskKind, TaskRegistry};
 use crate::kinematics::{Robot, RobotError, ShippedRobot};
 use crate::learn::model::WrenchGp;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
-use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
+use crate::nodes::{tasks, EstimatorNode, ForceController, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError, WORLD_YAML};
 use crate::runtime::lockstep::Link;
 use crate::runtime::Nodes;
@@ -108,6 +109,9 @@ pub struct Scene {
     pub sim: SimRobotParams,
     /// The robot description (URDF text).
     pub description: String,
+    /// The tasks the controller may run: the shipped ones unless
+    /// [`Scene::with_tasks`] says otherwise.
+    pub tasks: TaskRegistry,
 }
 
 impl Scene {
@@ -139,6 +143,7 @@ impl Scene {
             estimator: layered_node_params(texts, "wrench_estimator")?,
             sim: layered_node_params(texts, "sim_robot")?,
             description: description.to_string(),
+            tasks: tasks::shipped(),
         })
     }
 
@@ -164,6 +169,12 @@ impl Scene {
         })
     }
 
+    /// Lets the controller run the tasks of `tasks` (a task of its own).
+    pub fn with_tasks(mut self, tasks: TaskRegistry) -> Self {
+        self.tasks = tasks;
+        self
+    }
+
     /// Sets the object for every node (as the launch argument `object` does).
     pub fn with_object(mut self, name: &str) -> Self {
         self.controller.object = name.into();
@@ -174,16 +185,8 @@ impl Scene {
     /// Sets the guarded move's approach speed (m/s); the scene must have a
     /// guarded section.
     pub fn with_approach_speed(mut self, mps: f64) -> Result<Self, ParamsError> {
-        let g = self
-            .controller
-            .guarded
-            .as_mut()
-            .ok_or_else(|| ParamsError::Invalid {
-                key: "guarded.approach_speed_mps".into(),
-                value: format!("{mps} m/s"),
-                expected: "a scene with a `guarded` section".into(),
-            })?;
-        g.approach_speed_mps = mps;
+        self.controller
+            .edit_section(|g: &mut GuardedParams| g.approach_speed_mps = mps)?;
         Ok(self)
     }
 
@@ -256,7 +259,7 @@ impl Scene {
         }
         let robot = Robot::from_urdf(&self.description, &cp.robot)?;
         let sim_robot = Robot::from_urdf(&self.description, &sp.robot)?;
-        let mut controller = ForceController::new(cp, robot)?;
+        let mut controller = ForceController::with_tasks(cp, robot, &self.tasks)?;
         let link = Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed);
         let sim = SimRobot::new(sp, sim_robot, sensor, seed)?;
         controller.check_start(sim.joints())?;
@@ -301,7 +304,7 @@ mod tests {
     #[test]
     fn the_shipped_scenes_parse_and_the_object_can_be_chosen() {
         for task in TaskKind::ALL {
-            assert_eq!(Scene::builtin(task).unwrap().controller.task, task);
+            assert_eq!(Scene::builtin(task).unwrap().controller.task, task.name());
         }
         let guided = Scene::builtin(TaskKind::Guided).unwrap();
         assert_eq!(guided.sim.object, "fingertip");
@@ -314,7 +317,8 @@ mod tests {
         assert_eq!(s.controller.object, "carton_box");
         assert_eq!(s.sim.object, "carton_box");
         let s = s.with_approach_speed(0.025).unwrap();
-        assert_eq!(s.controller.guarded.unwrap().approach_speed_mps, 0.025);
+        let g: GuardedParams = s.controller.section().unwrap();
+        assert_eq!(g.approach_speed_mps, 0.025);
     }
 
     #[test]

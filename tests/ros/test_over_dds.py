@@ -413,7 +413,7 @@ def startup_logs(peer):
     """What each node said at start-up, read back from /rosout."""
     peer.spin(1)
     wanted = {"sim_robot": "object wooden_box", "wrench_estimator": "model default",
-              "force_controller": "task Guarded on wooden_box"}
+              "force_controller": "task guarded on wooden_box"}
     for node, text in wanted.items():
         line = next((m for name, level, m in peer.logs if name == node and text in m), None)
         check(f"/rosout: {node} at start-up", line is not None, (line or f"nothing with {text!r}")[:110] + "...")

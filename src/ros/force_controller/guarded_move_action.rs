@@ -1,13 +1,17 @@
 //! The `~/guarded_move` action server of `force_controller` (needs r2r's
-//! generated types for tactile_force_msgs, so a real ROS build only).
+//! generated types for tactile_force_msgs, so a real ROS build only): the
+//! goal's life cycle is the node's ([`ForceControllerNode`]); this moves
+//! its messages.
+
+use futures::StreamExt;
 
 use super::*;
-use crate::nodes::guarded_goal::{guarded_outcome, GuardedGoal};
+use crate::nodes::guarded_goal::GuardedGoal;
 use r2r::tactile_force_msgs::action::GuardedMove;
 
 pub(super) async fn serve(
     mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<GuardedMove::Action>> + Unpin,
-    shared: Arc<Mutex<Shared>>,
+    shared: Arc<Mutex<ForceControllerNode>>,
     period: Duration,
 ) {
     while let Some(req) = goals.next().await {
@@ -18,21 +22,9 @@ pub(super) async fn serve(
             target_force_n: req.goal.target_force_n,
             max_distance_m: req.goal.max_distance_m,
         };
-        let started = {
-            let mut g = lock(&shared);
-            match g.robot.clone() {
-                Some(robot) => goal.start(&g.base, robot).map_err(|e| e.to_string()),
-                None => Err("no robot description yet".to_string()),
-            }
-            .map(|c| {
-                g.controller = Some(c);
-                g.task = TaskKind::Guarded;
-                g.goal_active = true;
-                g.last = None;
-            })
-        };
+        let started = lock(&shared).start_guarded(&goal);
         let Ok((mut handle, mut cancel)) = req.accept() else {
-            lock(&shared).goal_active = false;
+            lock(&shared).end_goal();
             continue;
         };
         if let Err(e) = started {
@@ -47,9 +39,7 @@ pub(super) async fn serve(
         loop {
             ticker.tick().await;
             if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
-                if let Some(c) = lock(&shared).controller.as_mut() {
-                    c.stop();
-                }
+                lock(&shared).cancel_goal();
                 c.accept();
                 let _ = handle.cancel(GuardedMove::Result {
                     reason: "canceled".into(),
@@ -57,24 +47,19 @@ pub(super) async fn serve(
                 });
                 break;
             }
-            let (last, force) = {
-                let g = lock(&shared);
-                (g.last.clone(), g.force)
+            // A halt (inputs missing or stale, e.g. right after the goal
+            // rebuilt the controller) pauses the move; the goal ends on the
+            // task's own outcome.
+            let Some(p) = lock(&shared).guarded_progress() else {
+                continue;
             };
-            let Some(out) = last else { continue };
-            // The estimated force on the controlled axis.
-            let axis = out.targets.iter().position(Option::is_some).unwrap_or(2);
-            let force_n = force[axis];
             let _ = handle.publish_feedback(GuardedMove::Feedback {
-                force_n,
-                phase: out.phase.name().into(),
+                force_n: p.force_n,
+                phase: p.phase.name().into(),
             });
-            // A halt (inputs missing or stale, e.g. right after the
-            // goal rebuilt the controller) pauses the move; the goal
-            // ends on the task's own outcome.
-            if let Some(reason) = guarded_outcome(&out) {
+            if let Some(reason) = p.outcome {
                 let result = GuardedMove::Result {
-                    force_n,
+                    force_n: p.force_n,
                     reason: reason.into(),
                     ..Default::default()
                 };
@@ -86,6 +71,6 @@ pub(super) async fn serve(
                 break;
             }
         }
-        lock(&shared).goal_active = false;
+        lock(&shared).end_goal();
     }
 }

@@ -1,24 +1,15 @@
-//! The calibration as a node runs it, whatever the transport (the embedded
-//! runtime, the `force_controller/calibrate` action of the ROS 2 node):
-//!
-//! - [`CalibrateGoal`]: the start-up parameters with the calibration task on
-//!   the surface to press, checked like any scene (its safety envelope);
-//! - [`CalibrationRecorder`]: the F/T wrench becomes the controller's force
-//!   (no model is trusted yet); each wrench is paired with the BioTac reading
-//!   of the same stamp and recorded, labelled with its push; the F/T sensor
-//!   falling silent is noticed.
+//! The calibration's recording, whatever the transport (the embedded
+//! runtime, the `force_controller/calibrate` action): the F/T wrench
+//! becomes the controller's force (no model is trusted yet); each wrench is
+//! paired with the BioTac reading of the same stamp and recorded, labelled
+//! with its push; the F/T sensor falling silent is noticed.
 
 use std::collections::VecDeque;
 
-use super::{ControllerParams, Goal, WrenchEstimate};
 use crate::biotac::BioTacReading;
-use crate::control::{StopReason, TaskKind};
-use crate::params::ParamsError;
+use crate::control::StopReason;
 use crate::record::Record;
-use crate::wrench::{AxisSet, Wrench};
-
-/// The surface pressed when a goal names none: the world's calibration block.
-pub const DEFAULT_SURFACE: &str = "calibration_block";
+use crate::wrench::{Wrench, WrenchEstimate};
 
 /// Without an F/T wrench this long the calibration stops (s).
 pub const FT_STALE_S: f64 = 0.5;
@@ -32,38 +23,6 @@ pub const PAIR_TOLERANCE_S: f64 = 0.005;
 
 /// Readings or wrenches kept while waiting for their pair.
 const UNPAIRED: usize = 16;
-
-/// A calibration goal: the surface to press (empty: [`DEFAULT_SURFACE`]).
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct CalibrateGoal {
-    /// An object of the world file.
-    pub surface: String,
-}
-
-impl Goal for CalibrateGoal {
-    /// The start-up parameters with the calibration task on the goal's
-    /// surface: every force axis (the F/T sensor gives them all), the
-    /// surface as the one body the envelope allows for.
-    fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
-        let mut p = base.clone();
-        if p.calibrate.is_none() {
-            return Err(ParamsError::Invalid {
-                key: "calibrate".into(),
-                value: "absent".into(),
-                expected: "a `calibrate` section in the parameters (config/calibrate.yaml)".into(),
-            });
-        }
-        let surface = match self.surface.as_str() {
-            "" => DEFAULT_SURFACE,
-            s => s,
-        };
-        p.task = TaskKind::Calibrate;
-        p.axes = AxisSet::forces();
-        p.object = surface.to_string();
-        p.safety.objects = vec![surface.to_string()];
-        Ok(p)
-    }
-}
 
 /// How a calibration's motion ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -264,8 +223,6 @@ fn keep_last<T>(q: &mut VecDeque<T>, item: T) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::Robot;
-    use crate::runtime::scene::Scene;
     use nalgebra::Vector3;
 
     fn reading(t: f64, pdc: u16) -> BioTacReading {
@@ -326,40 +283,5 @@ mod tests {
         assert_eq!(e.mean, force(1.0));
         assert!(!r.ft_stale(0.6 + FT_STALE_S - 0.01));
         assert!(r.ft_stale(0.6 + FT_STALE_S));
-    }
-
-    #[test]
-    fn a_goal_presses_its_surface_on_every_force_axis_and_is_checked() {
-        // A node launched for the guarded move, with every task's section.
-        let guarded = Scene::builtin(TaskKind::Guarded).unwrap().controller;
-        let base = ControllerParams {
-            calibrate: Scene::builtin(TaskKind::Calibrate)
-                .unwrap()
-                .controller
-                .calibrate,
-            ..guarded.clone()
-        };
-        let e = CalibrateGoal::default()
-            .apply(&guarded)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("calibrate"), "{e}");
-        let p = CalibrateGoal::default().apply(&base).unwrap();
-        assert_eq!(p.task, TaskKind::Calibrate);
-        assert_eq!(
-            (p.object.as_str(), &p.safety.objects[..]),
-            (DEFAULT_SURFACE, &[DEFAULT_SURFACE.to_string()][..])
-        );
-        assert_eq!(p.axes, AxisSet::forces());
-        CalibrateGoal::default()
-            .start(&base, Robot::pa10())
-            .unwrap();
-        let e = CalibrateGoal {
-            surface: "granite".into(),
-        }
-        .start(&base, Robot::pa10())
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("granite"), "{e}");
     }
 }

@@ -1,0 +1,161 @@
+//! The goals of the node's actions and their life cycle: a guarded move
+//! (`~/guarded_move`) or a calibration (`~/calibrate`) starts the
+//! controller of its task, or is refused with the reason (no robot
+//! description yet, another goal running, a value out of range, a speed
+//! beyond the safety envelope); while it runs, its feedback; when the task
+//! holds or stops, its outcome; a cancel stops the arm where it is; once
+//! ended, a task switch or a new goal may come.
+
+use super::ForceControllerNode;
+use crate::calibration::{CalibrateGoal, CalibrateMove, CalibrationRecorder, Ended};
+use crate::control::{Phase, TaskKind};
+use crate::nodes::guarded_goal::{guarded_outcome, GuardedGoal};
+use crate::nodes::ForceController;
+
+/// The goal running.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Running {
+    /// A guarded move.
+    Guarded,
+    /// A calibration: the F/T wrench is the force.
+    Calibrate,
+}
+
+/// Where a guarded move is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuardedProgress {
+    /// The force along the controlled axis (N).
+    pub force_n: f64,
+    /// The task's phase.
+    pub phase: Phase,
+    /// How it ended ("hold", a stop reason), None while it runs.
+    pub outcome: Option<&'static str>,
+}
+
+/// Where a calibration is.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CalibrationProgress {
+    /// Not stepped yet.
+    Starting,
+    /// Pressing.
+    Running {
+        /// The push running, from 1.
+        push: u32,
+        /// The pushes of the pattern.
+        pushes: u32,
+        /// The task's phase.
+        phase: Phase,
+        /// The F/T force's magnitude (N).
+        force_n: f64,
+    },
+    /// The arm has stopped.
+    Ended(Ended),
+}
+
+impl ForceControllerNode {
+    /// The controller of a goal, if no other goal runs and a description
+    /// has come.
+    fn goal_controller(
+        &self,
+        build: impl FnOnce(&Self, crate::kinematics::Robot) -> Result<ForceController, String>,
+    ) -> Result<ForceController, String> {
+        if self.goal.is_some() {
+            return Err("a goal is running: cancel it first".into());
+        }
+        let robot = self
+            .arm
+            .as_ref()
+            .ok_or("no robot description yet")?
+            .robot
+            .clone();
+        build(self, robot)
+    }
+
+    /// Starts a guarded move, or says why not.
+    pub fn start_guarded(&mut self, goal: &GuardedGoal) -> Result<(), String> {
+        let c = self.goal_controller(|n, robot| {
+            ForceController::for_goal(goal, &n.base, robot).map_err(|e| e.to_string())
+        })?;
+        self.begin(c, Running::Guarded, TaskKind::Guarded);
+        Ok(())
+    }
+
+    /// Starts a calibration at `now` (the F/T sensor's silence is counted
+    /// from then), or says why not.
+    pub fn start_calibration(&mut self, goal: &CalibrateGoal, now: f64) -> Result<(), String> {
+        let c = self.goal_controller(|n, robot| {
+            ForceController::for_goal(goal, &n.base, robot).map_err(|e| e.to_string())
+        })?;
+        self.begin(c, Running::Calibrate, TaskKind::Calibrate);
+        self.calibration = Some(CalibrationRecorder::new(now));
+        tracing::info!("calibrating: pressing the {}", self.base.object);
+        Ok(())
+    }
+
+    fn begin(&mut self, c: ForceController, goal: Running, task: TaskKind) {
+        self.controller = Some(c);
+        self.task = task.name().into();
+        self.goal = Some(goal);
+        self.last = None;
+    }
+
+    /// The guarded move's feedback and outcome; None before its first step.
+    pub fn guarded_progress(&self) -> Option<GuardedProgress> {
+        let out = self.last.as_ref()?;
+        // The estimated force on the controlled axis.
+        let axis = out.targets.iter().position(Option::is_some).unwrap_or(2);
+        Some(GuardedProgress {
+            force_n: self.force[axis],
+            phase: out.phase,
+            outcome: guarded_outcome(out),
+        })
+    }
+
+    /// The calibration's feedback, or how its motion ended: a silent F/T
+    /// sensor halts it at `now`.
+    pub fn calibration_progress(&mut self, now: f64) -> CalibrationProgress {
+        let (Some(c), Some(rec)) = (self.controller.as_mut(), self.calibration.as_ref()) else {
+            return CalibrationProgress::Ended(Ended::Canceled);
+        };
+        if rec.ft_stale(now) {
+            c.stop();
+            return CalibrationProgress::Ended(Ended::FtStale(rec.motion_s()));
+        }
+        let Some(out) = &self.last else {
+            return CalibrationProgress::Starting;
+        };
+        if out.phase == Phase::Stopped {
+            return CalibrationProgress::Ended(Ended::from_stop(out.reason));
+        }
+        let calibration = CalibrateMove::of(c.task());
+        CalibrationProgress::Running {
+            push: calibration
+                .and_then(CalibrateMove::current)
+                .map_or(0, |(i, _)| i as u32 + 1),
+            pushes: calibration.map_or(0, |m| m.pushes().len() as u32),
+            phase: out.phase,
+            force_n: rec.last_force().force.norm(),
+        }
+    }
+
+    /// A goal canceled: the arm stops where it is.
+    pub fn cancel_goal(&mut self) {
+        if let Some(c) = self.controller.as_mut() {
+            c.stop();
+        }
+    }
+
+    /// The calibration's recording, once its arm has stopped: estimates
+    /// are the force again. The goal runs on (its fit) until
+    /// [`ForceControllerNode::end_goal`].
+    pub fn take_recording(&mut self) -> Option<CalibrationRecorder> {
+        self.calibration.take()
+    }
+
+    /// The goal is over (done, aborted, canceled, or never accepted): a
+    /// task switch or a new goal may come.
+    pub fn end_goal(&mut self) {
+        self.goal = None;
+        self.calibration = None;
+    }
+}

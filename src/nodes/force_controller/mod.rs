@@ -1,0 +1,512 @@
+//! The `force_controller` node's logic around the controller, whatever
+//! moves its messages (the ROS 2 adapter, `ros/force_controller.rs`, only
+//! converts them and calls these methods):
+//!
+//! - the arm: the robot description it commands (none: nothing is
+//!   commanded), a new one taken while no task runs and refused while one
+//!   does; the joints' names on `joint_states`;
+//! - the task: the parameter `task`, switched while running, checked as at
+//!   start-up; `calibrate` waits, the arm still, for a calibration goal;
+//! - the goals of its actions and their life cycle ([`goals`]);
+//! - the force: the estimate's mean and std paired by stamp
+//!   ([`estimates`]), or while a calibration records, the F/T wrench
+//!   (moved to the BioTac frame), each paired with its BioTac reading;
+//! - stepping: on each complete estimate, or, with none for a while, a
+//!   halt ([`ForceController::estimate_late`]);
+//! - what changed (logged) and its status (`/diagnostics`).
+
+pub mod estimates;
+pub mod goals;
+
+use nalgebra::Vector3;
+
+use super::controller::task_envelope;
+use super::loop_delay::LoopDelayMonitor;
+use super::status::{Level, Status};
+use super::{joint_names, ControlOutput, ForceController, JointState};
+use crate::biotac::BioTacReading;
+use crate::calibration::{CalibrateGoal, CalibrateMove, CalibrationRecorder};
+use crate::control::{ControllerParams, Phase, TaskKind, TaskRegistry};
+use crate::kinematics::{Robot, RobotError};
+use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
+use crate::wrench::{FrameTransform, Wrench};
+use estimates::EstimatePairing;
+use goals::Running;
+
+/// What the node publishes (the parameter `command_interface`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandInterface {
+    /// Joint velocities on `velocity_controller/commands`.
+    JointVelocities,
+    /// The BioTac's twist on `twist_commands`.
+    Twist,
+}
+
+impl std::str::FromStr for CommandInterface {
+    type Err = ParamsError;
+
+    fn from_str(s: &str) -> Result<Self, ParamsError> {
+        match s {
+            "joint_velocities" => Ok(CommandInterface::JointVelocities),
+            "twist" => Ok(CommandInterface::Twist),
+            other => Err(ParamsError::Invalid {
+                key: "command_interface".into(),
+                value: other.into(),
+                expected: "joint_velocities or twist".into(),
+            }),
+        }
+    }
+}
+
+/// The parameter `ft_to_biotac`: where the F/T sensor sits in the BioTac
+/// frame (roll,pitch,yaw,x,y,z); empty: its wrenches are in it already.
+pub fn ft_to_biotac(text: &str) -> Result<Option<FrameTransform>, ParamsError> {
+    if text.is_empty() {
+        return Ok(None);
+    }
+    text.parse().map(Some).map_err(|e| ParamsError::Invalid {
+        key: "ft_to_biotac".into(),
+        value: text.into(),
+        expected: e,
+    })
+}
+
+/// A wrench and the stamp of its reading (s).
+pub type Stamped = (f64, Wrench);
+
+/// Which message of the force a wrench came on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ForcePart {
+    /// The estimate's mean (`biotac/wrench`).
+    Mean,
+    /// The estimate's std (`biotac/wrench_stddev`).
+    Std,
+    /// The F/T sensor's wrench (`ft_sensor/wrench`), in its own frame.
+    Ft,
+}
+
+/// Why a robot description is refused.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DescriptionError {
+    /// A task runs on the arm in use.
+    #[error(
+        "a task is running (a new description is taken once it has stopped, or with no goal \
+         active)"
+    )]
+    Running,
+    /// Not a chain between the configured links.
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+    /// The joint names, or the task on this arm.
+    #[error(transparent)]
+    Params(#[from] ParamsError),
+}
+
+/// The robot in use: its description, the chain, the joints' names.
+#[derive(Debug, Clone)]
+struct Arm {
+    robot: Robot,
+    description: String,
+    names: Vec<String>,
+}
+
+/// The node's state between messages.
+#[derive(Debug)]
+pub struct ForceControllerNode {
+    base: ControllerParams,
+    tasks: TaskRegistry,
+    /// The `joint_names` parameter (empty: the URDF's).
+    remap: Vec<String>,
+    /// Where the F/T sensor sits in the BioTac frame (None: its wrenches
+    /// are in the BioTac frame already).
+    ft_to_biotac: Option<FrameTransform>,
+    arm: Option<Arm>,
+    /// None until a robot description arrives.
+    controller: Option<ForceController>,
+    /// The task running: the parameter's, or a goal's.
+    task: String,
+    goal: Option<Running>,
+    /// While a calibration runs, its recording: the F/T wrench, not the
+    /// estimate, is then the force.
+    calibration: Option<CalibrationRecorder>,
+    pairing: EstimatePairing,
+    pdc_rise: f64,
+    /// The latest force, BioTac frame (N): the goals' feedback.
+    force: Vector3<f64>,
+    last: Option<ControlOutput>,
+    /// Messages refused: not finite, or not matching the arm.
+    rejected: u64,
+    delays: LoopDelayMonitor,
+    delay_warned: bool,
+}
+
+/// The shipped defaults of the `force_controller` parameters: the guarded
+/// scene on the world's robot defaults (the links empty: the URDF's root
+/// and leaf), with every shipped task's section from its own scene, so
+/// that `task` can switch while running.
+pub fn shipped_defaults() -> Result<FlatParams, ParamsError> {
+    let name = "force_controller";
+    let mut d = layered_flat_params(&[WORLD_YAML, TaskKind::Guarded.scene_yaml()], name)?;
+    for task in TaskKind::ALL {
+        let section = format!("{}.", task.name());
+        let own = layered_flat_params(&[task.scene_yaml()], name)?;
+        for (key, value) in own.into_iter().filter(|(k, _)| k.starts_with(&section)) {
+            if !d.iter().any(|(k, _)| *k == key) {
+                d.push((key, value));
+            }
+        }
+    }
+    Ok(d)
+}
+
+impl ForceControllerNode {
+    /// The node with its start-up parameters, checked (the robot's with the
+    /// description), running a task of `tasks`.
+    pub fn new(
+        base: ControllerParams,
+        tasks: TaskRegistry,
+        remap: Vec<String>,
+        ft_to_biotac: Option<FrameTransform>,
+    ) -> Result<Self, ParamsError> {
+        ForceController::check_with(&base, &tasks)?;
+        Ok(ForceControllerNode {
+            task: base.task.clone(),
+            delays: LoopDelayMonitor::new(base.loop_delays.transport_delay_s),
+            base,
+            tasks,
+            remap,
+            ft_to_biotac,
+            arm: None,
+            controller: None,
+            goal: None,
+            calibration: None,
+            pairing: EstimatePairing::default(),
+            pdc_rise: 0.0,
+            force: Vector3::zeros(),
+            last: None,
+            rejected: 0,
+            delay_warned: false,
+        })
+    }
+
+    /// The start-up parameters.
+    pub fn params(&self) -> &ControllerParams {
+        &self.base
+    }
+
+    /// The controller, once a robot description has come.
+    pub fn controller(&self) -> Option<&ForceController> {
+        self.controller.as_ref()
+    }
+
+    /// The arm's joints on `joint_states`, in chain order (none before a
+    /// description).
+    pub fn joint_names(&self) -> &[String] {
+        self.arm.as_ref().map_or(&[], |a| &a.names)
+    }
+
+    /// True while a task runs: a goal, or a task that has begun and not
+    /// stopped.
+    pub fn running(&self) -> bool {
+        let begun = self
+            .controller
+            .as_ref()
+            .is_some_and(ForceController::started);
+        let stopped = self
+            .last
+            .as_ref()
+            .is_some_and(|o| o.phase == Phase::Stopped);
+        self.goal.is_some() || (begun && !stopped)
+    }
+
+    /// Takes a robot description: the controller is built for its arm with
+    /// the task that runs now. The one in use is taken again without a
+    /// word (Ok(false)); while a task runs, or for a description that is
+    /// refused, the arm in use stays and the reason comes back.
+    pub fn take_description(&mut self, text: &str) -> Result<bool, DescriptionError> {
+        if self.arm.as_ref().is_some_and(|a| a.description == text) {
+            return Ok(false);
+        }
+        if self.running() {
+            return Err(DescriptionError::Running);
+        }
+        let robot = Robot::from_urdf(text, &self.base.robot)?;
+        let names = joint_names(&robot, &self.remap)?;
+        let c = self.built(&self.task, robot.clone())?;
+        tracing::info!(
+            "robot {}: {} -> {}, {} joints {names:?}; commanding it",
+            robot.name,
+            robot.links.0,
+            robot.links.1,
+            robot.dof()
+        );
+        self.controller = Some(c);
+        self.arm = Some(Arm {
+            robot,
+            description: text.into(),
+            names,
+        });
+        self.last = None;
+        Ok(true)
+    }
+
+    /// The controller of `task` outside a goal; the calibration's waits,
+    /// the arm still, for a calibration goal.
+    fn built(&self, task: &str, robot: Robot) -> Result<ForceController, ParamsError> {
+        let p = ControllerParams {
+            task: task.into(),
+            ..self.base.clone()
+        };
+        if task != TaskKind::Calibrate.name() {
+            return ForceController::with_tasks(p, robot, &self.tasks);
+        }
+        let mut c = ForceController::for_goal(&CalibrateGoal::default(), &p, robot)?;
+        c.stop();
+        tracing::info!("task calibrate: the arm waits for a ~/calibrate goal");
+        Ok(c)
+    }
+
+    /// Checks (`apply` false) or applies a new value of the parameter
+    /// `task`; Err says why it is refused.
+    pub fn set_task(&mut self, name: &str, apply: bool) -> Result<(), String> {
+        self.tasks.get(name).map_err(|e| e.to_string())?;
+        if self.goal.is_some() {
+            return Err("a goal is running (guarded_move or calibrate): cancel it first".into());
+        }
+        if name == self.task {
+            return Ok(()); // nothing to change (a stopped task stays stopped)
+        }
+        let c = match &self.arm {
+            Some(arm) => Some(
+                self.built(name, arm.robot.clone())
+                    .map_err(|e| e.to_string())?,
+            ),
+            // Checked now, built when a description arrives.
+            None => {
+                let p = ControllerParams {
+                    task: name.into(),
+                    ..self.base.clone()
+                };
+                let p = if name == TaskKind::Calibrate.name() {
+                    crate::control::Goal::apply(&CalibrateGoal::default(), &p)
+                } else {
+                    Ok(p)
+                };
+                p.and_then(|p| ForceController::check_with(&p, &self.tasks))
+                    .map_err(|e| e.to_string())?;
+                None
+            }
+        };
+        if apply {
+            self.controller = c;
+            self.task = name.into();
+            self.last = None;
+            tracing::info!("task switched to {name}");
+        }
+        Ok(())
+    }
+
+    /// Counts a message refused before it reached the node (`why`).
+    pub fn reject(&mut self, why: &str) {
+        self.rejected += 1;
+        tracing::debug!("refused: {why}");
+    }
+
+    /// Takes the arm's joint positions.
+    pub fn on_joint_state(&mut self, js: &JointState) {
+        let Some(c) = self.controller.as_mut() else {
+            return;
+        };
+        if let Err(e) = c.on_joint_state(js) {
+            self.reject(&format!("joint_states: {e}"));
+        }
+    }
+
+    /// Takes PDC's rise above its tare (counts).
+    pub fn on_pdc_rise(&mut self, counts: f64) {
+        if counts.is_finite() {
+            self.pdc_rise = counts;
+        } else {
+            self.reject("biotac/pdc_rise is not finite");
+        }
+    }
+
+    /// True while BioTac readings are wanted: a calibration records them.
+    pub fn wants_readings(&self) -> bool {
+        self.calibration.is_some()
+    }
+
+    /// Takes a BioTac reading for the calibration's recording.
+    pub fn on_reading(&mut self, r: BioTacReading) {
+        if let Some(rec) = self.calibration.as_mut() {
+            rec.on_reading(r);
+        }
+    }
+
+    /// [`ForceControllerNode::on_force`] for a message as it came: one that
+    /// could not be read (`Err`, why) is counted. True when it stepped.
+    pub fn on_force_msg(
+        &mut self,
+        part: ForcePart,
+        msg: Result<Stamped, String>,
+        now: f64,
+    ) -> bool {
+        match msg {
+            Ok((stamp_s, w)) => self.on_force(part, stamp_s, w, now).is_some(),
+            Err(why) => {
+                self.reject(&why);
+                false
+            }
+        }
+    }
+
+    /// Takes one message of the force (stamped with its reading, BioTac
+    /// frame for the estimate) and steps at `now` when that makes a force:
+    /// the estimate once its mean and std are in; while a calibration runs,
+    /// the F/T wrench instead (moved to the BioTac frame, recorded with the
+    /// push running), the estimates waiting.
+    pub fn on_force(
+        &mut self,
+        part: ForcePart,
+        stamp_s: f64,
+        w: Wrench,
+        now: f64,
+    ) -> Option<&ControlOutput> {
+        let calibrating = self.calibration.is_some();
+        let e = match part {
+            ForcePart::Mean if !calibrating => self.pairing.mean((stamp_s, w), self.pdc_rise),
+            ForcePart::Std if !calibrating => self.pairing.std((stamp_s, w), self.pdc_rise),
+            ForcePart::Ft if calibrating => {
+                let w = self.ft_to_biotac.map_or(w, |t| t.apply(&w));
+                let label = self
+                    .controller
+                    .as_ref()
+                    .and_then(|c| CalibrateMove::of(c.task()))
+                    .and_then(CalibrateMove::label);
+                self.calibration
+                    .as_mut()
+                    .map(|r| r.on_ft(stamp_s, w, label))
+            }
+            _ => None,
+        }?;
+        self.step_on(e, now)
+    }
+
+    /// Hands `e` to the controller and steps it; a refused estimate is
+    /// counted and not stepped on (if none follows, the late-estimate halt
+    /// stops the arm).
+    fn step_on(&mut self, e: crate::wrench::WrenchEstimate, now: f64) -> Option<&ControlOutput> {
+        let c = self.controller.as_mut()?;
+        if let Err(why) = c.on_estimate(e) {
+            self.reject(&format!("estimate: {why}"));
+            return None;
+        }
+        self.force = e.mean.force;
+        self.delays.record(e.stamp_s, now);
+        let out = c.tick(now);
+        Some(self.keep(out))
+    }
+
+    /// No estimate for `waited_s` before `now`: zero velocity, the task
+    /// paused, until estimates return.
+    pub fn on_late(&mut self, now: f64, waited_s: f64) -> Option<&ControlOutput> {
+        let out = self.controller.as_mut()?.estimate_late(now, waited_s);
+        Some(self.keep(out))
+    }
+
+    /// Logs what changed and keeps `out` as the last output.
+    fn keep(&mut self, out: ControlOutput) -> &ControlOutput {
+        let refusal = self.controller.as_ref().and_then(|c| c.refusal());
+        log_change(self.last.as_ref(), &out, refusal);
+        self.last.insert(out)
+    }
+
+    /// What the node runs, for its start-up log line.
+    pub fn summary(&self) -> Result<String, ParamsError> {
+        let p = &self.base;
+        let envelope = task_envelope(p)?.envelope;
+        Ok(format!(
+            "task {} on {}, loop delays {:?}, speed limit {:.1} mm/s (safety envelope for the \
+             stiffest permitted body, {:.1e} N/m)",
+            p.task,
+            p.object,
+            p.loop_delays,
+            envelope.max_speed_mps() * 1e3,
+            envelope.stiffness_n_per_m,
+        ))
+    }
+
+    /// The node's status: task, robot, phase, halt, the loop
+    /// delay it sees against what the gains assume (warned once when it
+    /// goes beyond, and once when it is back), messages refused.
+    pub fn status(&mut self) -> Status {
+        let mut s = Status::ok(self.task.clone());
+        s.value("task", &self.task);
+        match &self.arm {
+            Some(a) => s.value("robot", &a.robot.name),
+            None => s.raise(Level::Warn, ", waiting for the robot description"),
+        }
+        if let Some(out) = &self.last {
+            s.value("phase", out.phase.name());
+            s.raise(Level::Ok, &format!(", {}", out.phase.name()));
+            if let Some(h) = &out.halt {
+                s.raise(Level::Warn, &format!(", halted: {h}"));
+                s.value("halt", h);
+            }
+        }
+        if let Some(r) = self.delays.take_report() {
+            let ms = |v: f64| format!("{:.2}", v * 1e3);
+            s.value("loop_delay_steps", r.steps);
+            s.value("loop_delay_p50_ms", ms(r.p50_s));
+            s.value("loop_delay_p99_ms", ms(r.p99_s));
+            s.value("loop_delay_max_ms", ms(r.max_s));
+            s.value("loop_delay_assumed_ms", ms(r.assumed_s));
+            if r.exceeds_assumed() {
+                s.raise(Level::Warn, "; loop delay beyond what the gains assume");
+            }
+            if r.exceeds_assumed() != self.delay_warned {
+                self.delay_warned = r.exceeds_assumed();
+                if self.delay_warned {
+                    tracing::warn!(
+                        "estimates are {:.1} ms old (p99) when stepped on, beyond the {:.1} ms \
+                         the gains and the safety envelope assume \
+                         (loop_delays.transport_delay_s): the loop may ring; raise it to the \
+                         delay of this deployment",
+                        r.p99_s * 1e3,
+                        r.assumed_s * 1e3
+                    );
+                } else {
+                    tracing::info!("loop delay back within what the gains assume");
+                }
+            }
+        }
+        s.value("rejected", self.rejected);
+        s
+    }
+}
+
+/// Logs a new phase (with the stop reason, and why a task was refused at
+/// its start pose), a halt and the end of a halt.
+fn log_change(before: Option<&ControlOutput>, now: &ControlOutput, refusal: Option<&str>) {
+    let Some(before) = before else {
+        if let Some(why) = refusal {
+            tracing::error!("task refused at its start pose: {why}");
+        }
+        return;
+    };
+    if before.phase != now.phase {
+        match now.reason {
+            Some(r) => tracing::info!("phase {}: {}", now.phase.name(), r.name()),
+            None => tracing::info!("phase {}", now.phase.name()),
+        }
+    }
+    match (&before.halt, &now.halt) {
+        (None, Some(h)) => tracing::warn!("halted, zero velocity: {h}"),
+        (Some(_), None) => tracing::info!("inputs back: the task goes on"),
+        _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests;

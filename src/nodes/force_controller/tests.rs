@@ -1,0 +1,290 @@
+use nalgebra::Vector3;
+
+use super::goals::{CalibrationProgress, GuardedProgress};
+use super::*;
+use crate::calibration::Ended;
+use crate::control::{Halt, StopReason};
+use crate::kinematics::{JointVector, ShippedRobot};
+use crate::nodes::guarded_goal::GuardedGoal;
+use crate::nodes::tasks;
+use crate::params::from_flat_params;
+use crate::runtime::scene::Scene;
+
+/// A node with the shipped defaults (every task's section), as the ROS
+/// node starts.
+fn node(ft_to_biotac: Option<FrameTransform>) -> ForceControllerNode {
+    let base = from_flat_params(&shipped_defaults().unwrap(), "force_controller").unwrap();
+    ForceControllerNode::new(base, tasks::shipped(), Vec::new(), ft_to_biotac).unwrap()
+}
+
+fn pa10() -> &'static str {
+    ShippedRobot::Pa10.urdf()
+}
+
+/// The PA10's start pose of the shipped scenes.
+fn start_pose() -> JointVector {
+    let scene = Scene::builtin(TaskKind::Guarded).unwrap();
+    Robot::pa10()
+        .positions_from_deg_mm("start", scene.sim.start_joints_deg.as_ref().unwrap())
+        .unwrap()
+}
+
+fn joints(t: f64) -> JointState {
+    JointState {
+        stamp_s: t,
+        q: start_pose(),
+    }
+}
+
+fn fz(v: f64) -> Wrench {
+    Wrench::new(Vector3::new(0.0, 0.0, v), Vector3::zeros())
+}
+
+/// One estimate at `t`, both halves: the output when it stepped.
+fn estimate(n: &mut ForceControllerNode, t: f64, force: f64) -> Option<ControlOutput> {
+    n.on_joint_state(&joints(t));
+    let half = n.on_force(ForcePart::Mean, t, fz(force), t + 0.001);
+    assert!(half.is_none(), "half an estimate");
+    n.on_force(ForcePart::Std, t, fz(0.001), t + 0.001).cloned()
+}
+
+#[test]
+fn nothing_is_commanded_before_a_description_and_the_status_says_so() {
+    let mut n = node(None);
+    assert!(n.controller().is_none() && n.joint_names().is_empty());
+    assert!(estimate(&mut n, 0.0, 0.0).is_none());
+    assert!(n.on_late(0.1, 0.015).is_none());
+    let s = n.status();
+    assert_eq!(s.level, Level::Warn);
+    assert!(
+        s.message.contains("waiting for the robot description"),
+        "{s:?}"
+    );
+}
+
+#[test]
+fn a_description_is_taken_once_and_refused_while_a_task_runs() {
+    let mut n = node(None);
+    assert!(n.take_description("<robot").is_err());
+    assert!(
+        n.controller().is_none(),
+        "a refused description commands nothing"
+    );
+    assert!(n.take_description(pa10()).unwrap());
+    assert_eq!(n.joint_names().len(), 7);
+    assert!(!n.take_description(pa10()).unwrap(), "the one in use");
+    // The guarded move begins on its first estimate: another arm is refused.
+    let out = estimate(&mut n, 0.0, 0.0).unwrap();
+    assert_eq!((out.phase, out.halt), (Phase::Approach, None));
+    let five = include_str!("../../../tests/data/five_joint_arm.urdf");
+    let e = n.take_description(five).unwrap_err();
+    assert!(matches!(e, DescriptionError::Running), "{e}");
+    assert_eq!(n.joint_names().len(), 7, "the PA10 stays");
+    // Once the task has stopped, the other arm is taken.
+    n.cancel_goal();
+    estimate(&mut n, 0.01, 0.0);
+    assert!(!n.running());
+    assert!(n.take_description(five).unwrap());
+    assert_eq!(n.joint_names().len(), 5);
+}
+
+#[test]
+fn a_task_switch_is_checked_as_at_start_up_and_refused_during_a_goal() {
+    let mut n = node(None);
+    let e = n.set_task("admittance", true).unwrap_err();
+    assert!(e.contains("guarded, guided or calibrate"), "{e}");
+    // Checked without a description: the guided move's speeds are beyond
+    // the envelope of the guarded scene's wooden box.
+    let e = n.set_task("guided", true).unwrap_err();
+    assert!(
+        e.contains("pd.max_speed_mps") && e.contains("wooden_box"),
+        "{e}"
+    );
+    // Checking alone changes nothing; applying switches.
+    n.set_task("calibrate", false).unwrap();
+    assert_eq!(n.status().values[0], ("task", "guarded".to_string()));
+    n.set_task("calibrate", true).unwrap();
+    assert_eq!(n.status().values[0], ("task", "calibrate".to_string()));
+    // Built with the description: the calibration waits, the arm still.
+    n.take_description(pa10()).unwrap();
+    let out = estimate(&mut n, 0.0, 0.0).unwrap();
+    assert_eq!(out.phase, Phase::Stopped);
+    assert_eq!(n.controller().unwrap().command(), &JointVector::zeros(7));
+    n.set_task("guarded", true).unwrap();
+    n.start_guarded(&GuardedGoal::default()).unwrap();
+    let e = n.set_task("calibrate", true).unwrap_err();
+    assert!(e.contains("cancel it first"), "{e}");
+}
+
+#[test]
+fn an_estimate_steps_once_both_halves_are_in_and_a_late_one_halts() {
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    let out = estimate(&mut n, 0.0, 0.0).unwrap();
+    assert!(
+        out.halt.is_none() && out.velocity.z < 0.0,
+        "approaching: {out:?}"
+    );
+    let out = n.on_late(0.015, 0.015).unwrap().clone();
+    assert!(matches!(out.halt, Some(Halt::Stale { .. })), "{out:?}");
+    assert_eq!(n.controller().unwrap().command(), &JointVector::zeros(7));
+    assert!(n.status().message.contains("halted"));
+    // A refused estimate is counted and not stepped on.
+    n.on_force(ForcePart::Mean, 0.02, fz(f64::NAN), 0.021);
+    assert!(n.on_force(ForcePart::Std, 0.02, fz(0.0), 0.021).is_none());
+    n.on_pdc_rise(f64::INFINITY);
+    let s = n.status();
+    assert_eq!(s.values.last().unwrap(), &("rejected", "2".to_string()));
+}
+
+#[test]
+fn the_status_warns_once_when_estimates_are_older_than_the_gains_assume() {
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    // The embedded defaults assume no transport delay: 1 ms is beyond it.
+    estimate(&mut n, 0.0, 0.0);
+    let s = n.status();
+    assert_eq!(s.level, Level::Warn);
+    assert!(s.message.contains("loop delay beyond"), "{s:?}");
+    assert!(n.delay_warned);
+    let s = n.status();
+    assert!(
+        !s.message.contains("loop delay"),
+        "no steps, no report: {s:?}"
+    );
+}
+
+#[test]
+fn a_guarded_goal_runs_reports_and_ends_and_only_one_goal_at_a_time() {
+    let mut n = node(None);
+    let goal = GuardedGoal::default();
+    let e = n.start_guarded(&goal).unwrap_err();
+    assert!(e.contains("no robot description"), "{e}");
+    n.take_description(pa10()).unwrap();
+    let fast = GuardedGoal {
+        speed_mps: 5.0,
+        ..goal
+    };
+    let e = n.start_guarded(&fast).unwrap_err();
+    assert!(e.contains("approach_speed_mps"), "{e}");
+    n.start_guarded(&goal).unwrap();
+    assert!(n.running());
+    let e = n.start_guarded(&goal).unwrap_err();
+    assert!(e.contains("a goal is running"), "{e}");
+    assert_eq!(n.guarded_progress(), None, "not stepped yet");
+    estimate(&mut n, 0.0, 0.2);
+    let p = n.guarded_progress().unwrap();
+    assert_eq!((p.phase, p.outcome), (Phase::Regulate, None));
+    assert!((p.force_n - 0.2).abs() < 1e-12, "{p:?}");
+    n.cancel_goal();
+    estimate(&mut n, 0.01, 0.2);
+    assert_eq!(
+        n.guarded_progress(),
+        Some(GuardedProgress {
+            force_n: 0.2,
+            phase: Phase::Stopped,
+            outcome: Some("stopped")
+        })
+    );
+    assert!(
+        n.take_recording().is_none(),
+        "a guarded move records nothing"
+    );
+    n.end_goal();
+    n.set_task("calibrate", true).unwrap();
+}
+
+#[test]
+fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
+    // The F/T sensor mounted upside down: its +z is the BioTac's -z.
+    let flipped: FrameTransform = "180,0,0,0,0,0".parse().unwrap();
+    let mut n = node(Some(flipped));
+    n.take_description(pa10()).unwrap();
+    n.start_calibration(&CalibrateGoal::default(), 0.0).unwrap();
+    assert!(n.wants_readings());
+    assert_eq!(n.calibration_progress(0.0), CalibrationProgress::Starting);
+    // Estimates wait; the F/T wrench steps, moved to the BioTac frame.
+    n.on_joint_state(&joints(0.0));
+    assert!(n.on_force(ForcePart::Mean, 0.0, fz(0.0), 0.0).is_none());
+    assert!(n.on_force(ForcePart::Std, 0.0, fz(0.0), 0.0).is_none());
+    let reading = |t: f64| BioTacReading {
+        seq: 0,
+        stamp_s: t,
+        electrodes: [3000; crate::biotac::N_ELECTRODES],
+        pdc: 2000,
+        pac: [2000; crate::biotac::N_PAC],
+        tdc: 1800,
+        tac: 2000,
+    };
+    n.on_reading(reading(0.0));
+    let out = n.on_force(ForcePart::Ft, 0.0, fz(-0.01), 0.001).unwrap();
+    assert_eq!(out.phase, Phase::Rest);
+    match n.calibration_progress(0.001) {
+        CalibrationProgress::Running {
+            push,
+            pushes,
+            force_n,
+            ..
+        } => assert_eq!((push, pushes, force_n), (1, 24, 0.01)),
+        other => panic!("{other:?}"),
+    }
+    // Over the rest's force the calibration stops in contact.
+    n.on_reading(reading(0.01));
+    n.on_force(ForcePart::Ft, 0.01, fz(-1.0), 0.011);
+    assert_eq!(
+        n.calibration_progress(0.011),
+        CalibrationProgress::Ended(Ended::Stopped(StopReason::InContact))
+    );
+    let rec = n.take_recording().unwrap();
+    assert_eq!(rec.records().len(), 2, "each wrench with its reading");
+    assert!((rec.records()[1].wrench.force.z - 1.0).abs() < 1e-12);
+    assert!(!n.wants_readings(), "estimates are the force again");
+    let e = n.set_task("guarded", true).unwrap_err();
+    assert!(
+        e.contains("cancel it first"),
+        "the fit is part of the goal: {e}"
+    );
+    n.end_goal();
+    assert!(!n.running());
+}
+
+#[test]
+fn a_silent_ft_sensor_halts_the_calibration() {
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    n.start_calibration(&CalibrateGoal::default(), 1.0).unwrap();
+    assert_eq!(n.calibration_progress(1.2), CalibrationProgress::Starting);
+    assert_eq!(
+        n.calibration_progress(1.5),
+        CalibrationProgress::Ended(Ended::FtStale(0.0))
+    );
+    n.end_goal();
+    // Without the calibration, the F/T wrench is not the force.
+    assert!(n.on_force(ForcePart::Ft, 1.6, fz(0.0), 1.6).is_none());
+}
+
+#[test]
+fn the_adapter_parameters_are_parsed_or_named() {
+    assert_eq!(
+        "twist".parse::<CommandInterface>().unwrap(),
+        CommandInterface::Twist
+    );
+    let e = "torque"
+        .parse::<CommandInterface>()
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("command_interface") && e.contains("joint_velocities or twist"),
+        "{e}"
+    );
+    assert_eq!(ft_to_biotac("").unwrap(), None);
+    assert!(ft_to_biotac("0,0,90,0,0,0.05").unwrap().is_some());
+    let e = ft_to_biotac("0,0,90").unwrap_err().to_string();
+    assert!(e.contains("ft_to_biotac"), "{e}");
+    let n = node(None);
+    let s = n.summary().unwrap();
+    assert!(
+        s.contains("task guarded") && s.contains("speed limit"),
+        "{s}"
+    );
+}

@@ -1,0 +1,106 @@
+//! The loop of `force_controller`: it steps the node on each force message
+//! and publishes the command; with no estimate for 1.5 periods it halts
+//! the arm, every period; once a second it publishes the node's status.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use futures::stream::BoxStream;
+use futures::StreamExt;
+use r2r::diagnostic_msgs::msg::DiagnosticArray;
+use r2r::geometry_msgs::msg::{TwistStamped, WrenchStamped};
+use r2r::std_msgs::msg::Float64MultiArray;
+
+use super::lock;
+use crate::nodes::force_controller::{CommandInterface, ForceControllerNode, ForcePart, Stamped};
+use crate::ros::{convert, RosClock, RosError};
+
+/// A force message as the node takes it.
+pub(super) type ForceMsg = (ForcePart, Result<Stamped, String>);
+
+/// Publishes the command of the last step, in the node's interface.
+pub(super) struct Commands {
+    pub(super) interface: CommandInterface,
+    pub(super) joints: r2r::Publisher<Float64MultiArray>,
+    pub(super) twists: r2r::Publisher<TwistStamped>,
+}
+
+impl Commands {
+    fn publish(&self, n: &ForceControllerNode, now: f64) {
+        let Some(c) = n.controller() else { return };
+        let sent = match self.interface {
+            CommandInterface::JointVelocities => {
+                self.joints.publish(&convert::commands_msg(c.command()))
+            }
+            CommandInterface::Twist => {
+                let frame = &c.robot().links.0;
+                self.twists
+                    .publish(&convert::twist_msg(now, frame, c.twist()))
+            }
+        };
+        if let Err(e) = sent {
+            tracing::warn!("command: {e}");
+        }
+    }
+}
+
+/// A force topic's messages as the node takes them.
+pub(super) fn force(
+    topic: impl futures::Stream<Item = WrenchStamped> + Send + 'static,
+    part: ForcePart,
+    name: &'static str,
+) -> BoxStream<'static, ForceMsg> {
+    topic
+        .map(move |m| {
+            (
+                part,
+                convert::wrench_from_msg(&m, name).map_err(|e| e.to_string()),
+            )
+        })
+        .boxed()
+}
+
+/// Steps the node until the force topics end.
+pub(super) async fn run(
+    shared: Arc<Mutex<ForceControllerNode>>,
+    mut forces: impl futures::Stream<Item = ForceMsg> + Unpin,
+    commands: Commands,
+    diagnostics: r2r::Publisher<DiagnosticArray>,
+    clock: RosClock,
+    period: Duration,
+) -> Result<(), RosError> {
+    let wait = period.mul_f64(1.5);
+    let mut deadline = tokio::time::Instant::now() + wait;
+    let mut report = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        // Each step publishes under the lock it ran in, so that a goal or
+        // a task switch in between cannot see the old command.
+        tokio::select! {
+            part = forces.next() => {
+                let Some((part, msg)) = part else { return Ok(()) };
+                let now = clock.now_s();
+                let mut n = lock(&shared);
+                if n.on_force_msg(part, msg, now) {
+                    deadline = tokio::time::Instant::now() + wait;
+                    commands.publish(&n, now);
+                }
+            }
+            // No estimate for 1.5 periods: zero velocity, every period.
+            _ = tokio::time::sleep_until(deadline) => {
+                deadline = tokio::time::Instant::now() + period;
+                let now = clock.now_s();
+                let mut n = lock(&shared);
+                if n.on_late(now, wait.as_secs_f64()).is_some() {
+                    commands.publish(&n, now);
+                }
+            }
+            _ = report.tick() => {
+                let status = lock(&shared).status();
+                let msg = convert::status_msg(clock.now_s(), "force_controller", "", status);
+                if let Err(e) = diagnostics.publish(&msg) {
+                    tracing::warn!("diagnostics: {e}");
+                }
+            }
+        }
+    }
+}

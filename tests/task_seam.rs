@@ -1,0 +1,172 @@
+//! The task seam is open: a task defined here, outside the crate, runs in
+//! the closed loop through its registration alone.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use tactile_force::contact::BodyParams;
+use tactile_force::control::task::{TaskInput, TaskLoop};
+use tactile_force::control::{
+    Envelope, Phase, StopReason, Task, TaskEnvelope, TaskKind, TaskSection,
+};
+use tactile_force::kinematics::Twist;
+use tactile_force::nodes::tasks;
+use tactile_force::params::{Check, Checked, ParamsError};
+use tactile_force::runtime::{run, Pacing, Scene};
+use tactile_force::wrench::Axis;
+
+mod common;
+use common::model;
+
+/// The section `hold_still:` of the controller's parameters.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HoldStillParams {
+    /// How long to hold still (s).
+    seconds: f64,
+}
+
+impl Check for HoldStillParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
+        if self.seconds > 0.0 {
+            return Ok(self);
+        }
+        Err(ParamsError::Invalid {
+            key: format!("{key}.seconds"),
+            value: self.seconds.to_string(),
+            expected: "> 0".into(),
+        })
+    }
+}
+
+/// Holds the BioTac still for a while, then stops.
+#[derive(Debug, Clone)]
+struct HoldStill {
+    left_s: f64,
+}
+
+impl TaskSection for HoldStillParams {
+    const NAME: &'static str = "hold_still";
+
+    fn build(p: Checked<Self>, _: &TaskLoop, _: &BodyParams) -> Box<dyn Task> {
+        Box::new(HoldStill { left_s: p.seconds })
+    }
+
+    fn envelope(
+        _: &Checked<Self>,
+        lp: &TaskLoop,
+        body: &BodyParams,
+        name: &str,
+    ) -> Result<TaskEnvelope, ParamsError> {
+        Ok(TaskEnvelope {
+            envelope: Envelope {
+                skin: **lp.skin,
+                stiffness_n_per_m: body.stiffness_n_per_m,
+                shear: false,
+                trigger_n: 0.1,
+                target_n: 0.1,
+                limit_n: 1.0,
+                reaction_s: lp.reaction_s(),
+            },
+            body: name.into(),
+            key: "hold_still",
+            speed_mps: 0.0,
+        })
+    }
+}
+
+impl Task for HoldStill {
+    fn step(&mut self, i: &TaskInput) -> Twist {
+        self.left_s -= i.dt;
+        Twist::zeros()
+    }
+
+    fn phase(&self) -> Phase {
+        if self.left_s > 0.0 {
+            Phase::Hold
+        } else {
+            Phase::Stopped
+        }
+    }
+
+    fn reason(&self) -> Option<StopReason> {
+        None
+    }
+
+    fn targets(&self) -> [Option<f64>; 3] {
+        [None; 3]
+    }
+
+    fn gains(&self) -> [Option<f64>; 3] {
+        [None; 3]
+    }
+
+    fn directions(&self) -> Vec<(String, Vector3<f64>)> {
+        Vec::new()
+    }
+
+    fn force_axes(&self) -> Vec<Axis> {
+        Vec::new()
+    }
+
+    fn pause(&mut self) {}
+
+    fn stop(&mut self) {
+        self.left_s = 0.0;
+    }
+
+    fn stop_on(&mut self, _: StopReason) {
+        self.left_s = 0.0;
+    }
+}
+
+/// The guarded scene with the task `hold_still` for 1 s.
+fn hold_still_scene() -> Scene {
+    let mut scene = Scene::builtin(TaskKind::Guarded).unwrap();
+    scene.controller.task = "hold_still".into();
+    scene
+        .controller
+        .set_section(&HoldStillParams { seconds: 1.0 });
+    scene
+}
+
+#[test]
+fn a_task_defined_outside_runs_in_the_closed_loop_through_its_registration_alone() {
+    let scene = hold_still_scene().with_tasks(tasks::shipped().with::<HoldStillParams>());
+    let mut nodes = scene.build(model(), &Default::default(), 1).unwrap();
+    let rows = run(&mut nodes, Pacing::Lockstep, &mut |_| {}).unwrap();
+    // It holds from its first fresh inputs (the estimator's tare first),
+    // for a second, then stops; the arm never moves.
+    let first = rows.iter().position(|r| !r.halted).unwrap();
+    let stop = rows.iter().position(|r| r.phase == Phase::Stopped).unwrap();
+    let held_s = rows[stop].t - rows[first].t;
+    assert!((held_s - 1.0).abs() < 0.011, "held {held_s} s");
+    assert!(rows[first..stop].iter().all(|r| r.phase == Phase::Hold));
+    assert!(rows.iter().all(|r| r.commanded == Vector3::zeros()));
+    let moved = rows.iter().map(|r| r.offset.norm()).fold(0.0, f64::max);
+    assert!(moved < 1e-9, "moved {moved} m");
+}
+
+#[test]
+fn without_its_registration_the_task_and_its_section_are_refused_by_name() {
+    let e = hold_still_scene().check().unwrap_err().to_string();
+    assert!(
+        e.contains("hold_still") && e.contains("guarded, guided or calibrate"),
+        "{e}"
+    );
+    // The section of a task nobody registered, beside a shipped task.
+    let mut scene = hold_still_scene();
+    scene.controller.task = "guarded".into();
+    let e = scene.check().unwrap_err().to_string();
+    assert!(
+        e.contains("hold_still") && e.contains("the section of a task"),
+        "{e}"
+    );
+    // Registered, its own checks apply.
+    let mut scene = hold_still_scene().with_tasks(tasks::shipped().with::<HoldStillParams>());
+    scene
+        .controller
+        .set_section(&HoldStillParams { seconds: -1.0 });
+    let e = scene.check().unwrap_err().to_string();
+    assert!(e.contains("hold_still.seconds"), "{e}");
+}
