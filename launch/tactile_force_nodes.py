@@ -12,11 +12,11 @@ ROBOTS = ("pa10", "ur5", "panda")
 def param_files(scene, robot="pa10"):
     """Parameter files, in config/, layered in this order (later wins): the
     world (every robot's defaults), the shipped robot's file (none for a
-    URDF of the user's: robot=None), the scene, the ROS deployment."""
+    URDF of the user's: robot=None), the scene."""
     if robot is not None and robot not in ROBOTS:
         raise ValueError(f"robot {robot!r}: expected one of {', '.join(ROBOTS)} or a URDF file")
     robot_file = [] if robot is None else [f"{robot}.yaml"]
-    return ["world.yaml"] + robot_file + [scene, "ros2.yaml"]
+    return ["world.yaml"] + robot_file + [scene]
 
 
 def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_factor=1.0,

@@ -22,10 +22,10 @@ use std::any::Any;
 use nalgebra::{Isometry3, Rotation3, Vector3};
 
 use super::pattern::{pattern, CalibrateParams, Push, PushKind};
-use crate::contact::{series_stiffness, BodyParams, SkinParams};
+use crate::contact::BodyParams;
 use crate::control::guarded::{GuardedInput, GuardedMove, GuardedParams};
-use crate::control::task::{Task, TaskEnvelope, TaskInput, TaskLoop, TaskSection};
-use crate::control::{Envelope, LoopDelays, PdParams, Phase, StopReason};
+use crate::control::task::{ForceLaw, Task, TaskEnvelope, TaskInput, TaskLoop, TaskSection};
+use crate::control::{Envelope, Phase, StopReason};
 use crate::kinematics::Twist;
 use crate::params::{Check, Checked, ParamsError};
 use crate::wrench::Axis;
@@ -54,26 +54,13 @@ fn linear(v: Vector3<f64>) -> Twist {
     Twist::new(v.x, v.y, v.z, 0.0, 0.0, 0.0)
 }
 
-/// What the calibration needs of the loop to build each press's guarded move.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PressLoop {
-    /// The BioTac skin law.
-    pub skin: Checked<SkinParams>,
-    /// The calibration block.
-    pub body: BodyParams,
-    /// The PD law.
-    pub pd: Checked<PdParams>,
-    /// The loop's delays.
-    pub delays: Checked<LoopDelays>,
-    /// The control period (s).
-    pub period_s: f64,
-}
-
 /// The calibration's state machine.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrateMove {
     p: CalibrateParams,
-    press: PressLoop,
+    law: ForceLaw,
+    /// The block's stiffness: the prior, then each press's fit (N/m).
+    block_n_per_m: f64,
     pushes: Vec<Push>,
     /// The push running (index into `pushes`).
     push: usize,
@@ -91,14 +78,16 @@ pub struct CalibrateMove {
 const TILT_TOLERANCE_RAD: f64 = 0.2 * std::f64::consts::PI / 180.0;
 
 impl CalibrateMove {
-    /// The calibration of checked parameters on the loop `press`.
-    pub fn new(p: Checked<CalibrateParams>, press: PressLoop) -> Self {
+    /// The calibration of checked parameters in the loop of `law`, the
+    /// block assumed `block_n_per_m` stiff until a press has fitted it.
+    pub fn new(p: Checked<CalibrateParams>, law: ForceLaw, block_n_per_m: f64) -> Self {
         let p = (*p).clone();
         let pushes = pattern(&p);
         let rest = p.rest_s;
         CalibrateMove {
             p,
-            press,
+            law,
+            block_n_per_m,
             pushes,
             push: 0,
             stage: Stage::Rest(rest),
@@ -171,15 +160,15 @@ impl CalibrateMove {
             contact_pdc_counts: f64::MAX,
             force_limit_n: self.p.force_limit_n,
             max_distance_m: self.p.max_distance_m,
+            max_approach_s: 2.0 * self.p.max_distance_m / self.p.approach_speed_mps,
             retract_speed_mps: self.p.approach_speed_mps,
             retract_distance_m: self.p.clearance_m,
             settle_band_n: (0.05 * target).max(0.05),
             settle_time_s: 0.1,
+            settle_sd_n: (0.025 * target).max(0.02),
         }
         .checked("calibrate")?;
-        let l = &self.press;
-        let k = series_stiffness(&l.skin, &l.body, target);
-        Ok(GuardedMove::new(g, &l.pd, k, l.period_s, &l.delays))
+        Ok(GuardedMove::new(g, &self.law, self.block_n_per_m))
     }
 
     /// Turns about the BioTac's axis to the roll `to` (rad, from the
@@ -234,6 +223,9 @@ impl CalibrateMove {
         let before = g.phase();
         let speed = g.speed(&self.guarded_input(&g, i, travelled));
         let v = linear(into * speed);
+        if let Some(block) = g.body() {
+            self.block_n_per_m = block;
+        }
         if before == Phase::Approach && g.phase() != Phase::Approach {
             self.touched_m = travelled;
         }
@@ -266,12 +258,18 @@ impl CalibrateMove {
 
     /// The guarded move's input: the F/T force along its direction.
     fn guarded_input(&self, g: &GuardedMove, i: &TaskInput, travelled: f64) -> GuardedInput {
+        // The block's normal, into it, and where the push started.
+        let into = i.start.rotation * -Vector3::z();
+        let from = self.from.unwrap_or(i.pose.translation.vector);
         GuardedInput {
             force_n: -g.direction().dot(i.force),
             pdc_rise: i.pdc_rise,
             travelled_m: travelled,
             out_of_range: i.out_of_range,
             dt: i.dt,
+            fresh: i.fresh,
+            position_m: i.force_position.map(|p| (p - from).dot(&into)),
+            timing: *i.timing,
         }
     }
 }
@@ -279,18 +277,10 @@ impl CalibrateMove {
 impl TaskSection for CalibrateParams {
     const NAME: &'static str = "calibrate";
 
-    /// Each press's gains for a contact with `body`, the calibration block.
+    /// Each press's gains for `body`, the calibration block, until a press
+    /// has fitted it.
     fn build(p: Checked<Self>, lp: &TaskLoop, body: &BodyParams) -> Box<dyn Task> {
-        Box::new(CalibrateMove::new(
-            p,
-            PressLoop {
-                skin: *lp.skin,
-                body: *body,
-                pd: *lp.pd,
-                delays: *lp.delays,
-                period_s: lp.period_s,
-            },
-        ))
+        Box::new(CalibrateMove::new(p, lp.law(), body.stiffness_n_per_m))
     }
 
     /// The approach of a press to the pattern's largest force.

@@ -1,13 +1,28 @@
-//! The guarded move: approach along a direction at a set speed until contact,
-//! then regulate the force to the target and hold it; retract and stop above
-//! the force limit; stop with a timeout when nothing is touched within the
-//! approach distance.
+//! The guarded move: approach along a direction at a set speed until
+//! contact, then regulate the force to the target and hold it; retract and
+//! stop above the force limit, on an input outside what the estimator
+//! knows, or on an oscillation the lowered gain did not end; stop when
+//! nothing is touched within the travel or the time of the approach.
 //!
 //! ```text
-//!  Approach --F >= contact or PDC rise--> Regulate <--band--> Hold
-//!     |  \--travelled > max distance (any of the three)--> Stopped(timeout)
-//!     \-- F > limit or out of range --> Retract --retracted--> Stopped(reason)
+//!  Approach --F >= contact or PDC rise--> Regulate <--settled--> Hold
+//!     |  |  \--travelled > max distance (any phase)--> Stopped(travel_limit)
+//!     |  \--approaching for max_approach_s--> Stopped(timeout)
+//!     \-- F > limit, out of range, oscillating --> Retract --retracted--> Stopped(reason)
 //! ```
+//!
+//! Nothing is declared: the gain is set for the contact as it is measured
+//! (the body behind the skin fitted from force against position in the
+//! first tens of milliseconds of contact, [`ContactStiffness`]) and for the
+//! loop's measured timing ([`PdAxis::tune`]); until then, for the stiffest
+//! body the scene permits and the delays' bounds. An approach in a loop
+//! slower than the safety envelope assumed slows by the same share. A
+//! sustained oscillation ([`OscillationDetector`]) halves the gain; a second
+//! one retracts.
+//!
+//! Settled is the pressing force within `settle_band_n` of the target for
+//! `settle_time_s` of estimates, with a standard deviation of at most
+//! `settle_sd_n` over them: `hold` is true of the force, not of a moment.
 //!
 //! Sign convention: the task works on the pressing force (the force along
 //! minus the approach direction) and returns a speed along the approach
@@ -16,10 +31,15 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::pd::{LoopDelays, PdAxis, PdParams};
-use super::task::{translation, Task, TaskEnvelope, TaskInput, TaskLoop, TaskSection};
+use super::identify::ContactStiffness;
+use super::oscillation::OscillationDetector;
+use super::pd::PdAxis;
+use super::task::{
+    translation, ForceLaw, Task, TaskEnvelope, TaskFigures, TaskInput, TaskLoop, TaskSection,
+};
+use super::tuning::LoopTiming;
 use super::{Envelope, Phase, StopReason};
-use crate::contact::{series_stiffness, BodyParams};
+use crate::contact::BodyParams;
 use crate::kinematics::Twist;
 use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
 use crate::wrench::Axis;
@@ -41,16 +61,21 @@ pub struct GuardedParams {
     pub contact_pdc_counts: f64,
     /// Estimated force above which the move retracts and stops (N).
     pub force_limit_n: f64,
-    /// Approach distance after which the move stops with a timeout (m).
+    /// Travel along the direction after which the move stops (m).
     pub max_distance_m: f64,
+    /// Time of approach without contact after which the move stops (s).
+    pub max_approach_s: f64,
     /// Retract speed (m/s).
     pub retract_speed_mps: f64,
     /// Distance to retract after the force limit (m).
     pub retract_distance_m: f64,
     /// Force band around the target that counts as settled (N).
     pub settle_band_n: f64,
-    /// Time inside the band before the phase is Hold (s).
+    /// Estimates within the band, over this time, before the phase is
+    /// Hold (s).
     pub settle_time_s: f64,
+    /// Largest standard deviation of the force over that time (N).
+    pub settle_sd_n: f64,
 }
 
 /// Normalises the direction.
@@ -81,10 +106,12 @@ impl Check for GuardedParams {
             ));
         }
         positive(&name("max_distance_m"), self.max_distance_m)?;
+        positive(&name("max_approach_s"), self.max_approach_s)?;
         positive(&name("retract_speed_mps"), self.retract_speed_mps)?;
         non_negative(&name("retract_distance_m"), self.retract_distance_m)?;
         positive(&name("settle_band_n"), self.settle_band_n)?;
         non_negative(&name("settle_time_s"), self.settle_time_s)?;
+        positive(&name("settle_sd_n"), self.settle_sd_n)?;
         Ok(self)
     }
 }
@@ -102,36 +129,103 @@ pub struct GuardedInput {
     pub out_of_range: bool,
     /// Time since the previous cycle (s).
     pub dt: f64,
+    /// True when the force is a new estimate.
+    pub fresh: bool,
+    /// Position along the approach when the force's reading was taken (m),
+    /// when known.
+    pub position_m: Option<f64>,
+    /// The loop's timing as measured.
+    pub timing: LoopTiming,
+}
+
+/// The forces of the last settling time (estimates, one a period).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SettleWindow {
+    forces: Vec<f64>,
+    next: usize,
+    full: bool,
+}
+
+impl SettleWindow {
+    /// A window of `n` forces (at least one), allocated once.
+    pub fn new(n: usize) -> Self {
+        SettleWindow {
+            forces: vec![0.0; n.max(1)],
+            next: 0,
+            full: false,
+        }
+    }
+
+    /// Adds the newest force.
+    pub fn push(&mut self, f: f64) {
+        self.forces[self.next] = f;
+        self.next = (self.next + 1) % self.forces.len();
+        self.full |= self.next == 0;
+    }
+
+    /// Forgets the forces.
+    pub fn clear(&mut self) {
+        self.next = 0;
+        self.full = false;
+    }
+
+    /// The standard deviation of the window's forces, once full (N).
+    pub fn sd(&self) -> Option<f64> {
+        if !self.full {
+            return None;
+        }
+        let n = self.forces.len() as f64;
+        let mean = self.forces.iter().sum::<f64>() / n;
+        let var = self.forces.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / n;
+        Some(var.sqrt())
+    }
+
+    /// True when the window is full and every force is within `band` of
+    /// `target`.
+    pub fn within(&self, target: f64, band: f64) -> bool {
+        self.full && self.forces.iter().all(|f| (f - target).abs() <= band)
+    }
 }
 
 /// The guarded-move state machine.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GuardedMove {
     p: GuardedParams,
+    law: ForceLaw,
     pd: PdAxis,
+    stiffness: ContactStiffness,
+    /// The body's stiffness assumed until fitted (N/m).
+    prior_body: f64,
+    watchdog: OscillationDetector,
+    softened: u32,
+    settle: SettleWindow,
+    /// Time since the last fresh estimate (s).
+    since_fresh_s: f64,
     phase: Phase,
     reason: Option<StopReason>,
-    in_band_s: f64,
+    approach_s: f64,
     retract_from_m: f64,
 }
 
 impl GuardedMove {
-    /// A move with checked parameters, its PD law for a contact of effective
-    /// stiffness `stiffness` (N/m) at control period `period_s` in a loop
-    /// with these delays ([`PdAxis::new`]).
-    pub fn new(
-        p: Checked<GuardedParams>,
-        pd: &Checked<PdParams>,
-        stiffness: f64,
-        period_s: f64,
-        delays: &Checked<LoopDelays>,
-    ) -> Self {
+    /// A move with checked parameters in the loop of `law`, assuming a
+    /// body of stiffness `prior_body` (N/m) until it has fitted the one it
+    /// touches.
+    pub fn new(p: Checked<GuardedParams>, law: &ForceLaw, prior_body: f64) -> Self {
+        let window = (p.settle_time_s / law.period_s).round() as usize;
         GuardedMove {
-            pd: PdAxis::new(pd, stiffness, period_s, 0.0, delays),
+            pd: PdAxis::new(&law.pd, 0.0),
+            stiffness: ContactStiffness::new(law.skin),
+            prior_body,
+            watchdog: OscillationDetector::new(law.oscillation.threshold_n),
+            softened: 0,
+            settle: SettleWindow::new(window),
+            since_fresh_s: 0.0,
+            law: *law,
             p: *p,
             phase: Phase::Approach,
             reason: None,
-            in_band_s: 0.0,
+            approach_s: 0.0,
             retract_from_m: 0.0,
         }
     }
@@ -151,10 +245,37 @@ impl GuardedMove {
         &self.pd
     }
 
+    /// The body's stiffness fitted so far (N/m; infinite: rigid).
+    pub fn body(&self) -> Option<f64> {
+        self.stiffness.body()
+    }
+
+    /// The approach speed in a loop whose measured reaction time is
+    /// `reaction_s`: slower by the share it exceeds what the safety
+    /// envelope assumed, so that the force still peaks within its limit.
+    fn approach_speed(&self, reaction_s: f64) -> f64 {
+        self.p.approach_speed_mps * (self.law.reaction_s / reaction_s).min(1.0)
+    }
+
+    fn retract(&mut self, reason: StopReason, travelled_m: f64) {
+        self.phase = Phase::Retract;
+        self.reason = Some(reason);
+        self.retract_from_m = travelled_m;
+    }
+
+    fn stop_with(&mut self, reason: StopReason) -> f64 {
+        self.phase = Phase::Stopped;
+        self.reason = Some(reason);
+        0.0
+    }
+
     /// One cycle: the speed along the approach direction (m/s).
     pub fn speed(&mut self, i: &GuardedInput) -> f64 {
         let p = self.p;
+        let k = self.stiffness.effective(p.target_force_n, self.prior_body);
+        self.pd.tune(k, &i.timing);
         let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
+        self.since_fresh_s += i.dt;
         let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
         // An estimate outside what the GP knows says nothing about the
         // force, so it is not read as over the limit.
@@ -164,31 +285,30 @@ impl GuardedMove {
             (i.force_n > p.force_limit_n).then_some(StopReason::ForceLimit)
         };
         if let (true, Some(reason)) = (active, abort) {
-            self.phase = Phase::Retract;
-            self.reason = Some(reason);
-            self.retract_from_m = i.travelled_m;
+            self.retract(reason, i.travelled_m);
         }
+        let reaction_s = i.timing.period_s + i.timing.transport_s + i.timing.arm_s();
         match self.phase {
             Phase::Approach => {
+                self.approach_s += i.dt;
                 if i.force_n >= p.contact_force_n || i.pdc_rise >= p.contact_pdc_counts {
                     self.phase = Phase::Regulate;
-                    return self.regulate(u, i);
+                    return self.regulate(u, i, reaction_s);
                 }
                 if i.travelled_m >= p.max_distance_m {
-                    self.phase = Phase::Stopped;
-                    self.reason = Some(StopReason::Timeout);
-                    return 0.0;
+                    return self.stop_with(StopReason::TravelLimit);
                 }
-                p.approach_speed_mps
+                if self.approach_s >= p.max_approach_s {
+                    return self.stop_with(StopReason::Timeout);
+                }
+                self.approach_speed(reaction_s)
             }
             // Never further than the approach distance, even in contact
             // (a PDC rise can mean a touch away from the approach direction).
             Phase::Regulate | Phase::Hold if i.travelled_m >= p.max_distance_m => {
-                self.phase = Phase::Stopped;
-                self.reason = Some(StopReason::Timeout);
-                0.0
+                self.stop_with(StopReason::TravelLimit)
             }
-            Phase::Regulate | Phase::Hold => self.regulate(u, i),
+            Phase::Regulate | Phase::Hold => self.regulate(u, i, reaction_s),
             Phase::Retract => {
                 if i.travelled_m <= self.retract_from_m - p.retract_distance_m {
                     self.phase = Phase::Stopped;
@@ -200,28 +320,54 @@ impl GuardedMove {
         }
     }
 
-    fn regulate(&mut self, u: f64, i: &GuardedInput) -> f64 {
-        if (i.force_n - self.p.target_force_n).abs() <= self.p.settle_band_n {
-            self.in_band_s += i.dt;
-        } else {
-            self.in_band_s = 0.0;
+    /// In contact: the stiffness fit, the watchdog and the settling window
+    /// take each new estimate; the speed is the PD's, never towards the
+    /// object faster than the approach.
+    fn regulate(&mut self, u: f64, i: &GuardedInput, reaction_s: f64) -> f64 {
+        let p = self.p;
+        if i.fresh {
+            if let (Some(x), true) = (i.position_m, i.force_n >= p.contact_force_n) {
+                self.stiffness.push(x, i.force_n);
+            }
+            let dt = std::mem::take(&mut self.since_fresh_s);
+            if self.watchdog.step(i.force_n, dt) {
+                let hz = self.watchdog.frequency_hz();
+                if self.softened > 0 {
+                    tracing::warn!(
+                        "the force oscillates again at {hz:.1} Hz with the gain lowered: \
+                         retracting"
+                    );
+                    self.retract(StopReason::Oscillating, i.travelled_m);
+                    return -p.retract_speed_mps;
+                }
+                self.softened += 1;
+                self.pd.soften(self.law.oscillation.gain_factor);
+                self.settle.clear();
+                tracing::warn!(
+                    "the force oscillates at {hz:.1} Hz: gain lowered by a factor {}",
+                    self.law.oscillation.gain_factor
+                );
+            }
+            self.settle.push(i.force_n);
         }
-        self.phase = if self.in_band_s >= self.p.settle_time_s {
+        let settled = self.settle.within(p.target_force_n, p.settle_band_n)
+            && self.settle.sd().is_some_and(|sd| sd <= p.settle_sd_n);
+        self.phase = if settled {
             Phase::Hold
         } else {
             Phase::Regulate
         };
-        // Never towards the object faster than the approach.
-        u.min(self.p.approach_speed_mps)
+        u.min(self.approach_speed(reaction_s))
     }
 }
 
 impl TaskSection for GuardedParams {
     const NAME: &'static str = "guarded";
 
+    /// The gains for `body` (the stiffest the scene permits) until the
+    /// contact is measured.
     fn build(p: Checked<Self>, lp: &TaskLoop, body: &BodyParams) -> Box<dyn Task> {
-        let k = series_stiffness(lp.skin, body, p.target_force_n);
-        Box::new(GuardedMove::new(p, lp.pd, k, lp.period_s, lp.delays))
+        Box::new(GuardedMove::new(p, &lp.law(), body.stiffness_n_per_m))
     }
 
     fn envelope(
@@ -253,12 +399,16 @@ impl Task for GuardedMove {
     fn step(&mut self, i: &TaskInput) -> Twist {
         let d_tool = self.direction();
         let d_world = i.start.rotation * d_tool;
+        let along = |p: &Vector3<f64>| (p - i.start.translation.vector).dot(&d_world);
         let input = GuardedInput {
             force_n: -d_tool.dot(i.force),
             pdc_rise: i.pdc_rise,
-            travelled_m: (i.pose.translation.vector - i.start.translation.vector).dot(&d_world),
+            travelled_m: along(&i.pose.translation.vector),
             out_of_range: i.out_of_range,
             dt: i.dt,
+            fresh: i.fresh,
+            position_m: i.force_position.as_ref().map(along),
+            timing: *i.timing,
         };
         translation(d_world * self.speed(&input))
     }
@@ -302,7 +452,9 @@ impl Task for GuardedMove {
 
     fn pause(&mut self) {
         self.pd.reset();
-        self.in_band_s = 0.0;
+        self.watchdog.reset();
+        self.settle.clear();
+        self.since_fresh_s = 0.0;
     }
 
     fn stop(&mut self) {
@@ -313,10 +465,24 @@ impl Task for GuardedMove {
         self.phase = Phase::Stopped;
         self.reason = Some(reason);
     }
+
+    fn figures(&self) -> TaskFigures {
+        let mut stiffness = [None; 3];
+        stiffness[self.direction().iamax()] = Some(
+            self.stiffness
+                .effective(self.p.target_force_n, self.prior_body),
+        );
+        TaskFigures {
+            stiffness_n_per_m: stiffness,
+            body_n_per_m: self.stiffness.body(),
+            settled_sd_n: self.settle.sd(),
+            softened: self.softened,
+        }
+    }
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn params() -> GuardedParams {
@@ -328,27 +494,53 @@ mod tests {
             contact_pdc_counts: 30.0,
             force_limit_n: 3.0,
             max_distance_m: 0.05,
+            max_approach_s: 8.0,
             retract_speed_mps: 0.01,
             retract_distance_m: 0.005,
             settle_band_n: 0.05,
             settle_time_s: 0.1,
+            settle_sd_n: 0.02,
         }
     }
 
-    /// A move with [`params`] against a contact of 1000 N/m.
+    /// The loop of the tests: 10 ms, an envelope that assumed 40 ms.
+    pub(crate) fn law() -> ForceLaw {
+        ForceLaw {
+            pd: crate::control::PdParams {
+                margins: crate::control::Margins {
+                    phase_deg: 60.0,
+                    gain: 2.5,
+                },
+                derivative_filter_s: 0.01,
+                max_speed_mps: 0.05,
+            }
+            .checked("pd")
+            .unwrap(),
+            skin: crate::contact::SkinParams {
+                force_scale_n: 0.5,
+                length_scale_mm: 1.2,
+                shear_stiffness_n_per_m: 1500.0,
+            },
+            oscillation: crate::control::OscillationParams {
+                threshold_n: 0.02,
+                gain_factor: 0.5,
+            },
+            reaction_s: 0.04,
+            period_s: 0.01,
+        }
+    }
+
+    /// A loop of 10 ms with no delay.
+    const TIMING: LoopTiming = LoopTiming {
+        transport_s: 0.0,
+        latency_s: 0.0,
+        lag_s: 0.0,
+        period_s: 0.01,
+    };
+
+    /// A move with [`params`] expecting a stiff body.
     fn guarded() -> GuardedMove {
-        let pd = PdParams {
-            gain_ratio: 0.4,
-            derivative_filter_s: 0.02,
-            max_speed_mps: 0.05,
-        };
-        GuardedMove::new(
-            params().checked("guarded").unwrap(),
-            &pd.checked("pd").unwrap(),
-            1000.0,
-            0.01,
-            &LoopDelays::default().checked("loop_delays").unwrap(),
-        )
+        GuardedMove::new(params().checked("guarded").unwrap(), &law(), 1e5)
     }
 
     fn input(force_n: f64, travelled_m: f64) -> GuardedInput {
@@ -358,28 +550,56 @@ mod tests {
             travelled_m,
             out_of_range: false,
             dt: 0.01,
+            fresh: true,
+            position_m: Some(travelled_m),
+            timing: TIMING,
+        }
+    }
+
+    /// The force of the skin in series with a body of stiffness `k` (N/m)
+    /// pressed by `p` (m).
+    fn press(p: f64, k: f64) -> f64 {
+        let skin = law().skin;
+        let (mut lo, mut hi) = (0.0, 100.0);
+        for _ in 0..60 {
+            let f = (lo + hi) / 2.0;
+            let x = 1.2e-3 * (f / skin.force_scale_n).ln_1p() + f / k;
+            if x > p {
+                hi = f;
+            } else {
+                lo = f;
+            }
+        }
+        if p > 0.0 {
+            lo
+        } else {
+            0.0
         }
     }
 
     #[test]
-    fn approach_contact_regulate_hold_on_a_spring() {
-        let mut g = guarded();
-        assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
-        // Object 5 mm away, stiffness 1000 N/m, ideal velocity tracking.
-        let mut x: f64 = 0.0;
-        let mut phases = vec![];
-        for _ in 0..300 {
-            let f = (1000.0 * (x - 0.005)).max(0.0);
-            let v = g.speed(&input(f, x));
-            assert!(v <= 0.01 + 1e-12, "never faster than the approach");
-            x += v * 0.01;
-            if phases.last() != Some(&g.phase()) {
-                phases.push(g.phase());
+    fn approach_contact_regulate_hold_and_the_body_found_on_the_way() {
+        for body in [300.0, 1e4] {
+            let mut g = guarded();
+            assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
+            // Object 5 mm away, ideal velocity tracking.
+            let mut x: f64 = 0.0;
+            let mut phases = vec![];
+            for _ in 0..600 {
+                let f = press(x - 0.005, body);
+                let v = g.speed(&input(f, x));
+                assert!(v <= 0.01 + 1e-12, "never faster than the approach");
+                x += v * 0.01;
+                if phases.last() != Some(&g.phase()) {
+                    phases.push(g.phase());
+                }
             }
+            assert_eq!(phases, [Phase::Approach, Phase::Regulate, Phase::Hold]);
+            assert!((press(x - 0.005, body) - 1.0).abs() < 0.01, "{body}");
+            assert_eq!(g.reason(), None);
+            let fitted = g.body().unwrap();
+            assert!((fitted / body - 1.0).abs() < 0.1, "{body}: {fitted}");
         }
-        assert_eq!(phases, [Phase::Approach, Phase::Regulate, Phase::Hold]);
-        assert!((1000.0 * (x - 0.005) - 1.0).abs() < 0.01);
-        assert_eq!(g.reason(), None);
     }
 
     #[test]
@@ -393,15 +613,72 @@ mod tests {
     }
 
     #[test]
-    fn timeout_stops_at_the_distance() {
+    fn nothing_touched_stops_at_the_distance_or_the_time() {
         let mut g = guarded();
         assert_eq!(g.speed(&input(0.0, 0.049)), 0.01);
         assert_eq!(g.speed(&input(0.0, 0.05)), 0.0);
         assert_eq!(
             (g.phase(), g.reason()),
-            (Phase::Stopped, Some(StopReason::Timeout))
+            (Phase::Stopped, Some(StopReason::TravelLimit))
         );
         assert_eq!(g.speed(&input(0.0, 0.05)), 0.0, "stays stopped");
+        // An arm that does not move: the time limit.
+        let mut g = guarded();
+        let ticks = (0..10_000)
+            .position(|_| g.speed(&input(0.0, 0.0)) == 0.0)
+            .unwrap();
+        assert_eq!(ticks, 800, "8 s of approach");
+        assert_eq!(g.reason(), Some(StopReason::Timeout));
+    }
+
+    #[test]
+    fn a_slower_loop_than_the_envelope_assumed_slows_the_approach() {
+        let mut g = guarded();
+        let slow = GuardedInput {
+            timing: LoopTiming {
+                latency_s: 0.05,
+                lag_s: 0.02,
+                ..TIMING
+            },
+            ..input(0.0, 0.0)
+        };
+        // 80 ms against the 40 ms assumed: half the speed.
+        assert!((g.speed(&slow) - 0.005).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_hold_is_a_settled_force_and_an_oscillation_lowers_the_gain_then_retracts() {
+        let mut g = guarded();
+        g.speed(&input(1.0, 0.010));
+        // In the band but swinging +-0.04 N at 12.5 Hz: never settled; the
+        // gain lowered once, then a retract.
+        let swing = |k: usize| 1.0 + if k % 8 < 4 { 0.04 } else { -0.04 };
+        let mut k = 0;
+        while g.figures().softened == 0 {
+            g.speed(&input(swing(k), 0.011));
+            assert_ne!(g.phase(), Phase::Hold);
+            k += 1;
+            assert!(k < 100, "never detected");
+        }
+        assert!(k <= 40, "three cycles and the filter's settling: {k}");
+        while g.phase() == Phase::Regulate {
+            g.speed(&input(swing(k), 0.011));
+            k += 1;
+            assert!(k < 200, "never retracted");
+        }
+        assert_eq!(
+            (g.phase(), g.reason()),
+            (Phase::Retract, Some(StopReason::Oscillating))
+        );
+        // Steady within the band: a hold once the window is full.
+        let mut g = guarded();
+        g.speed(&input(0.5, 0.010));
+        let held = (0..20).position(|_| {
+            g.speed(&input(1.01, 0.011));
+            g.phase() == Phase::Hold
+        });
+        assert_eq!(held, Some(9), "the 10th estimate fills the window");
+        assert_eq!(g.figures().settled_sd_n, Some(0.0));
     }
 
     #[test]
@@ -428,7 +705,7 @@ mod tests {
         assert_eq!(g.speed(&touch(0.05)), 0.0);
         assert_eq!(
             (g.phase(), g.reason()),
-            (Phase::Stopped, Some(StopReason::Timeout))
+            (Phase::Stopped, Some(StopReason::TravelLimit))
         );
     }
 

@@ -1,23 +1,41 @@
 //! The guided move (joystick): keep a set force against a person's fingertip
 //! along each controlled axis (1 N along z, 0 N along x and y by default), so
 //! that the arm follows the finger's pushes. A deadband (0.2 N in the thesis)
-//! ignores small forces. Above the force limit the arm stops.
+//! ignores small forces. Above the force limit, or on an input outside what
+//! the estimator knows, the arm stops.
 //!
 //! Per axis the PD law gives `u` ("raise the force"); the BioTac moves by
 //! `v = -u`: along -z to press harder on a finger under the pad, along +x to
 //! give way to a finger pushing the skin towards +x.
+//!
+//! The gains come from the same measurements as the guarded move's: the
+//! finger's stiffness, fitted from the normal force against the pad's
+//! position while the pad first presses it (the finger moves by itself
+//! afterwards; until then the stiffest body the scene permits), sets the
+//! normal gain and, through the skin's shear stiffness in series with it
+//! (src/contact.rs), the tangential ones; the loop's measured timing sets
+//! all three. A sustained oscillation on an axis halves that
+//! axis's gain; a second one retracts the pad along its normal.
+//!
+//! Without a finger to follow, the arm does not search for ever: nothing
+//! touched for `contact_timeout_s` stops it (`timeout`), and it never moves
+//! further than `max_travel_m` from where it started (`travel_limit`).
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::pd::{LoopDelays, PdAxis, PdParams};
+use super::identify::ContactStiffness;
+use super::oscillation::OscillationDetector;
+use super::pd::PdAxis;
 use super::task::{
-    missing_axis, translation, Task, TaskEnvelope, TaskInput, TaskLoop, TaskSection,
+    missing_axis, translation, ForceLaw, Task, TaskEnvelope, TaskFigures, TaskInput, TaskLoop,
+    TaskSection,
 };
+use super::tuning::LoopTiming;
 use super::{Envelope, Phase, StopReason};
-use crate::contact::{series_stiffness, shear_stiffness, BodyParams};
+use crate::contact::{shear_stiffness, BodyParams};
 use crate::kinematics::Twist;
-use crate::params::{invalid, non_negative, Check, Checked, ParamsError};
+use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
 use crate::wrench::Axis;
 
 /// Guided-move settings (`force_controller.guided` in the scene files).
@@ -30,6 +48,16 @@ pub struct GuidedParams {
     pub deadband_n: f64,
     /// Force magnitude above which the arm stops (N).
     pub force_limit_n: f64,
+    /// Force magnitude that means a finger is there (N).
+    pub contact_force_n: f64,
+    /// Time without a finger after which the move stops (s).
+    pub contact_timeout_s: f64,
+    /// Distance from the start after which the move stops (m).
+    pub max_travel_m: f64,
+    /// Speed of the retract after an oscillation (m/s).
+    pub retract_speed_mps: f64,
+    /// Distance of that retract along the pad's normal (m).
+    pub retract_distance_m: f64,
 }
 
 impl Check for GuidedParams {
@@ -47,62 +75,199 @@ impl Check for GuidedParams {
                 "above the target force's magnitude",
             ));
         }
+        for (field, v) in [
+            ("contact_force_n", self.contact_force_n),
+            ("contact_timeout_s", self.contact_timeout_s),
+            ("max_travel_m", self.max_travel_m),
+            ("retract_speed_mps", self.retract_speed_mps),
+            ("retract_distance_m", self.retract_distance_m),
+        ] {
+            positive(&format!("{key}.{field}"), v)?;
+        }
         Ok(self)
     }
+}
+
+/// What the guided move sees each cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuidedInput {
+    /// Estimated force, BioTac frame (N).
+    pub force: Vector3<f64>,
+    /// True when the input is outside what the estimator knows.
+    pub out_of_range: bool,
+    /// Time since the previous cycle (s).
+    pub dt: f64,
+    /// True when the force is a new estimate.
+    pub fresh: bool,
+    /// Position along the pressing direction (-z of the BioTac frame) when
+    /// the force's reading was taken (m), when known.
+    pub pressed_m: Option<f64>,
+    /// Distance from the start (m).
+    pub travelled_m: f64,
+    /// Position along the pad's normal (+z of the BioTac frame at the
+    /// start) now (m).
+    pub normal_m: f64,
+    /// The loop's timing as measured.
+    pub timing: LoopTiming,
 }
 
 /// The guided-move controller.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GuidedMove {
     p: GuidedParams,
+    law: ForceLaw,
     pd: [Option<PdAxis>; 3],
+    stiffness: ContactStiffness,
+    /// The finger's stiffness assumed until fitted (N/m).
+    prior_body: f64,
+    watchdogs: [OscillationDetector; 3],
+    softened: u32,
+    since_fresh_s: f64,
+    without_contact_s: f64,
+    /// True once the first press reached the normal target: the finger
+    /// moves by itself from then on, so the stiffness fit stops.
+    pressed: bool,
+    retract_from_m: f64,
     phase: Phase,
     reason: Option<StopReason>,
 }
 
 impl GuidedMove {
-    /// A guided move controlling the axes with `Some(stiffness)` (N/m,
-    /// effective contact stiffness along x, y, z) at control period
-    /// `period_s` in a loop with these delays ([`PdAxis::new`]).
+    /// A guided move controlling the force axes `controlled` (x, y, z) in
+    /// the loop of `law`, assuming a finger of stiffness `prior_body`
+    /// (N/m) until it has fitted the one it presses.
     pub fn new(
         p: Checked<GuidedParams>,
-        pd: &Checked<PdParams>,
-        stiffness: [Option<f64>; 3],
-        period_s: f64,
-        delays: &Checked<LoopDelays>,
+        law: &ForceLaw,
+        controlled: [bool; 3],
+        prior_body: f64,
     ) -> Self {
-        let axis = |k| PdAxis::new(pd, k, period_s, p.deadband_n, delays);
+        let axis = || PdAxis::new(&law.pd, p.deadband_n);
+        let watchdog = || OscillationDetector::new(law.oscillation.threshold_n);
         GuidedMove {
-            pd: stiffness.map(|k| k.map(axis)),
+            pd: controlled.map(|c| c.then(axis)),
+            stiffness: ContactStiffness::new(law.skin),
+            prior_body,
+            watchdogs: [watchdog(), watchdog(), watchdog()],
+            softened: 0,
+            since_fresh_s: 0.0,
+            without_contact_s: 0.0,
+            pressed: false,
+            retract_from_m: 0.0,
+            law: *law,
             p: *p,
             phase: Phase::Follow,
             reason: None,
         }
     }
 
-    /// One cycle: estimated force (N, BioTac frame) -> BioTac velocity (m/s,
-    /// BioTac frame). Over the force limit, or with the input out of the
-    /// estimator's range, the arm stops for good.
-    pub fn velocity(&mut self, force: &Vector3<f64>, out_of_range: bool, dt: f64) -> Vector3<f64> {
-        // An estimate outside what the GP knows says nothing about the
-        // force, so it is not read as over the limit.
-        let stop = if out_of_range {
-            Some(StopReason::OutOfRange)
-        } else {
-            (force.norm() > self.p.force_limit_n).then_some(StopReason::ForceLimit)
+    /// The contact's stiffness per axis (N/m): the skin in series with the
+    /// finger, along the pad's normal (z) and across it (x, y).
+    fn stiffness(&self) -> [f64; 3] {
+        let normal = self
+            .stiffness
+            .effective(self.p.target_force_n[2], self.prior_body);
+        let body = BodyParams {
+            stiffness_n_per_m: self.stiffness.body().unwrap_or(self.prior_body),
+            damping_n_s_per_m: 0.0,
+            friction: 0.0,
         };
-        if let (Phase::Follow, Some(reason)) = (self.phase, stop) {
-            self.phase = Phase::Stopped;
-            self.reason = Some(reason);
-        }
-        let mut v = Vector3::zeros();
-        for (i, pd) in self.pd.iter_mut().enumerate() {
-            if let Some(pd) = pd {
-                v[i] = -pd.step(self.p.target_force_n[i], force[i], dt);
+        let shear = shear_stiffness(&self.law.skin, &body);
+        [shear, shear, normal]
+    }
+
+    fn stop_with(&mut self, reason: StopReason) {
+        self.phase = Phase::Stopped;
+        self.reason = Some(reason);
+    }
+
+    /// One cycle: BioTac velocity (m/s, BioTac frame).
+    pub fn velocity(&mut self, i: &GuidedInput) -> Vector3<f64> {
+        let p = self.p;
+        let k = self.stiffness();
+        for (axis, k) in self.pd.iter_mut().zip(k) {
+            if let Some(axis) = axis {
+                axis.tune(k, &i.timing);
             }
         }
-        if self.phase == Phase::Stopped {
+        let mut v = Vector3::zeros();
+        for (j, pd) in self.pd.iter_mut().enumerate() {
+            if let Some(pd) = pd {
+                v[j] = -pd.step(p.target_force_n[j], i.force[j], i.dt);
+            }
+        }
+        self.since_fresh_s += i.dt;
+        match self.phase {
+            Phase::Follow => self.follow(i, v),
+            Phase::Retract if i.normal_m < self.retract_from_m + p.retract_distance_m => {
+                Vector3::new(0.0, 0.0, p.retract_speed_mps)
+            }
+            Phase::Retract => {
+                self.phase = Phase::Stopped;
+                Vector3::zeros()
+            }
+            _ => Vector3::zeros(),
+        }
+    }
+
+    /// Following: the limits, then the fit and the watchdogs on a new
+    /// estimate; the PD's velocity `v` while none stops it.
+    fn follow(&mut self, i: &GuidedInput, v: Vector3<f64>) -> Vector3<f64> {
+        let p = self.p;
+        // An estimate outside what the GP knows says nothing about the
+        // force, so it is not read as over the limit.
+        let stop = if i.out_of_range {
+            Some(StopReason::OutOfRange)
+        } else if i.force.norm() > p.force_limit_n {
+            Some(StopReason::ForceLimit)
+        } else if i.travelled_m >= p.max_travel_m {
+            Some(StopReason::TravelLimit)
+        } else if self.without_contact_s >= p.contact_timeout_s {
+            Some(StopReason::Timeout)
+        } else {
+            None
+        };
+        if let Some(reason) = stop {
+            self.stop_with(reason);
             return Vector3::zeros();
+        }
+        let touched = i.force.norm() >= p.contact_force_n;
+        self.without_contact_s = if touched {
+            0.0
+        } else {
+            self.without_contact_s + i.dt
+        };
+        if !i.fresh {
+            return v;
+        }
+        self.pressed |= i.force.z >= p.target_force_n[2] - p.deadband_n;
+        if let (Some(x), true, false) = (i.pressed_m, i.force.z >= p.contact_force_n, self.pressed) {
+            self.stiffness.push(x, i.force.z);
+        }
+        let dt = std::mem::take(&mut self.since_fresh_s);
+        for j in 0..3 {
+            if self.pd[j].is_none() || !self.watchdogs[j].step(i.force[j], dt) {
+                continue;
+            }
+            let hz = self.watchdogs[j].frequency_hz();
+            if self.softened > 0 {
+                tracing::warn!(
+                    "the force oscillates again at {hz:.1} Hz with a gain lowered: retracting"
+                );
+                self.phase = Phase::Retract;
+                self.reason = Some(StopReason::Oscillating);
+                self.retract_from_m = i.normal_m;
+                return Vector3::new(0.0, 0.0, p.retract_speed_mps);
+            }
+            self.softened += 1;
+            if let Some(pd) = self.pd[j].as_mut() {
+                pd.soften(self.law.oscillation.gain_factor);
+            }
+            tracing::warn!(
+                "the force along {} oscillates at {hz:.1} Hz: its gain lowered by a factor {}",
+                ["x", "y", "z"][j],
+                self.law.oscillation.gain_factor
+            );
         }
         v
     }
@@ -111,15 +276,15 @@ impl GuidedMove {
 impl TaskSection for GuidedParams {
     const NAME: &'static str = "guided";
 
-    /// Gains per controlled axis: the skin in series with `body` across
-    /// the pad (x, y) and along its normal (z).
+    /// The gains for `body` (the stiffest the scene permits) until the
+    /// finger is measured, on the controlled force axes.
     fn build(p: Checked<Self>, lp: &TaskLoop, body: &BodyParams) -> Box<dyn Task> {
-        let normal = series_stiffness(lp.skin, body, p.target_force_n[2]);
-        let shear = shear_stiffness(lp.skin, body);
-        let k = [shear, shear, normal];
-        let forces = lp.forces();
-        let k = std::array::from_fn(|i| forces[i].then_some(k[i]));
-        Box::new(GuidedMove::new(p, lp.pd, k, lp.period_s, lp.delays))
+        Box::new(GuidedMove::new(
+            p,
+            &lp.law(),
+            lp.forces(),
+            body.stiffness_n_per_m,
+        ))
     }
 
     /// The controlled axis that allows the slowest motion towards `body`.
@@ -165,10 +330,22 @@ impl TaskSection for GuidedParams {
 /// turns, the orientation held.
 impl Task for GuidedMove {
     fn step(&mut self, i: &TaskInput) -> Twist {
-        translation(i.pose.rotation * self.velocity(i.force, i.out_of_range, i.dt))
+        let press = i.pose.rotation * -Vector3::z();
+        let moved = i.pose.translation.vector - i.start.translation.vector;
+        let input = GuidedInput {
+            force: *i.force,
+            out_of_range: i.out_of_range,
+            dt: i.dt,
+            fresh: i.fresh,
+            pressed_m: i.force_position.map(|x| x.dot(&press)),
+            travelled_m: moved.norm(),
+            normal_m: moved.dot(&(i.start.rotation * Vector3::z())),
+            timing: *i.timing,
+        };
+        translation(i.pose.rotation * self.velocity(&input))
     }
 
-    /// Follow, or Stopped after the force limit.
+    /// Follow; Retract after a second oscillation; Stopped.
     fn phase(&self) -> Phase {
         self.phase
     }
@@ -204,6 +381,10 @@ impl Task for GuidedMove {
 
     fn pause(&mut self) {
         self.pd.iter_mut().flatten().for_each(PdAxis::reset);
+        self.watchdogs
+            .iter_mut()
+            .for_each(OscillationDetector::reset);
+        self.since_fresh_s = 0.0;
     }
 
     fn stop(&mut self) {
@@ -211,8 +392,17 @@ impl Task for GuidedMove {
     }
 
     fn stop_on(&mut self, reason: StopReason) {
-        self.phase = Phase::Stopped;
-        self.reason = Some(reason);
+        self.stop_with(reason);
+    }
+
+    fn figures(&self) -> TaskFigures {
+        let k = self.stiffness();
+        TaskFigures {
+            stiffness_n_per_m: std::array::from_fn(|j| self.pd[j].as_ref().map(|_| k[j])),
+            body_n_per_m: self.stiffness.body(),
+            settled_sd_n: None,
+            softened: self.softened,
+        }
     }
 }
 
@@ -225,27 +415,40 @@ mod tests {
             target_force_n: [0.0, 0.0, 1.0],
             deadband_n: 0.2,
             force_limit_n: 5.0,
+            contact_force_n: 0.15,
+            contact_timeout_s: 2.0,
+            max_travel_m: 0.1,
+            retract_speed_mps: 0.01,
+            retract_distance_m: 0.005,
         };
-        let pd = PdParams {
-            gain_ratio: 0.4,
-            derivative_filter_s: 0.02,
-            max_speed_mps: 0.1,
-        };
-        GuidedMove::new(
-            p.checked("guided").unwrap(),
-            &pd.checked("pd").unwrap(),
-            [Some(500.0), Some(500.0), Some(300.0)],
-            0.01,
-            &LoopDelays::default().checked("loop_delays").unwrap(),
-        )
+        let law = crate::control::guarded::tests::law();
+        GuidedMove::new(p.checked("guided").unwrap(), &law, [true; 3], 300.0)
+    }
+
+    fn input(force: Vector3<f64>) -> GuidedInput {
+        GuidedInput {
+            force,
+            out_of_range: false,
+            dt: 0.01,
+            fresh: true,
+            pressed_m: None,
+            travelled_m: 0.0,
+            normal_m: 0.0,
+            timing: LoopTiming {
+                transport_s: 0.0,
+                latency_s: 0.01,
+                lag_s: 0.0,
+                period_s: 0.01,
+            },
+        }
     }
 
     #[test]
     fn gives_way_to_pushes_and_presses_when_too_light() {
         let mut g = guided();
-        let v = g.velocity(&Vector3::new(0.5, -0.5, 1.0), false, 0.01);
+        let v = g.velocity(&input(Vector3::new(0.5, -0.5, 1.0)));
         assert!(v.x > 0.0 && v.y < 0.0 && v.z == 0.0, "{v}");
-        let v = g.velocity(&Vector3::new(0.1, 0.0, 0.5), false, 0.01);
+        let v = g.velocity(&input(Vector3::new(0.1, 0.0, 0.5)));
         assert!(v.x == 0.0 && v.z < 0.0, "deadband on x, press on z: {v}");
         assert_eq!(g.targets(), [Some(0.0), Some(0.0), Some(1.0)]);
     }
@@ -254,7 +457,11 @@ mod tests {
     fn out_of_range_input_stops() {
         for force in [Vector3::new(0.5, 0.0, 1.0), Vector3::new(0.0, 0.0, 8.0)] {
             let mut g = guided();
-            assert_eq!(g.velocity(&force, true, 0.01), Vector3::zeros());
+            let i = GuidedInput {
+                out_of_range: true,
+                ..input(force)
+            };
+            assert_eq!(g.velocity(&i), Vector3::zeros());
             // Even over the limit: the estimate is not trusted.
             assert_eq!(g.reason(), Some(StopReason::OutOfRange), "{force}");
         }
@@ -264,16 +471,62 @@ mod tests {
     fn force_limit_stops_for_good() {
         let mut g = guided();
         assert_eq!(
-            g.velocity(&Vector3::new(0.0, 0.0, 6.0), false, 0.01),
+            g.velocity(&input(Vector3::new(0.0, 0.0, 6.0))),
             Vector3::zeros()
         );
-        assert_eq!(
-            g.velocity(&Vector3::new(0.0, 0.0, 0.0), false, 0.01),
-            Vector3::zeros()
-        );
+        assert_eq!(g.velocity(&input(Vector3::zeros())), Vector3::zeros());
         assert_eq!(
             (g.phase(), g.reason()),
             (Phase::Stopped, Some(StopReason::ForceLimit))
         );
+    }
+
+    #[test]
+    fn with_nothing_to_follow_it_stops_at_its_time_or_travel() {
+        let mut g = guided();
+        let steps = (0..1000)
+            .position(|_| g.velocity(&input(Vector3::zeros())) == Vector3::zeros())
+            .unwrap();
+        assert_eq!((steps, g.reason()), (200, Some(StopReason::Timeout)));
+        let mut g = guided();
+        let far = GuidedInput {
+            travelled_m: 0.1,
+            ..input(Vector3::new(0.0, 0.0, 1.0))
+        };
+        assert_eq!(g.velocity(&far), Vector3::zeros());
+        assert_eq!(g.reason(), Some(StopReason::TravelLimit));
+    }
+
+    #[test]
+    fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
+        let mut g = guided();
+        g.velocity(&input(Vector3::new(0.0, 0.0, 1.0)));
+        let (before, z) = (g.gains()[0].unwrap(), g.gains()[2]);
+        let swing = |k: usize| Vector3::new(if k % 8 < 4 { 0.5 } else { -0.5 }, 0.0, 1.0);
+        let mut k = 0;
+        while g.figures().softened == 0 {
+            g.velocity(&input(swing(k)));
+            k += 1;
+            assert!(k < 100, "never detected");
+        }
+        assert!((g.gains()[0].unwrap() / before - 0.5).abs() < 1e-9);
+        assert_eq!(g.gains()[2], z, "z untouched");
+        while g.phase() == Phase::Follow {
+            g.velocity(&input(swing(k)));
+            k += 1;
+            assert!(k < 200, "never retracted");
+        }
+        assert_eq!(
+            (g.phase(), g.reason()),
+            (Phase::Retract, Some(StopReason::Oscillating))
+        );
+        let away = g.velocity(&input(Vector3::zeros()));
+        assert!(away.z > 0.0, "{away}");
+        let done = GuidedInput {
+            normal_m: 0.006,
+            ..input(Vector3::zeros())
+        };
+        assert_eq!(g.velocity(&done), Vector3::zeros());
+        assert_eq!(g.phase(), Phase::Stopped);
     }
 }

@@ -7,18 +7,23 @@
 pub mod envelope;
 pub mod guarded;
 pub mod guided;
+pub mod identify;
+pub mod oscillation;
 pub mod params;
 pub mod pd;
 pub mod safety;
 pub mod task;
+pub mod tuning;
 
 pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
 pub use guided::{GuidedMove, GuidedParams};
+pub use oscillation::{OscillationDetector, OscillationParams};
 pub use params::{ControllerParams, Goal, OutOfRangeParams};
 pub use pd::{LoopDelays, PdAxis, PdParams};
 pub use safety::{Halt, Watchdog};
-pub use task::{Task, TaskEnvelope, TaskKind, TaskLoop, TaskRegistry, TaskSection};
+pub use task::{Task, TaskEnvelope, TaskFigures, TaskKind, TaskLoop, TaskRegistry, TaskSection};
+pub use tuning::{LoopTiming, Margins};
 
 use serde::Serialize;
 
@@ -67,8 +72,12 @@ impl Phase {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
-    /// Nothing touched within the approach distance.
+    /// Nothing touched within the task's time limit.
     Timeout,
+    /// Nothing touched within the task's travel from where it started.
+    TravelLimit,
+    /// The force oscillated on, the gain already lowered.
+    Oscillating,
     /// The force passed the limit.
     ForceLimit,
     /// The BioTac input left what the estimator knows (its uncertainty, or
@@ -87,6 +96,8 @@ impl StopReason {
     pub fn name(self) -> &'static str {
         match self {
             StopReason::Timeout => "timeout",
+            StopReason::TravelLimit => "travel_limit",
+            StopReason::Oscillating => "oscillating",
             StopReason::ForceLimit => "force_limit",
             StopReason::OutOfRange => "out_of_range",
             StopReason::Unrealisable => "unrealisable_axis",

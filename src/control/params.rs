@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use serde::Deserialize;
 
 use super::task::{RawSection, TaskRegistry, TaskSection};
-use super::{LoopDelays, PdParams, SafetyParams};
+use super::{LoopDelays, OscillationParams, PdParams, SafetyParams};
 use crate::contact::{BodyParams, SkinParams};
 use crate::kinematics::RobotParams;
 use crate::params::ParamsError;
@@ -24,8 +24,8 @@ pub struct ControllerParams {
     pub skin: SkinParams,
     /// Objects the arm may touch, by name.
     pub objects: BTreeMap<String, BodyParams>,
-    /// The object of this run: its stiffness sets the gains. One of
-    /// `safety.objects`; `unknown` takes `safety.worst_case_stiffness_n_per_m`.
+    /// The object of this run, for the simulator: one of `safety.objects`
+    /// (checked; the gains do not depend on it).
     pub object: String,
     /// The arm: the links of its robot description, the BioTac's mount,
     /// limits and inverse-kinematics settings.
@@ -40,11 +40,17 @@ pub struct ControllerParams {
     pub axes: AxisSet,
     /// The task: the name of a registered task.
     pub task: String,
+    /// Start the task as soon as inputs arrive (a simulation); false: the
+    /// ROS node commands zero until a goal or a `task` set asks for motion.
+    /// The embedded runtime is asked when it is run.
+    pub autostart: bool,
     /// PD law.
     pub pd: PdParams,
-    /// Delays of the loop: they set the PD's derivative time and gain cap,
-    /// and the safety envelope's reaction time.
+    /// The longest delays of the loop: the safety envelope's reaction time,
+    /// and the gains' priors until the controller has measured them.
     pub loop_delays: LoopDelays,
+    /// The stability watchdog.
+    pub oscillation: OscillationParams,
     /// Every other key: the tasks' sections, by task name (checked against
     /// the registry: [`ControllerParams::check_sections`]).
     #[serde(flatten)]

@@ -10,35 +10,38 @@
 //! loop delay of a few periods this brakes the approach before the force
 //! overshoots.
 //!
-//! Gain. For a velocity-controlled arm against a contact of stiffness `k`
-//! sampled with period `T`, `e[k+1] = (1 - a) e[k]` with `a = K k T`: stable
-//! for `0 < a < 2`, no ringing for `a <= 1`, and with `d` periods of delay
-//! stable only for `a < a_max(d) = 2 sin(pi / (2 (2 d + 1)))` (architecture
-//! page, "Force control facts"). So `K = a / (k T)` with `k` the effective
-//! stiffness (the BioTac skin at the target force in series with the
-//! object, [`crate::contact::series_stiffness`]) and
-//! `a = min(gain_ratio, 0.9 a_max(d))`, `d` the whole loop delay in periods
-//! ([`LoopDelays`]): the parameter (default 0.4), lowered when the loop is
-//! slower than it allows (0.4 is 0.9 a_max(3), the 30 ms of the embedded
-//! loop's arm; over ROS 2 the transport adds to it).
+//! Gain. `K` is set for the loop the controller measures, not one the user
+//! declares ([`PdAxis::tune`]): the contact's stiffness `k` (the BioTac's
+//! skin in series with the body, fitted in contact) and the loop's timing
+//! (the estimate's age, the arm's latency and lag, fitted from
+//! `joint_states`) give the largest `K` that keeps the phase and gain
+//! margins of `pd.margins` ([`super::tuning`]). Until they are measured,
+//! priors stand in: the stiffest body the scene permits, and the bounds of
+//! `loop_delays`. The stability watchdog may lower it further
+//! ([`PdAxis::soften`]).
 //!
-//! Derivative time. The force is predicted ahead by the arm's part of the
-//! delay (command latency + servo lag), the time a command takes to show in
-//! the motion. Predicting the transport delay too amplified the estimate's
-//! noise into a sustained oscillation in the simulator (`demo guarded` with
-//! `sim_robot.transport_delay_s`), so the gain alone answers for it.
+//! Derivative time. The force is predicted ahead by half of the arm's part
+//! of the delay (command latency + servo lag), the time a command takes to
+//! show in the motion: the whole of it amplified the estimate's noise into a
+//! sustained oscillation in the simulator when the latency was pure (an arm
+//! that takes commands on a cycle of its own), half of it keeps some of the
+//! phase it buys (the margins count it).
 
 use serde::Deserialize;
 
-use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
+use super::tuning::{gain, LoopTiming, Margins};
+use crate::params::{non_negative, positive, Check, Checked, ParamsError};
 
-/// Fraction of the delay's stability bound the gain ratio may reach.
-const STABILITY_FRACTION: f64 = 0.9;
+/// The share of the arm's delay the derivative predicts.
+const DERIVATIVE_SHARE: f64 = 0.5;
 
-/// The delays of the force loop after a reading is taken
-/// (`force_controller.loop_delays` in the scene files). They set the PD's
-/// derivative time and cap its gain, and the safety envelope's reaction
-/// time ([`crate::control::envelope`]).
+/// A change of the stiffness or the timing below this share keeps the gain.
+const RETUNE_SHARE: f64 = 0.01;
+
+/// The longest delays of the force loop after a reading is taken
+/// (`force_controller.loop_delays` in the scene files): the bounds the
+/// safety envelope assumes ([`crate::control::envelope`]), and the gains'
+/// priors until the controller has measured the loop.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LoopDelays {
@@ -73,18 +76,12 @@ impl LoopDelays {
     }
 }
 
-/// The largest stable gain ratio with `d` periods of delay (architecture
-/// page, "Force control facts").
-pub fn max_gain_ratio(d: f64) -> f64 {
-    2.0 * (std::f64::consts::PI / (2.0 * (2.0 * d.max(0.0) + 1.0))).sin()
-}
-
 /// PD settings (`force_controller.pd` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PdParams {
-    /// Gain ratio `a = K k T`, in (0, 1); lowered for a slow loop.
-    pub gain_ratio: f64,
+    /// The margins the gain keeps on the loop the controller measures.
+    pub margins: Margins,
     /// Time constant of the force low-pass feeding the derivative (s).
     pub derivative_filter_s: f64,
     /// Largest speed the law commands (m/s).
@@ -93,10 +90,7 @@ pub struct PdParams {
 
 impl Check for PdParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        if !(self.gain_ratio > 0.0 && self.gain_ratio < 1.0) {
-            let key = format!("{key}.gain_ratio");
-            return Err(invalid(&key, self.gain_ratio, "0 < a < 1"));
-        }
+        self.margins.check(&format!("{key}.margins"))?;
         non_negative(
             &format!("{key}.derivative_filter_s"),
             self.derivative_filter_s,
@@ -114,32 +108,63 @@ pub struct PdAxis {
     filter_s: f64,
     deadband_n: f64,
     max_speed: f64,
+    margins: Margins,
+    /// The product of the factors the watchdog lowered the gain by.
+    softened: f64,
+    /// The stiffness and timing the gain was tuned for.
+    tuned: Option<(f64, LoopTiming)>,
     filtered: Option<f64>,
     rate: f64,
 }
 
 impl PdAxis {
-    /// The law for a contact of effective stiffness `stiffness` (N/m) at
-    /// control period `period_s`, with a deadband (N), in a loop with these
-    /// delays.
-    pub fn new(
-        p: &Checked<PdParams>,
-        stiffness: f64,
-        period_s: f64,
-        deadband_n: f64,
-        delays: &Checked<LoopDelays>,
-    ) -> Self {
-        let d = delays.total_s() / period_s;
-        let a = p.gain_ratio.min(STABILITY_FRACTION * max_gain_ratio(d));
+    /// The law with a deadband (N), its gain zero until
+    /// [`PdAxis::tune`]d.
+    pub fn new(p: &Checked<PdParams>, deadband_n: f64) -> Self {
         PdAxis {
-            gain: a / (stiffness * period_s),
-            derivative_time_s: delays.arm_s(),
+            gain: 0.0,
+            derivative_time_s: 0.0,
             filter_s: p.derivative_filter_s,
             deadband_n,
             max_speed: p.max_speed_mps,
+            margins: p.margins,
+            softened: 1.0,
+            tuned: None,
             filtered: None,
             rate: 0.0,
         }
+    }
+
+    /// Sets the gain and the derivative time for a contact of effective
+    /// stiffness `stiffness` (N/m) in a loop of timing `t`; a change of
+    /// under 1 % keeps them.
+    pub fn tune(&mut self, stiffness: f64, t: &LoopTiming) {
+        let near = |a: f64, b: f64| (a - b).abs() <= RETUNE_SHARE * a.abs().max(b.abs());
+        if let Some((k, old)) = &self.tuned {
+            let same = near(*k, stiffness)
+                && near(old.dead_s(), t.dead_s())
+                && near(old.lag_s + 1e-4, t.lag_s + 1e-4);
+            if same {
+                return;
+            }
+        }
+        self.derivative_time_s = DERIVATIVE_SHARE * t.arm_s();
+        self.gain = self.softened
+            * gain(
+                stiffness,
+                t,
+                self.derivative_time_s,
+                self.filter_s,
+                &self.margins,
+            );
+        self.tuned = Some((stiffness, *t));
+    }
+
+    /// Lowers the gain by `factor` (0..1) for the rest of the task (the
+    /// stability watchdog).
+    pub fn soften(&mut self, factor: f64) {
+        self.softened *= factor;
+        self.gain *= factor;
     }
 
     /// Proportional gain K (m/s per N).
@@ -181,40 +206,36 @@ impl PdAxis {
 mod tests {
     use super::*;
 
-    /// Delays of `n` periods of 10 ms in the arm, none in the transport.
-    fn arm_delay(n: usize) -> Checked<LoopDelays> {
-        delays(0.0, n as f64 * 0.01)
-    }
-
-    fn delays(transport_delay_s: f64, command_latency_s: f64) -> Checked<LoopDelays> {
-        LoopDelays {
-            transport_delay_s,
-            command_latency_s,
-            arm_lag_s: 0.0,
+    fn params() -> Checked<PdParams> {
+        PdParams {
+            margins: Margins {
+                phase_deg: 60.0,
+                gain: 2.5,
+            },
+            derivative_filter_s: 0.01,
+            max_speed_mps: 1.0,
         }
-        .checked("loop_delays")
+        .checked("pd")
         .unwrap()
     }
 
-    fn params() -> PdParams {
-        PdParams {
-            gain_ratio: 0.5,
-            derivative_filter_s: 0.02,
-            max_speed_mps: 1.0,
+    /// `n` periods of 10 ms of pure latency in the arm, no lag.
+    fn timing(n: usize) -> LoopTiming {
+        LoopTiming {
+            transport_s: 0.0,
+            latency_s: n as f64 * 0.01,
+            lag_s: 0.0,
+            period_s: 0.01,
         }
     }
 
-    fn checked(p: PdParams) -> Checked<PdParams> {
-        p.checked("pd").unwrap()
-    }
-
-    /// Closes the loop on an ideal spring: F = k x, x += u T.
-    fn settle(p: &Checked<PdParams>, k: f64, delay: usize) -> Vec<f64> {
+    /// Closes the loop on an ideal spring, F = k x, x += u T, the command
+    /// acting `delay` periods late; the forces.
+    fn settle(pd: &mut PdAxis, k: f64, delay: usize) -> Vec<f64> {
         let t = 0.01;
-        let mut pd = PdAxis::new(p, k, t, 0.0, &arm_delay(0));
         let (mut x, mut queue) = (0.0, vec![0.0; delay]);
         let mut forces = Vec::new();
-        for _ in 0..200 {
+        for _ in 0..400 {
             let f = k * x;
             forces.push(f);
             queue.push(pd.step(1.0, f, t));
@@ -224,71 +245,44 @@ mod tests {
     }
 
     #[test]
-    fn the_gain_ratio_sets_the_contraction_per_period() {
-        // Without delay the error shrinks by (1 - a) per period, for any stiffness.
-        for k in [1e2, 1e3, 1e5] {
-            let f = settle(&checked(params()), k, 0);
-            let (e1, e2) = (1.0 - f[5], 1.0 - f[6]);
-            assert!((e2 / e1 - 0.5).abs() < 1e-9, "k {k}: {e1} {e2}");
-            assert!(f.iter().all(|&v| v <= 1.0 + 1e-12), "no overshoot");
+    fn a_tuned_law_settles_without_ringing_on_any_stiffness_and_delay() {
+        for k in [50.0, 1e3, 1e5] {
+            for delay in [0usize, 2, 4] {
+                let mut pd = PdAxis::new(&params(), 0.0);
+                pd.tune(k, &timing(delay));
+                let f = settle(&mut pd, k, delay);
+                let peak = f.iter().copied().fold(0.0, f64::max);
+                assert!(peak < 1.1, "k {k}, {delay} periods: peak {peak}");
+                assert!((f[399] - 1.0).abs() < 1e-3, "k {k}, {delay}: {}", f[399]);
+            }
         }
     }
 
     #[test]
-    fn stability_bound_with_one_period_of_delay() {
-        // a < 1 converges with one period of delay; a = 1.2 diverges.
-        let ok = settle(&checked(params()), 1e3, 1);
-        assert!((ok[199] - 1.0).abs() < 1e-6);
-        let mut high = params();
-        high.gain_ratio = 0.999;
-        let mut pd = PdAxis::new(&checked(high), 1e3, 0.01, 0.0, &arm_delay(0));
-        pd.gain *= 1.2;
-        let (mut x, mut queue, mut last) = (0.0, vec![0.0], 0.0);
-        for _ in 0..400 {
-            last = 1e3 * x;
-            queue.push(pd.step(1.0, last, 0.01));
-            x += queue.remove(0) * 0.01;
-        }
+    fn the_gain_follows_the_stiffness_and_the_watchdog_lowers_it_for_good() {
+        let mut pd = PdAxis::new(&params(), 0.0);
+        assert_eq!(pd.gain(), 0.0, "untuned");
+        pd.tune(1000.0, &timing(2));
+        let g = pd.gain();
+        pd.tune(1005.0, &timing(2));
+        assert_eq!(pd.gain(), g, "a change under 1 % keeps the gain");
+        pd.tune(500.0, &timing(2));
+        assert!((pd.gain() / g - 2.0).abs() < 1e-9, "K ~ 1 / k");
+        pd.soften(0.5);
+        assert!((pd.gain() / g - 1.0).abs() < 1e-9);
+        pd.tune(1000.0, &timing(2));
         assert!(
-            (last - 1.0).abs() > 0.5,
-            "a = 1.2 with a delay rings up: {last}"
+            (pd.gain() / g - 0.5).abs() < 1e-9,
+            "softened after a retune too"
         );
     }
 
     #[test]
-    fn the_gain_is_capped_for_a_slow_loop_and_still_settles() {
-        // a_max: 1 period -> 1, 2 -> 0.618, 3 -> 0.445 (architecture page).
-        assert!((max_gain_ratio(1.0) - 1.0).abs() < 1e-12);
-        assert!((max_gain_ratio(2.0) - 0.618).abs() < 1e-3);
-        let p = checked(PdParams {
-            gain_ratio: 0.9,
-            ..params()
-        });
-        for delay in [1usize, 2, 4, 6] {
-            let t = 0.01;
-            // The transport's delay: no derivative, the gain alone.
-            let mut pd = PdAxis::new(&p, 1e3, t, 0.0, &delays(delay as f64 * t, 0.0));
-            assert_eq!(pd.derivative_time_s, 0.0);
-            let a = pd.gain() * 1e3 * t;
-            assert!(
-                a <= 0.9 * max_gain_ratio(delay as f64) + 1e-12,
-                "{delay}: {a}"
-            );
-            let (mut x, mut queue, mut last) = (0.0, vec![0.0; delay], 0.0);
-            for _ in 0..600 {
-                last = 1e3 * x;
-                queue.push(pd.step(1.0, last, t));
-                x += queue.remove(0) * t;
-            }
-            assert!((last - 1.0).abs() < 1e-3, "{delay} periods: {last}");
-        }
-    }
-
-    #[test]
     fn deadband_and_clamp() {
-        let mut p = params();
+        let mut p = *params();
         p.max_speed_mps = 0.01;
-        let mut pd = PdAxis::new(&checked(p), 1e3, 0.01, 0.2, &arm_delay(0));
+        let mut pd = PdAxis::new(&p.checked("pd").unwrap(), 0.2);
+        pd.tune(1e5, &timing(0));
         assert_eq!(pd.step(1.0, 0.85, 0.01), 0.0, "inside the deadband");
         let u = pd.step(1.0, 0.7, 0.01);
         assert!((u - 0.1 * pd.gain()).abs() < 1e-12, "width subtracted: {u}");
@@ -298,24 +292,31 @@ mod tests {
 
     #[test]
     fn the_derivative_brakes_a_rising_force() {
-        // A 30 ms loop delay: a = min(0.5, 0.9 a_max(3)) = 0.4005, T_d = 30 ms.
-        let mut pd = PdAxis::new(&checked(params()), 1e3, 0.01, 0.0, &arm_delay(3));
-        let mut plain = PdAxis::new(&checked(params()), 1e3, 0.01, 0.0, &arm_delay(0));
-        assert!((pd.gain() * 1e3 * 0.01 - 0.9 * max_gain_ratio(3.0)).abs() < 1e-12);
-        let (mut u, mut v) = (0.0, 0.0);
+        let lagged = LoopTiming {
+            lag_s: 0.02,
+            ..timing(3)
+        };
+        let mut pd = PdAxis::new(&params(), 0.0);
+        pd.tune(1e3, &lagged);
+        assert!((pd.derivative_time_s - 0.025).abs() < 1e-12);
+        let mut u = 0.0;
         for k in 0..10 {
-            let f = 0.05 * k as f64;
-            u = pd.step(1.0, f, 0.01);
-            v = plain.step(1.0, f, 0.01);
+            u = pd.step(1.0, 0.05 * k as f64, 0.01);
         }
-        assert!(pd.force_rate() > 0.0 && u < v, "{u} {v}");
-        assert_eq!(plain.gain() * 1e3 * 0.01, 0.5, "no delay: the parameter");
+        let proportional = pd.gain() * (1.0 - 0.45);
+        assert!(
+            pd.force_rate() > 0.0 && u < proportional,
+            "{u} {proportional}"
+        );
         let e = PdParams {
-            gain_ratio: 1.5,
-            ..params()
+            margins: Margins {
+                phase_deg: 0.0,
+                gain: 2.0,
+            },
+            ..*params()
         }
         .checked("pd")
         .unwrap_err();
-        assert!(e.to_string().contains("pd.gain_ratio"), "{e}");
+        assert!(e.to_string().contains("pd.margins.phase_deg"), "{e}");
     }
 }

@@ -54,6 +54,13 @@ impl Watchdog {
         }
     }
 
+    /// A watchdog allowing `max_age_s` seconds.
+    pub fn seconds(max_age_s: f64) -> Self {
+        Watchdog {
+            max_age_s: max_age_s * (1.0 + 1e-9),
+        }
+    }
+
     /// Ok when `stamp` (s) is at most the limit older than `now` (s).
     pub fn check(&self, what: &'static str, now: f64, stamp: Option<f64>) -> Result<(), Halt> {
         let stamp = stamp.ok_or(Halt::Missing(what))?;

@@ -16,7 +16,8 @@ use nalgebra::{Isometry3, Vector3};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use super::{Envelope, LoopDelays, PdParams, Phase, StopReason};
+use super::tuning::LoopTiming;
+use super::{Envelope, LoopDelays, OscillationParams, PdParams, Phase, StopReason};
 use crate::contact::{BodyParams, SkinParams};
 use crate::kinematics::{ShippedRobot, Twist};
 use crate::params::{
@@ -60,6 +61,26 @@ pub trait Task: fmt::Debug + Send + Any + BoxedClone {
 
     /// Stops for good with `reason`.
     fn stop_on(&mut self, reason: StopReason);
+
+    /// What the task measured and chose, for reports; none by default.
+    fn figures(&self) -> TaskFigures {
+        TaskFigures::default()
+    }
+}
+
+/// What a task measured of its contact and how it holds, for reports.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TaskFigures {
+    /// The contact's stiffness per force axis x, y, z (N/m), as the gains
+    /// use it: fitted, or the prior until then.
+    pub stiffness_n_per_m: [Option<f64>; 3],
+    /// The body behind the skin, fitted in contact (N/m; infinite: rigid).
+    pub body_n_per_m: Option<f64>,
+    /// The force's standard deviation over the settling window (N), once
+    /// full.
+    pub settled_sd_n: Option<f64>,
+    /// Times the stability watchdog lowered a gain.
+    pub softened: u32,
 }
 
 /// Clones a task behind its trait: implemented for every `Task + Clone`.
@@ -301,8 +322,10 @@ pub struct TaskLoop<'a> {
     pub skin: &'a Checked<SkinParams>,
     /// The PD law.
     pub pd: &'a Checked<PdParams>,
-    /// The loop's delays.
+    /// The loop's longest delays: the envelope's bounds, the gains' priors.
     pub delays: &'a Checked<LoopDelays>,
+    /// The stability watchdog's settings.
+    pub oscillation: &'a Checked<OscillationParams>,
     /// The control period (s).
     pub period_s: f64,
     /// The wrench axes the controller controls.
@@ -320,6 +343,45 @@ impl TaskLoop<'_> {
     pub fn reaction_s(&self) -> f64 {
         self.period_s + self.delays.total_s()
     }
+
+    /// What a task's force loop needs of this loop.
+    pub fn law(&self) -> ForceLaw {
+        ForceLaw {
+            pd: *self.pd,
+            skin: **self.skin,
+            oscillation: **self.oscillation,
+            reaction_s: self.reaction_s(),
+            period_s: self.period_s,
+        }
+    }
+
+    /// The loop's timing the gains assume until it is measured: the delays'
+    /// bounds.
+    pub fn prior_timing(&self) -> LoopTiming {
+        LoopTiming {
+            transport_s: self.delays.transport_delay_s,
+            latency_s: self.delays.command_latency_s,
+            lag_s: self.delays.arm_lag_s,
+            period_s: self.period_s,
+        }
+    }
+}
+
+/// What a task's force loop needs of the loop it runs in: the PD law's
+/// settings, the skin (the stiffness fit reads through it), the stability
+/// watchdog's, the reaction time the safety envelope assumed, the period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceLaw {
+    /// The PD law.
+    pub pd: Checked<PdParams>,
+    /// The BioTac skin law.
+    pub skin: SkinParams,
+    /// The stability watchdog.
+    pub oscillation: OscillationParams,
+    /// The reaction time the safety envelope assumed (s).
+    pub reaction_s: f64,
+    /// The control period (s).
+    pub period_s: f64,
 }
 
 /// The error for an axis set that lacks `axis`, which the task reads.
@@ -367,6 +429,22 @@ pub struct TaskInput<'a> {
     pub out_of_range: bool,
     /// Time since the previous cycle (s).
     pub dt: f64,
+    /// True when the force is a new estimate, not the last one again.
+    pub fresh: bool,
+    /// The BioTac's position (base frame) when the force's reading was
+    /// taken, when the arm's positions reach back to it.
+    pub force_position: Option<Vector3<f64>>,
+    /// The loop's timing as measured (the bounds until then).
+    pub timing: &'a LoopTiming,
+}
+
+impl TaskInput<'_> {
+    /// The time from a force crossing to the arm acting on it, as measured
+    /// (s).
+    pub fn reaction_s(&self) -> f64 {
+        let t = self.timing;
+        t.period_s + t.transport_s + t.latency_s + t.lag_s
+    }
 }
 
 /// A twist with a linear velocity only (the orientation held).

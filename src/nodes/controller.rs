@@ -17,10 +17,12 @@ use super::tasks;
 use super::JointState;
 use crate::contact::SkinParams;
 use crate::contact::{object_body, BodyParams};
+use crate::control::identify::{ArmResponse, LoopMeter};
 use crate::control::task::{missing_axis, TaskInput, TaskRegistry};
 use crate::control::{
-    ControllerParams, Envelope, Goal, Halt, LoopDelays, OutOfRangeParams, PdParams, Phase,
-    SafetyParams, StopReason, Task, TaskEnvelope, TaskLoop, Watchdog, UNKNOWN_OBJECT,
+    ControllerParams, Envelope, Goal, Halt, LoopDelays, LoopTiming, OscillationParams,
+    OutOfRangeParams, PdParams, Phase, SafetyParams, StopReason, Task, TaskEnvelope, TaskLoop,
+    Watchdog, UNKNOWN_OBJECT,
 };
 use crate::kinematics::{Dls, JointVector, Robot, Twist};
 use crate::params::{positive, Check, Checked, ParamsError};
@@ -60,10 +62,16 @@ pub struct ForceController {
     axes: AxisSet,
     task_axes: Vec<Axis>,
     out_of_range: OutOfRangeParams,
+    /// The joint states' age limit.
     watchdog: Watchdog,
+    /// Estimates may come this late beyond their usual age (s).
+    max_wait_s: f64,
+    meter: LoopMeter,
     envelope: Envelope,
     period_s: f64,
     estimate: Option<WrenchEstimate>,
+    /// The stamp of the estimate last stepped on.
+    stepped_stamp: Option<f64>,
     joints: Option<JointState>,
     start: Option<Isometry3<f64>>,
     last_tick: Option<f64>,
@@ -91,7 +99,9 @@ impl CheckedTask {
         let sections = Sections::check(p, tasks)?;
         let speed = sections.envelope(p)?;
         speed.check()?;
-        let body = permitted_body(p, &sections.safety, &p.object)?;
+        // The gains' prior until the contact is measured: the stiffest body
+        // the scene permits (the object of the run does not set them).
+        let (body, _) = stiffest_permitted(p, &sections.safety)?;
         let task = sections.build(p, &body)?;
         let needed = task.force_axes();
         if let Some(axis) = needed.iter().find(|a| !p.axes.axes().contains(a)) {
@@ -160,10 +170,18 @@ impl ForceController {
                 p.stale_periods + p.loop_delays.transport_delay_s / p.control_period_s,
                 p.control_period_s,
             ),
+            max_wait_s: p.stale_periods * p.control_period_s,
+            meter: LoopMeter::new(LoopTiming {
+                transport_s: p.loop_delays.transport_delay_s,
+                latency_s: p.loop_delays.command_latency_s,
+                lag_s: p.loop_delays.arm_lag_s,
+                period_s: p.control_period_s,
+            }),
             envelope,
             period_s: p.control_period_s,
             twist: Twist::zeros(),
             estimate: None,
+            stepped_stamp: None,
             joints: None,
             start: None,
             last_tick: None,
@@ -288,7 +306,31 @@ impl ForceController {
             }
             None => self.joints = Some(js.clone()),
         }
+        let p = self.robot.chain.forward(&js.q).translation.vector;
+        self.meter.on_position(js.stamp_s, p);
         Ok(())
+    }
+
+    /// The loop's timing as measured so far (the delays' bounds until then).
+    pub fn timing(&self) -> &LoopTiming {
+        self.meter.timing()
+    }
+
+    /// The arm's latency and lag, once fitted from its motion.
+    pub fn arm_response(&self) -> Option<ArmResponse> {
+        self.meter.arm()
+    }
+
+    /// The newest estimate's age at `now` (s), once one has come.
+    pub fn estimate_age_s(&self, now: f64) -> Option<f64> {
+        self.estimate.map(|e| now - e.stamp_s)
+    }
+
+    /// How old the newest estimate may be before the arm halts (s): its
+    /// usual age and what the gains allow beyond it, at most
+    /// `stale_periods` periods.
+    pub fn stale_after_s(&self) -> f64 {
+        self.meter.stale_after_s(self.max_wait_s)
     }
 
     /// Stops the task where it is (a canceled goal): every later tick
@@ -303,39 +345,43 @@ impl ForceController {
         self.last_tick = Some(now);
         match self.step(now, dt) {
             Ok((velocity, damping)) => self.output(velocity, damping, None),
-            Err(halt) => self.halt(halt),
+            Err(halt) => self.halt(now, halt),
         }
     }
 
-    /// A cycle in which the estimate did not come: a controller that steps
-    /// on each estimate halts at once (zero velocity, the task paused)
-    /// rather than acting on the previous estimate until the watchdog's
-    /// age limit. `waited_s`: how long it waited.
-    pub fn estimate_late(&mut self, now: f64, waited_s: f64) -> ControlOutput {
+    /// A cycle in which no estimate came for longer than
+    /// [`ForceController::stale_after_s`] allows (a controller that steps on
+    /// each estimate): zero velocity, the task paused, until one comes.
+    pub fn estimate_late(&mut self, now: f64) -> ControlOutput {
         self.last_tick = Some(now);
         let age_s = self.estimate.map_or(f64::INFINITY, |e| now - e.stamp_s);
-        self.halt(Halt::Stale {
-            what: "wrench estimate",
-            age_s,
-            max_age_s: waited_s,
-        })
+        self.halt(
+            now,
+            Halt::Stale {
+                what: "wrench estimate",
+                age_s,
+                max_age_s: self.stale_after_s(),
+            },
+        )
     }
 
-    fn halt(&mut self, halt: Halt) -> ControlOutput {
+    fn halt(&mut self, now: f64, halt: Halt) -> ControlOutput {
         self.task.pause();
         self.command.fill(0.0);
         self.twist = Twist::zeros();
+        self.meter.on_step(now, Vector3::zeros(), None);
         self.output(Vector3::zeros(), 0.0, Some(halt))
     }
 
     /// One step of the task; the command goes to `self.command`, the
     /// commanded velocity and the damping come back.
     fn step(&mut self, now: f64, dt: f64) -> Result<(Vector3<f64>, f64), Halt> {
-        let w = self.watchdog;
         let js = self.joints.as_ref().ok_or(Halt::Missing("joint state"))?;
-        w.check("joint state", now, Some(js.stamp_s))?;
+        self.watchdog.check("joint state", now, Some(js.stamp_s))?;
         let est = self.estimate.ok_or(Halt::Missing("wrench estimate"))?;
-        w.check("wrench estimate", now, Some(est.stamp_s))?;
+        Watchdog::seconds(self.stale_after_s()).check("wrench estimate", now, Some(est.stamp_s))?;
+        let fresh = self.stepped_stamp != Some(est.stamp_s);
+        self.stepped_stamp = Some(est.stamp_s);
         let out_of_range = self.is_out_of_range(&est);
         let pose = self.robot.chain.forward(&js.q);
         if self.start.is_none() {
@@ -345,6 +391,7 @@ impl ForceController {
             }
         }
         let start = *self.start.get_or_insert(pose);
+        let timing = *self.meter.timing();
         self.twist = self.task.step(&TaskInput {
             force: &est.mean.force,
             pdc_rise: est.pdc_rise,
@@ -352,14 +399,20 @@ impl ForceController {
             start: &start,
             out_of_range,
             dt,
+            fresh,
+            force_position: self.meter.position_at(est.stamp_s),
+            timing: &timing,
         });
+        let age = fresh.then_some(now - est.stamp_s);
         let v_world: Vector3<f64> = self.twist.fixed_rows::<3>(0).into();
         if self.twist == Twist::zeros() {
             self.command.fill(0.0);
+            self.meter.on_step(now, v_world, age);
             return Ok((v_world, 0.0));
         }
         let motion = self.dls.solve(&self.robot, &js.q, &self.twist, None)?;
         self.command.copy_from(self.dls.qdot());
+        self.meter.on_step(now, v_world * motion.scale, age);
         // What the arm will do after the speed scaling, in the start frame.
         let velocity = start.rotation.inverse() * v_world * motion.scale;
         Ok((velocity, motion.damping))
@@ -432,6 +485,7 @@ struct Sections<'t> {
     skin: Checked<SkinParams>,
     pd: Checked<PdParams>,
     delays: Checked<LoopDelays>,
+    oscillation: Checked<OscillationParams>,
     safety: Checked<SafetyParams>,
     task: &'t crate::control::task::TaskEntry,
 }
@@ -443,6 +497,7 @@ impl<'t> Sections<'t> {
         let skin = p.skin.checked("skin")?;
         let pd = p.pd.checked("pd")?;
         let delays = p.loop_delays.checked("loop_delays")?;
+        let oscillation = p.oscillation.checked("oscillation")?;
         let safety = p.safety.clone().checked("safety")?;
         permitted_body(p, &safety, &p.object)?;
         let task = tasks.get(&p.task)?;
@@ -451,6 +506,7 @@ impl<'t> Sections<'t> {
             skin,
             pd,
             delays,
+            oscillation,
             safety,
             task,
         })
@@ -461,6 +517,7 @@ impl<'t> Sections<'t> {
             skin: &self.skin,
             pd: &self.pd,
             delays: &self.delays,
+            oscillation: &self.oscillation,
             period_s: p.control_period_s,
             axes: &p.axes,
         }
@@ -575,7 +632,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            err.contains("pd.max_speed_mps") && err.contains("against wooden_box"),
+            err.contains("pd.max_speed_mps") && err.contains("against unknown"),
             "{err}"
         );
     }
@@ -614,7 +671,7 @@ mod tests {
             "approaching"
         );
         // 15 ms without an estimate: well inside the watchdog's 30 ms.
-        let out = c.estimate_late(0.015, 0.015);
+        let out = c.estimate_late(0.015);
         assert_eq!(c.command(), &JointVector::zeros(7));
         assert!(
             matches!(out.halt, Some(Halt::Stale { .. })),

@@ -95,7 +95,7 @@ mod tests {
                 .unwrap_err()
                 .to_string();
             assert!(
-                e.contains("approach_speed_mps") && e.contains("at most 0.0512 m/s"),
+                e.contains("approach_speed_mps") && e.contains("at most 0.0238 m/s"),
                 "{e}"
             );
         }

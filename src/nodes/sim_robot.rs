@@ -48,7 +48,10 @@ pub struct SimRobotParams {
     pub robot: RobotParams,
     /// Physics rate (Hz); a multiple of the control rate.
     pub physics_rate_hz: f64,
-    /// Delay before a joint velocity command acts (s).
+    /// The arm's command cycle (s): a command acts at the cycle after the
+    /// one it arrives in (0: at once).
+    pub command_cycle_s: f64,
+    /// Delay before a joint velocity command acts, after its cycle (s).
     pub command_latency_s: f64,
     /// Time constant of the joints' velocity tracking (s).
     pub velocity_lag_s: f64,
@@ -143,6 +146,7 @@ impl SimRobot {
     ) -> Result<Self, ParamsError> {
         positive("control_period_s", p.control_period_s)?;
         positive("physics_rate_hz", p.physics_rate_hz)?;
+        non_negative("command_cycle_s", p.command_cycle_s)?;
         non_negative("command_latency_s", p.command_latency_s)?;
         non_negative("velocity_lag_s", p.velocity_lag_s)?;
         non_negative("ft_noise_n", p.ft_noise_n)?;
@@ -197,7 +201,13 @@ impl SimRobot {
         biotac.reseed_noise(seed);
         let steps = ratio.round() as usize;
         Ok(SimRobot {
-            arm: ArmPlant::new(q0, &robot.limits, p.command_latency_s, p.velocity_lag_s),
+            arm: ArmPlant::new(
+                q0,
+                &robot.limits,
+                p.command_cycle_s,
+                p.command_latency_s,
+                p.velocity_lag_s,
+            ),
             robot,
             contact: PlaneContact::new(skin, body),
             biotac,

@@ -20,7 +20,7 @@ pub struct Status {
     /// One line for people.
     pub message: String,
     /// The figures, by name.
-    pub values: Vec<(&'static str, String)>,
+    pub values: Vec<(String, String)>,
 }
 
 impl Status {
@@ -41,7 +41,12 @@ impl Status {
     }
 
     /// Adds a figure.
-    pub fn value(&mut self, name: &'static str, value: impl ToString) {
-        self.values.push((name, value.to_string()));
+    pub fn value(&mut self, name: &str, value: impl ToString) {
+        self.push(name.to_string(), value.to_string());
+    }
+
+    /// Adds a figure whose name is made at run time.
+    pub fn push(&mut self, name: String, value: String) {
+        self.values.push((name, value));
     }
 }

@@ -19,7 +19,8 @@ use serde::Serialize;
 use super::TraceRow;
 use crate::calibration::CalibrateParams;
 use crate::control::TaskKind;
-use crate::control::{ControllerParams, GuardedParams};
+use crate::control::{ControllerParams, GuardedParams, Phase, StopReason};
+use crate::nodes::ForceController;
 use crate::params::ParamsError;
 use crate::wrench::Axis;
 
@@ -29,7 +30,7 @@ pub const CONTACT_N: f64 = 0.05;
 /// Band around the target that counts as settled (N).
 pub const SETTLE_BAND_N: f64 = 0.05;
 /// Window at the end of a run for the steady-state error (s).
-pub const STEADY_WINDOW_S: f64 = 1.0;
+pub const STEADY_WINDOW_S: f64 = 2.0;
 /// Window at the end of a run for the force's standard deviation (s).
 pub const SD_WINDOW_S: f64 = 2.0;
 /// Window at the end of a run for the speed at rest (s).
@@ -84,13 +85,16 @@ pub struct Summary {
     pub peak_force_n: f64,
     /// Peak force above the target (N), 0 when below.
     pub overshoot_n: f64,
-    /// |mean - target| of the normal force over the last second (N).
+    /// |mean - target| of the normal force over the last 2 s (N).
     pub steady_state_error_n: Option<f64>,
     /// Standard deviation of the normal force over the last 2 s (N), from
     /// contact on: a sustained oscillation shows here.
     pub final_sd_n: Option<f64>,
     /// From contact until the normal force stays within the band (s).
     pub settle_time_s: Option<f64>,
+    /// From contact until the task first says it holds (s): its settling
+    /// window included.
+    pub hold_after_contact_s: Option<f64>,
     /// RMS force error from contact on, worst controlled axis (N).
     pub rms_force_error_n: Option<f64>,
     /// RMS force error from contact on, per controlled axis (N).
@@ -109,7 +113,8 @@ pub struct Summary {
     pub damped_periods: usize,
     /// Largest damping factor lambda of the inverse kinematics.
     pub max_damping: f64,
-    /// True when the task stopped on the force limit or out-of-range input.
+    /// True when the task stopped on the force limit, out-of-range input
+    /// or an oscillation.
     pub aborted: bool,
     /// Why the task stopped ("timeout", "force_limit", "out_of_range"), null
     /// when it did not.
@@ -118,6 +123,53 @@ pub struct Summary {
     pub final_phase: &'static str,
     /// Simulated time covered (s).
     pub duration_s: f64,
+    /// What the controller measured of the loop and chose, at the end.
+    pub identified: Option<Identified>,
+}
+
+/// What the controller measured of its loop and chose, at the end of a run
+/// (nothing of it was declared).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Identified {
+    /// The contact's stiffness per force axis x, y, z, skin and body in
+    /// series, as the gains use it (N/m).
+    pub stiffness_n_per_m: [Option<f64>; 3],
+    /// The body behind the skin, fitted in contact (N/m; null: rigid, or
+    /// not fitted).
+    pub body_n_per_m: Option<f64>,
+    /// The estimates' age when stepped on, 90th percentile (s).
+    pub transport_s: f64,
+    /// The arm's command latency (s).
+    pub arm_latency_s: f64,
+    /// The arm's velocity lag (s).
+    pub arm_lag_s: f64,
+    /// True when the latency and lag were fitted from the arm's motion
+    /// (false: the bounds of loop_delays).
+    pub arm_fitted: bool,
+    /// The proportional gains per force axis (m/s per N).
+    pub gains_m_per_s_per_n: [Option<f64>; 3],
+    /// The force's standard deviation over the settling window (N).
+    pub settled_sd_n: Option<f64>,
+    /// Times the stability watchdog lowered a gain.
+    pub gain_lowered: u32,
+}
+
+impl Identified {
+    /// What `c` measured and chose.
+    pub fn of(c: &ForceController) -> Self {
+        let (t, f) = (c.timing(), c.task().figures());
+        Identified {
+            stiffness_n_per_m: f.stiffness_n_per_m,
+            body_n_per_m: f.body_n_per_m.filter(|k| k.is_finite()),
+            transport_s: t.transport_s,
+            arm_latency_s: t.latency_s,
+            arm_lag_s: t.lag_s,
+            arm_fitted: c.arm_response().is_some(),
+            gains_m_per_s_per_n: c.gains(),
+            settled_sd_n: f.settled_sd_n,
+            gain_lowered: f.softened,
+        }
+    }
 }
 
 const FORCE_AXES: [Axis; 3] = [Axis::Fx, Axis::Fy, Axis::Fz];
@@ -171,6 +223,10 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         // settled only if the band was entered before the end.
         (outside + 1 < rows.len()).then(|| rows[outside + 1].t - rows[c].t)
     });
+    let hold_after_contact_s = contact.and_then(|c| {
+        let held = rows[c..].iter().find(|r| r.phase == Phase::Hold)?;
+        Some(held.t - rows[c].t)
+    });
     let (off_speed, off_ratio) = match info.task {
         // The calibration slides and turns on purpose: nothing is off-axis.
         TaskKind::Calibrate => (0.0, None),
@@ -186,7 +242,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
             let (mut s, mut ratio) = (0.0f64, 0.0f64);
             for r in rows
                 .iter()
-                .filter(|r| r.phase != crate::control::Phase::Stopped)
+                .filter(|r| r.phase != Phase::Stopped)
             {
                 let Some(f) = r.finger.filter(|f| f.peak_speed_mps > 0.0) else {
                     continue;
@@ -214,6 +270,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         steady_state_error_n,
         final_sd_n,
         settle_time_s,
+        hold_after_contact_s,
         rms_force_error_n: rms,
         rms_force_error_by_axis_n: by_axis,
         max_off_axis_speed_mps: off_speed,
@@ -224,11 +281,12 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         max_damping: rows.iter().map(|r| r.damping).fold(0.0, f64::max),
         aborted: matches!(
             reason,
-            Some(crate::control::StopReason::ForceLimit | crate::control::StopReason::OutOfRange)
+            Some(StopReason::ForceLimit | StopReason::OutOfRange | StopReason::Oscillating)
         ),
         reason: reason.map(|r| r.name()),
         final_phase: last.map_or("none", |r| r.phase.name()),
         duration_s: end_t,
+        identified: None,
     }
 }
 
@@ -246,7 +304,11 @@ mod tests {
     fn row(t: f64, fz: f64, vx: f64) -> TraceRow {
         TraceRow {
             t,
-            phase: Phase::Regulate,
+            phase: if t >= 1.5 - 1e-9 {
+                Phase::Hold
+            } else {
+                Phase::Regulate
+            },
             reason: None,
             halted: false,
             estimate: None,
@@ -264,8 +326,9 @@ mod tests {
     #[test]
     fn guarded_figures_of_a_known_force_profile() {
         // 0 N until 1 s, then 1.2 N for 0.1 s, then 1.02 N: contact 1.0 s,
-        // peak 1.2 N, settled from 1.1 s, steady error 0.02 N.
-        let rows: Vec<TraceRow> = (0..300)
+        // peak 1.2 N, settled from 1.1 s, the task holding from 1.5 s,
+        // steady error 0.02 N.
+        let rows: Vec<TraceRow> = (0..400)
             .map(|k| {
                 let t = k as f64 * 0.01;
                 let fz = if t < 1.0 - 1e-9 {
@@ -288,17 +351,18 @@ mod tests {
         assert_eq!(s.contact_time_s, Some(1.0));
         assert!((s.peak_force_n - 1.2).abs() < 1e-12 && (s.overshoot_n - 0.2).abs() < 1e-12);
         assert!((s.settle_time_s.unwrap() - 0.1).abs() < 1e-9, "{s:?}");
+        assert!((s.hold_after_contact_s.unwrap() - 0.5).abs() < 1e-9, "{s:?}");
         assert!((s.steady_state_error_n.unwrap() - 0.02).abs() < 1e-9);
-        // RMS over 200 rows from contact: 10 at 0.2 N, 190 at 0.02 N.
-        let rms = ((10.0 * 0.04 + 190.0 * 0.0004) / 200.0f64).sqrt();
+        // RMS over 300 rows from contact: 10 at 0.2 N, 290 at 0.02 N.
+        let rms = ((10.0 * 0.04 + 290.0 * 0.0004) / 300.0f64).sqrt();
         assert!((s.rms_force_error_n.unwrap() - rms).abs() < 1e-12);
         assert!((s.max_off_axis_speed_mps - 0.002).abs() < 1e-12);
         assert!((s.max_off_axis_ratio.unwrap() - 0.2).abs() < 1e-12);
         assert_eq!(
             (s.aborted, s.reason, s.final_phase),
-            (false, None, "regulate")
+            (false, None, "hold")
         );
-        assert_eq!((s.damped_periods, s.max_damping), (100, 0.01));
+        assert_eq!((s.damped_periods, s.max_damping), (200, 0.01));
     }
 
     #[test]

@@ -352,7 +352,12 @@ pub fn status_msg(stamp_s: f64, name: &str, hardware_id: &str, s: Status) -> Dia
         Level::Warn => level::WARN,
         Level::Error => level::ERROR,
     };
-    diagnostics_msg(stamp_s, level, name, s.message, hardware_id, s.values)
+    let values = s
+        .values
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.clone()))
+        .collect();
+    diagnostics_msg(stamp_s, level, name, s.message, hardware_id, values)
 }
 
 #[cfg(test)]

@@ -296,12 +296,13 @@ pub fn describe_shared(name: &str) -> &'static str {
         "objects" => "Objects the arm may touch, by name (config/world.yaml).",
         "object" => "The object of this run (launch argument `object`).",
         "robot" => "The arm: the links of the robot description, the BioTac's mount, limits.",
-        "stale_periods" => "Inputs older than this many periods stop the arm.",
+        "stale_periods" => "Estimates this many periods late beyond their usual age halt the arm.",
+        "autostart" => "Start the task at once; false: zero velocity until a goal or task set.",
         "axes" => "Wrench axes the task controls.",
-        "task" => "The task (guarded or guided; may be changed while running; calibrate: demo).",
+        "task" => "The task (guarded, guided or calibrate); set while running: it starts (again).",
         "pd" => "PD force law (config/world.yaml).",
         "loop_delays" => {
-            "Delays of the force loop: they set the gains and the safety envelope (s)."
+            "Longest delays of the force loop: the safety envelope, the gains' priors (s)."
         }
         "safety" => "Safety envelope: the bodies the scene may touch, the worst-case stiffness.",
         "out_of_range" => "Limits of what the estimator knows (std, PDC rise); beyond: stop.",
@@ -309,6 +310,8 @@ pub fn describe_shared(name: &str) -> &'static str {
         "period_jitter_fraction" => "Jitter of the simulated control period (fraction).",
         "physics_rate_hz" => "Physics rate of the simulation (Hz).",
         "command_latency_s" => "Delay before a joint velocity command acts (s).",
+        "command_cycle_s" => "The arm's command cycle: a command acts at the next but one (s).",
+        "oscillation" => "The stability watchdog: threshold and gain factor.",
         "velocity_lag_s" => "Time constant of the joints' velocity tracking (s).",
         "start_joints_deg" => "Joint positions at the start (deg, mm if prismatic).",
         "contact_x_mm" => "Where the pad touches, along the BioTac axis (mm).",

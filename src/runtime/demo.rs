@@ -11,7 +11,7 @@ use crate::biotac::BioTacSimConfig;
 use crate::control::Envelope;
 use crate::learn::model::WrenchGp;
 use crate::nodes::controller::task_envelope;
-use crate::report::summary::{summarize, RunInfo, Summary};
+use crate::report::summary::{summarize, Identified, RunInfo, Summary};
 use crate::report::TraceRow;
 
 /// A finished run.
@@ -36,8 +36,10 @@ pub fn run_scene(
     let mut nodes = scene.build(model, &BioTacSimConfig::default(), seed)?;
     let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name)?;
     let rows = run(&mut nodes, pacing, on_row)?;
+    let mut summary = summarize(&info, &rows);
+    summary.identified = Some(Identified::of(&nodes.controller));
     Ok(DemoRun {
-        summary: summarize(&info, &rows),
+        summary,
         gains: nodes.controller.gains(),
         rows,
     })

@@ -30,6 +30,14 @@ pub struct GuardedProgress {
     pub phase: Phase,
     /// How it ended ("hold", a stop reason), None while it runs.
     pub outcome: Option<&'static str>,
+    /// The force's standard deviation over the settling window (N).
+    pub settled_sd_n: Option<f64>,
+    /// The contact's stiffness along the approach, as the gain used it (N/m).
+    pub stiffness_n_per_m: Option<f64>,
+    /// The loop's delay as measured: age, latency and lag (s).
+    pub loop_delay_s: f64,
+    /// The proportional gain along the approach (m/s per N).
+    pub gain_m_per_s_per_n: Option<f64>,
 }
 
 /// Where a calibration is.
@@ -93,21 +101,29 @@ impl ForceControllerNode {
     }
 
     fn begin(&mut self, c: ForceController, goal: Running, task: TaskKind) {
+        self.asked = true;
         self.controller = Some(c);
         self.task = task.name().into();
         self.goal = Some(goal);
         self.last = None;
     }
 
-    /// The guarded move's feedback and outcome; None before its first step.
+    /// The guarded move's feedback and outcome, with what it measured;
+    /// None before its first step.
     pub fn guarded_progress(&self) -> Option<GuardedProgress> {
         let out = self.last.as_ref()?;
+        let c = self.controller.as_ref()?;
         // The estimated force on the controlled axis.
         let axis = out.targets.iter().position(Option::is_some).unwrap_or(2);
+        let (f, t) = (c.task().figures(), c.timing());
         Some(GuardedProgress {
             force_n: self.force[axis],
             phase: out.phase,
             outcome: guarded_outcome(out),
+            settled_sd_n: f.settled_sd_n,
+            stiffness_n_per_m: f.stiffness_n_per_m[axis],
+            loop_delay_s: t.transport_s + t.latency_s + t.lag_s,
+            gain_m_per_s_per_n: c.gains()[axis],
         })
     }
 

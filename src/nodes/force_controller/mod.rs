@@ -126,6 +126,9 @@ pub struct ForceControllerNode {
     controller: Option<ForceController>,
     /// The task running: the parameter's, or a goal's.
     task: String,
+    /// False until a goal or a `task` set asks for motion (true from the
+    /// start with `autostart`): until then the controller commands zero.
+    asked: bool,
     goal: Option<Running>,
     /// While a calibration runs, its recording: the F/T wrench, not the
     /// estimate, is then the force.
@@ -172,6 +175,7 @@ impl ForceControllerNode {
         ForceController::check_with(&base, &tasks)?;
         Ok(ForceControllerNode {
             task: base.task.clone(),
+            asked: base.autostart,
             delays: LoopDelayMonitor::new(base.loop_delays.transport_delay_s),
             base,
             tasks,
@@ -259,7 +263,15 @@ impl ForceControllerNode {
             ..self.base.clone()
         };
         if task != TaskKind::Calibrate.name() {
-            return ForceController::with_tasks(p, robot, &self.tasks);
+            let mut c = ForceController::with_tasks(p, robot, &self.tasks)?;
+            if !self.asked {
+                c.stop();
+                tracing::info!(
+                    "task {task}: commanding zero velocity until asked (a goal, or the \
+                     parameter task set; autostart: false)"
+                );
+            }
+            return Ok(c);
         }
         let mut c = ForceController::for_goal(&CalibrateGoal::default(), &p, robot)?;
         c.stop();
@@ -267,16 +279,21 @@ impl ForceControllerNode {
         Ok(c)
     }
 
-    /// Checks (`apply` false) or applies a new value of the parameter
-    /// `task`; Err says why it is refused.
+    /// Checks (`apply` false) or applies a value of the parameter `task`:
+    /// the task starts (again, after it stopped), or Err says why it
+    /// cannot. Without a robot description it is checked, and starts when
+    /// one arrives.
     pub fn set_task(&mut self, name: &str, apply: bool) -> Result<(), String> {
         self.tasks.get(name).map_err(|e| e.to_string())?;
         if self.goal.is_some() {
             return Err("a goal is running (guarded_move or calibrate): cancel it first".into());
         }
-        if name == self.task {
-            return Ok(()); // nothing to change (a stopped task stays stopped)
+        if name == self.task && self.running() {
+            return Err(format!(
+                "the task {name} is running: set another task to switch, or wait until it stops"
+            ));
         }
+        let asked = std::mem::replace(&mut self.asked, true);
         let c = match &self.arm {
             Some(arm) => Some(
                 self.built(name, arm.robot.clone())
@@ -298,11 +315,16 @@ impl ForceControllerNode {
                 None
             }
         };
-        if apply {
-            self.controller = c;
-            self.task = name.into();
-            self.last = None;
-            tracing::info!("task switched to {name}");
+        if !apply {
+            self.asked = asked;
+            return Ok(());
+        }
+        self.controller = c;
+        self.task = name.into();
+        self.last = None;
+        match &self.arm {
+            Some(_) => tracing::info!("task {name} started"),
+            None => tracing::info!("task {name}: starts when the robot description arrives"),
         }
         Ok(())
     }
@@ -408,10 +430,28 @@ impl ForceControllerNode {
         Some(self.keep(out))
     }
 
-    /// No estimate for `waited_s` before `now`: zero velocity, the task
-    /// paused, until estimates return.
-    pub fn on_late(&mut self, now: f64, waited_s: f64) -> Option<&ControlOutput> {
-        let out = self.controller.as_mut()?.estimate_late(now, waited_s);
+    /// Seconds from `now` until the newest estimate goes stale
+    /// ([`ForceController::stale_after_s`]), at least a period: when to
+    /// look again if none comes.
+    pub fn until_stale_s(&self, now: f64) -> f64 {
+        let period = self.base.control_period_s;
+        let Some(c) = &self.controller else {
+            return period;
+        };
+        let age = c.estimate_age_s(now).unwrap_or(f64::INFINITY);
+        (c.stale_after_s() - age).max(period)
+    }
+
+    /// Called when no estimate came in time: once the newest is stale, zero
+    /// velocity, the task paused, until estimates return (logged with the
+    /// figures); None while it is not stale yet.
+    pub fn on_late(&mut self, now: f64) -> Option<&ControlOutput> {
+        let c = self.controller.as_mut()?;
+        let age = c.estimate_age_s(now).unwrap_or(f64::INFINITY);
+        if age < c.stale_after_s() {
+            return None;
+        }
+        let out = c.estimate_late(now);
         Some(self.keep(out))
     }
 
@@ -443,6 +483,9 @@ impl ForceControllerNode {
     pub fn status(&mut self) -> Status {
         let mut s = Status::ok(self.task.clone());
         s.value("task", &self.task);
+        if !self.asked {
+            s.raise(Level::Ok, ", waiting to be asked (a goal or task set)");
+        }
         match &self.arm {
             Some(a) => s.value("robot", &a.robot.name),
             None => s.raise(Level::Warn, ", waiting for the robot description"),
@@ -455,29 +498,63 @@ impl ForceControllerNode {
                 s.value("halt", h);
             }
         }
+        if let Some(c) = &self.controller {
+            let ms = |v: f64| format!("{:.1}", v * 1e3);
+            let t = c.timing();
+            s.value("transport_ms", ms(t.transport_s));
+            s.value("arm_latency_ms", ms(t.latency_s));
+            s.value("arm_lag_ms", ms(t.lag_s));
+            s.value("arm_fitted", c.arm_response().is_some());
+            s.value("stale_after_ms", ms(c.stale_after_s()));
+            let f = c.task().figures();
+            let axes = ["x", "y", "z"];
+            for (i, g) in c.gains().iter().enumerate() {
+                if let Some(g) = g {
+                    s.push(
+                        format!("gain_{}_mm_s_per_n", axes[i]),
+                        format!("{:.2}", g * 1e3),
+                    );
+                }
+            }
+            for (i, k) in f.stiffness_n_per_m.iter().enumerate() {
+                if let Some(k) = k {
+                    s.push(format!("stiffness_{}_n_per_m", axes[i]), format!("{k:.0}"));
+                }
+            }
+            if f.softened > 0 {
+                s.raise(
+                    Level::Warn,
+                    &format!(
+                        "; gain lowered {} time(s): the force oscillated",
+                        f.softened
+                    ),
+                );
+                s.value("gain_lowered", f.softened);
+            }
+        }
         if let Some(r) = self.delays.take_report() {
             let ms = |v: f64| format!("{:.2}", v * 1e3);
             s.value("loop_delay_steps", r.steps);
             s.value("loop_delay_p50_ms", ms(r.p50_s));
             s.value("loop_delay_p99_ms", ms(r.p99_s));
             s.value("loop_delay_max_ms", ms(r.max_s));
-            s.value("loop_delay_assumed_ms", ms(r.assumed_s));
+            s.value("loop_delay_bound_ms", ms(r.assumed_s));
             if r.exceeds_assumed() {
-                s.raise(Level::Warn, "; loop delay beyond what the gains assume");
+                s.raise(Level::Warn, "; estimates older than loop_delays bounds");
             }
             if r.exceeds_assumed() != self.delay_warned {
                 self.delay_warned = r.exceeds_assumed();
                 if self.delay_warned {
                     tracing::warn!(
                         "estimates are {:.1} ms old (p99) when stepped on, beyond the {:.1} ms \
-                         the gains and the safety envelope assume \
-                         (loop_delays.transport_delay_s): the loop may ring; raise it to the \
-                         delay of this deployment",
+                         bound the safety envelope assumes (loop_delays.transport_delay_s): an \
+                         approach slows by the share its loop is slower; raise the bound to \
+                         this deployment's delay",
                         r.p99_s * 1e3,
                         r.assumed_s * 1e3
                     );
                 } else {
-                    tracing::info!("loop delay back within what the gains assume");
+                    tracing::info!("estimates back within the loop_delays bound");
                 }
             }
         }

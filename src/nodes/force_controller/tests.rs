@@ -1,6 +1,6 @@
 use nalgebra::Vector3;
 
-use super::goals::{CalibrationProgress, GuardedProgress};
+use super::goals::CalibrationProgress;
 use super::*;
 use crate::calibration::Ended;
 use crate::control::{Halt, StopReason};
@@ -53,7 +53,7 @@ fn nothing_is_commanded_before_a_description_and_the_status_says_so() {
     let mut n = node(None);
     assert!(n.controller().is_none() && n.joint_names().is_empty());
     assert!(estimate(&mut n, 0.0, 0.0).is_none());
-    assert!(n.on_late(0.1, 0.015).is_none());
+    assert!(n.on_late(0.1).is_none());
     let s = n.status();
     assert_eq!(s.level, Level::Warn);
     assert!(
@@ -73,7 +73,9 @@ fn a_description_is_taken_once_and_refused_while_a_task_runs() {
     assert!(n.take_description(pa10()).unwrap());
     assert_eq!(n.joint_names().len(), 7);
     assert!(!n.take_description(pa10()).unwrap(), "the one in use");
-    // The guarded move begins on its first estimate: another arm is refused.
+    // Asked, the guarded move begins on its first estimate: another arm
+    // is refused.
+    n.set_task("guarded", true).unwrap();
     let out = estimate(&mut n, 0.0, 0.0).unwrap();
     assert_eq!((out.phase, out.halt), (Phase::Approach, None));
     let five = include_str!("../../../tests/data/five_joint_arm.urdf");
@@ -94,17 +96,14 @@ fn a_task_switch_is_checked_as_at_start_up_and_refused_during_a_goal() {
     let e = n.set_task("admittance", true).unwrap_err();
     assert!(e.contains("guarded, guided or calibrate"), "{e}");
     // Checked without a description: the guided move's speeds are beyond
-    // the envelope of the guarded scene's wooden box.
+    // the envelope of the guarded scene's bodies (anything, up to rigid).
     let e = n.set_task("guided", true).unwrap_err();
-    assert!(
-        e.contains("pd.max_speed_mps") && e.contains("wooden_box"),
-        "{e}"
-    );
+    assert!(e.contains("pd.max_speed_mps") && e.contains("unknown"), "{e}");
     // Checking alone changes nothing; applying switches.
     n.set_task("calibrate", false).unwrap();
-    assert_eq!(n.status().values[0], ("task", "guarded".to_string()));
+    assert_eq!(n.status().values[0], ("task".into(), "guarded".into()));
     n.set_task("calibrate", true).unwrap();
-    assert_eq!(n.status().values[0], ("task", "calibrate".to_string()));
+    assert_eq!(n.status().values[0], ("task".into(), "calibrate".into()));
     // Built with the description: the calibration waits, the arm still.
     n.take_description(pa10()).unwrap();
     let out = estimate(&mut n, 0.0, 0.0).unwrap();
@@ -117,15 +116,46 @@ fn a_task_switch_is_checked_as_at_start_up_and_refused_during_a_goal() {
 }
 
 #[test]
+fn launched_with_estimates_flowing_it_commands_zero_until_asked_and_a_set_restarts() {
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    for k in 0..10 {
+        let out = estimate(&mut n, k as f64 * 0.01, 0.0).unwrap();
+        assert_eq!(out.phase, Phase::Stopped);
+        assert_eq!(n.controller().unwrap().command(), &JointVector::zeros(7));
+    }
+    assert!(n.status().message.contains("waiting to be asked"));
+    n.set_task("guarded", true).unwrap();
+    let out = estimate(&mut n, 0.1, 0.0).unwrap();
+    assert_eq!(out.phase, Phase::Approach);
+    assert!(n.controller().unwrap().command().norm() > 0.0);
+    // While it runs, the same task again cannot take effect: refused.
+    let e = n.set_task("guarded", true).unwrap_err();
+    assert!(e.contains("is running"), "{e}");
+    // Stopped, a set starts it again.
+    n.cancel_goal();
+    estimate(&mut n, 0.11, 0.0);
+    assert!(!n.running());
+    n.set_task("guarded", true).unwrap();
+    let out = estimate(&mut n, 1.0, 0.0).unwrap();
+    assert_eq!(out.phase, Phase::Approach);
+}
+
+#[test]
 fn an_estimate_steps_once_both_halves_are_in_and_a_late_one_halts() {
     let mut n = node(None);
     n.take_description(pa10()).unwrap();
+    n.set_task("guarded", true).unwrap();
     let out = estimate(&mut n, 0.0, 0.0).unwrap();
     assert!(
         out.halt.is_none() && out.velocity.z < 0.0,
         "approaching: {out:?}"
     );
-    let out = n.on_late(0.015, 0.015).unwrap().clone();
+    // Not stale yet: the arm goes on with the last command.
+    let stale = n.controller().unwrap().stale_after_s();
+    assert!(n.on_late(0.015).is_none(), "stale after {stale} s");
+    assert!(n.until_stale_s(0.015) >= stale - 0.015 - 1e-9);
+    let out = n.on_late(stale + 0.001).unwrap().clone();
     assert!(matches!(out.halt, Some(Halt::Stale { .. })), "{out:?}");
     assert_eq!(n.controller().unwrap().command(), &JointVector::zeros(7));
     assert!(n.status().message.contains("halted"));
@@ -134,19 +164,30 @@ fn an_estimate_steps_once_both_halves_are_in_and_a_late_one_halts() {
     assert!(n.on_force(ForcePart::Std, 0.02, fz(0.0), 0.021).is_none());
     n.on_pdc_rise(f64::INFINITY);
     let s = n.status();
-    assert_eq!(s.values.last().unwrap(), &("rejected", "2".to_string()));
+    assert_eq!(s.values.last().unwrap(), &("rejected".into(), "2".into()));
 }
 
 #[test]
-fn the_status_warns_once_when_estimates_are_older_than_the_gains_assume() {
+fn the_status_says_the_loop_it_measured_and_warns_once_beyond_the_bounds() {
     let mut n = node(None);
     n.take_description(pa10()).unwrap();
-    // The embedded defaults assume no transport delay: 1 ms is beyond it.
-    estimate(&mut n, 0.0, 0.0);
+    // Estimates 20 ms old: beyond the 10 ms bound of loop_delays.
+    n.on_joint_state(&joints(0.0));
+    n.on_force(ForcePart::Mean, 0.0, fz(0.0), 0.02);
+    n.on_force(ForcePart::Std, 0.0, fz(0.001), 0.02);
     let s = n.status();
     assert_eq!(s.level, Level::Warn);
-    assert!(s.message.contains("loop delay beyond"), "{s:?}");
+    assert!(s.message.contains("older than loop_delays bounds"), "{s:?}");
     assert!(n.delay_warned);
+    let value = |name: &str| {
+        s.values
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.clone())
+    };
+    assert_eq!(value("transport_ms").as_deref(), Some("20.0"), "{s:?}");
+    assert_eq!(value("arm_fitted").as_deref(), Some("false"));
+    assert!(value("gain_z_mm_s_per_n").is_some() && value("stiffness_z_n_per_m").is_some());
     let s = n.status();
     assert!(
         !s.message.contains("loop delay"),
@@ -176,15 +217,17 @@ fn a_guarded_goal_runs_reports_and_ends_and_only_one_goal_at_a_time() {
     let p = n.guarded_progress().unwrap();
     assert_eq!((p.phase, p.outcome), (Phase::Regulate, None));
     assert!((p.force_n - 0.2).abs() < 1e-12, "{p:?}");
+    // What it measured so far: the estimate's age (1 ms); the arm's
+    // bounds and the stiffest body as priors.
+    assert!((p.loop_delay_s - 0.066).abs() < 1e-9, "{p:?}");
+    assert!(p.stiffness_n_per_m.is_some() && p.gain_m_per_s_per_n.is_some());
+    assert_eq!(p.settled_sd_n, None, "the window is not full");
     n.cancel_goal();
     estimate(&mut n, 0.01, 0.2);
+    let p = n.guarded_progress().unwrap();
     assert_eq!(
-        n.guarded_progress(),
-        Some(GuardedProgress {
-            force_n: 0.2,
-            phase: Phase::Stopped,
-            outcome: Some("stopped")
-        })
+        (p.force_n, p.phase, p.outcome),
+        (0.2, Phase::Stopped, Some("stopped"))
     );
     assert!(
         n.take_recording().is_none(),

@@ -61,6 +61,10 @@ pub(super) async fn serve(
                 let result = GuardedMove::Result {
                     force_n: p.force_n,
                     reason: reason.into(),
+                    settled_sd_n: p.settled_sd_n.unwrap_or(0.0),
+                    stiffness_n_per_m: p.stiffness_n_per_m.unwrap_or(0.0),
+                    loop_delay_s: p.loop_delay_s,
+                    gain_m_per_s_per_n: p.gain_m_per_s_per_n.unwrap_or(0.0),
                     ..Default::default()
                 };
                 let _ = if reason == "hold" {

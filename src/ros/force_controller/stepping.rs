@@ -1,6 +1,7 @@
 //! The loop of `force_controller`: it steps the node on each force message
-//! and publishes the command; with no estimate for 1.5 periods it halts
-//! the arm, every period; once a second it publishes the node's status.
+//! and publishes the command; when no estimate comes before the newest goes
+//! stale (as the node judges from the delay it measures), it halts the arm,
+//! every period; once a second it publishes the node's status.
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -69,8 +70,7 @@ pub(super) async fn run(
     clock: RosClock,
     period: Duration,
 ) -> Result<(), RosError> {
-    let wait = period.mul_f64(1.5);
-    let mut deadline = tokio::time::Instant::now() + wait;
+    let mut deadline = tokio::time::Instant::now() + period;
     let mut report = tokio::time::interval(Duration::from_secs(1));
     loop {
         // Each step publishes under the lock it ran in, so that a goal or
@@ -81,16 +81,19 @@ pub(super) async fn run(
                 let now = clock.now_s();
                 let mut n = lock(&shared);
                 if n.on_force_msg(part, msg, now) {
-                    deadline = tokio::time::Instant::now() + wait;
+                    deadline = tokio::time::Instant::now()
+                        + Duration::from_secs_f64(n.until_stale_s(now));
                     commands.publish(&n, now);
                 }
             }
-            // No estimate for 1.5 periods: zero velocity, every period.
+            // No estimate in time: once the newest is stale, zero velocity,
+            // every period.
             _ = tokio::time::sleep_until(deadline) => {
-                deadline = tokio::time::Instant::now() + period;
                 let now = clock.now_s();
                 let mut n = lock(&shared);
-                if n.on_late(now, wait.as_secs_f64()).is_some() {
+                deadline = tokio::time::Instant::now()
+                    + Duration::from_secs_f64(n.until_stale_s(now));
+                if n.on_late(now).is_some() {
                     commands.publish(&n, now);
                 }
             }

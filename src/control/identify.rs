@@ -1,0 +1,474 @@
+//! What the controller measures of its loop while it runs, so that nobody
+//! has to declare it:
+//!
+//! - [`ArmTrack`]: the BioTac's commanded velocity and its position (from
+//!   `joint_states`), recent enough to fit the arm's response: a pure
+//!   latency `L` then a first-order lag `tau`,
+//!   `tau dv/dt = v_cmd(t - L) - v`, by least squares on the positions
+//!   (grid search, coarse then fine), whenever the commands vary enough;
+//!   and the position at any recent time (a reading's stamp);
+//! - [`AgeWindow`]: how old each estimate's reading is when stepped on;
+//! - [`LoopMeter`]: the loop's timing from both, and how late an estimate
+//!   may be before the arm halts;
+//! - [`ContactStiffness`]: force against the approach in contact. The
+//!   BioTac's skin, `x_s(F) = x0 ln(1 + F / A)` (src/contact.rs), is in
+//!   series with an unknown body of compliance `c = 1 / k`, so the
+//!   position along the approach is `x = x_c + x_s(F) + c F`: a line in `F`
+//!   whose slope, fitted over a sliding window, is `c`.
+//!
+//! Buffers are fixed at construction: nothing here allocates while the
+//! controller runs.
+
+use nalgebra::Vector3;
+
+use super::tuning::LoopTiming;
+use crate::contact::SkinParams;
+
+/// A fixed-capacity ring of the newest `N` items.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ring<T: Copy, const N: usize> {
+    items: [T; N],
+    next: usize,
+    len: usize,
+}
+
+impl<T: Copy, const N: usize> Ring<T, N> {
+    /// An empty ring (`fill` only takes the slots).
+    pub fn new(fill: T) -> Self {
+        Ring {
+            items: [fill; N],
+            next: 0,
+            len: 0,
+        }
+    }
+
+    /// Adds the newest item, dropping the oldest when full.
+    pub fn push(&mut self, item: T) {
+        self.items[self.next] = item;
+        self.next = (self.next + 1) % N;
+        self.len = (self.len + 1).min(N);
+    }
+
+    /// Items held.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The `i`-th oldest item.
+    pub fn get(&self, i: usize) -> T {
+        self.items[(self.next + N - self.len + i) % N]
+    }
+
+    /// The newest item.
+    pub fn last(&self) -> Option<T> {
+        (self.len > 0).then(|| self.get(self.len - 1))
+    }
+
+    /// Oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = T> + '_ {
+        (0..self.len).map(|i| self.get(i))
+    }
+
+    /// Forgets everything.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+}
+
+/// The arm's response to a velocity command.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmResponse {
+    /// Pure latency (s).
+    pub latency_s: f64,
+    /// Time constant of the velocity lag (s).
+    pub lag_s: f64,
+    /// Share of the positions' motion the fit explains (0..1).
+    pub r2: f64,
+}
+
+/// Positions kept (spaced at least [`POSITION_SPACING_S`]).
+const POSITIONS: usize = 128;
+/// Commands kept.
+const COMMANDS: usize = 128;
+/// Closer positions are not kept (s): a fast joint_states stream.
+const POSITION_SPACING_S: f64 = 0.004;
+/// The window a fit reads (s).
+const FIT_WINDOW_S: f64 = 0.4;
+/// Largest latency and lag a fit considers (s).
+const MAX_LATENCY_S: f64 = 0.1;
+const MAX_LAG_S: f64 = 0.08;
+/// Least motion a fit needs (m).
+const MIN_TRAVEL_M: f64 = 3e-4;
+/// Least share of the motion's changes a fit must explain.
+const MIN_R2: f64 = 0.8;
+/// Least change of the commanded velocity in a fit's window (m/s).
+const MIN_SPEED_CHANGE_MPS: f64 = 0.002;
+
+/// The BioTac's recent commands and positions (base frame).
+#[derive(Debug, Clone)]
+pub struct ArmTrack {
+    positions: Ring<(f64, Vector3<f64>), POSITIONS>,
+    commands: Ring<(f64, Vector3<f64>), COMMANDS>,
+}
+
+impl Default for ArmTrack {
+    fn default() -> Self {
+        ArmTrack {
+            positions: Ring::new((0.0, Vector3::zeros())),
+            commands: Ring::new((0.0, Vector3::zeros())),
+        }
+    }
+}
+
+impl ArmTrack {
+    /// The BioTac's position `p` (m) measured at `t` (s).
+    pub fn on_position(&mut self, t: f64, p: Vector3<f64>) {
+        match self.positions.last() {
+            Some((last, _)) if t < last + POSITION_SPACING_S => {}
+            _ => self.positions.push((t, p)),
+        }
+    }
+
+    /// The BioTac's velocity `v` (m/s) commanded at `t` (s).
+    pub fn on_command(&mut self, t: f64, v: Vector3<f64>) {
+        self.commands.push((t, v));
+    }
+
+    /// Forgets the history (a new task, or a pause in the inputs).
+    pub fn clear(&mut self) {
+        self.positions.clear();
+        self.commands.clear();
+    }
+
+    /// The position at `t`, interpolated between the two measured around
+    /// it; None outside what is kept.
+    pub fn position_at(&self, t: f64) -> Option<Vector3<f64>> {
+        let n = self.positions.len();
+        let (t_last, p_last) = self.positions.last()?;
+        if t >= t_last {
+            return (t - t_last <= POSITION_SPACING_S * 2.0).then_some(p_last);
+        }
+        for i in (0..n.saturating_sub(1)).rev() {
+            let ((t0, p0), (t1, p1)) = (self.positions.get(i), self.positions.get(i + 1));
+            if t0 <= t {
+                let f = if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 };
+                return Some(p0 + (p1 - p0) * f);
+            }
+        }
+        None
+    }
+
+    /// The arm's latency and lag fitted on the last [`FIT_WINDOW_S`], when
+    /// the commands moved the arm enough and the fit explains most of it.
+    pub fn fit(&self) -> Option<ArmResponse> {
+        let (t_end, _) = self.positions.last()?;
+        let from = t_end - FIT_WINDOW_S;
+        let first = self.positions.iter().position(|(t, _)| t >= from)?;
+        let oldest_command = self.commands.get(0).0;
+        // The lag's state is simulated from the oldest command: the window
+        // starts well after it.
+        if self.commands.is_empty() || oldest_command > from - MAX_LATENCY_S - MAX_LAG_S {
+            return None;
+        }
+        let steps = self.positions.len() - first - 1;
+        let (mut travel, mut total) = (0.0, 0.0);
+        let mean = (self.positions.get(self.positions.len() - 1).1 - self.positions.get(first).1)
+            / steps.max(1) as f64;
+        for j in first..self.positions.len() - 1 {
+            let d = self.positions.get(j + 1).1 - self.positions.get(j).1;
+            travel += d.norm();
+            total += (d - mean).norm_squared();
+        }
+        // A steady motion shows no delay: the commands must change.
+        let (lo, hi) = self
+            .commands
+            .iter()
+            .filter(|(t, _)| *t >= from - MAX_LATENCY_S - MAX_LAG_S)
+            .fold(
+                (
+                    Vector3::repeat(f64::INFINITY),
+                    Vector3::repeat(f64::NEG_INFINITY),
+                ),
+                |(lo, hi), (_, v)| (lo.inf(&v), hi.sup(&v)),
+            );
+        if steps < 8 || travel < MIN_TRAVEL_M || (hi - lo).norm() < MIN_SPEED_CHANGE_MPS {
+            return None;
+        }
+        // Coarse, then fine around the best.
+        let mut best = (f64::INFINITY, 0.0, 0.0);
+        for (l0, tau0, step, n) in [(0.0, 0.0, 0.004, 26), (f64::NAN, f64::NAN, 0.001, 9)] {
+            let (l0, tau0) = if l0.is_nan() {
+                (best.1 - 0.004, best.2 - 0.004)
+            } else {
+                (l0, tau0)
+            };
+            for i in 0..n {
+                for k in 0..n {
+                    let (l, tau) = (l0 + i as f64 * step, tau0 + k as f64 * step);
+                    if !(0.0..=MAX_LATENCY_S).contains(&l) || !(0.0..=MAX_LAG_S).contains(&tau) {
+                        continue;
+                    }
+                    let e = self.residual(first, l, tau);
+                    if e < best.0 {
+                        best = (e, l, tau);
+                    }
+                }
+            }
+        }
+        let r2 = 1.0 - best.0 / total.max(f64::MIN_POSITIVE);
+        (r2 >= MIN_R2).then_some(ArmResponse {
+            latency_s: best.1,
+            lag_s: best.2,
+            r2,
+        })
+    }
+
+    /// Sum of squared differences between the measured displacements from
+    /// position `first` on and those the model (latency `l`, lag `tau`)
+    /// predicts from the commands.
+    fn residual(&self, first: usize, l: f64, tau: f64) -> f64 {
+        let (mut t, mut v) = (self.commands.get(0).0 + l, self.commands.get(0).1);
+        let mut c = 0; // the command acting from t on: commands[c]
+        let mut moved = Vector3::zeros();
+        let mut err = 0.0;
+        let at = |t1: f64,
+                  t: &mut f64,
+                  v: &mut Vector3<f64>,
+                  c: &mut usize,
+                  moved: &mut Vector3<f64>| {
+            while *t < t1 {
+                let next = if *c + 1 < self.commands.len() {
+                    self.commands.get(*c + 1).0 + l
+                } else {
+                    f64::INFINITY
+                };
+                let until = next.min(t1);
+                let u = self.commands.get(*c).1;
+                let dt = until - *t;
+                if tau > 0.0 {
+                    let decay = (-dt / tau).exp();
+                    *moved += u * dt + (*v - u) * tau * (1.0 - decay);
+                    *v = u + (*v - u) * decay;
+                } else {
+                    *moved += u * dt;
+                    *v = u;
+                }
+                *t = until;
+                if until == next {
+                    *c += 1;
+                }
+            }
+        };
+        let (t_first, _) = self.positions.get(first);
+        at(t_first, &mut t, &mut v, &mut c, &mut moved);
+        for j in first..self.positions.len() - 1 {
+            let ((_, p0), (t1, p1)) = (self.positions.get(j), self.positions.get(j + 1));
+            moved = Vector3::zeros();
+            at(t1, &mut t, &mut v, &mut c, &mut moved);
+            err += ((p1 - p0) - moved).norm_squared();
+        }
+        err
+    }
+}
+
+/// Estimates' ages when stepped on, over the last `AGES` steps.
+#[derive(Debug, Clone)]
+pub struct AgeWindow {
+    ages: Ring<f64, AGES>,
+}
+
+/// Ages kept.
+const AGES: usize = 64;
+
+impl Default for AgeWindow {
+    fn default() -> Self {
+        AgeWindow {
+            ages: Ring::new(0.0),
+        }
+    }
+}
+
+impl AgeWindow {
+    /// An estimate `age_s` old when stepped on; not finite: not kept.
+    pub fn push(&mut self, age_s: f64) {
+        if age_s.is_finite() {
+            self.ages.push(age_s.max(0.0));
+        }
+    }
+
+    /// The `q` quantile (0..1) of the ages kept; None when none is.
+    pub fn quantile(&self, q: f64) -> Option<f64> {
+        if self.ages.is_empty() {
+            return None;
+        }
+        let mut sorted = [0.0; AGES];
+        let n = self.ages.len();
+        for (slot, a) in sorted.iter_mut().zip(self.ages.iter()) {
+            *slot = a;
+        }
+        sorted[..n].sort_unstable_by(f64::total_cmp);
+        Some(sorted[((n - 1) as f64 * q).round() as usize])
+    }
+}
+
+/// Samples of the stiffness fit.
+const CONTACT_SAMPLES: usize = 24;
+/// Least spread of the force in the window for a fit (N).
+const MIN_FORCE_SPREAD_N: f64 = 0.1;
+
+/// The compliance of the body the BioTac presses, from force against
+/// position along the approach.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactStiffness {
+    skin: SkinParams,
+    samples: Ring<(f64, f64), CONTACT_SAMPLES>,
+    /// The body's stiffness fitted last (N/m; infinite: rigid).
+    body: Option<f64>,
+}
+
+impl ContactStiffness {
+    /// A fit through the BioTac's `skin`.
+    pub fn new(skin: SkinParams) -> Self {
+        ContactStiffness {
+            skin,
+            samples: Ring::new((0.0, 0.0)),
+            body: None,
+        }
+    }
+
+    /// Takes the position along the approach `x` (m) at the reading whose
+    /// pressing force is `f` (N), in contact; refits when the window's
+    /// forces spread enough. The body's stiffness when (re)fitted.
+    pub fn push(&mut self, x: f64, f: f64) -> Option<f64> {
+        if !(x.is_finite() && f.is_finite() && f > 0.0) {
+            return None;
+        }
+        let x0 = self.skin.length_scale_mm * 1e-3;
+        let y = x - x0 * (f / self.skin.force_scale_n).ln_1p();
+        self.samples.push((f, y));
+        let n = self.samples.len() as f64;
+        let (lo, hi) = self
+            .samples
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (f, _)| {
+                (lo.min(f), hi.max(f))
+            });
+        if hi - lo < MIN_FORCE_SPREAD_N {
+            return None;
+        }
+        let (mf, my) = self
+            .samples
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (f, y)| (a + f / n, b + y / n));
+        let (sfy, sff) = self.samples.iter().fold((0.0, 0.0), |(a, b), (f, y)| {
+            (a + (f - mf) * (y - my), b + (f - mf).powi(2))
+        });
+        let c = sfy / sff;
+        // A negative compliance is noise on a rigid body.
+        let k = if c > 1e-7 { 1.0 / c } else { f64::INFINITY };
+        self.body = Some(k);
+        Some(k)
+    }
+
+    /// The body's stiffness (N/m; infinite: rigid), once fitted.
+    pub fn body(&self) -> Option<f64> {
+        self.body
+    }
+
+    /// The stiffness of skin and body in series at force `f` (N/m), with
+    /// `prior` (N/m) for the body until it is fitted.
+    pub fn effective(&self, f: f64, prior: f64) -> f64 {
+        let body = self.body.unwrap_or(prior);
+        1.0 / (1.0 / self.skin.stiffness_at(f) + 1.0 / body)
+    }
+}
+
+/// Steps between two fits of the arm's response.
+const FIT_EVERY: usize = 25;
+
+/// The loop's timing as the controller measures it: the estimates' ages
+/// (their 90th percentile), the arm's latency and lag (the last fit that
+/// explained the motion); the bounds of `loop_delays` until measured.
+#[derive(Debug, Clone)]
+pub struct LoopMeter {
+    prior: LoopTiming,
+    track: ArmTrack,
+    ages: AgeWindow,
+    arm: Option<ArmResponse>,
+    since_fit: usize,
+    timing: LoopTiming,
+}
+
+impl LoopMeter {
+    /// A meter that assumes `prior` until it has measured.
+    pub fn new(prior: LoopTiming) -> Self {
+        LoopMeter {
+            prior,
+            track: ArmTrack::default(),
+            ages: AgeWindow::default(),
+            arm: None,
+            since_fit: 0,
+            timing: prior,
+        }
+    }
+
+    /// The BioTac's position `p` measured at `t`.
+    pub fn on_position(&mut self, t: f64, p: Vector3<f64>) {
+        self.track.on_position(t, p);
+    }
+
+    /// A control step at `now` commanding the BioTac's velocity `v` (base
+    /// frame), on an estimate `age_s` old when it is a new one.
+    pub fn on_step(&mut self, now: f64, v: Vector3<f64>, age_s: Option<f64>) {
+        self.track.on_command(now, v);
+        if let Some(age) = age_s {
+            self.ages.push(age);
+        }
+        self.since_fit += 1;
+        if self.since_fit >= FIT_EVERY {
+            self.since_fit = 0;
+            if let Some(fit) = self.track.fit() {
+                self.arm = Some(fit);
+            }
+        }
+        self.timing = LoopTiming {
+            transport_s: self.ages.quantile(0.9).unwrap_or(self.prior.transport_s),
+            latency_s: self.arm.map_or(self.prior.latency_s, |a| a.latency_s),
+            lag_s: self.arm.map_or(self.prior.lag_s, |a| a.lag_s),
+            period_s: self.prior.period_s,
+        };
+    }
+
+    /// The timing as measured so far.
+    pub fn timing(&self) -> &LoopTiming {
+        &self.timing
+    }
+
+    /// The arm's response, once fitted.
+    pub fn arm(&self) -> Option<ArmResponse> {
+        self.arm
+    }
+
+    /// The BioTac's position at `t`, when recent.
+    pub fn position_at(&self, t: f64) -> Option<Vector3<f64>> {
+        self.track.position_at(t)
+    }
+
+    /// How old the newest estimate may be before the arm halts (s): the
+    /// usual age, and beyond it as long as the gains allow, the loop's
+    /// delay (waiting that long more costs about half the phase margin),
+    /// at least a period, at most `max_wait_s`.
+    pub fn stale_after_s(&self, max_wait_s: f64) -> f64 {
+        let t = &self.timing;
+        let usual = self.ages.quantile(0.9).unwrap_or(self.prior.transport_s);
+        usual + (t.dead_s() + t.lag_s).max(t.period_s).min(max_wait_s)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,137 @@
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::*;
+
+fn skin() -> SkinParams {
+    SkinParams {
+        force_scale_n: 0.5,
+        length_scale_mm: 1.2,
+        shear_stiffness_n_per_m: 1500.0,
+    }
+}
+
+#[test]
+fn a_ring_keeps_the_newest_in_order() {
+    let mut r: Ring<u32, 3> = Ring::new(0);
+    assert!(r.is_empty() && r.last().is_none());
+    for i in 1..=5 {
+        r.push(i);
+    }
+    assert_eq!(r.iter().collect::<Vec<_>>(), [3, 4, 5]);
+    assert_eq!((r.len(), r.get(0), r.last()), (3, 3, Some(5)));
+    r.clear();
+    assert!(r.is_empty());
+}
+
+/// An arm with latency `l` and lag `tau`, commanded every 10 ms along x by
+/// `speed(t)`, its positions measured every `every` s: the track.
+fn track(l: f64, tau: f64, every: f64, speed: impl Fn(f64) -> f64) -> ArmTrack {
+    let mut track = ArmTrack::default();
+    let (dt, mut v, mut x) = (1e-4, 0.0, 0.0);
+    let mut sent: Vec<(f64, f64)> = Vec::new();
+    let mut next_sample = 0.0;
+    for k in 0..12_000 {
+        let t = k as f64 * dt;
+        if k % 100 == 0 {
+            sent.push((t, speed(t)));
+            track.on_command(t, Vector3::new(speed(t), 0.0, 0.0));
+        }
+        let u = sent
+            .iter()
+            .rev()
+            .find(|(ts, _)| *ts + l <= t + 1e-12)
+            .map_or(0.0, |(_, u)| *u);
+        v += if tau > 0.0 { (u - v) * dt / tau } else { u - v };
+        x += v * dt;
+        if t >= next_sample - 1e-12 {
+            track.on_position(t, Vector3::new(x, 0.0, 0.0));
+            next_sample += every;
+        }
+    }
+    track
+}
+
+#[test]
+fn the_fit_finds_the_latency_and_lag_of_an_arm_it_did_not_see() {
+    // Speed steps and a ramp within the last 0.4 s.
+    let speed = |t: f64| match t {
+        t if t < 0.85 => 0.0,
+        t if t < 1.0 => 0.01,
+        t => 0.01 - 0.02 * (t - 1.0),
+    };
+    for (l, tau, every) in [
+        (0.024, 0.02, 0.01),
+        (0.008, 0.0, 0.002),
+        (0.04, 0.03, 0.008),
+    ] {
+        let fit = track(l, tau, every, speed).fit().expect("moved enough");
+        assert!(
+            (fit.latency_s - l).abs() <= 0.0025 && (fit.lag_s - tau).abs() <= 0.0035,
+            "{l} {tau}: {fit:?}"
+        );
+        assert!(fit.r2 > 0.99, "{fit:?}");
+    }
+}
+
+#[test]
+fn without_motion_or_with_a_steady_one_there_is_no_fit() {
+    assert!(track(0.02, 0.02, 0.01, |_| 0.0).fit().is_none());
+    assert!(ArmTrack::default().fit().is_none());
+    // A steady speed shows neither latency nor lag.
+    assert!(track(0.02, 0.02, 0.01, |_| 0.01).fit().is_none());
+}
+
+#[test]
+fn a_position_is_read_at_any_recent_time() {
+    let mut t = ArmTrack::default();
+    t.on_position(1.0, Vector3::new(0.0, 0.0, 0.0));
+    t.on_position(1.001, Vector3::new(9.0, 0.0, 0.0)); // too close: dropped
+    t.on_position(1.01, Vector3::new(1.0, 0.0, 0.0));
+    assert!((t.position_at(1.005).unwrap().x - 0.5).abs() < 1e-9);
+    assert_eq!(t.position_at(1.012).unwrap().x, 1.0, "just after the last");
+    assert!(t.position_at(1.1).is_none() && t.position_at(0.9).is_none());
+}
+
+#[test]
+fn ages_give_their_quantiles() {
+    let mut a = AgeWindow::default();
+    assert_eq!(a.quantile(0.5), None);
+    for i in 0..100 {
+        a.push(i as f64 * 1e-3);
+    }
+    a.push(f64::NAN);
+    // The last 64: 36..99 ms.
+    assert!((a.quantile(0.5).unwrap() - 0.068).abs() < 1.1e-3);
+    assert!((a.quantile(1.0).unwrap() - 0.099).abs() < 1e-12);
+}
+
+#[test]
+fn the_body_behind_the_skin_is_found_from_force_against_position() {
+    let skin = skin();
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for body in [50.0, 300.0, 1e4, f64::INFINITY] {
+        let mut s = ContactStiffness::new(skin);
+        assert_eq!(s.body(), None);
+        let mut fitted = None;
+        // Pressing from 0.15 N to 1 N, the estimate noisy (5 mN).
+        for i in 0..30 {
+            let f = 0.15 + 0.03 * i as f64;
+            let x = 0.02 + 1.2e-3 * (f / 0.5f64).ln_1p() + f / body;
+            let noise = rng.random_range(-0.005..0.005);
+            fitted = s.push(x, f + noise).or(fitted);
+        }
+        let k = fitted.unwrap();
+        // The stiffness at 1 N within 10 %.
+        let truth = 1.0 / (1.0 / skin.stiffness_at(1.0) + 1.0 / body);
+        let got = s.effective(1.0, 1e6);
+        assert!(
+            (got / truth - 1.0).abs() < 0.1,
+            "{body}: body {k}, {got} vs {truth}"
+        );
+    }
+    // Until fitted, the prior stands in.
+    let s = ContactStiffness::new(skin);
+    let prior = s.effective(1.0, 300.0);
+    assert!((prior - 1.0 / (1.0 / 1250.0 + 1.0 / 300.0)).abs() < 1e-9);
+}

@@ -1,0 +1,209 @@
+//! The PD gain from margins on the loop the controller measured, instead
+//! of from an object and a delay the user declares.
+//!
+//! From the commanded speed to the force, a velocity-controlled arm
+//! pressing a contact of stiffness `k` is
+//!
+//! ```text
+//! P(s) = k e^(-s D) / (s (1 + s tau))
+//! ```
+//!
+//! with `D` the pure delay (the estimate's age when stepped on, the arm's
+//! command latency, and half a control period for the hold of each
+//! command) and `tau` the time constant of the arm's velocity servo. The
+//! law (src/control/pd.rs) is `C(s) = K (1 + T_d s / (1 + tau_f s))`: the
+//! derivative of the filtered force. With `L = C P = K L0`, the gain is the
+//! largest that keeps the phase margin at least `phase_deg` and the gain
+//! margin at least `gain`:
+//!
+//! ```text
+//! K = min(1 / |L0(w_pm)|, 1 / (gain |L0(w_180)|))
+//! ```
+//!
+//! where the phase of `L0` passes `-180 deg + phase_deg` at `w_pm` and
+//! `-180 deg` at `w_180`; it falls steadily with `w` (the delay), so each
+//! is its first crossing on a grid up to the Nyquist frequency `pi / T`.
+//! The shipped margins, 45 deg and 2 (6 dB), are the usual minimums of a
+//! well-damped loop; the architecture page's discrete bound
+//! `a < 2 sin(pi / (2 (2 d + 1)))` is the zero-margin case.
+
+use std::f64::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+use crate::params::{positive, Check, ParamsError};
+
+/// Points of the frequency grid.
+const GRID: usize = 400;
+
+/// The margins the gains keep (`force_controller.margins`).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Margins {
+    /// Phase margin (deg).
+    pub phase_deg: f64,
+    /// Gain margin (a factor above 1).
+    pub gain: f64,
+}
+
+impl Check for Margins {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
+        if !(self.phase_deg > 0.0 && self.phase_deg < 90.0) {
+            return Err(crate::params::invalid(
+                &format!("{key}.phase_deg"),
+                self.phase_deg,
+                "0 < phase < 90 deg",
+            ));
+        }
+        positive(&format!("{key}.gain"), self.gain - 1.0).map_err(|_| {
+            crate::params::invalid(&format!("{key}.gain"), self.gain, "a factor > 1")
+        })?;
+        Ok(self)
+    }
+}
+
+/// The loop's timing, as measured or assumed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopTiming {
+    /// The estimate's age when stepped on (s).
+    pub transport_s: f64,
+    /// The arm's command latency (s).
+    pub latency_s: f64,
+    /// The arm's velocity lag (s).
+    pub lag_s: f64,
+    /// The control period (s).
+    pub period_s: f64,
+}
+
+impl LoopTiming {
+    /// The pure delay `D` (s): transport, latency and half a period.
+    pub fn dead_s(&self) -> f64 {
+        self.transport_s + self.latency_s + self.period_s / 2.0
+    }
+
+    /// The arm's part of the delay, latency and lag (s): how far ahead the
+    /// derivative predicts the force.
+    pub fn arm_s(&self) -> f64 {
+        self.latency_s + self.lag_s
+    }
+}
+
+/// `L0(jw) / k`'s magnitude and phase (rad) at `w`.
+fn open_loop(w: f64, t: &LoopTiming, derivative_s: f64, filter_s: f64) -> (f64, f64) {
+    // C0 = 1 + j w Td / (1 + j w tf) = (1 + j w (tf + Td)) / (1 + j w tf)
+    let c_mag = (1.0 + (w * (filter_s + derivative_s)).powi(2)).sqrt()
+        / (1.0 + (w * filter_s).powi(2)).sqrt();
+    let c_phase = (w * (filter_s + derivative_s)).atan() - (w * filter_s).atan();
+    let mag = c_mag / (w * (1.0 + (w * t.lag_s).powi(2)).sqrt());
+    let phase = -PI / 2.0 - (w * t.lag_s).atan() - w * t.dead_s() + c_phase;
+    (mag, phase)
+}
+
+/// The largest proportional gain (m/s per N) for a contact of stiffness
+/// `k` (N/m) in a loop of timing `t`, with the derivative time and the
+/// filter of the law (s), that keeps `margins`.
+pub fn gain(k: f64, t: &LoopTiming, derivative_s: f64, filter_s: f64, margins: &Margins) -> f64 {
+    let w_max = PI / t.period_s;
+    let w_min = w_max * 1e-4;
+    let pm_phase = -PI + margins.phase_deg.to_radians();
+    let (mut k_pm, mut k_gm) = (f64::INFINITY, f64::INFINITY);
+    let mut prev: Option<(f64, f64)> = None;
+    for i in 0..GRID {
+        let w = w_min * (w_max / w_min).powf(i as f64 / (GRID - 1) as f64);
+        let (mag, phase) = open_loop(w, t, derivative_s, filter_s);
+        if let Some((prev_mag, prev_phase)) = prev {
+            // Log-linear interpolation of the magnitude at a crossing.
+            let at = |level: f64| {
+                let f = (prev_phase - level) / (prev_phase - phase);
+                (prev_mag.ln() + f * (mag.ln() - prev_mag.ln())).exp()
+            };
+            if k_pm.is_infinite() && prev_phase > pm_phase && phase <= pm_phase {
+                k_pm = 1.0 / at(pm_phase);
+            }
+            if prev_phase > -PI && phase <= -PI {
+                k_gm = 1.0 / (margins.gain * at(-PI));
+                break;
+            }
+        }
+        prev = Some((mag, phase));
+    }
+    // At the Nyquist frequency the phase has passed -180 deg (half a
+    // period of delay alone takes 90 deg there): both are found.
+    k_pm.min(k_gm) / k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn timing(transport_s: f64, latency_s: f64, lag_s: f64) -> LoopTiming {
+        LoopTiming {
+            transport_s,
+            latency_s,
+            lag_s,
+            period_s: 0.01,
+        }
+    }
+
+    const MARGINS: Margins = Margins {
+        phase_deg: 60.0,
+        gain: 2.5,
+    };
+
+    #[test]
+    fn a_pure_integrator_with_delay_gets_the_textbook_gain() {
+        // L = K k e^(-s D) / s: the phase margin is 90 deg - w_c D at the
+        // crossover w_c = K k, so 60 deg needs K k D = pi / 6.
+        let t = timing(0.015, 0.01, 0.0);
+        let d = t.dead_s();
+        let kk = gain(1.0, &t, 0.0, 0.0, &MARGINS);
+        assert!((kk * d - PI / 6.0).abs() < 0.01, "K k D = {}", kk * d);
+        // The gain scales as 1 / k.
+        let k2 = gain(1000.0, &t, 0.0, 0.0, &MARGINS);
+        assert!((k2 * 1000.0 - kk).abs() < 1e-9 * kk);
+    }
+
+    #[test]
+    fn more_delay_or_lag_lowers_the_gain_and_the_derivative_buys_some_back() {
+        let fast = gain(1000.0, &timing(0.0, 0.002, 0.0), 0.0, 0.01, &MARGINS);
+        let slow = gain(1000.0, &timing(0.002, 0.032, 0.0), 0.0, 0.01, &MARGINS);
+        let lagged = gain(1000.0, &timing(0.002, 0.032, 0.03), 0.0, 0.01, &MARGINS);
+        assert!(fast > 2.0 * slow && slow > lagged, "{fast} {slow} {lagged}");
+        let with_d = gain(1000.0, &timing(0.002, 0.032, 0.03), 0.03, 0.01, &MARGINS);
+        assert!(with_d > 1.2 * lagged, "{with_d} {lagged}");
+    }
+
+    #[test]
+    fn the_loop_it_sets_keeps_its_margins() {
+        for (d, lag, td) in [(0.0, 0.0, 0.0), (0.016, 0.0, 0.01), (0.032, 0.03, 0.03)] {
+            let t = timing(0.001, d, lag);
+            let k = 800.0;
+            let kp = gain(k, &t, td, 0.01, &MARGINS);
+            // Crossover: |K k L0| = 1; the phase there is at least -120 deg.
+            let mut w = 1e-3;
+            while kp * k * open_loop(w, &t, td, 0.01).0 > 1.0 {
+                w *= 1.001;
+            }
+            let phase = open_loop(w, &t, td, 0.01).1.to_degrees();
+            assert!(phase >= -120.5, "{d} {lag}: phase {phase} at {w} rad/s");
+        }
+    }
+
+    #[test]
+    fn margins_out_of_range_are_named() {
+        let e = Margins {
+            phase_deg: 95.0,
+            gain: 2.0,
+        }
+        .checked("margins")
+        .unwrap_err();
+        assert!(e.to_string().contains("margins.phase_deg"), "{e}");
+        let e = Margins {
+            phase_deg: 45.0,
+            gain: 0.5,
+        }
+        .checked("margins")
+        .unwrap_err();
+        assert!(e.to_string().contains("margins.gain"), "{e}");
+    }
+}
