@@ -21,9 +21,9 @@
 //!
 //! ```
 //! use ndarray::Array2;
-//! use tactile_force::learn::dataset::Dataset;
-//! use tactile_force::learn::gp::GpParams;
-//! use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
+//! use tactile_force::learn::data::Dataset;
+//! use tactile_force::learn::models::gp::GpParams;
+//! use tactile_force::learn::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
 //!
 //! // 50 samples of 2 tared electrode values; fz grows as e1 drops.
 //! let x = Array2::from_shape_fn((50, 2), |(i, j)| -(i as f64) * (j as f64 + 1.0));

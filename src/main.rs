@@ -52,7 +52,7 @@ enum Command {
 
 fn main() -> ExitCode {
     // candle (the CNN) spreads element-wise ops over a pool of spinning
-    // threads; on a small machine one such thread is faster (learn::cnn,
+    // threads; on a small machine one such thread is faster (learn::models::cnn,
     // "Cost"). Set before any thread starts; a value given wins.
     if std::env::var_os("CANDLE_NUM_THREADS").is_none() {
         std::env::set_var("CANDLE_NUM_THREADS", "1");

@@ -5,7 +5,7 @@
 //! Under r2r's `doc-only` build there are no Rust types for our own
 //! interface package, so the BioTac topic is untyped: this module is the one
 //! place that knows its field names. It needs no ROS installation: the ROS
-//! adapters and the bag reader ([`crate::learn::bag`]) both use it. The
+//! adapters and the bag reader ([`crate::learn::data::bag`]) both use it. The
 //! tests read `msg/msg/BioTac.msg` and check every field name, type and
 //! array length against it.
 

@@ -6,8 +6,8 @@ use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::learn::evaluate::{training_fit, Progress};
-use tactile_force::learn::gp::GpParams;
-use tactile_force::learn::model::{AdaptedFrom, WrenchGp};
+use tactile_force::learn::models::gp::GpParams;
+use tactile_force::learn::models::wrench_gp::{AdaptedFrom, WrenchGp};
 
 use super::data::{load_sessions, SourceArgs};
 use super::output::{progress_bar, show};

@@ -11,7 +11,7 @@ use serde_json::json;
 
 use tactile_force::control::TaskKind;
 use tactile_force::learn::calibration::fit_and_save;
-use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::runtime::calibrate::record;
 use tactile_force::runtime::Scene;
 

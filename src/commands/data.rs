@@ -8,11 +8,12 @@ use anyhow::{Context, Result};
 use clap::Args;
 use nalgebra::Vector3;
 
-use tactile_force::learn::bag::{read_bag, BagTopics};
-use tactile_force::learn::dataset::{Counts, Dataset};
-use tactile_force::learn::model::TareSpec;
+use tactile_force::learn::data::bag::{read_bag, BagTopics};
+use tactile_force::learn::data::nail::read_nail_dirs;
+use tactile_force::learn::data::{Counts, Dataset};
+use tactile_force::learn::models::wrench_gp::TareSpec;
 use tactile_force::nail::collect::is_nail_dir;
-use tactile_force::sensor::nail::{self, read_nail_dirs};
+use tactile_force::sensor::nail;
 use tactile_force::sensor::{biotac, SensorSpec};
 use tactile_force::wrench::{AxisSet, FrameTransform, Wrench};
 

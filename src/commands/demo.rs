@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model::{self, Origin, Recipe};
-use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::report::plot::{self, SweepSeries};
 use tactile_force::report::summary::Summary;
 use tactile_force::report::TraceRow;

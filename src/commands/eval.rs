@@ -6,15 +6,15 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::Args;
 
-use tactile_force::learn::cnn::CnnParams;
-use tactile_force::learn::dataset::channel_columns;
+use tactile_force::learn::data::channel_columns;
 use tactile_force::learn::evaluate::{
     cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
     FoldScores,
 };
-use tactile_force::learn::metrics::DEFAULT_PEAK_MIN_N;
-use tactile_force::learn::model::WrenchGp;
-use tactile_force::learn::nn::NnParams;
+use tactile_force::learn::models::cnn::CnnParams;
+use tactile_force::learn::models::metrics::DEFAULT_PEAK_MIN_N;
+use tactile_force::learn::models::nn::NnParams;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::sensor::SensorSpec;
 
 use super::data::{load_sessions, SourceArgs};

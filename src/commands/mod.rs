@@ -15,11 +15,11 @@ pub mod train;
 
 use tactile_force::biotac::sim::ConfigError;
 use tactile_force::kinematics::RobotError;
-use tactile_force::learn::bag::BagError;
 use tactile_force::learn::choice::SelectError;
-use tactile_force::learn::dataset::DatasetError;
+use tactile_force::learn::data::bag::BagError;
+use tactile_force::learn::data::DatasetError;
 use tactile_force::learn::evaluate::EvalError;
-use tactile_force::learn::model::ModelError;
+use tactile_force::learn::models::wrench_gp::ModelError;
 use tactile_force::nail::collect::NailDataError;
 use tactile_force::nail::preprocess::PreprocessError;
 use tactile_force::params::ParamsError;

@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tactile_force::learn::calibration::CalibrationRecord;
 use tactile_force::learn::choice::Selection;
 use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
-use tactile_force::learn::metrics::DirectionError;
+use tactile_force::learn::models::metrics::DirectionError;
 use tactile_force::wrench::{Axis, AxisSet};
 
 pub(crate) fn progress_bar() -> ProgressBar {

@@ -6,11 +6,11 @@ use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::learn::choice::select;
-use tactile_force::learn::dataset::{channel_columns, Channel, DatasetError};
+use tactile_force::learn::data::{channel_columns, Channel, DatasetError};
 use tactile_force::learn::evaluate::{training_fit, Progress};
-use tactile_force::learn::gp::{GpParams, KernelKind, MeanKind, Subset};
-use tactile_force::learn::model::WrenchGp;
-use tactile_force::learn::scale::InputScaling;
+use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
+use tactile_force::learn::models::scale::InputScaling;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
 
@@ -119,7 +119,7 @@ pub(crate) struct TrainArgs {
 pub(crate) fn gp_params(
     fit: &FitArgs,
     sensor: &SensorSpec,
-) -> Result<tactile_force::learn::gp::ValidGpParams> {
+) -> Result<tactile_force::learn::models::gp::ValidGpParams> {
     let default_mean = match sensor {
         SensorSpec::Biotac => MeanKind::Zero,
         SensorSpec::Nail(_) => MeanKind::Cubic,
@@ -245,7 +245,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
 fn save_checked(
     a: &TrainArgs,
     model: WrenchGp,
-    ds: &tactile_force::learn::dataset::Dataset,
+    ds: &tactile_force::learn::data::Dataset,
     t0: std::time::Instant,
 ) -> Result<()> {
     let fit_s = t0.elapsed().as_secs_f64();

@@ -14,9 +14,9 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::dataset::{electrode_columns, Dataset, DatasetError};
-use super::gp::{GpParams, Subset};
-use super::model::{ModelError, TareSpec, WrenchGp};
+use super::data::{electrode_columns, Dataset, DatasetError};
+use super::models::gp::{GpParams, Subset};
+use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
 use crate::biotac::sim::DEFAULT_CONFIG_YAML;
 use crate::biotac::BioTacSimConfig;
 use crate::sim::collect::{collect, CollectConfig};

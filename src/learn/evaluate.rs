@@ -10,14 +10,14 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::cnn::{Cnn, CnnError, ValidCnnParams};
-use super::dataset::{trialwise_folds, Dataset};
-use super::gp::fit::FitProgress;
-use super::gp::{MeanKind, ValidGpParams};
-use super::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
-use super::model::{ModelError, TareSpec, WrenchGp};
-use super::nn::{Mlp, NnError, ValidNnParams};
-use super::scale::InputScaling;
+use super::data::{trialwise_folds, Dataset};
+use super::models::cnn::{Cnn, CnnError, ValidCnnParams};
+use super::models::gp::fit::FitProgress;
+use super::models::gp::{MeanKind, ValidGpParams};
+use super::models::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
+use super::models::nn::{Mlp, NnError, ValidNnParams};
+use super::models::scale::InputScaling;
+use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
 use crate::wrench::{Axis, AxisSet};
 
 /// Errors of an evaluation.

@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::dataset::Dataset;
+use super::data::Dataset;
 use super::evaluate::{scores, EvalError};
-use super::gp::{GpParams, Subset};
-use super::model::{Estimate, TareSpec, WrenchGp};
-use super::nn::{Mlp, ValidNnParams};
+use super::models::gp::{GpParams, Subset};
+use super::models::nn::{Mlp, ValidNnParams};
+use super::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
 use crate::wrench::Axis;
 
 /// The kind of model of a row.
@@ -127,7 +127,9 @@ pub fn tradeoff(
     let mut rows = Vec::new();
     let mut gp_row = |label: String, params: GpParams, subset: Option<Subset>, n_train| {
         progress(&label);
-        let params = params.validate().map_err(super::model::ModelError::from)?;
+        let params = params
+            .validate()
+            .map_err(super::models::wrench_gp::ModelError::from)?;
         let t0 = Instant::now();
         let model = WrenchGp::train(train, tare.clone(), &params, &mut |_, _| {})?;
         let fit_s = t0.elapsed().as_secs_f64();

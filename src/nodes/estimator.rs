@@ -8,7 +8,7 @@ use serde::Deserialize;
 
 use crate::biotac::Tare;
 use crate::learn::default_model::Recipe;
-use crate::learn::model::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
+use crate::learn::models::wrench_gp::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
 use crate::sensor::biotac::BioTacInput;
 use crate::sensor::{SensorError, SensorInput};
 use crate::wrench::Wrench;
@@ -273,8 +273,8 @@ impl EstimatorNode<BioTacInput> {
 mod tests {
     use super::*;
     use crate::biotac::BioTacReading;
-    use crate::learn::dataset::{electrode_columns, Dataset};
-    use crate::learn::model::TareSpec;
+    use crate::learn::data::{electrode_columns, Dataset};
+    use crate::learn::models::wrench_gp::TareSpec;
     use ndarray::Array2;
 
     /// A model on the 19 electrodes, fz = minus the mean tared electrode.
@@ -295,7 +295,7 @@ mod tests {
             samples: 3,
             mean_baseline: vec![2000.0; 19],
         };
-        crate::learn::model::quick_fit(&data, tare)
+        crate::learn::models::wrench_gp::quick_fit(&data, tare)
     }
 
     fn reading(stamp_s: f64, pressed: u16) -> BioTacReading {
@@ -367,7 +367,7 @@ mod tests {
             samples: 3,
             mean_baseline: vec![0.0; d],
         };
-        crate::learn::model::quick_fit(&data, tare)
+        crate::learn::models::wrench_gp::quick_fit(&data, tare)
     }
 
     #[test]

@@ -27,7 +27,7 @@ use std::time::Duration;
 use crate::control::TaskKind;
 use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
-use crate::learn::model::ModelError;
+use crate::learn::models::wrench_gp::ModelError;
 use crate::nodes::estimator::EstimatorError;
 #[cfg(doc)]
 use crate::params::layered_flat_params;

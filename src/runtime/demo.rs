@@ -9,7 +9,7 @@ use super::scene::{Scene, SceneError};
 use super::{run, Pacing};
 use crate::biotac::BioTacSimConfig;
 use crate::control::Envelope;
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::controller::task_envelope;
 use crate::report::summary::{summarize, RunInfo, Summary};
 use crate::report::TraceRow;

@@ -13,7 +13,7 @@ use crate::biotac::BioTacSimConfig;
 use crate::contact::BodyParams;
 use crate::control::TaskKind;
 use crate::kinematics::{Robot, RobotError, ShippedRobot};
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{ControllerParams, EstimatorNode, ForceController, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError, WORLD_YAML};

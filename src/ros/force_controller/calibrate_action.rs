@@ -23,7 +23,7 @@ use r2r::tactile_force_msgs::action::Calibrate;
 
 use super::*;
 use crate::learn::calibration::{fit_and_save, CalibrationRecord};
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::calibration::Ended;
 use crate::ros::RosClock;
 

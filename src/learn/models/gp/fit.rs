@@ -425,7 +425,7 @@ pub fn fit_sparse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::gp::{Gp, GpWorkspace};
+    use crate::learn::models::gp::{Gp, GpWorkspace};
     use rand::Rng;
 
     #[test]

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::net::{Arch, Net, StoredTensor};
 use super::{CnnError, CnnParams};
-use crate::learn::scale::Standardizer;
+use crate::learn::models::scale::Standardizer;
 
 /// ChaCha stream of the weight initialisation and the batch order.
 const TRAIN_STREAM: u64 = 1;

@@ -65,7 +65,7 @@ use super::scale::Standardizer;
 use layers::Layers;
 use train::{check_data, Trainer};
 
-/// The seeded train/validation split, shared with [`crate::learn::cnn`].
+/// The seeded train/validation split, shared with [`crate::learn::models::cnn`].
 pub(crate) use train::split_rows;
 
 pub(crate) use params::{check, check_schedule, OutOfRange};
@@ -243,7 +243,7 @@ impl Mlp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::metrics::rmse;
+    use crate::learn::models::metrics::rmse;
     use ndarray::{array, Array2, Zip};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

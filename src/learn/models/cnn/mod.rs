@@ -36,7 +36,7 @@
 //! minimised with AdamW (candle's; decoupled weight decay `λ` on the conv
 //! and linear weights, none on the biases) on mini-batches of shuffled
 //! training images. A seeded `validation_fraction` of the images (the same
-//! split as [`crate::learn::nn`]) is held out; the standardisers are fitted on
+//! split as [`crate::learn::models::nn`]) is held out; the standardisers are fitted on
 //! the others. After every epoch the validation MSE (mean over images and
 //! axes, no dropout) is computed; training stops after `patience` epochs
 //! without improvement or at `max_epochs`, and the weights of the best

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::*;
-use crate::learn::metrics::r2;
+use crate::learn::models::metrics::r2;
 
 /// Image side of the synthetic set.
 const SIDE: usize = 24;

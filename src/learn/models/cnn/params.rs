@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::learn::nn::{check, check_schedule, OutOfRange};
+use crate::learn::models::nn::{check, check_schedule, OutOfRange};
 
 /// Why a CNN cannot be configured, trained, run or loaded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -4,7 +4,7 @@
 //! hyperparameter fitting.
 //!
 //! Every function here works on standardised data (see
-//! [`crate::learn::scale`]); one GP models one output axis, with its own
+//! [`crate::learn::models::scale`]); one GP models one output axis, with its own
 //! hyperparameters, as in Huhnstock (2014) and Urban et al. (2013).
 
 pub mod exact;
