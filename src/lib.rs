@@ -52,6 +52,7 @@
 pub mod biotac;
 pub mod contact;
 pub mod control;
+pub mod exit;
 pub mod kinematics;
 pub mod learn;
 pub mod nail;

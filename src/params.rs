@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+use crate::exit::{Classify, ExitClass};
+
 /// The shipped world file.
 pub const WORLD_YAML: &str = include_str!("../config/world.yaml");
 /// The shipped guarded-move scene.
@@ -50,6 +52,13 @@ pub enum ParamsError {
         /// What is accepted.
         expected: String,
     },
+}
+
+/// A parameter file or value refused: refused input.
+impl Classify for ParamsError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// Deserialises the `ros__parameters` of `node` from a YAML text. As in ROS 2,
@@ -237,6 +246,25 @@ pub(crate) fn non_negative(key: &str, v: f64) -> Result<(), ParamsError> {
     } else {
         Err(invalid(key, v, "a finite value >= 0"))
     }
+}
+
+/// `Ok` when `ok`, else the error for `key`.`name` = `value`, which is not
+/// `expected`.
+pub(crate) fn require(
+    key: &str,
+    name: &str,
+    value: impl std::fmt::Display,
+    ok: bool,
+    expected: &str,
+) -> Result<(), ParamsError> {
+    if ok {
+        return Ok(());
+    }
+    Err(ParamsError::Invalid {
+        key: format!("{key}.{name}"),
+        value: value.to_string(),
+        expected: expected.into(),
+    })
 }
 
 /// The error for `key` = `v`, which is not `expected`.

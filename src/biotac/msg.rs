@@ -13,6 +13,7 @@ use serde_json::{json, Value};
 
 use crate::biotac::reading::{N_ELECTRODES, N_PAC};
 use crate::biotac::{BioTacReading, ADC_MAX};
+use crate::exit::{Classify, ExitClass};
 
 /// The ROS type name of the readings topic.
 pub const BIOTAC_MSG_TYPE: &str = "tactile_force_msgs/msg/BioTac";
@@ -41,6 +42,13 @@ pub enum BioTacMsgError {
         /// The value.
         value: u64,
     },
+}
+
+/// A message that does not decode: refused input.
+impl Classify for BioTacMsgError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// What travels with a reading on the topic besides the samples.

@@ -2,7 +2,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::learn::evaluate::{training_fit, Progress};
@@ -11,6 +10,7 @@ use tactile_force::learn::models::wrench_gp::{AdaptedFrom, WrenchGp};
 
 use super::data::{load_sessions, SourceArgs};
 use super::output::{progress_bar, show};
+use super::{Context, Result};
 
 #[derive(Args)]
 pub(crate) struct AdaptArgs {

@@ -6,7 +6,6 @@
 //! and the validation figures. A calibration that cannot succeed writes no
 //! model (exit 1) and says why.
 
-use anyhow::{anyhow, Context, Result};
 use serde_json::json;
 
 use tactile_force::control::TaskKind;
@@ -17,9 +16,13 @@ use tactile_force::runtime::Scene;
 
 use super::demo::DemoArgs;
 use super::output::{print_validation, progress_bar};
+use super::{BadArgument, Context, Failure, Result};
 
 pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> Result<()> {
-    let out = a.out.as_ref().context("demo calibrate needs --out")?;
+    let out = a
+        .out
+        .as_ref()
+        .ok_or_else(|| BadArgument("demo calibrate needs --out".into()))?;
     let session = a
         .session
         .clone()
@@ -52,9 +55,9 @@ pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> R
         println!("plot written to {}", path.display());
     }
     if let Some(why) = rec.ended.failure() {
-        return Err(anyhow!(
+        return Err(Failure::failed(format!(
             "calibration failed: {why}; the arm stopped; no model written (the current one is kept)"
-        ));
+        )));
     }
     let r = fit_and_save(
         &rec.records,

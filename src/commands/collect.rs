@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::biotac::sim::BioTacSimConfig;
@@ -13,6 +12,7 @@ use tactile_force::nail::sim::NailSimConfig;
 use tactile_force::sim::collect::{collect, CollectConfig};
 
 use super::BadArgument;
+use super::{Context, Result};
 
 /// The protocols.
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use clap::Args;
 use nalgebra::Vector3;
 
@@ -18,6 +17,7 @@ use tactile_force::sensor::{biotac, SensorSpec};
 use tactile_force::wrench::{AxisSet, FrameTransform, Wrench};
 
 use super::BadArgument;
+use super::{Context, Result};
 
 /// Where the data files' wrenches come from: topics of a ROS bag (MCAP)
 /// and the F/T sensor's frame.
@@ -138,7 +138,7 @@ impl Sessions {
     /// Every session's rows in one data set.
     pub(crate) fn pooled(&self) -> Result<Dataset> {
         let refs: Vec<&Dataset> = self.sets.iter().collect();
-        Dataset::concat(&refs).context("no data file given")
+        Dataset::concat(&refs).ok_or_else(|| BadArgument("no data file given".into()).into())
     }
 }
 

@@ -3,7 +3,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -22,6 +21,7 @@ use tactile_force::runtime::{Pacing, Scene};
 
 use super::output::progress_bar;
 use super::BadArgument;
+use super::{Context, Result};
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -173,7 +173,7 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string(&run.summary)?);
     }
-    Ok(())
+    Ok(run.held()?)
 }
 
 /// The model of `--model`, or the scene's cached default (trained on first use).

@@ -3,7 +3,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::learn::data::channel_columns;
@@ -15,6 +14,7 @@ use tactile_force::learn::models::cnn::CnnParams;
 use tactile_force::learn::models::metrics::DEFAULT_PEAK_MIN_N;
 use tactile_force::learn::models::nn::NnParams;
 use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::params::Check;
 use tactile_force::sensor::SensorSpec;
 
 use super::data::{load_sessions, SourceArgs};
@@ -23,6 +23,7 @@ use super::output::{
 };
 use super::train::{gp_params, FitArgs};
 use super::BadArgument;
+use super::{Context, Result};
 
 #[derive(Args)]
 pub(crate) struct EvalArgs {
@@ -145,7 +146,7 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
         nn: if a.no_nn {
             None
         } else {
-            Some(nn_params(sensor).validate()?)
+            Some(nn_params(sensor).checked("nn")?)
         },
         cnn: match sensor {
             SensorSpec::Nail(_) if !a.no_cnn => Some(
@@ -153,7 +154,7 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
                     seed: a.fit.seed,
                     ..CnnParams::default()
                 }
-                .validate()?,
+                .checked("cnn")?,
             ),
             _ => None,
         },
@@ -164,7 +165,7 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
 
 /// A force of at least 0.1 N: half of it must stand above the reference's
 /// noise at rest for a push to be found.
-fn positive_newtons(s: &str) -> Result<f64, String> {
+fn positive_newtons(s: &str) -> std::result::Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v >= 0.1 => Ok(v),
         _ => Err(format!("expected a force of at least 0.1 N, got {s}")),

@@ -3,8 +3,9 @@
 
 use super::data::Dataset;
 use super::models::gp::fit::FitProgress;
-use super::models::gp::ValidGpParams;
+use super::models::gp::GpParams;
 use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, WrenchGp};
+use crate::params::Checked;
 use crate::wrench::Axis;
 
 impl WrenchGp {
@@ -18,7 +19,7 @@ impl WrenchGp {
         data: &Dataset,
         tare: TareSpec,
         from: AdaptedFrom,
-        params: &ValidGpParams,
+        params: &Checked<GpParams>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
         if data.features != self.features() || &data.axes != self.axes() {

@@ -15,6 +15,7 @@ use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{score_model, training_fit, EvalError};
 use super::models::gp::GpParams;
 use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, WrenchGp};
+use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 
 pub use super::models::wrench_gp::{CalibrationRecord, Validation};
@@ -64,6 +65,14 @@ pub enum CalibrationError {
     /// The from-scratch candidate's options could not be chosen.
     #[error("choosing the options of the model from scratch: {0}")]
     Select(#[from] SelectError),
+}
+
+/// A calibration that makes no model failed: the arm has moved, so nothing
+/// was refused before the work.
+impl Classify for CalibrationError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Failure
+    }
 }
 
 /// What the recording is and where it came from, besides its records.

@@ -25,6 +25,8 @@ use super::models::metrics::rmse_columns;
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
 
+use crate::exit::{Classify, ExitClass};
+
 pub use super::models::wrench_gp::{Choice, CvRow, GpChoice, Selection};
 
 impl Choice {
@@ -85,6 +87,17 @@ pub enum SelectError {
     /// Training failed.
     #[error(transparent)]
     Model(#[from] ModelError),
+}
+
+/// Too few trials are refused input; a search that scored nothing failed.
+impl Classify for SelectError {
+    fn class(&self) -> ExitClass {
+        match self {
+            SelectError::TooFewTrials { .. } => ExitClass::Refused,
+            SelectError::NoBaseline(_) => ExitClass::Failure,
+            SelectError::Model(e) => e.class(),
+        }
+    }
 }
 
 /// Why a candidate was not tried when the budget stopped the search.

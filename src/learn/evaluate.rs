@@ -11,13 +11,15 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::data::{trialwise_folds, Dataset};
-use super::models::cnn::{Cnn, CnnError, ValidCnnParams};
+use super::models::cnn::{Cnn, CnnError, CnnParams};
 use super::models::gp::fit::FitProgress;
-use super::models::gp::{MeanKind, ValidGpParams};
+use super::models::gp::{GpParams, MeanKind};
 use super::models::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
-use super::models::nn::{Mlp, NnError, ValidNnParams};
+use super::models::nn::{Mlp, NnError, NnParams};
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
+use crate::exit::{Classify, ExitClass};
+use crate::params::Checked;
 use crate::wrench::{Axis, AxisSet};
 
 /// Errors of an evaluation.
@@ -67,19 +69,35 @@ pub enum EvalError {
     },
 }
 
+/// Data that cannot be split or compared are refused input; a model that
+/// explains nothing of its data failed.
+impl Classify for EvalError {
+    fn class(&self) -> ExitClass {
+        match self {
+            EvalError::Gp(e) => e.class(),
+            EvalError::Nn(e) => e.class(),
+            EvalError::Cnn(e) => e.class(),
+            EvalError::ExplainsNothing { .. } => ExitClass::Failure,
+            EvalError::Mismatch(_) | EvalError::Folds(_) | EvalError::TooFewTrials { .. } => {
+                ExitClass::Refused
+            }
+        }
+    }
+}
+
 /// Options shared by both evaluation modes.
 #[derive(Debug, Clone)]
 pub struct EvalOptions {
     /// Training rows used per fit (a seeded random subset when the training data is larger).
     pub max_train: usize,
     /// GP options.
-    pub gp: ValidGpParams,
+    pub gp: Checked<GpParams>,
     /// How the GP's inputs are presented.
     pub scaling: InputScaling,
     /// Network options; `None` skips the network.
-    pub nn: Option<ValidNnParams>,
+    pub nn: Option<Checked<NnParams>>,
     /// CNN options, for data with images (the nail camera); `None` skips it.
-    pub cnn: Option<ValidCnnParams>,
+    pub cnn: Option<Checked<CnnParams>>,
     /// Seed of the training subsets.
     pub seed: u64,
     /// Smallest tangential force of a peak whose direction is scored (N).
@@ -218,7 +236,7 @@ fn fit_and_predict(
     // A zero-mean GP is fitted on the networks' subset. A prior mean is
     // fitted on every training row, as `train` fits it; the exact GP then
     // takes its own `max_train` of them.
-    let gp_rows = match opts.gp.get().mean {
+    let gp_rows = match opts.gp.mean {
         MeanKind::Zero => &subset,
         MeanKind::Linear | MeanKind::Cubic => train,
     };

@@ -11,8 +11,9 @@ use serde::Serialize;
 use super::data::Dataset;
 use super::evaluate::{scores, EvalError};
 use super::models::gp::{GpParams, Subset};
-use super::models::nn::{Mlp, ValidNnParams};
+use super::models::nn::{Mlp, NnParams};
 use super::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
+use crate::params::Checked;
 use crate::wrench::Axis;
 
 /// The kind of model of a row.
@@ -87,7 +88,7 @@ pub struct TradeoffOptions {
     /// GP options shared by every GP (kernel, starts, seed).
     pub gp: GpParams,
     /// The network's options; `None` skips it.
-    pub nn: Option<ValidNnParams>,
+    pub nn: Option<Checked<NnParams>>,
     /// Held-out rows timed per latency pass (evenly spread).
     pub latency_rows: usize,
     /// Latency passes; the median pass is reported.
@@ -145,7 +146,7 @@ pub fn tradeoff(
         };
         let latency_mean_us = latency(false);
         let latency_mean_std_us = Some(latency(true));
-        let sparse = params.get().inducing;
+        let sparse = params.inducing;
         rows.push(Row {
             model: if sparse.is_some() {
                 ModelKind::Sparse

@@ -7,6 +7,7 @@
 use serde::Deserialize;
 
 use crate::biotac::Tare;
+use crate::exit::{Classify, ExitClass};
 use crate::learn::default_model::Recipe;
 use crate::learn::models::wrench_gp::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
 use crate::sensor::biotac::BioTacInput;
@@ -92,6 +93,17 @@ pub enum EstimatorError {
         /// The last estimate's force (N).
         force_n: f64,
     },
+}
+
+/// A model or setting the estimator cannot take: refused input.
+impl Classify for EstimatorError {
+    fn class(&self) -> ExitClass {
+        match self {
+            EstimatorError::Sensor(e) => e.class(),
+            EstimatorError::Model(e) => e.class(),
+            _ => ExitClass::Refused,
+        }
+    }
 }
 
 /// Above this estimated force (N) the finger counts as pressed: no new

@@ -22,6 +22,7 @@ pub mod nail;
 
 use serde::{Deserialize, Serialize};
 
+use crate::exit::{Classify, ExitClass};
 use crate::nail::preprocess::PreprocessError;
 
 /// What a model file records of its sensor.
@@ -88,6 +89,16 @@ pub enum SensorError {
     /// A frame could not be preprocessed.
     #[error(transparent)]
     Preprocess(#[from] PreprocessError),
+}
+
+/// A model for another sensor, or frames that cannot be registered: refused input.
+impl Classify for SensorError {
+    fn class(&self) -> ExitClass {
+        match self {
+            SensorError::Preprocess(e) => e.class(),
+            _ => ExitClass::Refused,
+        }
+    }
 }
 
 /// A sensor as the wrench estimator reads it.

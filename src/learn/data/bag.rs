@@ -17,6 +17,7 @@ use nalgebra::Vector3;
 
 use crate::biotac::msg::{from_cdr, join_stamp, CdrLengths, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacReading;
+use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 use crate::wrench::Wrench;
 
@@ -171,6 +172,13 @@ pub enum BagError {
         /// First and last wrench stamp (s).
         wrenches_s: (f64, f64),
     },
+}
+
+/// A bag refused: refused input.
+impl Classify for BagError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// Largest record the reader takes, decompressed (bytes): 32 times the

@@ -13,6 +13,7 @@ use std::collections::BTreeMap;
 use ndarray::{Array2, Array3, Axis as NdAxis};
 
 use crate::biotac::reading::Column;
+use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 use crate::wrench::AxisSet;
 use columns::implausible;
@@ -107,6 +108,16 @@ pub enum DatasetError {
         /// Rows needed.
         needed: usize,
     },
+}
+
+/// A file not written is a failure; anything else is a data file refused.
+impl Classify for DatasetError {
+    fn class(&self) -> ExitClass {
+        match self {
+            DatasetError::Write { .. } => ExitClass::Failure,
+            _ => ExitClass::Refused,
+        }
+    }
 }
 
 /// Samples as rows: features, targets and the trial each row belongs to.

@@ -110,11 +110,12 @@ use serde::{Deserialize, Serialize};
 
 use super::nn::split_rows;
 use super::scale::Standardizer;
+use crate::params::Checked;
 use net::{Arch, Net};
 use train::{image_batch, Trainer, EVAL_BATCH};
 
 pub use net::{StoredTensor, MIN_SIDE};
-pub use params::{CnnError, CnnParams, ValidCnnParams};
+pub use params::{CnnError, CnnParams};
 pub use train::CnnFitReport;
 
 /// A trained network with its pixel and target standardisers.
@@ -247,9 +248,9 @@ impl Cnn {
     pub fn fit(
         images: ArrayView3<f32>,
         targets: ArrayView2<f64>,
-        params: &ValidCnnParams,
+        params: &Checked<CnnParams>,
     ) -> Result<(Cnn, CnnFitReport), CnnError> {
-        let p = params.params();
+        let p: &CnnParams = params;
         let (n, height, width) = images.dim();
         if targets.nrows() != n {
             return Err(CnnError::shape("target rows", n, targets.nrows()));

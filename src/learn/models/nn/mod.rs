@@ -62,14 +62,15 @@ use ndarray::{Array2, ArrayView2, Axis};
 use serde::{Deserialize, Serialize};
 
 use super::scale::Standardizer;
+use crate::params::Checked;
 use layers::Layers;
 use train::{check_data, Trainer};
 
 /// The seeded train/validation split, shared with [`crate::learn::models::cnn`].
 pub(crate) use train::split_rows;
 
-pub(crate) use params::{check, check_schedule, OutOfRange};
-pub use params::{NnError, NnParams, ValidNnParams};
+pub(crate) use params::Schedule;
+pub use params::{NnError, NnParams};
 pub use train::FitReport;
 
 /// A fitted network with its input and target standardisers.
@@ -133,12 +134,12 @@ impl Mlp {
     /// A `validation_fraction` of the rows (chosen with `seed`) is held out for
     /// early stopping; the standardisers are fitted on the other rows.
     pub fn fit(
-        params: &ValidNnParams,
+        params: &Checked<NnParams>,
         x: ArrayView2<f64>,
         y: ArrayView2<f64>,
     ) -> Result<Mlp, NnError> {
         check_data(x, y)?;
-        let p = params.params();
+        let p: &NnParams = params;
         let (train_rows, val_rows) = split_rows(x.nrows(), p.validation_fraction, p.seed);
         let x_train = x.select(Axis(0), &train_rows);
         let y_train = y.select(Axis(0), &train_rows);
@@ -244,6 +245,7 @@ impl Mlp {
 mod tests {
     use super::*;
     use crate::learn::models::metrics::rmse;
+    use crate::params::Check;
     use ndarray::{array, Array2, Zip};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -263,7 +265,7 @@ mod tests {
         (x, y)
     }
 
-    fn params(f: impl FnOnce(&mut NnParams)) -> ValidNnParams {
+    fn params(f: impl FnOnce(&mut NnParams)) -> Checked<NnParams> {
         let mut p = NnParams {
             hidden: 16,
             learning_rate: 1e-2,
@@ -272,7 +274,7 @@ mod tests {
             ..NnParams::default()
         };
         f(&mut p);
-        p.validate().expect("test parameters are valid")
+        p.checked("nn").expect("test parameters are valid")
     }
 
     #[test]
@@ -314,7 +316,7 @@ mod tests {
         assert_eq!(r.val_loss[r.best_epoch - 1], min);
         assert!(r.val_loss[r.epochs_run - 1] > min);
         // Recompute the validation loss of the returned weights from scratch.
-        let (_, val_rows) = split_rows(x.nrows(), 0.3, p.params().seed);
+        let (_, val_rows) = split_rows(x.nrows(), 0.3, p.seed);
         let z = mlp.x_scale.transform(x.select(Axis(0), &val_rows).view());
         let t = mlp.y_scale.transform(y.select(Axis(0), &val_rows).view());
         assert_eq!(mlp.net.mse(z.view(), t.view()), min);

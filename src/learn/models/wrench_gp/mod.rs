@@ -12,9 +12,11 @@ use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
 use super::gp::fit::FitProgress;
-use super::gp::{FitInfo, Gp, GpError, GpWorkspace, ValidGpParams};
+use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace};
 use super::scale::{InputScaling, Standardizer};
+use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
+use crate::params::{Checked, ParamsError};
 use crate::sensor::{ModelInput, SensorSpec};
 use crate::wrench::{Axis, AxisSet};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
@@ -100,9 +102,25 @@ pub enum ModelError {
         /// The data's.
         data: String,
     },
+    /// Training options out of range.
+    #[error(transparent)]
+    Options(#[from] ParamsError),
     /// Training or rebuilding a GP failed.
     #[error(transparent)]
     Gp(#[from] GpError),
+}
+
+/// A file not written is a failure, a GP that did not fit says its own; the
+/// rest is a model file or data refused.
+impl Classify for ModelError {
+    fn class(&self) -> ExitClass {
+        match self {
+            ModelError::Write { .. } => ExitClass::Failure,
+            ModelError::Options(e) => e.class(),
+            ModelError::Gp(e) => e.class(),
+            _ => ExitClass::Refused,
+        }
+    }
 }
 
 /// How the training features were tared.
@@ -145,7 +163,7 @@ impl WrenchGp {
     pub fn train(
         data: &Dataset,
         tare: TareSpec,
-        params: &ValidGpParams,
+        params: &Checked<GpParams>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
         Self::train_scaled(data, tare, InputScaling::Standard, params, progress)
@@ -156,7 +174,7 @@ impl WrenchGp {
         data: &Dataset,
         tare: TareSpec,
         scaling: InputScaling,
-        params: &ValidGpParams,
+        params: &Checked<GpParams>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
         // Check before standardising: one infinity would spoil every row.
@@ -181,7 +199,7 @@ impl WrenchGp {
         let z = input.transform(represented.view());
         let x: Vec<f64> = z.iter().copied().collect();
         let d = input.dim();
-        let means = params.get().mean.fit(&x, d, data.y.view())?;
+        let means = params.mean.fit(&x, d, data.y.view())?;
         let progress = Mutex::new(progress);
         let outputs = data
             .axes
@@ -367,7 +385,7 @@ impl WrenchGp {
 }
 
 #[cfg(test)]
-pub(crate) fn quick_params() -> ValidGpParams {
+pub(crate) fn quick_params() -> Checked<GpParams> {
     super::gp::GpParams {
         restarts: 1,
         ..Default::default()
