@@ -70,4 +70,35 @@ mod tests {
             [ExitClass::Failure, ExitClass::Refused, ExitClass::NotHeld].map(ExitClass::code);
         assert_eq!(codes, [1, 2, 3]);
     }
+
+    #[test]
+    fn a_model_file_error_keeps_its_class_wherever_it_is_wrapped() {
+        use crate::learn::evaluate::EvalError;
+        use crate::learn::models::wrench_gp::ModelError;
+        use crate::nodes::estimator::EstimatorError;
+        use crate::runtime::scene::SceneError;
+        let io = || std::io::Error::other("disk");
+        let refused = || ModelError::Io {
+            path: "m.json".into(),
+            source: io(),
+        };
+        let failed = || ModelError::Write {
+            path: "m.json".into(),
+            source: io(),
+        };
+        for (class, model) in [
+            (ExitClass::Refused, &refused as &dyn Fn() -> ModelError),
+            (ExitClass::Failure, &failed),
+        ] {
+            let wrapped: [&dyn Classify; 4] = [
+                &model(),
+                &EvalError::Model(model()),
+                &EstimatorError::Model(model()),
+                &SceneError::Estimator(EstimatorError::Model(model())),
+            ];
+            for e in wrapped {
+                assert_eq!(e.class(), class);
+            }
+        }
+    }
 }

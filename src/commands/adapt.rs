@@ -64,7 +64,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
     let adapted = base.adapt(&data, sessions.tare, from, &params, &mut |axis, p| {
-        show(&bar, Progress::Gp(axis, p))
+        show(&bar, Progress::Axis(axis, p))
     })?;
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();

@@ -1,6 +1,7 @@
 //! `eval`: cross-validation, train/test per session, leave one session
 //! out, or a saved model scored.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
@@ -208,15 +209,13 @@ pub(crate) fn run_score(
             fold: i + 1,
             n_test: ds.len(),
             gp: score_model(&model, ds, min_peak_n)?,
-            nn: None,
-            cnn: None,
+            baselines: BTreeMap::new(),
         });
     }
     let eval = Evaluation {
         folds,
         gp: score_model(&model, &pooled, min_peak_n)?,
-        nn: None,
-        cnn: None,
+        baselines: BTreeMap::new(),
     };
     print_table(model.axes(), &eval, &file_labels(tests));
     if json {

@@ -154,7 +154,7 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
     let model = WrenchGp::train_scaled(&ds, sessions.tare, scaling, &params, &mut |axis, p| {
-        show(&bar, Progress::Gp(axis, p))
+        show(&bar, Progress::Axis(axis, p))
     })?
     .with_sensor(sessions.sensor);
     bar.finish_and_clear();
@@ -223,7 +223,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     let params = choice.gp_params(&base).validate()?;
     let bar = progress_bar();
     let model = WrenchGp::train_scaled(&data, tare, choice.input, &params, &mut |axis, p| {
-        show(&bar, Progress::Gp(axis, p))
+        show(&bar, Progress::Axis(axis, p))
     })?
     .with_sensor(sessions.sensor)
     .with_selection(selection);

@@ -2,9 +2,10 @@
 //!
 //! - [`data`]: data sets (samples x features) and their files: the CSV
 //!   format, rosbag2 MCAP bags, nail-camera directories;
-//! - [`models`]: the numerics: Gaussian processes, the baseline network,
-//!   the nail camera's CNN, scaling and metrics, and the wrench estimator
-//!   with its model file ([`models::wrench_gp`]);
+//! - [`models`]: the numerics behind one fit/predict interface
+//!   ([`models::Learner`]): Gaussian processes, the baseline network, the
+//!   nail camera's CNN, scaling and metrics, and the wrench estimator with
+//!   its model file ([`models::wrench_gp`]);
 //! - the workflows on top, one file each: the demos' default model, the
 //!   options chosen by cross-validation (`train --select`), evaluation,
 //!   the speed-accuracy trade-off, adaptation and a calibration's model.

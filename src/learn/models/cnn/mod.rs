@@ -100,6 +100,7 @@
 //!
 //! The same validation fraction (0.15), loss and output layer are kept.
 
+mod learner;
 mod net;
 mod params;
 mod train;
@@ -110,13 +111,14 @@ use serde::{Deserialize, Serialize};
 
 use super::nn::split_rows;
 use super::scale::Standardizer;
+use super::FitReport;
 use crate::params::Checked;
 use net::{Arch, Net};
 use train::{image_batch, Trainer, EVAL_BATCH};
 
+pub use learner::CnnLearner;
 pub use net::{StoredTensor, MIN_SIDE};
 pub use params::{CnnError, CnnParams};
-pub use train::CnnFitReport;
 
 /// A trained network with its pixel and target standardisers.
 ///
@@ -139,7 +141,7 @@ pub struct Cnn {
     y_scale: Standardizer,
     /// Weights in the order of the architecture.
     tensors: Vec<StoredTensor>,
-    report: CnnFitReport,
+    report: FitReport,
 }
 
 /// Unchecked serialised form of [`Cnn`].
@@ -153,7 +155,7 @@ struct CnnRepr {
     x_scale: Standardizer,
     y_scale: Standardizer,
     tensors: Vec<StoredTensor>,
-    report: CnnFitReport,
+    report: FitReport,
 }
 
 impl TryFrom<CnnRepr> for Cnn {
@@ -249,7 +251,7 @@ impl Cnn {
         images: ArrayView3<f32>,
         targets: ArrayView2<f64>,
         params: &Checked<CnnParams>,
-    ) -> Result<(Cnn, CnnFitReport), CnnError> {
+    ) -> Result<(Cnn, FitReport), CnnError> {
         let p: &CnnParams = params;
         let (n, height, width) = images.dim();
         if targets.nrows() != n {
@@ -322,7 +324,7 @@ impl Cnn {
     }
 
     /// How training went.
-    pub fn fit_report(&self) -> &CnnFitReport {
+    pub fn fit_report(&self) -> &FitReport {
         &self.report
     }
 

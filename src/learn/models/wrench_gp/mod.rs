@@ -4,6 +4,7 @@
 //! the model in types of its own ([`provenance`]).
 
 mod file;
+mod learner;
 pub mod provenance;
 
 use ndarray::{Array2, ArrayView2};
@@ -22,6 +23,7 @@ use crate::wrench::{Axis, AxisSet};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
 
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
+pub use learner::GpLearner;
 pub use provenance::{
     AdaptedFrom, CalibrationRecord, Choice, CvRow, GpChoice, Selection, Validation,
 };
