@@ -267,6 +267,27 @@ pub(crate) fn require(
     })
 }
 
+/// An edit that puts one field of parameters out of range.
+#[cfg(test)]
+pub(crate) type Edit<T> = fn(&mut T);
+
+/// Asserts that each edit of `T::default()` in `cases` (the field it puts
+/// out of range, the edit) is refused naming `key`.field.
+#[cfg(test)]
+pub(crate) fn assert_each_refused<T>(key: &str, cases: &[(&str, Edit<T>)])
+where
+    T: Check + Default + std::fmt::Debug,
+{
+    for (field, edit) in cases {
+        let mut p = T::default();
+        edit(&mut p);
+        match p.checked(key) {
+            Err(ParamsError::Invalid { key: k, .. }) => assert_eq!(k, format!("{key}.{field}")),
+            other => panic!("{field}: {other:?}"),
+        }
+    }
+}
+
 /// The error for `key` = `v`, which is not `expected`.
 pub(crate) fn invalid(key: &str, v: f64, expected: &str) -> ParamsError {
     ParamsError::Invalid {

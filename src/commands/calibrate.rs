@@ -6,6 +6,8 @@
 //! and the validation figures. A calibration that cannot succeed writes no
 //! model (exit 1) and says why.
 
+use std::path::{Path, PathBuf};
+
 use serde_json::json;
 
 use tactile_force::control::TaskKind;
@@ -14,19 +16,27 @@ use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::runtime::calibrate::record;
 use tactile_force::runtime::Scene;
 
-use super::demo::DemoArgs;
 use super::output::{print_validation, progress_bar};
-use super::{BadArgument, Context, Failure, Result};
+use super::{Context, Failure, Result};
 
-pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> Result<()> {
-    let out = a
-        .out
-        .as_ref()
-        .ok_or_else(|| BadArgument("demo calibrate needs --out".into()))?;
-    let session = a
-        .session
-        .clone()
-        .unwrap_or_else(|| out.with_extension("mcap"));
+/// What `demo calibrate` writes and prints, from `demo`'s arguments.
+pub(crate) struct CalibrateRun<'a> {
+    /// The model file to write.
+    pub out: &'a Path,
+    /// The recording (a rosbag2 MCAP file).
+    pub session: PathBuf,
+    /// Seed of the sensor and F/T noise.
+    pub seed: u64,
+    /// The run, one row per control period, as CSV.
+    pub csv: Option<&'a Path>,
+    /// The forces over time (PNG).
+    pub plot: Option<&'a Path>,
+    /// The figures as one JSON line.
+    pub json: bool,
+}
+
+pub(crate) fn run_calibrate(a: &CalibrateRun, scene: &Scene, current: WrenchGp) -> Result<()> {
+    let (out, session) = (a.out, &a.session);
     let limit = scene
         .controller
         .calibrate
@@ -45,11 +55,11 @@ pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> R
         rec.motion_s,
         rec.peak_force_n,
     );
-    if let Some(path) = &a.csv {
+    if let Some(path) = a.csv {
         tactile_force::report::trace::write_csv(path, &rec.rows)
             .with_context(|| format!("writing {}", path.display()))?;
     }
-    if let Some(path) = &a.plot {
+    if let Some(path) = a.plot {
         let title = format!("calibration, BioTac unit {unit}");
         tactile_force::report::plot::plot_run(path, &title, &rec.rows)?;
         println!("plot written to {}", path.display());
@@ -64,7 +74,7 @@ pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> R
         &current,
         rec.motion_s,
         rec.peak_force_n,
-        &session,
+        session,
         out,
     )
     .with_context(|| {

@@ -164,6 +164,7 @@ impl Schedule {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::params::assert_each_refused;
 
     #[test]
     fn defaults_are_valid_and_match_the_thesis_net() {
@@ -173,7 +174,7 @@ mod tests {
     }
 
     #[test]
-    fn invalid_parameters_are_named() {
+    fn invalid_parameters_and_schedules_are_named() {
         type Edit = fn(&mut NnParams);
         let cases: [(&str, Edit); 9] = [
             ("hidden", |p| p.hidden = 0),
@@ -186,14 +187,7 @@ mod tests {
             ("patience", |p| p.patience = 0),
             ("validation_fraction", |p| p.validation_fraction = 1.0),
         ];
-        for (field, set) in cases {
-            let mut p = NnParams::default();
-            set(&mut p);
-            match p.checked("nn") {
-                Err(ParamsError::Invalid { key, .. }) => assert_eq!(key, format!("nn.{field}")),
-                other => panic!("{field}: {other:?}"),
-            }
-        }
+        assert_each_refused("nn", &cases);
         let p = NnParams {
             validation_fraction: 0.0,
             ..NnParams::default()
