@@ -31,7 +31,7 @@ use tactile_force::control::Phase;
 use tactile_force::control::TaskKind;
 use tactile_force::kinematics::ShippedRobot;
 use tactile_force::learn::default_model::{self, Recipe};
-use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
 use tactile_force::runtime::{Nodes, Scene};
 use tactile_force::wrench::{Axis, AxisSet};

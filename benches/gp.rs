@@ -11,12 +11,12 @@ use std::time::Instant;
 use criterion::{criterion_group, criterion_main, Criterion};
 use faer::Side;
 use tactile_force::biotac::sim::BioTacSimConfig;
-use tactile_force::learn::dataset::{electrode_columns, write_csv, Counts, Dataset};
-use tactile_force::learn::gp::exact::neg_lml_and_grad;
-use tactile_force::learn::gp::kernel::{scale_rows, se_gram};
-use tactile_force::learn::gp::{GpParams, KernelKind, SeHyper};
-use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
-use tactile_force::learn::scale::Standardizer;
+use tactile_force::learn::data::{electrode_columns, write_csv, Counts, Dataset};
+use tactile_force::learn::models::gp::exact::neg_lml_and_grad;
+use tactile_force::learn::models::gp::kernel::{scale_rows, se_gram};
+use tactile_force::learn::models::gp::{GpParams, KernelKind, SeHyper};
+use tactile_force::learn::models::scale::Standardizer;
+use tactile_force::learn::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
 use tactile_force::sim::collect::{collect, CollectConfig};
 
 const N: usize = 2000;

@@ -1,29 +1,39 @@
 //! tactile_force: feel with a SynTouch BioTac fingertip.
 //!
 //! A Gaussian process turns the BioTac's 19 tared electrode values into a
-//! contact wrench with an uncertainty (Huhnstock 2014). The modules follow the
-//! data flow:
+//! contact wrench with an uncertainty (Huhnstock 2014), and a force
+//! controller moves any serial arm described by its URDF on that estimate.
+//! The modules follow the data flow:
 //!
-//! - [`biotac`]: the reading type, tare, and a physically motivated simulator;
+//! - [`biotac`]: the reading type, tare, the serial driver and a physically
+//!   motivated simulator; [`nail`]: the nail camera, the second sensor;
+//!   [`sensor`]: the seam between a sensor and the estimator;
 //! - [`sim`]: the thesis data-collection protocol on that simulator, and the
 //!   closed loop's world: arm plant, skin-object contact, a person's finger;
-//! - [`learn`]: data sets, the exact GP, the baseline network, evaluation and
-//!   the model file;
-//! - [`kinematics`]: the PA10-7C chain, Jacobian and damped least-squares inverse;
-//! - [`control`]: the PD force law, the guarded and guided moves, safety;
+//!   [`record`]: one labelled sample; [`contact`]: the contact law;
+//! - [`learn`]: data sets and their files, the models (GP, network, CNN)
+//!   behind one fit/predict interface with the model file, and the
+//!   workflows on top (selection, evaluation, adaptation, calibration);
+//! - [`kinematics`]: the serial chain between two links of a URDF, its
+//!   Jacobian and damped least-squares inverse;
+//! - [`control`]: the PD force law, the tasks (guarded, guided, calibrate),
+//!   safety;
 //! - [`nodes`]: the transport-free nodes (estimator, controller, simulated robot);
 //! - [`runtime`]: the lockstep runner, scenes, the demos;
 //! - [`report`]: run traces, summaries and plots;
-//! - [`params`]: ROS 2 parameter files, shared with the embedded runtime;
-//! - [`wrench`]: wrenches and the axes a scene needs.
+//! - [`params`]: ROS 2 parameter files, shared with the embedded runtime,
+//!   and their checks;
+//! - [`exit`]: how an error ends a run (its exit code);
+//! - [`wrench`]: wrenches and the axes a scene needs;
+//! - `ros` (feature `ros2`): the ROS 2 adapters.
 //!
 //! Train a one-axis estimator and query it for one reading:
 //!
 //! ```
 //! use ndarray::Array2;
-//! use tactile_force::learn::dataset::Dataset;
-//! use tactile_force::learn::gp::GpParams;
-//! use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
+//! use tactile_force::learn::data::Dataset;
+//! use tactile_force::learn::models::gp::GpParams;
+//! use tactile_force::learn::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
 //!
 //! // 50 samples of 2 tared electrode values; fz grows as e1 drops.
 //! let x = Array2::from_shape_fn((50, 2), |(i, j)| -(i as f64) * (j as f64 + 1.0));
@@ -53,6 +63,7 @@ pub mod biotac;
 pub mod calibration;
 pub mod contact;
 pub mod control;
+pub mod exit;
 pub mod kinematics;
 pub mod learn;
 pub mod nail;

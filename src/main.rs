@@ -1,12 +1,12 @@
 //! The `tactile_force` command line: parses the subcommand and hands it to
-//! its module under `commands/`. Errors go to stderr; the exit code tells
-//! refused input (2) from a failure while working (1).
+//! its module under `commands/`. Errors go to stderr; the exit code is the
+//! error's own ([`tactile_force::exit`]): refused input (2), a failure
+//! while working (1), a task that did not hold (3).
 
 mod commands;
 
 use std::process::ExitCode;
 
-use anyhow::Result;
 use clap::{Parser, Subcommand};
 
 use commands::{adapt, collect, demo, eval, robot, serial, tradeoff, train};
@@ -18,7 +18,8 @@ use commands::{adapt, collect, demo, eval, robot, serial, tradeoff, train};
     about = "Feel with a BioTac fingertip: GP wrench estimation for guarded and guided moves",
     after_help = "Exit codes: 0 done; 2 the input was refused before any work (an argument, \
                   a parameter or scene file, a data, bag or model file); 1 the work failed \
-                  (a file not written, a serial link, a fit)."
+                  (a file not written, a serial link, a fit); 3 a demo's task did not hold \
+                  (it stopped: the reason on stderr). Per command: docs/development.md."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -52,7 +53,7 @@ enum Command {
 
 fn main() -> ExitCode {
     // candle (the CNN) spreads element-wise ops over a pool of spinning
-    // threads; on a small machine one such thread is faster (learn::cnn,
+    // threads; on a small machine one such thread is faster (learn::models::cnn,
     // "Cost"). Set before any thread starts; a value given wins.
     if std::env::var_os("CANDLE_NUM_THREADS").is_none() {
         std::env::set_var("CANDLE_NUM_THREADS", "1");
@@ -66,13 +67,13 @@ fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(commands::exit_code(&e))
+            eprintln!("error: {e}");
+            ExitCode::from(e.exit_code())
         }
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+fn run(cli: Cli) -> commands::Result<()> {
     match cli.command {
         Command::Collect(a) => collect::run_collect(a),
         Command::Train(a) => train::run_train(a),

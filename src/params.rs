@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+use crate::exit::{Classify, ExitClass};
+
 /// The shipped world file.
 pub const WORLD_YAML: &str = include_str!("../config/world.yaml");
 /// The shipped guarded-move scene.
@@ -50,6 +52,13 @@ pub enum ParamsError {
         /// What is accepted.
         expected: String,
     },
+}
+
+/// A parameter file or value refused: refused input.
+impl Classify for ParamsError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// Deserialises the `ros__parameters` of `node` from a YAML text. As in ROS 2,
@@ -236,6 +245,46 @@ pub(crate) fn non_negative(key: &str, v: f64) -> Result<(), ParamsError> {
         Ok(())
     } else {
         Err(invalid(key, v, "a finite value >= 0"))
+    }
+}
+
+/// `Ok` when `ok`, else the error for `key`.`name` = `value`, which is not
+/// `expected`.
+pub(crate) fn require(
+    key: &str,
+    name: &str,
+    value: impl std::fmt::Display,
+    ok: bool,
+    expected: &str,
+) -> Result<(), ParamsError> {
+    if ok {
+        return Ok(());
+    }
+    Err(ParamsError::Invalid {
+        key: format!("{key}.{name}"),
+        value: value.to_string(),
+        expected: expected.into(),
+    })
+}
+
+/// An edit that puts one field of parameters out of range.
+#[cfg(test)]
+pub(crate) type Edit<T> = fn(&mut T);
+
+/// Asserts that each edit of `T::default()` in `cases` (the field it puts
+/// out of range, the edit) is refused naming `key`.field.
+#[cfg(test)]
+pub(crate) fn assert_each_refused<T>(key: &str, cases: &[(&str, Edit<T>)])
+where
+    T: Check + Default + std::fmt::Debug,
+{
+    for (field, edit) in cases {
+        let mut p = T::default();
+        edit(&mut p);
+        match p.checked(key) {
+            Err(ParamsError::Invalid { key: k, .. }) => assert_eq!(k, format!("{key}.{field}")),
+            other => panic!("{field}: {other:?}"),
+        }
     }
 }
 

@@ -10,6 +10,8 @@ use std::str::FromStr;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use crate::exit::{Classify, ExitClass};
+
 /// One component of a wrench.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -75,6 +77,13 @@ impl fmt::Display for Axis {
 #[error("unknown axis {0:?}: expected a comma-separated subset of fx,fy,fz,tx,ty,tz")]
 pub struct UnknownAxis(pub String);
 
+/// An axis name refused: refused input.
+impl Classify for UnknownAxis {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
+}
+
 impl FromStr for Axis {
     type Err = UnknownAxis;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
@@ -102,6 +111,13 @@ pub enum AxisSetError {
     /// The same axis twice.
     #[error("axis {0} given twice")]
     Repeated(Axis),
+}
+
+/// A list of axes refused: refused input.
+impl Classify for AxisSetError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 impl AxisSet {

@@ -1167,3 +1167,27 @@ fn the_radial_test_scores_one_direction_per_push_from_the_given_force() {
         assert!(text(&o).1.contains(says), "{args:?}: {:?}", text(&o));
     }
 }
+
+#[test]
+fn a_demo_whose_task_does_not_hold_exits_3_with_the_reason_and_its_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    // The object is 10 mm away; the approach gives up after 5 mm.
+    let scene = dir.path().join("short.yaml");
+    let text_yaml = include_str!("../config/guarded_move.yaml")
+        .replace("max_distance_m: 0.05", "max_distance_m: 0.005");
+    std::fs::write(&scene, text_yaml).unwrap();
+    let o = run_cached(
+        &[
+            "demo",
+            "guarded",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--json",
+        ],
+        dir.path(),
+    );
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("did not hold: it stopped on timeout"), "{err}");
+    assert_eq!(last_json(&out)["reason"].as_str(), Some("timeout"));
+}

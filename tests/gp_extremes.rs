@@ -3,9 +3,11 @@
 //! that train a model run for the exact GP and for the sparse GP.
 
 use ndarray::{Array2, Axis as NdAxis};
-use tactile_force::learn::dataset::Dataset;
-use tactile_force::learn::gp::{ExactGp, GpError, GpParams, GpWorkspace, KernelKind, SeHyper};
-use tactile_force::learn::model::{Estimate, ModelError, TareSpec, WrenchGp};
+use tactile_force::learn::data::Dataset;
+use tactile_force::learn::models::gp::{
+    ExactGp, GpError, GpParams, GpWorkspace, KernelKind, SeHyper,
+};
+use tactile_force::learn::models::wrench_gp::{Estimate, ModelError, TareSpec, WrenchGp};
 
 /// 60 rows of 3 features on [-1, 1] and a smooth target.
 fn inputs(n: usize) -> Array2<f64> {

@@ -1,12 +1,12 @@
-//! `learn::bag` against MCAP files from an independent writer (Python's
+//! `learn::data::bag` against MCAP files from an independent writer (Python's
 //! mcap-ros2-support, serialising from the .msg definitions). The bags and
 //! the CSV they were made from come from `tests/bag/run.sh`, which runs
 //! these tests with `--ignored`.
 
 use std::path::PathBuf;
 
-use tactile_force::learn::bag::{read_bag, Bag, BagError, BagTopics};
-use tactile_force::learn::dataset::{electrode_columns, Counts, Dataset};
+use tactile_force::learn::data::bag::{read_bag, Bag, BagError, BagTopics};
+use tactile_force::learn::data::{electrode_columns, Counts, Dataset};
 use tactile_force::wrench::{Axis, AxisSet};
 
 /// The directory of the bags; fails when unset, so that run.sh's

@@ -2,9 +2,9 @@
 //! global allocator; this binary holds one test so nothing else allocates).
 
 use ndarray::Array2;
-use tactile_force::learn::dataset::Dataset;
-use tactile_force::learn::gp::{Gp, GpParams};
-use tactile_force::learn::model::{Estimate, TareSpec, WrenchGp};
+use tactile_force::learn::data::Dataset;
+use tactile_force::learn::models::gp::{Gp, GpParams};
+use tactile_force::learn::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
 
 #[path = "common/counting_alloc.rs"]
 mod counting_alloc;

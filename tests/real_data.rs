@@ -7,10 +7,10 @@
 use std::path::PathBuf;
 
 use tactile_force::learn::choice::{select, Choice};
-use tactile_force::learn::dataset::{channel_columns, Channel, Counts, Dataset};
+use tactile_force::learn::data::{channel_columns, Channel, Counts, Dataset};
 use tactile_force::learn::evaluate::{cross_validate, EvalOptions};
-use tactile_force::learn::gp::GpParams;
-use tactile_force::learn::model::TareSpec;
+use tactile_force::learn::models::gp::GpParams;
+use tactile_force::learn::models::wrench_gp::TareSpec;
 use tactile_force::wrench::{Axis, AxisSet, FrameTransform, Wrench};
 
 fn recording() -> PathBuf {

@@ -5,7 +5,7 @@
 //! Under r2r's `doc-only` build there are no Rust types for our own
 //! interface package, so the BioTac topic is untyped: this module is the one
 //! place that knows its field names. It needs no ROS installation: the ROS
-//! adapters and the bag reader ([`crate::learn::bag`]) both use it. The
+//! adapters and the bag reader ([`crate::learn::data::bag`]) both use it. The
 //! tests read `msg/msg/BioTac.msg` and check every field name, type and
 //! array length against it.
 
@@ -13,6 +13,7 @@ use serde_json::{json, Value};
 
 use crate::biotac::reading::{N_ELECTRODES, N_PAC};
 use crate::biotac::{BioTacReading, ADC_MAX};
+use crate::exit::{Classify, ExitClass};
 
 /// The ROS type name of the readings topic.
 pub const BIOTAC_MSG_TYPE: &str = "tactile_force_msgs/msg/BioTac";
@@ -41,6 +42,13 @@ pub enum BioTacMsgError {
         /// The value.
         value: u64,
     },
+}
+
+/// A message that does not decode: refused input.
+impl Classify for BioTacMsgError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// What travels with a reading on the topic besides the samples.

@@ -38,6 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use super::geometry::{SurfacePoint, ELECTRODES};
 use super::{BioTacReading, ADC_MAX, N_ELECTRODES, N_PAC};
+use crate::exit::{Classify, ExitClass};
 use crate::wrench::Wrench;
 
 /// The simulator configuration shipped with the crate (sensor and protocol).
@@ -89,6 +90,13 @@ pub enum ConfigError {
         /// Dotted key.
         key: String,
     },
+}
+
+/// A sensor or protocol file refused: refused input.
+impl Classify for ConfigError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// Checks `low <= value <= high` and finiteness; names `key` on failure.

@@ -10,6 +10,8 @@ use serde::{Deserialize, Serialize};
 use super::reading::Column;
 use super::{BioTacReading, N_ELECTRODES};
 
+use crate::exit::{Classify, ExitClass};
+
 /// Why a tare could not be taken.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]
 #[non_exhaustive]
@@ -30,6 +32,13 @@ pub enum TareError {
         /// The limit (counts).
         limit: f64,
     },
+}
+
+/// Readings that cannot give a tare: refused input.
+impl Classify for TareError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// Mean out-of-contact values of every channel (ADC counts).
@@ -166,6 +175,13 @@ pub enum SavedTareError {
         /// The error.
         source: serde_json::Error,
     },
+}
+
+/// A saved tare that cannot be read: refused input.
+impl Classify for SavedTareError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 impl SavedTare {

@@ -80,6 +80,8 @@
 
 use super::{BioTacReading, ADC_MAX, N_ELECTRODES, N_PAC};
 
+use crate::exit::{Classify, ExitClass};
+
 /// Bytes per frame.
 pub const FRAME_LEN: usize = 100;
 /// Response words per frame: E1..E19, PDC, TAC, TDC and 22 PAC samples.
@@ -146,6 +148,13 @@ pub enum WordError {
     },
 }
 
+/// A word the serial link garbled: the work failed.
+impl Classify for WordError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Failure
+    }
+}
+
 /// Why 100 bytes are not a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
@@ -176,6 +185,13 @@ pub enum FrameError {
         /// The CRC of the frame's bytes.
         computed: u16,
     },
+}
+
+/// A frame the serial link garbled: the work failed.
+impl Classify for FrameError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Failure
+    }
 }
 
 /// The response word for a 12-bit value, with both parity bits.

@@ -18,7 +18,7 @@ pub const FT_STALE_S: f64 = 0.5;
 const PDC_TARE_READINGS: usize = 50;
 
 /// Largest stamp difference between a reading and its F/T wrench (s): half
-/// a 100 Hz period, as a bag is read ([`crate::learn::bag::BagTopics`]).
+/// a 100 Hz period, as a bag is read ([`crate::learn::data::bag::BagTopics`]).
 pub const PAIR_TOLERANCE_S: f64 = 0.005;
 
 /// Readings or wrenches kept while waiting for their pair.

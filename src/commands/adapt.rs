@@ -2,15 +2,15 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::learn::evaluate::{training_fit, Progress};
-use tactile_force::learn::gp::GpParams;
-use tactile_force::learn::model::{AdaptedFrom, WrenchGp};
+use tactile_force::learn::models::gp::GpParams;
+use tactile_force::learn::models::wrench_gp::{AdaptedFrom, WrenchGp};
 
 use super::data::{load_sessions, SourceArgs};
 use super::output::{progress_bar, show};
+use super::{Context, Result};
 
 #[derive(Args)]
 pub(crate) struct AdaptArgs {
@@ -64,7 +64,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
     let adapted = base.adapt(&data, sessions.tare, from, &params, &mut |axis, p| {
-        show(&bar, Progress::Gp(axis, p))
+        show(&bar, Progress::Axis(axis, p))
     })?;
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();

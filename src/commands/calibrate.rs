@@ -6,25 +6,38 @@
 //! and the validation figures. A calibration that cannot succeed writes no
 //! model (exit 1) and says why.
 
-use anyhow::{anyhow, Context, Result};
+use std::path::{Path, PathBuf};
+
 use serde_json::json;
 
 use tactile_force::calibration::CalibrateParams;
 use tactile_force::control::TaskKind;
 use tactile_force::learn::calibration::fit_and_save;
-use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::runtime::calibrate::record;
 use tactile_force::runtime::Scene;
 
-use super::demo::DemoArgs;
 use super::output::{print_validation, progress_bar};
+use super::{Context, Failure, Result};
 
-pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> Result<()> {
-    let out = a.out.as_ref().context("demo calibrate needs --out")?;
-    let session = a
-        .session
-        .clone()
-        .unwrap_or_else(|| out.with_extension("mcap"));
+/// What `demo calibrate` writes and prints, from `demo`'s arguments.
+pub(crate) struct CalibrateRun<'a> {
+    /// The model file to write.
+    pub out: &'a Path,
+    /// The recording (a rosbag2 MCAP file).
+    pub session: PathBuf,
+    /// Seed of the sensor and F/T noise.
+    pub seed: u64,
+    /// The run, one row per control period, as CSV.
+    pub csv: Option<&'a Path>,
+    /// The forces over time (PNG).
+    pub plot: Option<&'a Path>,
+    /// The figures as one JSON line.
+    pub json: bool,
+}
+
+pub(crate) fn run_calibrate(a: &CalibrateRun, scene: &Scene, current: WrenchGp) -> Result<()> {
+    let (out, session) = (a.out, &a.session);
     let limit = scene.controller.section::<CalibrateParams>()?.force_limit_n;
     let bar = progress_bar();
     bar.set_message("calibrating: pressing the block");
@@ -39,26 +52,26 @@ pub(crate) fn run_calibrate(a: &DemoArgs, scene: &Scene, current: WrenchGp) -> R
         rec.motion_s,
         rec.peak_force_n,
     );
-    if let Some(path) = &a.csv {
+    if let Some(path) = a.csv {
         tactile_force::report::trace::write_csv(path, &rec.rows)
             .with_context(|| format!("writing {}", path.display()))?;
     }
-    if let Some(path) = &a.plot {
+    if let Some(path) = a.plot {
         let title = format!("calibration, BioTac unit {unit}");
         tactile_force::report::plot::plot_run(path, &title, &rec.rows)?;
         println!("plot written to {}", path.display());
     }
     if let Some(why) = rec.ended.failure() {
-        return Err(anyhow!(
+        return Err(Failure::failed(format!(
             "calibration failed: {why}; the arm stopped; no model written (the current one is kept)"
-        ));
+        )));
     }
     let r = fit_and_save(
         &rec.records,
         &current,
         rec.motion_s,
         rec.peak_force_n,
-        &session,
+        session,
         out,
     )
     .with_context(|| {

@@ -3,16 +3,16 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::biotac::sim::BioTacSimConfig;
-use tactile_force::learn::dataset::write_csv;
+use tactile_force::learn::data::write_csv;
 use tactile_force::nail::collect::{collect_nail, NailWriter, Protocol};
 use tactile_force::nail::sim::NailSimConfig;
 use tactile_force::sim::collect::{collect, CollectConfig};
 
 use super::BadArgument;
+use super::{Context, Result};
 
 /// The protocols.
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -4,19 +4,20 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use clap::Args;
 use nalgebra::Vector3;
 
-use tactile_force::learn::bag::{read_bag, BagTopics};
-use tactile_force::learn::dataset::{Counts, Dataset};
-use tactile_force::learn::model::TareSpec;
+use tactile_force::learn::data::bag::{read_bag, BagTopics};
+use tactile_force::learn::data::nail::read_nail_dirs;
+use tactile_force::learn::data::{Counts, Dataset};
+use tactile_force::learn::models::wrench_gp::TareSpec;
 use tactile_force::nail::collect::is_nail_dir;
-use tactile_force::sensor::nail::{self, read_nail_dirs};
+use tactile_force::sensor::nail;
 use tactile_force::sensor::{biotac, SensorSpec};
 use tactile_force::wrench::{AxisSet, FrameTransform, Wrench};
 
 use super::BadArgument;
+use super::{Context, Result};
 
 /// Where the data files' wrenches come from: topics of a ROS bag (MCAP)
 /// and the F/T sensor's frame.
@@ -137,7 +138,7 @@ impl Sessions {
     /// Every session's rows in one data set.
     pub(crate) fn pooled(&self) -> Result<Dataset> {
         let refs: Vec<&Dataset> = self.sets.iter().collect();
-        Dataset::concat(&refs).context("no data file given")
+        Dataset::concat(&refs).ok_or_else(|| BadArgument("no data file given".into()).into())
     }
 }
 

@@ -3,14 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model::{self, Origin, Recipe};
-use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::report::plot::{self, SweepSeries};
 use tactile_force::report::summary::Summary;
 use tactile_force::report::TraceRow;
@@ -20,8 +19,10 @@ use tactile_force::runtime::demo::{
 use tactile_force::runtime::scene::RobotChoice;
 use tactile_force::runtime::{Pacing, Scene};
 
+use super::calibrate::{run_calibrate, CalibrateRun};
 use super::output::progress_bar;
 use super::BadArgument;
+use super::{Context, Result};
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -65,30 +66,30 @@ pub struct DemoArgs {
     speed: Option<f64>,
     /// Seed of the sensor and F/T noise.
     #[arg(long, default_value_t = 1)]
-    pub(crate) seed: u64,
+    seed: u64,
     /// The simulated BioTac unit (as `collect --unit` numbers them; the
     /// default models are trained on unit 1). Default: the scene's.
     #[arg(long)]
     unit: Option<u64>,
     /// Calibrate: the model file to write.
     #[arg(long)]
-    pub(crate) out: Option<PathBuf>,
+    out: Option<PathBuf>,
     /// Calibrate: the recording, as a rosbag2 MCAP file (readable by
     /// `train`, `eval`). Default: --out with the extension .mcap.
     #[arg(long)]
-    pub(crate) session: Option<PathBuf>,
+    session: Option<PathBuf>,
     /// Pace the simulation by the wall clock.
     #[arg(long)]
     realtime: bool,
     /// Write a PNG plot (forces over time; with --sweep-speed, overshoot over speed).
     #[arg(long)]
-    pub(crate) plot: Option<PathBuf>,
+    plot: Option<PathBuf>,
     /// Write the run, one row per control period, as CSV.
     #[arg(long, conflicts_with = "sweep_speed")]
-    pub(crate) csv: Option<PathBuf>,
+    csv: Option<PathBuf>,
     /// Print the figures as one JSON object on the last line.
     #[arg(long)]
-    pub(crate) json: bool,
+    json: bool,
     /// Guarded move: sweep the approach speed against the peak force, per
     /// object (each alone in the scene, so with its own safety envelope),
     /// measured and as the envelope predicts; speeds above it are refused.
@@ -146,7 +147,17 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     scene.check()?;
     let model = demo_model(a.model.as_deref(), &scene.estimator.default_model)?;
     if task == TaskKind::Calibrate {
-        return super::calibrate::run_calibrate(&a, &scene, model);
+        let out =
+            (a.out.as_deref()).ok_or_else(|| BadArgument("demo calibrate needs --out".into()))?;
+        let run = CalibrateRun {
+            out,
+            session: (a.session.clone()).unwrap_or_else(|| out.with_extension("mcap")),
+            seed: a.seed,
+            csv: a.csv.as_deref(),
+            plot: a.plot.as_deref(),
+            json: a.json,
+        };
+        return run_calibrate(&run, &scene, model);
     }
     if a.sweep_speed {
         return run_sweep(&a, &scene, &model);
@@ -173,7 +184,7 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string(&run.summary)?);
     }
-    Ok(())
+    Ok(run.held()?)
 }
 
 /// The model of `--model`, or the scene's cached default (trained on first use).

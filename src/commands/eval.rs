@@ -1,20 +1,21 @@
 //! `eval`: cross-validation, train/test per session, leave one session
 //! out, or a saved model scored.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use clap::Args;
 
-use tactile_force::learn::cnn::CnnParams;
-use tactile_force::learn::dataset::channel_columns;
+use tactile_force::learn::data::channel_columns;
 use tactile_force::learn::evaluate::{
     cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
     FoldScores,
 };
-use tactile_force::learn::metrics::DEFAULT_PEAK_MIN_N;
-use tactile_force::learn::model::WrenchGp;
-use tactile_force::learn::nn::NnParams;
+use tactile_force::learn::models::cnn::CnnParams;
+use tactile_force::learn::models::metrics::DEFAULT_PEAK_MIN_N;
+use tactile_force::learn::models::nn::NnParams;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::params::Check;
 use tactile_force::sensor::SensorSpec;
 
 use super::data::{load_sessions, SourceArgs};
@@ -23,6 +24,7 @@ use super::output::{
 };
 use super::train::{gp_params, FitArgs};
 use super::BadArgument;
+use super::{Context, Result};
 
 #[derive(Args)]
 pub(crate) struct EvalArgs {
@@ -145,7 +147,7 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
         nn: if a.no_nn {
             None
         } else {
-            Some(nn_params(sensor).validate()?)
+            Some(nn_params(sensor).checked("nn")?)
         },
         cnn: match sensor {
             SensorSpec::Nail(_) if !a.no_cnn => Some(
@@ -153,7 +155,7 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
                     seed: a.fit.seed,
                     ..CnnParams::default()
                 }
-                .validate()?,
+                .checked("cnn")?,
             ),
             _ => None,
         },
@@ -164,7 +166,7 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
 
 /// A force of at least 0.1 N: half of it must stand above the reference's
 /// noise at rest for a push to be found.
-fn positive_newtons(s: &str) -> Result<f64, String> {
+fn positive_newtons(s: &str) -> std::result::Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v >= 0.1 => Ok(v),
         _ => Err(format!("expected a force of at least 0.1 N, got {s}")),
@@ -207,15 +209,13 @@ pub(crate) fn run_score(
             fold: i + 1,
             n_test: ds.len(),
             gp: score_model(&model, ds, min_peak_n)?,
-            nn: None,
-            cnn: None,
+            baselines: BTreeMap::new(),
         });
     }
     let eval = Evaluation {
         folds,
         gp: score_model(&model, &pooled, min_peak_n)?,
-        nn: None,
-        cnn: None,
+        baselines: BTreeMap::new(),
     };
     print_table(model.axes(), &eval, &file_labels(tests));
     if json {

@@ -1,5 +1,6 @@
 //! The subcommands, one module each, and what they share: the data files
-//! (`data`), the printed output (`output`) and the exit codes.
+//! (`data`), the printed output (`output`), and a command's error with its
+//! exit code ([`Failure`]).
 
 pub mod adapt;
 pub mod calibrate;
@@ -13,70 +14,91 @@ pub mod serial;
 pub mod tradeoff;
 pub mod train;
 
-use tactile_force::biotac::sim::ConfigError;
-use tactile_force::kinematics::RobotError;
-use tactile_force::learn::bag::BagError;
-use tactile_force::learn::choice::SelectError;
-use tactile_force::learn::dataset::DatasetError;
-use tactile_force::learn::evaluate::EvalError;
-use tactile_force::learn::model::ModelError;
-use tactile_force::nail::collect::NailDataError;
-use tactile_force::nail::preprocess::PreprocessError;
-use tactile_force::params::ParamsError;
-use tactile_force::runtime::scene::SceneError;
-use tactile_force::wrench::AxisSetError;
+use std::fmt::Display;
 
-/// Exit code when the input was refused before any work: an argument, a
-/// parameter or scene file, a data, bag or model file (clap's usage errors
-/// exit with 2 too).
-pub const EXIT_BAD_INPUT: u8 = 2;
-
-/// Exit code when the work failed: a file that could not be written, a
-/// serial link, a fit that failed.
-pub const EXIT_FAILURE: u8 = 1;
+use tactile_force::exit::{Classify, ExitClass};
 
 /// An argument a command refuses.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct BadArgument(pub String);
 
-/// The exit code of a failed command: [`EXIT_BAD_INPUT`] when any cause in
-/// the error's chain is refused input, else [`EXIT_FAILURE`].
-pub fn exit_code(e: &anyhow::Error) -> u8 {
-    let refused = e.chain().any(|c| {
-        c.is::<BadArgument>()
-            || c.is::<ParamsError>()
-            || c.is::<SceneError>()
-            || c.is::<RobotError>()
-            || c.downcast_ref::<SelectError>()
-                .is_some_and(|e| matches!(e, SelectError::TooFewTrials { .. }))
-            || c.is::<ConfigError>()
-            || c.is::<AxisSetError>()
-            || c.is::<BagError>()
-            || c.is::<PreprocessError>()
-            || c.downcast_ref::<NailDataError>().is_some_and(|d| {
-                matches!(
-                    d,
-                    NailDataError::NonFinite { .. }
-                        | NailDataError::Empty { .. }
-                        | NailDataError::FrameSize { .. }
-                        | NailDataError::Preprocess(_)
-                )
-            })
-            || c.downcast_ref::<DatasetError>()
-                .is_some_and(|d| !matches!(d, DatasetError::Write { .. }))
-            || c.downcast_ref::<ModelError>()
-                .is_some_and(|m| !matches!(m, ModelError::Write { .. } | ModelError::Gp(_)))
-            || c.downcast_ref::<EvalError>().is_some_and(|e| {
-                matches!(
-                    e,
-                    EvalError::Mismatch(_) | EvalError::Folds(_) | EvalError::TooFewTrials { .. }
-                )
-            })
-    });
-    if refused {
-        EXIT_BAD_INPUT
-    } else {
-        EXIT_FAILURE
+/// An argument refused: refused input.
+impl Classify for BadArgument {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
+}
+
+/// A command's error: what went wrong with its causes, and how the process
+/// exits ([`tactile_force::exit`]). It is made only from errors that
+/// classify themselves, so each keeps its own exit code.
+#[derive(Debug)]
+pub struct Failure {
+    class: ExitClass,
+    error: anyhow::Error,
+}
+
+impl Failure {
+    /// A failure of the work, said in `message` (exit 1).
+    pub fn failed(message: String) -> Self {
+        Failure {
+            class: ExitClass::Failure,
+            error: anyhow::Error::msg(message),
+        }
+    }
+
+    /// The first error of type `E` in the chain of causes.
+    pub fn cause<E: std::error::Error + 'static>(&self) -> Option<&E> {
+        self.error.chain().find_map(|c| c.downcast_ref::<E>())
+    }
+
+    /// The process's exit code.
+    pub fn exit_code(&self) -> u8 {
+        self.class.code()
+    }
+}
+
+impl<E: Classify + std::error::Error + Send + Sync + 'static> From<E> for Failure {
+    fn from(e: E) -> Self {
+        Failure {
+            class: e.class(),
+            error: anyhow::Error::new(e),
+        }
+    }
+}
+
+/// The message and every cause, on one line.
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:#}", self.error)
+    }
+}
+
+/// A command's result.
+pub type Result<T> = std::result::Result<T, Failure>;
+
+/// What the command was doing when an error happened, said before the
+/// error; the error's exit code is kept.
+pub trait Context<T> {
+    /// The error, after `context`.
+    fn context<C: Display + Send + Sync + 'static>(self, context: C) -> Result<T>;
+    /// The error, after the context `f` gives.
+    fn with_context<C: Display + Send + Sync + 'static>(self, f: impl FnOnce() -> C) -> Result<T>;
+}
+
+impl<T, E: Into<Failure>> Context<T> for std::result::Result<T, E> {
+    fn context<C: Display + Send + Sync + 'static>(self, context: C) -> Result<T> {
+        self.with_context(|| context)
+    }
+
+    fn with_context<C: Display + Send + Sync + 'static>(self, f: impl FnOnce() -> C) -> Result<T> {
+        self.map_err(|e| {
+            let Failure { class, error } = e.into();
+            Failure {
+                class,
+                error: error.context(f()),
+            }
+        })
     }
 }

@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tactile_force::learn::calibration::CalibrationRecord;
 use tactile_force::learn::choice::Selection;
 use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
-use tactile_force::learn::metrics::DirectionError;
+use tactile_force::learn::models::metrics::DirectionError;
 use tactile_force::wrench::{Axis, AxisSet};
 
 pub(crate) fn progress_bar() -> ProgressBar {
@@ -25,14 +25,13 @@ pub(crate) fn progress_bar() -> ProgressBar {
 pub(crate) fn show(bar: &ProgressBar, p: Progress) {
     match p {
         Progress::Fold(f, k) => bar.println(format!("fold {f}/{k}")),
-        Progress::Gp(axis, g) => bar.set_message(format!(
-            "GP {axis}: start {}, {} likelihood evaluations, -log p(y)/n = {:.4}",
+        Progress::Fit(model) => bar.set_message(format!("{}: training", model.to_uppercase())),
+        Progress::Axis(axis, g) => bar.set_message(format!(
+            "{axis}: start {}, {} likelihood evaluations, -log p(y)/n = {:.4}",
             g.start + 1,
             g.evaluations,
             g.neg_lml_per_sample
         )),
-        Progress::Nn => bar.set_message("neural network: training"),
-        Progress::Cnn => bar.set_message("CNN: training"),
     }
 }
 
@@ -139,30 +138,20 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
     if eval.folds.len() > 1 {
         for (f, label) in eval.folds.iter().zip(labels) {
             row(label, "GP", &f.gp);
-            if let Some(nn) = &f.nn {
-                row(label, "NN", nn);
-            }
-            if let Some(cnn) = &f.cnn {
-                row(label, "CNN", cnn);
+            for (name, s) in &f.baselines {
+                row(label, &name.to_uppercase(), s);
             }
         }
     }
     row("overall", "GP", &eval.gp);
-    if let Some(nn) = &eval.nn {
-        row("overall", "NN", nn);
-    }
-    if let Some(cnn) = &eval.cnn {
-        row("overall", "CNN", cnn);
+    for (name, s) in &eval.baselines {
+        row("overall", &name.to_uppercase(), s);
     }
     println!("RMSE in N (forces) and Nm (torques); overall = all test rows pooled; fit s = mean per fold.");
-    let models = [
-        ("GP", Some(&eval.gp)),
-        ("NN", eval.nn.as_ref()),
-        ("CNN", eval.cnn.as_ref()),
-    ];
-    for (name, s) in models {
-        if let Some(d) = s.and_then(|s| s.direction_deg) {
-            print_direction(name, &d);
+    let baselines = eval.baselines.iter().map(|(n, s)| (n.to_uppercase(), s));
+    for (name, s) in std::iter::once(("GP".to_string(), &eval.gp)).chain(baselines) {
+        if let Some(d) = &s.direction_deg {
+            print_direction(&name, d);
         }
     }
     if eval.folds.len() > 1 {

@@ -6,10 +6,10 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
 use clap::Args;
 use serde::Serialize;
 
+use super::Result;
 use tactile_force::kinematics::{JointVector, Robot, RobotParams};
 use tactile_force::params::{ParamsError, WORLD_YAML};
 

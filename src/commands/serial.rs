@@ -5,7 +5,6 @@ use std::io::Write;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serialport::{SerialPort, TTYPort};
@@ -16,7 +15,7 @@ use tactile_force::biotac::wire::{DecodedFrame, DEFAULT_BAUD};
 use tactile_force::biotac::BioTacSimConfig;
 use tactile_force::sim::collect::unit_seed;
 
-use super::BadArgument;
+use super::{BadArgument, Context, Failure, Result};
 
 #[derive(Args)]
 pub struct EmulatorArgs {
@@ -158,11 +157,10 @@ pub fn run_monitor(a: MonitorArgs) -> Result<()> {
             return Err(e.into());
         }
         if last_frame.elapsed().as_secs_f64() > a.timeout_s {
-            bail!(
+            return Err(Failure::failed(format!(
                 "no frame from {} for {} s: {last_problem}",
-                a.port,
-                a.timeout_s
-            );
+                a.port, a.timeout_s
+            )));
         }
     }
     let s = driver.stats().decoder;

@@ -3,19 +3,20 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
 use clap::Args;
 
-use tactile_force::learn::dataset::trialwise_folds;
-use tactile_force::learn::gp::{GpParams, KernelKind, Subset};
-use tactile_force::learn::nn::NnParams;
+use tactile_force::learn::data::trialwise_folds;
+use tactile_force::learn::models::gp::{GpParams, KernelKind, Subset};
+use tactile_force::learn::models::nn::NnParams;
 use tactile_force::learn::tradeoff::{pareto_front, tradeoff, Row, TradeoffOptions};
+use tactile_force::params::Check;
 use tactile_force::report::plot;
 use tactile_force::wrench::AxisSet;
 
 use super::data::{load_sessions, SourceArgs};
 use super::output::{axis_headers, axis_scores, progress_bar};
 use super::BadArgument;
+use super::Result;
 
 #[derive(Args)]
 pub struct TradeoffArgs {
@@ -64,7 +65,7 @@ pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
         let msg = format!("--folds {}: at least 2 (one fold is held out)", a.folds);
         return Err(BadArgument(msg).into());
     }
-    let features = tactile_force::learn::dataset::electrode_columns();
+    let features = tactile_force::learn::data::electrode_columns();
     let sessions = load_sessions(
         std::slice::from_ref(&a.data),
         &features,
@@ -101,7 +102,7 @@ pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
                     seed: a.seed,
                     ..NnParams::default()
                 }
-                .validate()?,
+                .checked("nn")?,
             )
         },
         ..TradeoffOptions::default()

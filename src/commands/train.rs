@@ -2,21 +2,21 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
 use clap::Args;
 
 use tactile_force::learn::choice::select;
-use tactile_force::learn::dataset::{channel_columns, Channel, DatasetError};
+use tactile_force::learn::data::{channel_columns, Channel, DatasetError};
 use tactile_force::learn::evaluate::{training_fit, Progress};
-use tactile_force::learn::gp::{GpParams, KernelKind, MeanKind, Subset};
-use tactile_force::learn::model::WrenchGp;
-use tactile_force::learn::scale::InputScaling;
+use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
+use tactile_force::learn::models::scale::InputScaling;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::params::Checked;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
 
 use super::data::{load_sessions, SourceArgs};
 use super::output::{print_selection, progress_bar, show};
-use super::BadArgument;
+use super::{BadArgument, Context, Failure, Result};
 
 /// Options shared by `train` and `eval`.
 #[derive(Args)]
@@ -116,10 +116,7 @@ pub(crate) struct TrainArgs {
 }
 
 /// The GP options of `fit` for data of `sensor`.
-pub(crate) fn gp_params(
-    fit: &FitArgs,
-    sensor: &SensorSpec,
-) -> Result<tactile_force::learn::gp::ValidGpParams> {
+pub(crate) fn gp_params(fit: &FitArgs, sensor: &SensorSpec) -> Result<Checked<GpParams>> {
     let default_mean = match sensor {
         SensorSpec::Biotac => MeanKind::Zero,
         SensorSpec::Nail(_) => MeanKind::Cubic,
@@ -157,7 +154,7 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
     let model = WrenchGp::train_scaled(&ds, sessions.tare, scaling, &params, &mut |axis, p| {
-        show(&bar, Progress::Gp(axis, p))
+        show(&bar, Progress::Axis(axis, p))
     })?
     .with_sensor(sessions.sensor);
     bar.finish_and_clear();
@@ -189,12 +186,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
         )
     };
     let sessions = load(&every).or_else(|e| {
-        let missing = e.chain().any(|c| {
-            matches!(
-                c.downcast_ref::<DatasetError>(),
-                Some(DatasetError::MissingColumn { .. })
-            )
-        });
+        let missing = matches!(e.cause(), Some(DatasetError::MissingColumn { .. }));
         if missing {
             load(&every[..2])
         } else {
@@ -206,7 +198,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
         return Err(BadArgument(msg.into()).into());
     }
     let ds = sessions.pooled()?;
-    let base = gp_params(&a.fit, &sessions.sensor)?.get().clone();
+    let base = GpParams::clone(&*gp_params(&a.fit, &sessions.sensor)?);
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
     let selection = select(
@@ -227,11 +219,11 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     let choice = selection.choice().clone();
     let (data, tare) = choice
         .cut(&ds, &sessions.tare)
-        .map_err(|e| anyhow::anyhow!("the chosen options: {e}"))?;
+        .map_err(|e| Failure::failed(format!("the chosen options: {e}")))?;
     let params = choice.gp_params(&base).validate()?;
     let bar = progress_bar();
     let model = WrenchGp::train_scaled(&data, tare, choice.input, &params, &mut |axis, p| {
-        show(&bar, Progress::Gp(axis, p))
+        show(&bar, Progress::Axis(axis, p))
     })?
     .with_sensor(sessions.sensor)
     .with_selection(selection);
@@ -245,7 +237,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
 fn save_checked(
     a: &TrainArgs,
     model: WrenchGp,
-    ds: &tactile_force::learn::dataset::Dataset,
+    ds: &tactile_force::learn::data::Dataset,
     t0: std::time::Instant,
 ) -> Result<()> {
     let fit_s = t0.elapsed().as_secs_f64();

@@ -23,6 +23,8 @@ use nalgebra::{Matrix6, SymmetricEigen, Vector6};
 
 use super::{Jacobian, JointVector, Robot, Twist};
 
+use crate::exit::{Classify, ExitClass};
+
 /// Joint position and speed limits (rad or m, rad/s or m/s), one per joint.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointLimits {
@@ -65,6 +67,13 @@ pub enum KinematicsError {
     /// NaN or infinite values.
     #[error("{0} contain a non-finite value")]
     NonFinite(&'static str),
+}
+
+/// A joint state or twist that is not finite: refused input.
+impl Classify for KinematicsError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// The damped least-squares solver and its work space for one robot.

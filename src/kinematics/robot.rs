@@ -13,6 +13,7 @@ use super::chain::SerialChain;
 use super::dls::{DlsParams, JointLimits};
 use super::urdf::{read_chain, UrdfError};
 use super::{JointKind, JointVector};
+use crate::exit::{Classify, ExitClass};
 use crate::params::{layered_node_params, ParamsError};
 
 /// Robot parameters as written in the files (`robot.*`, for every node).
@@ -63,6 +64,16 @@ pub enum RobotError {
     /// A `robot.*` parameter.
     #[error(transparent)]
     Params(#[from] ParamsError),
+}
+
+/// A robot refused, by the part that refused it.
+impl Classify for RobotError {
+    fn class(&self) -> ExitClass {
+        match self {
+            RobotError::Urdf(e) => e.class(),
+            RobotError::Params(e) => e.class(),
+        }
+    }
 }
 
 impl From<UrdfError> for RobotError {

@@ -9,6 +9,8 @@ use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 
 use super::chain::{ChainJoint, JointKind, SerialChain};
 
+use crate::exit::{Classify, ExitClass};
+
 /// Why a chain could not be read from a URDF.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -77,6 +79,13 @@ pub enum UrdfError {
         /// The leaf links.
         leaves: Vec<String>,
     },
+}
+
+/// A URDF refused: refused input.
+impl Classify for UrdfError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// A joint's `<limit>` as the URDF gives it (rad or m, rad/s or m/s); None

@@ -6,20 +6,19 @@
 //! every push, checked on its own training data, and records what was
 //! chosen and the validation figures.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
-use serde::{Deserialize, Serialize};
-
-use super::bag::{write_bag, BagError, BagTopics};
-use super::choice::{select, Choice};
-use super::dataset::{channel_columns, Channel, Dataset, DatasetError};
+use super::choice::{select, SelectError};
+use super::data::bag::{write_bag, BagError, BagTopics};
+use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{score_model, training_fit, EvalError};
-use super::gp::GpParams;
-use super::model::{AdaptedFrom, ModelError, TareSpec, WrenchGp};
+use super::models::gp::GpParams;
+use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, WrenchGp};
+use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
-use crate::wrench::Axis;
+
+pub use super::models::wrench_gp::{CalibrationRecord, Validation};
 
 /// Every fourth push is held out to validate the candidates.
 pub const HELD_OUT_EVERY: u32 = 4;
@@ -28,44 +27,6 @@ pub const MIN_PUSHES: u32 = 4;
 /// The from-scratch candidate's search for options (s): with the fits, a
 /// calibration's compute stays within 10 s on 2 cores.
 pub const SELECT_BUDGET_S: f64 = 3.0;
-
-/// One model scored on the held-out pushes.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Validation {
-    /// "current", "adapted" or "from scratch".
-    pub model: String,
-    /// RMSE per axis on the held-out pushes (N or Nm).
-    pub rmse: BTreeMap<Axis, f64>,
-    /// Mean over axes of the RMSE over the targets' standard deviation.
-    pub score: f64,
-}
-
-/// What a calibration did (in the model file it made).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CalibrationRecord {
-    /// "adapted" or "from scratch".
-    pub chosen: String,
-    /// The current model and both candidates on the held-out pushes.
-    pub validation: Vec<Validation>,
-    /// The from-scratch candidate's options.
-    pub scratch_options: Option<Choice>,
-    /// Pushes recorded, and those held out (1-based).
-    pub pushes: u32,
-    /// The held-out pushes.
-    pub held_out: Vec<u32>,
-    /// Rows recorded.
-    pub rows: usize,
-    /// Seconds the arm moved.
-    pub motion_s: f64,
-    /// Seconds of compute (training and validation).
-    pub compute_s: f64,
-    /// The largest force the F/T sensor measured (N).
-    pub peak_force_n: f64,
-    /// The recording's file (MCAP), when written.
-    pub session: Option<String>,
-}
 
 /// Why a calibration made no model.
 #[derive(Debug, thiserror::Error)]
@@ -101,6 +62,17 @@ pub enum CalibrationError {
     /// The session could not be written.
     #[error(transparent)]
     Bag(#[from] BagError),
+    /// The from-scratch candidate's options could not be chosen.
+    #[error("choosing the options of the model from scratch: {0}")]
+    Select(#[from] SelectError),
+}
+
+/// A calibration that makes no model failed: the arm has moved, so nothing
+/// was refused before the work.
+impl Classify for CalibrationError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Failure
+    }
 }
 
 /// What the recording is and where it came from, besides its records.
@@ -116,8 +88,8 @@ pub struct Recorded {
 
 /// The calibration's model from `records` (trial = push, starting out of
 /// contact) with `current` as the model it may adapt; the from-scratch
-/// candidate's options are chosen within `select_budget_s`; `base` holds
-/// the other GP options.
+/// candidate's options are chosen within `select_budget_s` (a choice that
+/// fails is [`CalibrationError::Select`]); `base` holds the other GP options.
 pub fn fit(
     records: &[Record],
     current: &WrenchGp,
@@ -193,9 +165,9 @@ pub fn fit(
     // The from-scratch candidate: options chosen by pushes (one set).
     let mut by_push = train.clone();
     by_push.set.iter_mut().for_each(|s| *s = 1);
-    let choice = select(&by_push, &tare, 5, select_budget_s, base, &mut |_, _| {})
-        .map(|s| s.choice().clone())
-        .unwrap_or_else(|_| Choice::default_options());
+    let choice = select(&by_push, &tare, 5, select_budget_s, base, &mut |_, _| {})?
+        .choice()
+        .clone();
     let (train_new, new_tare) = cut_to(&train, &tare, &choice.features())?;
     let (test_new, _) = cut_to(&test, &tare, &choice.features())?;
     let new_params = choice
@@ -286,4 +258,56 @@ fn cut_to(
             header: data.features.join(","),
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::biotac::sim::BioTacSimConfig;
+    use crate::learn::data::electrode_columns;
+    use crate::learn::models::wrench_gp::quick_fit;
+    use crate::sim::collect::{collect, CollectConfig};
+
+    #[test]
+    fn options_that_cannot_be_chosen_are_an_error_not_the_defaults() {
+        // Two pushes, numbered 1 and 4: push 4 is held out, so the options
+        // would be chosen by cross-validation on one push (every 4th row).
+        let cfg = CollectConfig::default().with_trials(2).unwrap();
+        let records: Vec<Record> = collect(&cfg, &BioTacSimConfig::default(), 1, 1)
+            .into_iter()
+            .filter(|r| r.set == 1)
+            .step_by(4)
+            .map(|r| Record {
+                trial: if r.trial == 1 { 1 } else { 4 },
+                ..r
+            })
+            .collect();
+        let axes = "fz".parse().unwrap();
+        let mut data =
+            Dataset::from_records(&records, &electrode_columns(), &axes, "session").unwrap();
+        let tare = TareSpec {
+            samples: 10,
+            mean_baseline: data.tare_per_trial(10).unwrap(),
+        };
+        let current = quick_fit(&data, tare);
+        let recorded = Recorded {
+            motion_s: 40.0,
+            peak_force_n: 5.0,
+            session: None,
+        };
+        let base = GpParams {
+            restarts: 1,
+            restart_subset: 200,
+            max_train: 300,
+            ..GpParams::default()
+        };
+        let err = fit(&records, &current, recorded, 60.0, &base).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                CalibrationError::Select(SelectError::TooFewTrials { .. })
+            ),
+            "{err}"
+        );
+    }
 }

@@ -10,54 +10,24 @@
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. When the
 //! budget runs out the search stops, at the latest after the fold that
-//! passed it, and says what it did not try.
+//! passed it, and says what it did not try. The defaults are scored
+//! whatever the budget: they are what every other candidate must beat.
 
 use std::collections::BTreeMap;
 use std::time::Instant;
 
 use ndarray::{Array2, Axis as NdAxis};
-use serde::{Deserialize, Serialize};
 
-use super::dataset::{channel_columns, trialwise_folds, Channel, Dataset};
-use super::gp::fit::FitProgress;
-use super::gp::{GpParams, MeanKind};
-use super::metrics::rmse_columns;
-use super::model::{ModelError, TareSpec, WrenchGp};
-use super::scale::InputScaling;
-use crate::wrench::Axis;
+use super::data::{channel_columns, trialwise_folds, Channel, Dataset};
+use super::models::gp::fit::FitProgress;
+use super::models::gp::{GpParams, MeanKind};
+use super::models::metrics::rmse_columns;
+use super::models::scale::InputScaling;
+use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
 
-/// The GP a candidate trains.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum GpChoice {
-    /// The exact GP conditioned on at most this many rows.
-    Exact(usize),
-    /// The sparse GP with this many inducing points, on every row.
-    Sparse(usize),
-}
+use crate::exit::{Classify, ExitClass};
 
-impl std::fmt::Display for GpChoice {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            GpChoice::Exact(n) => write!(f, "exact {n}"),
-            GpChoice::Sparse(m) => write!(f, "sparse {m}"),
-        }
-    }
-}
-
-/// One set of the options `select` chooses.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Choice {
-    /// The BioTac channels taken as features.
-    pub channels: Vec<Channel>,
-    /// How they reach the GP.
-    pub input: InputScaling,
-    /// Exact or sparse, and its size.
-    pub gp: GpChoice,
-    /// The prior mean.
-    pub mean: MeanKind,
-}
+pub use super::models::wrench_gp::{Choice, CvRow, GpChoice, Selection};
 
 impl Choice {
     /// The defaults of `train`: electrodes and PDC, standardised, the
@@ -97,62 +67,6 @@ impl Choice {
     }
 }
 
-impl std::fmt::Display for Choice {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let channels: Vec<&str> = self.channels.iter().map(|c| c.name()).collect();
-        write!(
-            f,
-            "{}, {}, {}, {} mean",
-            channels.join("+"),
-            self.input.name(),
-            self.gp,
-            self.mean.name()
-        )
-    }
-}
-
-/// A candidate's cross-validation.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CvRow {
-    /// The options.
-    pub choice: Choice,
-    /// RMSE per axis on the held-out trials, pooled (N or Nm).
-    pub rmse: BTreeMap<Axis, f64>,
-    /// Mean over axes of the RMSE over the targets' standard deviation
-    /// (lower is better).
-    pub score: f64,
-    /// Seconds its folds took.
-    pub seconds: f64,
-}
-
-/// What `select` did: every candidate's cross-validation, the one chosen,
-/// and what the budget left untried.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Selection {
-    /// Trial-wise folds per candidate.
-    pub folds: usize,
-    /// The time budget (s).
-    pub budget_s: f64,
-    /// The time the search took (s).
-    pub spent_s: f64,
-    /// Every candidate scored, in the order tried.
-    pub table: Vec<CvRow>,
-    /// Index of the chosen candidate in `table`: the best score.
-    pub chosen: usize,
-    /// Candidates the budget left untried, or the data could not serve (a
-    /// channel missing), with the reason.
-    pub untried: Vec<(Choice, String)>,
-}
-
-impl Selection {
-    /// The chosen options.
-    pub fn choice(&self) -> &Choice {
-        &self.table[self.chosen].choice
-    }
-}
-
 /// Errors of a selection.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -174,6 +88,20 @@ pub enum SelectError {
     #[error(transparent)]
     Model(#[from] ModelError),
 }
+
+/// Too few trials are refused input; a search that scored nothing failed.
+impl Classify for SelectError {
+    fn class(&self) -> ExitClass {
+        match self {
+            SelectError::TooFewTrials { .. } => ExitClass::Refused,
+            SelectError::NoBaseline(_) => ExitClass::Failure,
+            SelectError::Model(e) => e.class(),
+        }
+    }
+}
+
+/// Why a candidate was not tried when the budget stopped the search.
+const BUDGET_RAN_OUT: &str = "the time budget ran out";
 
 /// The options tried after the defaults, one stage at a time (each from the
 /// best so far): channels, input scaling, prior mean, GP.
@@ -244,31 +172,35 @@ pub fn select(
     let over = || start.elapsed().as_secs_f64() > budget_s;
     let mut table: Vec<CvRow> = Vec::new();
     let mut untried = Vec::new();
-    let mut run = |choice: &Choice, table: &mut Vec<CvRow>, untried: &mut Vec<(Choice, String)>| {
+    // A candidate's cross-validation; `budgeted`: stopped by the budget.
+    let mut run = |choice: &Choice,
+                   budgeted: bool,
+                   table: &mut Vec<CvRow>,
+                   untried: &mut Vec<(Choice, String)>| {
         if table.iter().any(|r| &r.choice == choice) || untried.iter().any(|(c, _)| c == choice) {
             return;
         }
-        if over() {
-            untried.push((choice.clone(), "the time budget ran out".into()));
+        let stop = || budgeted && over();
+        if stop() {
+            untried.push((choice.clone(), BUDGET_RAN_OUT.into()));
             return;
         }
-        match cross_validate(data, tare, choice, &splits, base, &sd, &over, progress) {
+        match cross_validate(data, tare, choice, &splits, base, &sd, &stop, progress) {
             Ok(Some(row)) => table.push(row),
-            Ok(None) => untried.push((choice.clone(), "the time budget ran out".into())),
+            Ok(None) => untried.push((choice.clone(), BUDGET_RAN_OUT.into())),
             Err(why) => untried.push((choice.clone(), why)),
         }
     };
     let defaults = Choice::default_options();
-    run(&defaults, &mut table, &mut untried);
-    if table.is_empty() {
-        let why = untried.first().map_or(String::new(), |(_, w)| w.clone());
+    run(&defaults, false, &mut table, &mut untried);
+    if let (true, Some((_, why))) = (table.is_empty(), untried.first()) {
         return Err(SelectError::NoBaseline(format!("{defaults}: {why}")));
     }
     for stage in 0..4 {
         let best = best_of(&table).choice.clone();
         let candidates = stages(&best, data.len()).swap_remove(stage);
         for c in &candidates {
-            run(c, &mut table, &mut untried);
+            run(c, true, &mut table, &mut untried);
         }
     }
     let chosen = table
@@ -376,6 +308,7 @@ mod tests {
     use super::*;
     use crate::biotac::sim::BioTacSimConfig;
     use crate::sim::collect::{collect, CollectConfig};
+    use crate::wrench::Axis;
 
     /// A short simulated session with every channel, tared per trial.
     fn session() -> (Dataset, TareSpec) {
@@ -442,8 +375,15 @@ mod tests {
     fn the_budget_stops_the_search_and_says_what_it_left() {
         let (ds, tare) = session();
         let s = select(&ds, &tare, 5, 0.0, &quick(), &mut |_, _| {});
-        // Nothing fits in no time: even the defaults stop after a fold.
-        assert!(matches!(s, Err(SelectError::NoBaseline(_))), "{s:?}");
+        // Nothing fits in no time but the defaults, which are always scored.
+        let s = s.unwrap();
+        assert_eq!(s.table.len(), 1);
+        assert_eq!(s.choice(), &Choice::default_options());
+        assert!(!s.untried.is_empty());
+        assert!(
+            s.untried.iter().all(|(_, why)| why == BUDGET_RAN_OUT),
+            "{s:?}"
+        );
         let without_tdc = Dataset {
             features: ds.features[..20].to_vec(),
             x: ds.x.slice(ndarray::s![.., ..20]).to_owned(),

@@ -14,11 +14,12 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::dataset::{electrode_columns, Dataset, DatasetError};
-use super::gp::{GpParams, Subset};
-use super::model::{ModelError, TareSpec, WrenchGp};
+use super::data::{electrode_columns, Dataset, DatasetError};
+use super::models::gp::{GpParams, Subset};
+use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
 use crate::biotac::sim::DEFAULT_CONFIG_YAML;
 use crate::biotac::BioTacSimConfig;
+use crate::exit::{Classify, ExitClass};
 use crate::sim::collect::{collect, CollectConfig};
 use crate::wrench::AxisSet;
 
@@ -113,6 +114,13 @@ pub enum DefaultModelError {
     /// Training failed.
     #[error(transparent)]
     Model(#[from] ModelError),
+}
+
+/// The default model is made from the crate's own simulated data: a failure.
+impl Classify for DefaultModelError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Failure
+    }
 }
 
 /// The simulated data set with `axes` as targets, tared per trial.

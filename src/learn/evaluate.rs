@@ -10,29 +10,28 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::cnn::{Cnn, CnnError, ValidCnnParams};
-use super::dataset::{trialwise_folds, Dataset};
-use super::gp::fit::FitProgress;
-use super::gp::{MeanKind, ValidGpParams};
-use super::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
-use super::model::{ModelError, TareSpec, WrenchGp};
-use super::nn::{Mlp, NnError, ValidNnParams};
-use super::scale::InputScaling;
+use super::data::{trialwise_folds, Dataset};
+use super::models::cnn::{CnnLearner, CnnParams};
+use super::models::gp::{FitProgress, GpParams};
+use super::models::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
+use super::models::nn::{NnLearner, NnParams};
+use super::models::scale::InputScaling;
+use super::models::wrench_gp::{GpLearner, ModelError, TareSpec, WrenchGp};
+use super::models::{LearnError, Learner};
+use crate::exit::{Classify, ExitClass};
+use crate::params::Checked;
 use crate::wrench::{Axis, AxisSet};
 
 /// Errors of an evaluation.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum EvalError {
-    /// GP training or prediction failed.
+    /// The model file's GP could not predict.
     #[error("GP: {0}")]
-    Gp(#[from] ModelError),
-    /// Network training failed.
-    #[error("neural network: {0}")]
-    Nn(#[from] NnError),
-    /// CNN training failed.
-    #[error("CNN: {0}")]
-    Cnn(#[from] CnnError),
+    Model(#[from] ModelError),
+    /// A model could not be trained or predict.
+    #[error(transparent)]
+    Fit(#[from] LearnError),
     /// Train and test files have different features or axes.
     #[error("train and test data differ: {0}")]
     Mismatch(String),
@@ -67,23 +66,57 @@ pub enum EvalError {
     },
 }
 
+/// Data that cannot be split or compared are refused input; a model that
+/// explains nothing of its data failed.
+impl Classify for EvalError {
+    fn class(&self) -> ExitClass {
+        match self {
+            EvalError::Model(e) => e.class(),
+            EvalError::Fit(e) => e.class(),
+            EvalError::ExplainsNothing { .. } => ExitClass::Failure,
+            EvalError::Mismatch(_) | EvalError::Folds(_) | EvalError::TooFewTrials { .. } => {
+                ExitClass::Refused
+            }
+        }
+    }
+}
+
 /// Options shared by both evaluation modes.
 #[derive(Debug, Clone)]
 pub struct EvalOptions {
     /// Training rows used per fit (a seeded random subset when the training data is larger).
     pub max_train: usize,
-    /// GP options.
-    pub gp: ValidGpParams,
+    /// GP options (the GP is always evaluated).
+    pub gp: Checked<GpParams>,
     /// How the GP's inputs are presented.
     pub scaling: InputScaling,
     /// Network options; `None` skips the network.
-    pub nn: Option<ValidNnParams>,
+    pub nn: Option<Checked<NnParams>>,
     /// CNN options, for data with images (the nail camera); `None` skips it.
-    pub cnn: Option<ValidCnnParams>,
+    pub cnn: Option<Checked<CnnParams>>,
     /// Seed of the training subsets.
     pub seed: u64,
     /// Smallest tangential force of a peak whose direction is scored (N).
     pub min_peak_n: f64,
+}
+
+impl EvalOptions {
+    /// The models to train: the GP, then the baselines asked for.
+    fn learners(&self, tare: &TareSpec) -> Vec<Box<dyn Learner>> {
+        let gp = GpLearner {
+            params: self.gp.clone(),
+            scaling: self.scaling,
+            tare: tare.clone(),
+        };
+        let mut learners: Vec<Box<dyn Learner>> = vec![Box::new(gp)];
+        if let Some(p) = &self.nn {
+            learners.push(Box::new(NnLearner(p.clone())));
+        }
+        if let Some(p) = &self.cnn {
+            learners.push(Box::new(CnnLearner(p.clone())));
+        }
+        learners
+    }
 }
 
 /// Scores of one model on one test set.
@@ -112,11 +145,9 @@ pub struct FoldScores {
     pub n_test: usize,
     /// GP scores.
     pub gp: Scores,
-    /// Network scores, when it was trained.
-    pub nn: Option<Scores>,
-    /// CNN scores, when it was trained.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cnn: Option<Scores>,
+    /// The baselines' scores, by name (`nn`, `cnn`: those trained).
+    #[serde(flatten)]
+    pub baselines: BTreeMap<&'static str, Scores>,
 }
 
 /// Result of an evaluation: per fold, and overall on all test rows pooled.
@@ -126,11 +157,9 @@ pub struct Evaluation {
     pub folds: Vec<FoldScores>,
     /// GP scores over all test rows.
     pub gp: Scores,
-    /// Network scores over all test rows.
-    pub nn: Option<Scores>,
-    /// CNN scores over all test rows (data with images).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cnn: Option<Scores>,
+    /// The baselines' scores over all test rows, by name.
+    #[serde(flatten)]
+    pub baselines: BTreeMap<&'static str, Scores>,
 }
 
 /// What an evaluation is doing, for progress displays.
@@ -138,12 +167,10 @@ pub struct Evaluation {
 pub enum Progress {
     /// A fold starts (1-based).
     Fold(usize, usize),
-    /// The GP fit of an axis progresses.
-    Gp(Axis, FitProgress),
-    /// The network is training.
-    Nn,
-    /// The CNN is training.
-    Cnn,
+    /// A model starts training (its name).
+    Fit(&'static str),
+    /// The fit of an axis progresses (the GP's hyperparameters).
+    Axis(Axis, FitProgress),
 }
 
 pub(crate) fn scores(
@@ -197,68 +224,44 @@ fn with_direction(mut s: Scores, test: &Dataset, pred: ArrayView2<f64>, min_peak
     s
 }
 
-/// Predictions of both models on one test set, and their training times.
-struct FoldPredictions {
-    gp: Array2<f64>,
-    gp_fit_s: f64,
-    nn: Option<(Array2<f64>, f64)>,
-    cnn: Option<(Array2<f64>, f64)>,
-    n_train: usize,
+/// One model's predictions on a test set, and its training time.
+struct Predictions {
+    name: &'static str,
+    pred: Array2<f64>,
+    fit_s: f64,
 }
 
+/// Trains each learner that takes the data on `train` and predicts `test`,
+/// with the rows trained on. The learners train on the same seeded subset
+/// of `opts.max_train` rows, but for one that fits on every row (a GP's
+/// prior mean, fitted as `train` fits it; the exact GP then takes its own
+/// `max_train` of them).
 fn fit_and_predict(
     train: &Dataset,
     test: &Dataset,
-    tare: &TareSpec,
+    learners: &[Box<dyn Learner>],
     opts: &EvalOptions,
     progress: &mut (dyn FnMut(Progress) + Send),
-) -> Result<FoldPredictions, EvalError> {
+) -> Result<(Vec<Predictions>, usize), EvalError> {
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let subset = train.random_rows(opts.max_train, &mut rng);
-    // A zero-mean GP is fitted on the networks' subset. A prior mean is
-    // fitted on every training row, as `train` fits it; the exact GP then
-    // takes its own `max_train` of them.
-    let gp_rows = match opts.gp.get().mean {
-        MeanKind::Zero => &subset,
-        MeanKind::Linear | MeanKind::Cubic => train,
-    };
-    let t0 = Instant::now();
-    let gp = WrenchGp::train_scaled(
-        gp_rows,
-        tare.clone(),
-        opts.scaling,
-        &opts.gp,
-        &mut |a, p| progress(Progress::Gp(a, p)),
-    )?;
-    let gp_fit_s = t0.elapsed().as_secs_f64();
-    let (gp_pred, _) = gp.predict(test.x.view(), false)?;
-    let nn = match &opts.nn {
-        Some(params) => {
-            progress(Progress::Nn);
-            let t0 = Instant::now();
-            let net = Mlp::fit(params, subset.x.view(), subset.y.view())?;
-            let fit_s = t0.elapsed().as_secs_f64();
-            Some((net.predict(test.x.view()), fit_s))
-        }
-        None => None,
-    };
-    let cnn = match (&opts.cnn, &subset.images, &test.images) {
-        (Some(params), Some(images), Some(test_images)) => {
-            progress(Progress::Cnn);
-            let t0 = Instant::now();
-            let (net, _) = Cnn::fit(images.view(), subset.y.view(), params)?;
-            let fit_s = t0.elapsed().as_secs_f64();
-            Some((net.predict(test_images.view())?, fit_s))
-        }
-        _ => None,
-    };
-    Ok(FoldPredictions {
-        gp: gp_pred,
-        gp_fit_s,
-        nn,
-        cnn,
-        n_train: subset.len(),
-    })
+    let mut out = Vec::with_capacity(learners.len());
+    for l in learners
+        .iter()
+        .filter(|l| l.takes(&subset) && l.takes(test))
+    {
+        progress(Progress::Fit(l.name()));
+        let rows = if l.every_row() { train } else { &subset };
+        let t0 = Instant::now();
+        let fitted = l.fit(rows, &mut |a, p| progress(Progress::Axis(a, p)))?;
+        let fit_s = t0.elapsed().as_secs_f64();
+        out.push(Predictions {
+            name: l.name(),
+            pred: fitted.predict(test)?,
+            fit_s,
+        });
+    }
+    Ok((out, subset.len()))
 }
 
 /// Trial-wise k-fold cross-validation of the GP and the network on the same
@@ -331,9 +334,13 @@ fn evaluate_splits(
     opts: &EvalOptions,
     progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Evaluation, EvalError> {
+    let learners = opts.learners(tare);
     let mut results = Vec::new();
-    let (mut pooled, mut gps, mut nns, mut cnns) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let (mut gp_time, mut nn_time, mut cnn_time, mut n_train) = (0.0, 0.0, 0.0, 0);
+    let mut pooled = Vec::new();
+    // Per model, in the learners' order: its predictions per split and
+    // its total training time.
+    let mut per_model: Vec<(&'static str, Vec<Array2<f64>>, f64)> = Vec::new();
+    let mut n_train = 0;
     for (s, (train, tests)) in splits.enumerate() {
         progress(Progress::Fold(s + 1, n_splits));
         let refs: Vec<&Dataset> = tests.iter().collect();
@@ -345,60 +352,57 @@ fn evaluate_splits(
                     train.features, train.axes
                 ))
             })?;
-        let pred = fit_and_predict(&train, &test, tare, opts, progress)?;
-        gp_time += pred.gp_fit_s;
-        n_train = pred.n_train;
+        let (preds, rows_trained) = fit_and_predict(&train, &test, &learners, opts, progress)?;
+        n_train = rows_trained;
         let mut from = 0;
         for t in &tests {
             let rows = from..from + t.len();
             from += t.len();
-            let score = |p: &Array2<f64>, fit_s| {
-                let p = p.slice(ndarray::s![rows.clone(), ..]);
-                let s = scores(&t.axes, t.y.view(), p, fit_s, pred.n_train);
-                with_direction(s, t, p, opts.min_peak_n)
-            };
+            let mut by_model = preds.iter().map(|p| {
+                let pred = p.pred.slice(ndarray::s![rows.clone(), ..]);
+                let s = scores(&t.axes, t.y.view(), pred, p.fit_s, n_train);
+                (p.name, with_direction(s, t, pred, opts.min_peak_n))
+            });
+            let (_, gp) = by_model.next().ok_or(EvalError::Folds(0))?;
             results.push(FoldScores {
                 fold: results.len() + 1,
                 n_test: t.len(),
-                gp: score(&pred.gp, pred.gp_fit_s),
-                nn: pred.nn.as_ref().map(|(p, fit_s)| score(p, *fit_s)),
-                cnn: pred.cnn.as_ref().map(|(p, fit_s)| score(p, *fit_s)),
+                gp,
+                baselines: by_model.collect(),
             });
         }
-        if let Some((p, t)) = &pred.nn {
-            nn_time += t;
-            nns.push(p.clone());
-        }
-        if let Some((p, t)) = &pred.cnn {
-            cnn_time += t;
-            cnns.push(p.clone());
+        for p in preds {
+            match per_model.iter_mut().find(|(name, _, _)| *name == p.name) {
+                Some((_, preds, time)) => {
+                    preds.push(p.pred);
+                    *time += p.fit_s;
+                }
+                None => per_model.push((p.name, vec![p.pred], p.fit_s)),
+            }
         }
         pooled.push(test);
-        gps.push(pred.gp);
     }
     let refs: Vec<&Dataset> = pooled.iter().collect();
     let all = Dataset::concat(&refs).ok_or(EvalError::Folds(0))?;
-    let stack = |m: &[Array2<f64>]| {
-        let views: Vec<_> = m.iter().map(|a| a.view()).collect();
-        ndarray::concatenate(ndarray::Axis(0), &views)
-            .map_err(|e| EvalError::Mismatch(e.to_string()))
-    };
     let nf = n_splits as f64;
-    let score = |pred: &Array2<f64>, fit_s| {
-        let s = scores(&all.axes, all.y.view(), pred.view(), fit_s, n_train);
-        with_direction(s, &all, pred.view(), opts.min_peak_n)
-    };
+    // Pooled scores of the models that predicted every split.
+    let mut overall = per_model
+        .iter()
+        .filter(|(_, preds, _)| preds.len() == pooled.len())
+        .map(|(name, preds, time)| {
+            let views: Vec<_> = preds.iter().map(|a| a.view()).collect();
+            let pred = ndarray::concatenate(ndarray::Axis(0), &views)
+                .map_err(|e| EvalError::Mismatch(e.to_string()))?;
+            let s = scores(&all.axes, all.y.view(), pred.view(), time / nf, n_train);
+            Ok((*name, with_direction(s, &all, pred.view(), opts.min_peak_n)))
+        })
+        .collect::<Result<Vec<_>, EvalError>>()?
+        .into_iter();
+    let (_, gp) = overall.next().ok_or(EvalError::Folds(0))?;
     Ok(Evaluation {
         folds: results,
-        gp: score(&stack(&gps)?, gp_time / nf),
-        nn: match opts.nn {
-            Some(_) => Some(score(&stack(&nns)?, nn_time / nf)),
-            None => None,
-        },
-        cnn: match cnns.len() {
-            0 => None,
-            _ => Some(score(&stack(&cnns)?, cnn_time / nf)),
-        },
+        gp,
+        baselines: overall.collect(),
     })
 }
 

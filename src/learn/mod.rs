@@ -1,17 +1,23 @@
-//! Learning a wrench from BioTac signals: data sets (CSV files and rosbag2
-//! MCAP bags), Gaussian processes, the baseline neural network, the nail
-//! camera's CNN baseline, metrics and the model file.
+//! Learning a wrench from a sensor's signals, in three layers:
+//!
+//! - [`data`]: data sets (samples x features) and their files: the CSV
+//!   format, rosbag2 MCAP bags, nail-camera directories;
+//! - [`models`]: the numerics behind one fit/predict interface
+//!   ([`models::Learner`]): Gaussian processes, the baseline network, the
+//!   nail camera's CNN, scaling and metrics, and the wrench estimator with
+//!   its model file ([`models::wrench_gp`]);
+//! - the workflows on top, one file each: the demos' default model, the
+//!   options chosen by cross-validation (`train --select`), evaluation,
+//!   the speed-accuracy trade-off, adaptation and a calibration's model.
+//!
+//! Each layer uses only the ones below it.
 
-pub mod bag;
+pub mod data;
+pub mod models;
+
+mod adapt;
 pub mod calibration;
 pub mod choice;
-pub mod cnn;
-pub mod dataset;
 pub mod default_model;
 pub mod evaluate;
-pub mod gp;
-pub mod metrics;
-pub mod model;
-pub mod nn;
-pub mod scale;
 pub mod tradeoff;

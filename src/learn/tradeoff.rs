@@ -8,11 +8,14 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::dataset::Dataset;
+use super::data::Dataset;
 use super::evaluate::{scores, EvalError};
-use super::gp::{GpParams, Subset};
-use super::model::{Estimate, TareSpec, WrenchGp};
-use super::nn::{Mlp, ValidNnParams};
+use super::models::gp::{GpParams, Subset};
+use super::models::nn::{NnLearner, NnParams};
+use super::models::scale::InputScaling;
+use super::models::wrench_gp::{GpLearner, ModelError, TareSpec};
+use super::models::Learner;
+use crate::params::Checked;
 use crate::wrench::Axis;
 
 /// The kind of model of a row.
@@ -87,7 +90,7 @@ pub struct TradeoffOptions {
     /// GP options shared by every GP (kernel, starts, seed).
     pub gp: GpParams,
     /// The network's options; `None` skips it.
-    pub nn: Option<ValidNnParams>,
+    pub nn: Option<Checked<NnParams>>,
     /// Held-out rows timed per latency pass (evenly spread).
     pub latency_rows: usize,
     /// Latency passes; the median pass is reported.
@@ -108,6 +111,77 @@ impl Default for TradeoffOptions {
     }
 }
 
+/// One setting to measure: its row's description and the model that fits.
+struct Setting {
+    label: String,
+    model: ModelKind,
+    subset: Option<Subset>,
+    n_train: usize,
+    m: Option<usize>,
+    learner: Box<dyn Learner>,
+}
+
+/// The settings of `opts` for `rows` training rows: the exact GP on each
+/// size not above them with each subset rule, the sparse GP on each size,
+/// the network.
+fn settings(
+    rows: usize,
+    tare: &TareSpec,
+    opts: &TradeoffOptions,
+) -> Result<Vec<Setting>, EvalError> {
+    let gp = |params: GpParams| -> Result<Box<dyn Learner>, EvalError> {
+        Ok(Box::new(GpLearner {
+            params: params.validate().map_err(ModelError::from)?,
+            scaling: InputScaling::Standard,
+            tare: tare.clone(),
+        }))
+    };
+    let mut settings = Vec::new();
+    for &n in opts.exact_n.iter().filter(|&&n| n <= rows) {
+        for &subset in &opts.subsets {
+            let params = GpParams {
+                max_train: n,
+                subset,
+                inducing: None,
+                ..opts.gp.clone()
+            };
+            settings.push(Setting {
+                label: format!("exact GP, n = {n}, {} rows", subset.name()),
+                model: ModelKind::Exact,
+                subset: Some(subset),
+                n_train: n,
+                m: None,
+                learner: gp(params)?,
+            });
+        }
+    }
+    for &m in &opts.sparse_m {
+        let params = GpParams {
+            inducing: Some(m),
+            ..opts.gp.clone()
+        };
+        settings.push(Setting {
+            label: format!("sparse GP, m = {m}"),
+            model: ModelKind::Sparse,
+            subset: None,
+            n_train: rows,
+            m: Some(m),
+            learner: gp(params)?,
+        });
+    }
+    if let Some(nn) = &opts.nn {
+        settings.push(Setting {
+            label: "network".into(),
+            model: ModelKind::Nn,
+            subset: None,
+            n_train: rows,
+            m: None,
+            learner: Box::new(NnLearner(nn.clone())),
+        });
+    }
+    Ok(settings)
+}
+
 /// Trains every setting of `opts` on `train` and scores it on `test` (both
 /// tared, same features and axes); `progress` is told each setting as it starts.
 pub fn tradeoff(
@@ -125,87 +199,32 @@ pub fn tradeoff(
     }
     let timed = timed_rows(test, opts.latency_rows);
     let mut rows = Vec::new();
-    let mut gp_row = |label: String, params: GpParams, subset: Option<Subset>, n_train| {
-        progress(&label);
-        let params = params.validate().map_err(super::model::ModelError::from)?;
+    for s in settings(train.len(), tare, opts)? {
+        progress(&s.label);
         let t0 = Instant::now();
-        let model = WrenchGp::train(train, tare.clone(), &params, &mut |_, _| {})?;
+        let mut fitted = s.learner.fit(train, &mut |_, _| {})?;
         let fit_s = t0.elapsed().as_secs_f64();
-        let (pred, _) = model.predict(test.x.view(), false)?;
-        let s = scores(&test.axes, test.y.view(), pred.view(), fit_s, train.len());
-        let mut ws = model.workspace();
-        let mut out = vec![Estimate::default(); model.axes().len()];
+        let pred = fitted.predict(test)?;
+        let scored = scores(&test.axes, test.y.view(), pred.view(), fit_s, train.len());
+        let has_std = fitted.has_std();
         let mut latency = |with_std| {
             median_latency_us(&timed, opts.latency_passes, |x| {
                 // The rows have the model's features, so this cannot fail.
-                let _ = model.predict_one(x, &mut ws, with_std, &mut out);
+                let _ = fitted.predict_row(x, with_std);
             })
         };
         let latency_mean_us = latency(false);
-        let latency_mean_std_us = Some(latency(true));
-        let sparse = params.get().inducing;
+        let latency_mean_std_us = has_std.then(|| latency(true));
         rows.push(Row {
-            model: if sparse.is_some() {
-                ModelKind::Sparse
-            } else {
-                ModelKind::Exact
-            },
-            subset,
-            n_train,
-            m: sparse,
+            model: s.model,
+            subset: s.subset,
+            n_train: s.n_train,
+            m: s.m,
             fit_s,
             latency_mean_us,
             latency_mean_std_us,
-            rmse: s.rmse,
-            r2: s.r2,
-        });
-        Ok::<(), EvalError>(())
-    };
-    for &n in opts.exact_n.iter().filter(|&&n| n <= train.len()) {
-        for &subset in &opts.subsets {
-            let params = GpParams {
-                max_train: n,
-                subset,
-                inducing: None,
-                ..opts.gp.clone()
-            };
-            let label = format!("exact GP, n = {n}, {} rows", subset.name());
-            gp_row(label, params, Some(subset), n)?;
-        }
-    }
-    for &m in &opts.sparse_m {
-        let params = GpParams {
-            inducing: Some(m),
-            ..opts.gp.clone()
-        };
-        gp_row(format!("sparse GP, m = {m}"), params, None, train.len())?;
-    }
-    if let Some(nn) = &opts.nn {
-        progress("network");
-        let t0 = Instant::now();
-        let net = Mlp::fit(nn, train.x.view(), train.y.view())?;
-        let fit_s = t0.elapsed().as_secs_f64();
-        let s = scores(
-            &test.axes,
-            test.y.view(),
-            net.predict(test.x.view()).view(),
-            fit_s,
-            train.len(),
-        );
-        let mut out = vec![0.0; net.n_outputs()];
-        let latency_mean_us = median_latency_us(&timed, opts.latency_passes, |x| {
-            net.predict_one(x, &mut out)
-        });
-        rows.push(Row {
-            model: ModelKind::Nn,
-            subset: None,
-            n_train: train.len(),
-            m: None,
-            fit_s,
-            latency_mean_us,
-            latency_mean_std_us: None,
-            rmse: s.rmse,
-            r2: s.r2,
+            rmse: scored.rmse,
+            r2: scored.r2,
         });
     }
     Ok(rows)

@@ -22,6 +22,7 @@ use super::frame::{FrameError, NailFrame};
 use super::radial::RadialTest;
 use super::sim::{NailProtocol, NailSimConfig, Person, Pressing, Session};
 use crate::biotac::sim::{gaussian, uniform};
+use crate::exit::{Classify, ExitClass};
 use crate::sim::collect::{force_at, sample_pushes, PadForce, Push};
 use crate::wrench::Wrench;
 
@@ -82,6 +83,22 @@ pub enum NailDataError {
         /// The first frame's.
         expected: (usize, usize),
     },
+}
+
+/// A file not read or written is a failure; a directory whose frames or
+/// labels cannot be true is refused input.
+impl Classify for NailDataError {
+    fn class(&self) -> ExitClass {
+        match self {
+            NailDataError::Io { .. } | NailDataError::Csv { .. } | NailDataError::Frame(_) => {
+                ExitClass::Failure
+            }
+            NailDataError::Preprocess(e) => e.class(),
+            NailDataError::NonFinite { .. }
+            | NailDataError::Empty { .. }
+            | NailDataError::FrameSize { .. } => ExitClass::Refused,
+        }
+    }
 }
 
 /// One row of `labels.csv`.

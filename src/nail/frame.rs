@@ -2,6 +2,8 @@
 
 use std::path::Path;
 
+use crate::exit::{Classify, ExitClass};
+
 /// Why a frame cannot be made or read.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -26,6 +28,13 @@ pub enum FrameError {
         /// Underlying error.
         source: image::ImageError,
     },
+}
+
+/// A frame not read or written: the work failed.
+impl Classify for FrameError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Failure
+    }
 }
 
 /// A grey frame (0..255), row-major, row 0 at the top.

@@ -29,6 +29,8 @@ use serde::{Deserialize, Serialize};
 
 use super::frame::NailFrame;
 
+use crate::exit::{Classify, ExitClass};
+
 /// Output width (px), Urban's.
 pub const OUT_WIDTH: usize = 72;
 /// How far the nail region reaches beyond the markers' box, as a factor of
@@ -68,6 +70,13 @@ pub enum PreprocessError {
         /// Sequence number of the frame.
         seq: u16,
     },
+}
+
+/// Frames the preprocessing cannot register: refused input.
+impl Classify for PreprocessError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// The preprocessing made from a reference frame: the markers, the nail

@@ -7,8 +7,9 @@
 use serde::Deserialize;
 
 use crate::biotac::Tare;
+use crate::exit::{Classify, ExitClass};
 use crate::learn::default_model::Recipe;
-use crate::learn::model::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
+use crate::learn::models::wrench_gp::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
 use crate::sensor::biotac::BioTacInput;
 use crate::sensor::{SensorError, SensorInput};
 use crate::wrench::{Wrench, WrenchEstimate};
@@ -66,6 +67,17 @@ pub enum EstimatorError {
         /// The last estimate's force (N).
         force_n: f64,
     },
+}
+
+/// A model or setting the estimator cannot take: refused input.
+impl Classify for EstimatorError {
+    fn class(&self) -> ExitClass {
+        match self {
+            EstimatorError::Sensor(e) => e.class(),
+            EstimatorError::Model(e) => e.class(),
+            _ => ExitClass::Refused,
+        }
+    }
 }
 
 /// Above this estimated force (N) the finger counts as pressed: no new
@@ -247,8 +259,8 @@ impl EstimatorNode<BioTacInput> {
 mod tests {
     use super::*;
     use crate::biotac::BioTacReading;
-    use crate::learn::dataset::{electrode_columns, Dataset};
-    use crate::learn::model::TareSpec;
+    use crate::learn::data::{electrode_columns, Dataset};
+    use crate::learn::models::wrench_gp::TareSpec;
     use ndarray::Array2;
 
     /// A model on the 19 electrodes, fz = minus the mean tared electrode.
@@ -269,7 +281,7 @@ mod tests {
             samples: 3,
             mean_baseline: vec![2000.0; 19],
         };
-        crate::learn::model::quick_fit(&data, tare)
+        crate::learn::models::wrench_gp::quick_fit(&data, tare)
     }
 
     fn reading(stamp_s: f64, pressed: u16) -> BioTacReading {
@@ -341,7 +353,7 @@ mod tests {
             samples: 3,
             mean_baseline: vec![0.0; d],
         };
-        crate::learn::model::quick_fit(&data, tare)
+        crate::learn::models::wrench_gp::quick_fit(&data, tare)
     }
 
     #[test]

@@ -17,6 +17,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::TraceRow;
 use crate::control::Phase;
+use crate::exit::{Classify, ExitClass};
 use crate::learn::tradeoff::{pareto_front, ModelKind, Row as TradeoffRow};
 
 const FONT_TTF: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
@@ -75,6 +76,13 @@ pub enum PlotError {
         /// What is missing.
         reason: &'static str,
     },
+}
+
+/// A plot not drawn: the work failed.
+impl Classify for PlotError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Failure
+    }
 }
 
 impl PlotError {

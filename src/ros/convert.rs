@@ -10,6 +10,7 @@ use r2r::sensor_msgs::msg::{FluidPressure, Image, JointState as JointStateMsg};
 use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
 
 use crate::biotac::msg::{join_stamp, split_stamp};
+use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{JointVector, Twist as TwistVector};
 use crate::nail::NailFrame;
 use crate::nodes::status::{Level, Status};
@@ -43,6 +44,13 @@ pub enum ConvertError {
         /// Values expected.
         expected: usize,
     },
+}
+
+/// A message that does not convert: refused input.
+impl Classify for ConvertError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// Seconds -> `builtin_interfaces/Time`.

@@ -25,9 +25,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use crate::control::TaskKind;
+use crate::exit::{Classify, ExitClass};
 use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
-use crate::learn::model::ModelError;
+use crate::learn::models::wrench_gp::ModelError;
 use crate::nodes::estimator::EstimatorError;
 #[cfg(doc)]
 use crate::params::layered_flat_params;
@@ -49,7 +50,7 @@ pub fn main(
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             tracing::error!("{e}");
-            std::process::ExitCode::from(e.exit_code())
+            std::process::ExitCode::from(e.class().code())
         }
     }
 }
@@ -99,16 +100,19 @@ impl From<crate::nodes::force_controller::DescriptionError> for RosError {
     }
 }
 
-impl RosError {
-    /// The process's exit code: 2 when the node's parameters or model were
-    /// refused (nothing started), 1 for a failure while starting or running.
-    pub fn exit_code(&self) -> u8 {
+/// The process's exit code ([`crate::exit`]): each wrapped error says its
+/// own (a refused parameter, robot or model file exits 2 before anything
+/// starts, as on the command line); rcl, tokio and a node task that ended
+/// abnormally are failures.
+impl Classify for RosError {
+    fn class(&self) -> ExitClass {
         match self {
-            RosError::Params(_)
-            | RosError::Robot(_)
-            | RosError::Model(_)
-            | RosError::Estimator(_) => 2,
-            _ => 1,
+            RosError::Params(e) => e.class(),
+            RosError::Robot(e) => e.class(),
+            RosError::Model(e) => e.class(),
+            RosError::DefaultModel(e) => e.class(),
+            RosError::Estimator(e) => e.class(),
+            RosError::R2r(_) | RosError::Runtime(_) | RosError::Join(_) => ExitClass::Failure,
         }
     }
 }

@@ -33,7 +33,7 @@ use super::convert::level::{OK, WARN};
 use super::{convert, RosClock, RosError};
 use crate::control::TaskKind;
 use crate::learn::default_model::{Origin, Recipe};
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::estimator::{Dropped, EstimatorParams};
 use crate::nodes::EstimatorNode;
 use crate::params::{layered_flat_params, WORLD_YAML};

@@ -9,7 +9,8 @@ use super::scene::{Scene, SceneError};
 use super::{run, Pacing};
 use crate::biotac::BioTacSimConfig;
 use crate::control::Envelope;
-use crate::learn::model::WrenchGp;
+use crate::exit::{Classify, ExitClass};
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::controller::task_envelope;
 use crate::report::summary::{summarize, Identified, RunInfo, Summary};
 use crate::report::TraceRow;
@@ -23,6 +24,37 @@ pub struct DemoRun {
     pub summary: Summary,
     /// Proportional gain per force axis x, y, z (m/s per N).
     pub gains: [Option<f64>; 3],
+}
+
+/// A run whose task stopped before it held (its figures are still the
+/// run's): why it stopped.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("the {task} move did not hold: it stopped on {reason}")]
+pub struct NotHeld {
+    /// The task.
+    pub task: &'static str,
+    /// Why it stopped ([`crate::control::StopReason::name`]).
+    pub reason: &'static str,
+}
+
+/// The task did not hold.
+impl Classify for NotHeld {
+    fn class(&self) -> ExitClass {
+        ExitClass::NotHeld
+    }
+}
+
+impl DemoRun {
+    /// The run's task held, or why it stopped.
+    pub fn held(&self) -> Result<(), NotHeld> {
+        match self.summary.reason {
+            None => Ok(()),
+            Some(reason) => Err(NotHeld {
+                task: self.summary.task,
+                reason,
+            }),
+        }
+    }
 }
 
 /// Runs `scene` with `model`; `seed` drives the noise.

@@ -11,10 +11,10 @@ use std::path::{Path, PathBuf};
 
 use crate::biotac::BioTacSimConfig;
 use crate::contact::BodyParams;
-use crate::control::ControllerParams;
-use crate::control::{GuardedParams, TaskKind, TaskRegistry};
+use crate::control::{ControllerParams, GuardedParams, TaskKind, TaskRegistry};
+use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{Robot, RobotError, ShippedRobot};
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{tasks, EstimatorNode, ForceController, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError, WORLD_YAML};
@@ -43,6 +43,18 @@ pub enum SceneError {
         /// The task's axes.
         task: String,
     },
+}
+
+/// A scene refused, by the part that refused it.
+impl Classify for SceneError {
+    fn class(&self) -> ExitClass {
+        match self {
+            SceneError::Params(e) => e.class(),
+            SceneError::Robot(e) => e.class(),
+            SceneError::Estimator(e) => e.class(),
+            SceneError::Axes { .. } => ExitClass::Refused,
+        }
+    }
 }
 
 /// The robot of a run: a shipped one (its URDF and parameter file), or a

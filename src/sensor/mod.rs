@@ -6,7 +6,7 @@
 //! - [`biotac`]: BioTac readings (19 electrodes, pressures, temperature);
 //!   the features are channels tared on the first readings out of contact;
 //!   the contact cue is the PDC rise; training data are CSV files or ROS
-//!   bags ([`crate::learn::dataset`], [`crate::learn::bag`]).
+//!   bags ([`crate::learn::data`], [`crate::learn::data::bag`]).
 //! - [`nail`]: nail-camera frames; the features are Urban's registered,
 //!   masked and normalised pixels projected on the training frames'
 //!   principal components; there is no contact cue; training data are
@@ -14,7 +14,7 @@
 //!
 //! The estimator node ([`crate::nodes::EstimatorNode`]) is generic over
 //! [`SensorInput`]; `train`, `eval` and `adapt` read either sensor's data
-//! into the same [`crate::learn::dataset::Dataset`]. A third sensor adds a
+//! into the same [`crate::learn::data::Dataset`]. A third sensor adds a
 //! module here with its input and data reader, and a [`SensorSpec`] variant.
 
 pub mod biotac;
@@ -22,6 +22,7 @@ pub mod nail;
 
 use serde::{Deserialize, Serialize};
 
+use crate::exit::{Classify, ExitClass};
 use crate::nail::preprocess::PreprocessError;
 
 /// What a model file records of its sensor.
@@ -88,6 +89,16 @@ pub enum SensorError {
     /// A frame could not be preprocessed.
     #[error(transparent)]
     Preprocess(#[from] PreprocessError),
+}
+
+/// A model for another sensor, or frames that cannot be registered: refused input.
+impl Classify for SensorError {
+    fn class(&self) -> ExitClass {
+        match self {
+            SensorError::Preprocess(e) => e.class(),
+            _ => ExitClass::Refused,
+        }
+    }
 }
 
 /// A sensor as the wrench estimator reads it.

@@ -1,4 +1,5 @@
-//! The nail camera as the estimator reads it, and its training data.
+//! The nail camera as the estimator reads it (its data directories become
+//! data sets in `learn::data::nail`).
 //!
 //! A frame becomes Urban's nail pixels ([`NailPreprocess`]: registered on
 //! the markers, masked, 72 px wide, divided by their mean), then their
@@ -10,22 +11,16 @@
 //! evaluation cost `k` instead of ~5,000 products. The scores are scaled by
 //! one common factor (not per component), so the kernel stays isotropic in
 //! pixel space: nail models take their inputs raw
-//! ([`crate::learn::scale::InputScaling::Raw`]).
+//! ([`crate::learn::models::scale::InputScaling::Raw`]).
 //!
 //! The nail has no contact cue such as the BioTac's PDC: the cue is 0.
 
-use std::path::{Path, PathBuf};
-
 use faer::{Mat, Par, Side};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{ModelInput, SensorError, SensorInput, SensorSpec};
-use crate::learn::dataset::Dataset;
-use crate::nail::collect::{read_frame, read_labels, Label, NailDataError};
 use crate::nail::preprocess::{NailPreprocess, PreprocessError};
 use crate::nail::NailFrame;
-use crate::wrench::AxisSet;
 
 /// The sensor's name.
 pub const NAME: &str = "nail";
@@ -41,7 +36,7 @@ pub const PCA_FRAMES: usize = 2000;
 pub const TARE_FRAMES: usize = 30;
 /// The CNN's image: the registered region averaged over blocks of this many
 /// pixels a side (72 x ~88 -> 36 x ~44), so that a person's network trains
-/// within the budget (learn::cnn, "Cost").
+/// within the budget (learn::models::cnn, "Cost").
 pub const CNN_BLOCK: usize = 2;
 
 /// The nail pixels' projection on principal components.
@@ -250,119 +245,11 @@ impl SensorInput for NailInput {
     }
 }
 
-/// Nail data directories as data sets (one per directory), and the spec
-/// they were projected with: `spec`, or one made from them (the mask from
-/// the first directory's first frame, the components from up to
-/// [`PCA_FRAMES`] of their frames; no labels are used).
-pub fn read_nail_dirs(
-    dirs: &[PathBuf],
-    axes: &AxisSet,
-    spec: Option<&NailSpec>,
-) -> Result<(Vec<Dataset>, NailSpec), NailDataError> {
-    let labels: Vec<Vec<Label>> = dirs
-        .iter()
-        .map(|d| read_labels(d))
-        .collect::<Result<_, _>>()?;
-    let spec = match spec {
-        Some(s) => s.clone(),
-        None => fit_spec(dirs, &labels)?,
-    };
-    let features = spec.feature_names();
-    let sets = dirs
-        .iter()
-        .zip(&labels)
-        .map(|(dir, labels)| {
-            let (w, h) = spec.preprocess.out_size();
-            let (iw, ih) = (w / CNN_BLOCK, h / CNN_BLOCK);
-            let rows: Vec<(Vec<f64>, Vec<f32>)> = labels
-                .par_iter()
-                .map(|l| {
-                    let region = spec.preprocess.region(&read_frame(dir, l)?)?;
-                    let pixels: Vec<f64> = region
-                        .iter()
-                        .zip(spec.preprocess.mask())
-                        .filter_map(|(v, &m)| m.then_some(*v))
-                        .collect();
-                    let mut x = vec![0.0; features.len()];
-                    spec.projection.project(&pixels, &mut x);
-                    Ok((x, blocks(&region, w, CNN_BLOCK, (iw, ih))))
-                })
-                .collect::<Result<_, NailDataError>>()?;
-            let images = ndarray::Array3::from_shape_fn((rows.len(), ih, iw), |(n, i, j)| {
-                rows[n].1[i * iw + j]
-            });
-            Ok(Dataset {
-                features: features.clone(),
-                x: ndarray::Array2::from_shape_fn((rows.len(), features.len()), |(i, j)| {
-                    rows[i].0[j]
-                }),
-                axes: axes.clone(),
-                y: ndarray::Array2::from_shape_fn((labels.len(), axes.len()), |(i, j)| {
-                    labels[i].wrench().get(axes.axes()[j])
-                }),
-                set: labels.iter().map(|l| l.set).collect(),
-                trial: labels.iter().map(|l| l.trial).collect(),
-                images: Some(images),
-            })
-        })
-        .collect::<Result<_, NailDataError>>()?;
-    Ok((sets, spec))
-}
-
-/// Means of `block` x `block` pixels of a row-major image `width` wide,
-/// `size` (width, height) blocks.
-fn blocks(image: &[f64], width: usize, block: usize, size: (usize, usize)) -> Vec<f32> {
-    let (bw, bh) = size;
-    let mut out = Vec::with_capacity(bw * bh);
-    for i in 0..bh {
-        for j in 0..bw {
-            let sum: f64 = (0..block)
-                .flat_map(|di| (0..block).map(move |dj| (i * block + di) * width + j * block + dj))
-                .map(|k| image[k])
-                .sum();
-            out.push((sum / (block * block) as f64) as f32);
-        }
-    }
-    out
-}
-
-/// The spec of frames like those of `dirs`.
-fn fit_spec(dirs: &[PathBuf], labels: &[Vec<Label>]) -> Result<NailSpec, NailDataError> {
-    let reference = read_frame(&dirs[0], &labels[0][0])?;
-    let preprocess = NailPreprocess::from_reference(&reference)?;
-    let all: Vec<(&Path, &Label)> = dirs
-        .iter()
-        .zip(labels)
-        .flat_map(|(d, ls)| ls.iter().map(move |l| (d.as_path(), l)))
-        .collect();
-    let stride = all.len().div_ceil(PCA_FRAMES).max(1);
-    let rows: Vec<Vec<f64>> = all
-        .par_iter()
-        .step_by(stride)
-        .map(|(dir, l)| {
-            let mut pixels = Vec::new();
-            preprocess.pixels(&read_frame(dir, l)?, &mut pixels)?;
-            Ok(pixels)
-        })
-        .collect::<Result<_, NailDataError>>()?;
-    let projection = PixelProjection::fit(&rows)?;
-    // The step of the first trial's times; 1 s when it has one frame.
-    let first = &labels[0];
-    let frame_period_s = first
-        .windows(2)
-        .find(|w| (w[0].set, w[0].trial) == (w[1].set, w[1].trial) && w[1].t > w[0].t)
-        .map_or(1.0, |w| w[1].t - w[0].t);
-    Ok(NailSpec {
-        frame_period_s,
-        preprocess,
-        projection,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::nail::collect::read_labels;
+    use crate::nail::collect::{read_frame, read_labels};
+    use crate::wrench::AxisSet;
 
     #[test]
     fn the_projection_keeps_the_distances_of_low_rank_data() {
@@ -406,8 +293,9 @@ mod tests {
 
     #[test]
     fn the_estimator_reads_nail_frames_through_the_seam() {
-        use crate::learn::model::{quick_params, TareSpec, WrenchGp};
-        use crate::learn::scale::InputScaling;
+        use crate::learn::data::nail::read_nail_dirs;
+        use crate::learn::models::scale::InputScaling;
+        use crate::learn::models::wrench_gp::{quick_params, TareSpec, WrenchGp};
         use crate::nail::collect::{collect_nail, NailWriter, Protocol};
         use crate::nail::sim::NailSimConfig;
         use crate::nodes::EstimatorNode;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# learn::bag against bags from an independent writer: a short simulated
+# learn::data::bag against bags from an independent writer: a short simulated
 # session (collect) written as rosbag2-style MCAP files by Python's mcap and
 # mcap-ros2-support (tests/bag/write_bags.py), then read by the ignored
 # tests of tests/mcap_bags.rs. The venv is cached under the target dir.

@@ -4,7 +4,7 @@ use std::sync::OnceLock;
 
 use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model;
-use tactile_force::learn::model::WrenchGp;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::runtime::Scene;
 
 /// The default model of a scene's task, trained from simulated data.

@@ -23,7 +23,7 @@ use super::estimator_link::EstimatorLink;
 use super::*;
 use crate::calibration::{CalibrateGoal, CalibrationRecorder, Ended};
 use crate::learn::calibration::{fit_and_save, CalibrationRecord};
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::force_controller::goals::CalibrationProgress;
 use crate::ros::RosClock;
 

@@ -19,7 +19,7 @@ use r2r::QosProfile;
 use super::{describe_model, load_model, Outputs, Settings, REPORT};
 use crate::biotac::msg::{self as biotac_msg, BIOTAC_MSG_TYPE};
 use crate::biotac::tare::SavedTare;
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::EstimatorNode;
 use crate::ros::params::RuntimeParams;
 use crate::ros::RosError;

@@ -9,7 +9,7 @@ use r2r::sensor_msgs::msg::Image;
 use r2r::QosProfile;
 
 use super::{Outputs, Settings, REPORT};
-use crate::learn::model::WrenchGp;
+use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::EstimatorNode;
 use crate::ros::params::RuntimeParams;
 use crate::ros::{convert, RosError};

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # GP speed against scikit-learn in the same run, then our criterion figures.
 #
-#   bench/compare_sklearn.sh [KERNELS] [SKLEARN_MODES]
+#   scripts/compare_sklearn.sh [KERNELS] [SKLEARN_MODES]
 #     KERNELS        iso,ard (default) | iso | ard
 #     SKLEARN_MODES  shared,per-axis (default) | shared | per-axis
 #
-# scikit-learn ARD takes minutes per fit on 2 cores; see bench/compare_sklearn.py.
+# scikit-learn ARD takes minutes per fit on 2 cores; see scripts/compare_sklearn.py.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=target/bench-sklearn
@@ -21,7 +21,7 @@ echo "scikit-learn $("$py" -c 'import sklearn; print(sklearn.__version__)'), num
 cargo build --release --quiet
 bin=target/release/tactile_force
 "$bin" collect --seed 1 --out "$out/seed1.csv"
-"$py" bench/compare_sklearn.py --bin "$bin" --data "$out/seed1.csv" --out-dir "$out" \
+"$py" scripts/compare_sklearn.py --bin "$bin" --data "$out/seed1.csv" --out-dir "$out" \
   --kernels "${1:-iso,ard}" --sklearn "${2:-shared,per-axis}"
 
 echo

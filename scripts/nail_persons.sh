@@ -14,7 +14,7 @@
 # person pressing closer to the pad's centre (the config's
 # `pressure_centre_mm` and `pressure_roll_mm` narrowed).
 # Prints the eval tables; R2 and RMSE per axis, fit time, direction error.
-# Usage: bench/nail_persons.sh [work dir]
+# Usage: scripts/nail_persons.sh [work dir]
 # (about 17 min on 2 cores once its recordings exist; the first run makes them)
 set -euo pipefail
 cd "$(dirname "$0")/.."

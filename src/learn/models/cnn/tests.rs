@@ -10,7 +10,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::*;
-use crate::learn::metrics::r2;
+use crate::learn::models::metrics::r2;
+use crate::params::Check;
 
 /// Image side of the synthetic set.
 const SIDE: usize = 24;
@@ -39,7 +40,7 @@ fn blobs(n: usize, seed: u64) -> (Array3<f32>, Array2<f64>) {
 /// images give only 8 batches of 64 per epoch, and 40 epochs of those left
 /// the amplitude at held-out R2 0.87-0.92 depending on the seed (0.94-0.95
 /// for seeds 1, 3, 7 with these).
-fn params(f: impl FnOnce(&mut CnnParams)) -> ValidCnnParams {
+fn params(f: impl FnOnce(&mut CnnParams)) -> Checked<CnnParams> {
     let mut p = CnnParams {
         learning_rate: 2e-3,
         batch_size: 32,
@@ -47,7 +48,7 @@ fn params(f: impl FnOnce(&mut CnnParams)) -> ValidCnnParams {
         ..CnnParams::default()
     };
     f(&mut p);
-    p.validate().expect("test parameters are valid")
+    p.checked("cnn").expect("test parameters are valid")
 }
 
 /// The model every test that needs a trained net shares: 600 training

@@ -6,7 +6,7 @@
 # session 2 with one trial per set (80 s), cut to the first T/4 s of each of
 # its four trials for T = 10, 20, 40, 80 s; test: unit 2, session 3 (800 s).
 # Prints one row per T with fx/fy/fz RMSE (N) and the adapt time.
-# Usage: bench/adapt_curve.sh [work dir]   (about 3 min on 2 cores)
+# Usage: scripts/adapt_curve.sh [work dir]   (about 3 min on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 work="${1:-target/adapt-curve}"

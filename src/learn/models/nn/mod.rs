@@ -55,6 +55,7 @@
 
 mod adam;
 mod layers;
+mod learner;
 mod params;
 mod train;
 
@@ -62,15 +63,17 @@ use ndarray::{Array2, ArrayView2, Axis};
 use serde::{Deserialize, Serialize};
 
 use super::scale::Standardizer;
+use super::FitReport;
+use crate::params::Checked;
 use layers::Layers;
 use train::{check_data, Trainer};
 
-/// The seeded train/validation split, shared with [`crate::learn::cnn`].
+/// The seeded train/validation split, shared with [`crate::learn::models::cnn`].
 pub(crate) use train::split_rows;
 
-pub(crate) use params::{check, check_schedule, OutOfRange};
-pub use params::{NnError, NnParams, ValidNnParams};
-pub use train::FitReport;
+pub use learner::NnLearner;
+pub(crate) use params::Schedule;
+pub use params::{NnError, NnParams};
 
 /// A fitted network with its input and target standardisers.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -133,12 +136,12 @@ impl Mlp {
     /// A `validation_fraction` of the rows (chosen with `seed`) is held out for
     /// early stopping; the standardisers are fitted on the other rows.
     pub fn fit(
-        params: &ValidNnParams,
+        params: &Checked<NnParams>,
         x: ArrayView2<f64>,
         y: ArrayView2<f64>,
     ) -> Result<Mlp, NnError> {
         check_data(x, y)?;
-        let p = params.params();
+        let p: &NnParams = params;
         let (train_rows, val_rows) = split_rows(x.nrows(), p.validation_fraction, p.seed);
         let x_train = x.select(Axis(0), &train_rows);
         let y_train = y.select(Axis(0), &train_rows);
@@ -154,9 +157,9 @@ impl Mlp {
         );
         let (net, report) = Trainer::new(p, train, val).run();
         tracing::debug!(
-            epochs = report.epochs_run,
+            epochs = report.epochs,
             best_epoch = report.best_epoch,
-            best_val_loss = report.best_val_loss,
+            best_validation_mse = report.best_validation_mse,
             "trained NN"
         );
         Ok(Mlp {
@@ -243,7 +246,8 @@ impl Mlp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::metrics::rmse;
+    use crate::learn::models::metrics::rmse;
+    use crate::params::Check;
     use ndarray::{array, Array2, Zip};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -263,7 +267,7 @@ mod tests {
         (x, y)
     }
 
-    fn params(f: impl FnOnce(&mut NnParams)) -> ValidNnParams {
+    fn params(f: impl FnOnce(&mut NnParams)) -> Checked<NnParams> {
         let mut p = NnParams {
             hidden: 16,
             learning_rate: 1e-2,
@@ -272,7 +276,7 @@ mod tests {
             ..NnParams::default()
         };
         f(&mut p);
-        p.validate().expect("test parameters are valid")
+        p.checked("nn").expect("test parameters are valid")
     }
 
     #[test]
@@ -286,8 +290,8 @@ mod tests {
             assert!(e < 0.1, "output {k}: test RMSE {e}");
         }
         let r = mlp.fit_report();
-        let first = r.train_loss[0];
-        let last = r.train_loss[r.epochs_run - 1];
+        let first = r.train_mse[0];
+        let last = r.train_mse[r.epochs - 1];
         assert!(last < 0.1 * first, "train loss {first} -> {last}");
     }
 
@@ -307,14 +311,18 @@ mod tests {
         });
         let mlp = Mlp::fit(&p, x.view(), y.view()).expect("fits");
         let r = mlp.fit_report();
-        assert!(r.epochs_run < 2000, "did not stop early");
-        assert_eq!(r.epochs_run - r.best_epoch, 10);
-        let min = r.val_loss.iter().copied().fold(f64::INFINITY, f64::min);
-        assert_eq!(r.best_val_loss, min);
-        assert_eq!(r.val_loss[r.best_epoch - 1], min);
-        assert!(r.val_loss[r.epochs_run - 1] > min);
+        assert!(r.epochs < 2000, "did not stop early");
+        assert_eq!(r.epochs - r.best_epoch, 10);
+        let min = r
+            .validation_mse
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(r.best_validation_mse, min);
+        assert_eq!(r.validation_mse[r.best_epoch - 1], min);
+        assert!(r.validation_mse[r.epochs - 1] > min);
         // Recompute the validation loss of the returned weights from scratch.
-        let (_, val_rows) = split_rows(x.nrows(), 0.3, p.params().seed);
+        let (_, val_rows) = split_rows(x.nrows(), 0.3, p.seed);
         let z = mlp.x_scale.transform(x.select(Axis(0), &val_rows).view());
         let t = mlp.y_scale.transform(y.select(Axis(0), &val_rows).view());
         assert_eq!(mlp.net.mse(z.view(), t.view()), min);

@@ -1,24 +1,17 @@
-//! Hyper-parameters of the CNN and its training, their ranges, and why a CNN
-//! cannot be configured, trained or loaded ([`CnnError`]).
+//! Hyper-parameters of the CNN and its training, their ranges (checked as
+//! every parameter is: [`Check`] into [`crate::params::Checked`]), and why a
+//! CNN cannot be trained, run or loaded ([`CnnError`]).
 
 use serde::{Deserialize, Serialize};
 
-use crate::learn::nn::{check, check_schedule, OutOfRange};
+use crate::exit::{Classify, ExitClass};
+use crate::learn::models::nn::Schedule;
+use crate::params::{require, Check, ParamsError};
 
-/// Why a CNN cannot be configured, trained, run or loaded.
+/// Why a CNN cannot be trained, run or loaded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CnnError {
-    /// A hyper-parameter is out of range.
-    #[error("invalid CNN parameter `{name}` = {value}: expected {expected}")]
-    InvalidParam {
-        /// Field name in [`CnnParams`].
-        name: &'static str,
-        /// The rejected value.
-        value: String,
-        /// The allowed range.
-        expected: &'static str,
-    },
     /// A size of the data or of a stored tensor is not the one required.
     #[error("shape mismatch: {what} is {got}, expected {expected}")]
     Shape {
@@ -67,6 +60,17 @@ pub enum CnnError {
     /// shapes are checked before candle sees them).
     #[error("candle: {0}")]
     Candle(String),
+}
+
+/// candle failing is a failure; options, images or weights the CNN cannot
+/// take are refused input.
+impl Classify for CnnError {
+    fn class(&self) -> ExitClass {
+        match self {
+            CnnError::Candle(_) => ExitClass::Failure,
+            _ => ExitClass::Refused,
+        }
+    }
 }
 
 impl From<candle_core::Error> for CnnError {
@@ -146,103 +150,67 @@ impl Default for CnnParams {
     }
 }
 
-/// [`CnnParams`] that passed [`CnnParams::validate`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct ValidCnnParams(CnnParams);
-
-impl CnnParams {
-    /// Checks every field against its range (see the table on [`CnnParams`]).
-    pub fn validate(&self) -> Result<ValidCnnParams, CnnError> {
-        let p = self;
+/// Every field in its range (the table on [`CnnParams`]); `key` names the
+/// fields in errors (`cnn.dropout`).
+impl Check for CnnParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
+        let p = &self;
         let c = p.channels;
-        check(
-            "channels",
-            format!("{c:?}"),
-            c.iter().all(|&c| c >= 1),
-            "each >= 1",
-        )?;
-        check("hidden", p.hidden, p.hidden >= 1, ">= 1")?;
+        let each = c.iter().all(|&c| c >= 1);
+        require(key, "channels", format!("{c:?}"), each, "each >= 1")?;
+        require(key, "hidden", p.hidden, p.hidden >= 1, ">= 1")?;
         let d = p.dropout;
-        check("dropout", d, (0.0..1.0).contains(&d), "in [0, 1)")?;
+        require(key, "dropout", d, (0.0..1.0).contains(&d), "in [0, 1)")?;
         let wd = p.weight_decay;
-        check(
-            "weight_decay",
-            wd,
-            wd.is_finite() && wd >= 0.0,
-            "finite, >= 0",
-        )?;
-        check_schedule(
-            p.learning_rate,
-            p.batch_size,
-            p.max_epochs,
-            p.patience,
-            p.validation_fraction,
-        )?;
-        Ok(ValidCnnParams(self.clone()))
-    }
-}
-
-impl ValidCnnParams {
-    /// The validated parameters.
-    pub fn params(&self) -> &CnnParams {
-        &self.0
-    }
-}
-
-impl From<OutOfRange> for CnnError {
-    fn from(e: OutOfRange) -> Self {
-        CnnError::InvalidParam {
-            name: e.name,
-            value: e.value,
-            expected: e.expected,
-        }
+        let ok = wd.is_finite() && wd >= 0.0;
+        require(key, "weight_decay", wd, ok, "finite, >= 0")?;
+        let schedule = Schedule {
+            learning_rate: p.learning_rate,
+            batch_size: p.batch_size,
+            max_epochs: p.max_epochs,
+            patience: p.patience,
+            validation_fraction: p.validation_fraction,
+        };
+        schedule.check(key)?;
+        Ok(self)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::params::assert_each_refused;
 
     #[test]
     fn defaults_are_valid() {
         let p = CnnParams::default();
         assert_eq!((p.channels, p.hidden, p.batch_size), ([8, 16, 32], 64, 64));
-        assert_eq!(p.validate().map(|v| v.params().clone()), Ok(p));
+        assert_eq!(p.clone().checked("cnn").map(|v| (*v).clone()).ok(), Some(p));
     }
 
     #[test]
     fn invalid_parameters_are_refused_by_name() {
         type Edit = fn(&mut CnnParams);
-        let cases: [(&str, Edit); 13] = [
+        // The schedule's own checks are the network's (nn::params); one
+        // shows that the CNN's schedule is checked.
+        let cases: [(&str, Edit); 8] = [
             ("channels", |p| p.channels = [8, 0, 32]),
             ("hidden", |p| p.hidden = 0),
             ("dropout", |p| p.dropout = 1.0),
             ("dropout", |p| p.dropout = -0.1),
             ("dropout", |p| p.dropout = f64::NAN),
-            ("learning_rate", |p| p.learning_rate = 0.0),
             ("learning_rate", |p| p.learning_rate = f64::INFINITY),
             ("weight_decay", |p| p.weight_decay = -1e-3),
-            ("batch_size", |p| p.batch_size = 0),
-            ("max_epochs", |p| p.max_epochs = 0),
-            ("patience", |p| p.patience = 0),
             ("validation_fraction", |p| p.validation_fraction = 0.0),
-            ("validation_fraction", |p| p.validation_fraction = 1.0),
         ];
-        for (field, set) in cases {
-            let mut p = CnnParams::default();
-            set(&mut p);
-            match p.validate() {
-                Err(CnnError::InvalidParam { name, .. }) => assert_eq!(name, field),
-                other => panic!("{field}: {other:?}"),
-            }
-        }
+        assert_each_refused("cnn", &cases);
         let p = CnnParams {
             channels: [0, 16, 32],
             ..CnnParams::default()
         };
         assert_eq!(
-            p.validate().expect_err("zero channels").to_string(),
-            "invalid CNN parameter `channels` = [0, 16, 32]: expected each >= 1"
+            p.checked("cnn").expect_err("zero channels").to_string(),
+            "parameter cnn.channels = [0, 16, 32]: expected each >= 1"
         );
     }
 

@@ -467,7 +467,11 @@ pub(super) mod tests {
 
     /// Random inputs in [-2, 2)^d and a smooth target with a little noise
     /// (shared with the sparse GP's tests).
-    pub(in crate::learn::gp) fn data(n: usize, d: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    pub(in crate::learn::models::gp) fn data(
+        n: usize,
+        d: usize,
+        seed: u64,
+    ) -> (Vec<f64>, Vec<f64>) {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let x: Vec<f64> = (0..n * d).map(|_| rng.random_range(-2.0..2.0)).collect();
         let y = x
@@ -478,7 +482,7 @@ pub(super) mod tests {
     }
 
     /// Fixed hyperparameters for `d` inputs (shared with the sparse GP's tests).
-    pub(in crate::learn::gp) fn hyper(kind: KernelKind, d: usize) -> SeHyper {
+    pub(in crate::learn::models::gp) fn hyper(kind: KernelKind, d: usize) -> SeHyper {
         let mut h = SeHyper {
             kind,
             signal_var: 0.8,
@@ -494,7 +498,7 @@ pub(super) mod tests {
     /// Asserts that `objective`'s gradient matches central differences in
     /// the log-parameters around `h`, for 3 inputs (shared with the sparse
     /// GP's tests).
-    pub(in crate::learn::gp) fn assert_gradient_matches(
+    pub(in crate::learn::models::gp) fn assert_gradient_matches(
         objective: impl Fn(&SeHyper) -> Result<(f64, Vec<f64>), GpError>,
         h: &SeHyper,
     ) {

@@ -5,37 +5,16 @@ use ndarray::{s, Array2, ArrayView2};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
 use super::adam::Adam;
 use super::layers::Layers;
 use super::{expect_sizes, NnError, NnParams};
+use crate::learn::models::FitReport;
 
 /// ChaCha stream of the train/validation split.
 const SPLIT_STREAM: u64 = 0;
 /// ChaCha stream of the weight initialisation and batch order.
 const TRAIN_STREAM: u64 = 1;
-
-/// How training went.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FitReport {
-    /// Epochs run (≤ `max_epochs`).
-    pub epochs_run: usize,
-    /// 1-based epoch whose weights were kept (0 if no epoch had a finite
-    /// validation loss, which keeps the initial weights).
-    pub best_epoch: usize,
-    /// Validation MSE of the kept weights (standardised target units).
-    pub best_val_loss: f64,
-    /// Per epoch: mean mini-batch MSE on the training rows during the epoch
-    /// (standardised units, without the L2 term).
-    pub train_loss: Vec<f64>,
-    /// Per epoch: validation MSE after the epoch (standardised units).
-    pub val_loss: Vec<f64>,
-    /// Rows used for the Adam steps.
-    pub n_train: usize,
-    /// Rows held out for early stopping.
-    pub n_val: usize,
-}
 
 /// Mini-batch buffers, allocated once per fit.
 struct Batch {
@@ -160,11 +139,11 @@ impl<'a> Trainer<'a> {
             }
         }
         let report = FitReport {
-            epochs_run: val_loss.len(),
+            epochs: val_loss.len(),
             best_epoch: best.1,
-            best_val_loss: best.2,
-            train_loss,
-            val_loss,
+            best_validation_mse: best.2,
+            train_mse: train_loss,
+            validation_mse: val_loss,
             n_train: self.train.0.nrows(),
             n_val: self.val.0.nrows(),
         };

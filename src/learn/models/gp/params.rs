@@ -1,11 +1,12 @@
-//! Options of GP training ([`GpParams`]), checked into [`ValidGpParams`],
-//! and how an exact GP picks its rows ([`Subset`]).
+//! Options of GP training ([`GpParams`], checked as every parameter is:
+//! [`Check`] into [`crate::params::Checked`]), and how an exact GP picks its
+//! rows ([`Subset`]).
 
 use serde::{Deserialize, Serialize};
 
 use super::kernel::KernelKind;
 use super::mean::MeanKind;
-use super::GpError;
+use crate::params::{require, Check, Checked, ParamsError};
 
 /// Options of GP training.
 ///
@@ -124,73 +125,49 @@ impl Default for GpParams {
     }
 }
 
-/// [`GpParams`] that passed validation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ValidGpParams(GpParams);
-
 impl GpParams {
-    /// Checks every option against its range.
-    pub fn validate(self) -> Result<ValidGpParams, GpError> {
-        let bad = |name, value: String, expected| {
-            Err(GpError::InvalidParam {
-                name,
-                value,
-                expected,
-            })
-        };
-        if self.restarts == 0 {
-            return bad("restarts", self.restarts.to_string(), "at least 1");
-        }
-        if self.restart_subset < 10 {
-            return bad(
-                "restart_subset",
-                self.restart_subset.to_string(),
-                "at least 10",
-            );
-        }
-        if self.max_iters == 0 {
-            return bad("max_iters", self.max_iters.to_string(), "at least 1");
-        }
-        if !(self.min_noise_var > 0.0 && self.min_noise_var < 1.0) {
-            return bad("min_noise_var", self.min_noise_var.to_string(), "in (0, 1)");
-        }
-        if self.max_train == 0 {
-            return bad("max_train", "0".into(), "at least 1");
-        }
-        if let Some(m) = self.inducing {
-            if m == 0 {
-                return bad(
-                    "inducing",
-                    "0".into(),
-                    "at least 1 (or none for an exact GP)",
-                );
-            }
-            if self.sparse_candidates < m {
-                return bad(
-                    "sparse_candidates",
-                    self.sparse_candidates.to_string(),
-                    "at least the number of inducing points",
-                );
-            }
-        }
-        if self.sparse_fit_subset < 10 {
-            return bad(
-                "sparse_fit_subset",
-                self.sparse_fit_subset.to_string(),
-                "at least 10",
-            );
-        }
-        if self.sparse_iters == 0 {
-            return bad("sparse_iters", "0".into(), "at least 1");
-        }
-        Ok(ValidGpParams(self))
+    /// The options checked under the key `gp` ([`Check::checked`]).
+    pub fn validate(self) -> Result<Checked<GpParams>, ParamsError> {
+        self.checked("gp")
     }
 }
 
-impl ValidGpParams {
-    /// The validated options.
-    pub fn get(&self) -> &GpParams {
-        &self.0
+/// Every option in its range (the table on [`GpParams`]); `key` names the
+/// options in errors (`gp.restarts`).
+impl Check for GpParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
+        let p = &self;
+        require(key, "restarts", p.restarts, p.restarts >= 1, "at least 1")?;
+        let n = p.restart_subset;
+        require(key, "restart_subset", n, n >= 10, "at least 10")?;
+        require(
+            key,
+            "max_iters",
+            p.max_iters,
+            p.max_iters >= 1,
+            "at least 1",
+        )?;
+        let v = p.min_noise_var;
+        require(key, "min_noise_var", v, v > 0.0 && v < 1.0, "in (0, 1)")?;
+        require(
+            key,
+            "max_train",
+            p.max_train,
+            p.max_train >= 1,
+            "at least 1",
+        )?;
+        if let Some(m) = p.inducing {
+            let expected = "at least 1 (or none for an exact GP)";
+            require(key, "inducing", m, m >= 1, expected)?;
+            let c = p.sparse_candidates;
+            let expected = "at least the number of inducing points";
+            require(key, "sparse_candidates", c, c >= m, expected)?;
+        }
+        let n = p.sparse_fit_subset;
+        require(key, "sparse_fit_subset", n, n >= 10, "at least 10")?;
+        let n = p.sparse_iters;
+        require(key, "sparse_iters", n, n >= 1, "at least 1")?;
+        Ok(self)
     }
 }
 
@@ -200,56 +177,25 @@ mod tests {
 
     #[test]
     fn invalid_options_are_rejected_by_name() {
-        for (bad, name) in [
-            (
-                GpParams {
-                    inducing: Some(0),
-                    ..GpParams::default()
-                },
-                "inducing",
-            ),
-            (
-                GpParams {
-                    inducing: Some(500),
-                    sparse_candidates: 100,
-                    ..GpParams::default()
-                },
-                "sparse_candidates",
-            ),
-            (
-                GpParams {
-                    max_train: 0,
-                    ..GpParams::default()
-                },
-                "max_train",
-            ),
-        ] {
-            assert!(
-                matches!(bad.validate(), Err(GpError::InvalidParam { name: n, .. }) if n == name),
-                "{name}"
-            );
+        type Edit = fn(&mut GpParams);
+        let cases: [(&str, Edit); 5] = [
+            ("inducing", |p| p.inducing = Some(0)),
+            ("sparse_candidates", |p| {
+                p.inducing = Some(500);
+                p.sparse_candidates = 100;
+            }),
+            ("max_train", |p| p.max_train = 0),
+            ("restarts", |p| p.restarts = 0),
+            ("min_noise_var", |p| p.min_noise_var = f64::NAN),
+        ];
+        for (name, edit) in cases {
+            let mut p = GpParams::default();
+            edit(&mut p);
+            match p.checked("gp") {
+                Err(ParamsError::Invalid { key, .. }) => assert_eq!(key, format!("gp.{name}")),
+                other => panic!("{name}: {other:?}"),
+            }
         }
-        let bad = GpParams {
-            restarts: 0,
-            ..GpParams::default()
-        };
-        assert!(matches!(
-            bad.validate(),
-            Err(GpError::InvalidParam {
-                name: "restarts",
-                ..
-            })
-        ));
-        let bad = GpParams {
-            min_noise_var: f64::NAN,
-            ..GpParams::default()
-        };
-        assert!(matches!(
-            bad.validate(),
-            Err(GpError::InvalidParam {
-                name: "min_noise_var",
-                ..
-            })
-        ));
+        assert!(GpParams::default().checked("gp").is_ok());
     }
 }

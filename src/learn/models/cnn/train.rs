@@ -7,11 +7,11 @@ use ndarray::{ArrayView2, ArrayView3};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
 use super::net::{Arch, Net, StoredTensor};
 use super::{CnnError, CnnParams};
-use crate::learn::scale::Standardizer;
+use crate::learn::models::scale::Standardizer;
+use crate::learn::models::FitReport;
 
 /// ChaCha stream of the weight initialisation and the batch order.
 const TRAIN_STREAM: u64 = 1;
@@ -19,28 +19,6 @@ const TRAIN_STREAM: u64 = 1;
 const DROPOUT_STREAM: u64 = 2;
 /// Images per forward pass when evaluating (bounds the memory, not the result).
 pub(super) const EVAL_BATCH: usize = 256;
-
-/// How training went.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CnnFitReport {
-    /// Epochs run (≤ `max_epochs`).
-    pub epochs: usize,
-    /// 1-based epoch whose weights were kept (0 if no epoch had a finite
-    /// validation MSE, which keeps the initial weights).
-    pub best_epoch: usize,
-    /// Validation MSE of the kept weights (standardised targets, mean over
-    /// images and axes).
-    pub best_validation_mse: f64,
-    /// Per epoch: mean squared error of the training batches during the
-    /// epoch (standardised, mean over images and axes, with dropout).
-    pub train_mse: Vec<f64>,
-    /// Per epoch: validation MSE after the epoch.
-    pub validation_mse: Vec<f64>,
-    /// Images used for the AdamW steps.
-    pub n_train: usize,
-    /// Images held out for early stopping.
-    pub n_val: usize,
-}
 
 /// Standardised images `rows` of `images` as a `B × 1 × H × W` tensor.
 pub(super) fn image_batch(
@@ -200,7 +178,7 @@ impl<'a> Trainer<'a> {
         x_scale: &Standardizer,
         train: &[usize],
         val: &[usize],
-    ) -> Result<(Vec<StoredTensor>, CnnFitReport), CnnError> {
+    ) -> Result<(Vec<StoredTensor>, FitReport), CnnError> {
         let mut rows = train.to_vec();
         let mut best = (self.snapshot()?, 0, f64::INFINITY);
         let (mut train_mse, mut validation_mse) = (Vec::new(), Vec::new());
@@ -215,7 +193,7 @@ impl<'a> Trainer<'a> {
                 break;
             }
         }
-        let report = CnnFitReport {
+        let report = FitReport {
             epochs: validation_mse.len(),
             best_epoch: best.1,
             best_validation_mse: best.2,

@@ -36,7 +36,7 @@
 //! minimised with AdamW (candle's; decoupled weight decay `λ` on the conv
 //! and linear weights, none on the biases) on mini-batches of shuffled
 //! training images. A seeded `validation_fraction` of the images (the same
-//! split as [`crate::learn::nn`]) is held out; the standardisers are fitted on
+//! split as [`crate::learn::models::nn`]) is held out; the standardisers are fitted on
 //! the others. After every epoch the validation MSE (mean over images and
 //! axes, no dropout) is computed; training stops after `patience` epochs
 //! without improvement or at `max_epochs`, and the weights of the best
@@ -100,6 +100,7 @@
 //!
 //! The same validation fraction (0.15), loss and output layer are kept.
 
+mod learner;
 mod net;
 mod params;
 mod train;
@@ -110,12 +111,14 @@ use serde::{Deserialize, Serialize};
 
 use super::nn::split_rows;
 use super::scale::Standardizer;
+use super::FitReport;
+use crate::params::Checked;
 use net::{Arch, Net};
 use train::{image_batch, Trainer, EVAL_BATCH};
 
+pub use learner::CnnLearner;
 pub use net::{StoredTensor, MIN_SIDE};
-pub use params::{CnnError, CnnParams, ValidCnnParams};
-pub use train::CnnFitReport;
+pub use params::{CnnError, CnnParams};
 
 /// A trained network with its pixel and target standardisers.
 ///
@@ -138,7 +141,7 @@ pub struct Cnn {
     y_scale: Standardizer,
     /// Weights in the order of the architecture.
     tensors: Vec<StoredTensor>,
-    report: CnnFitReport,
+    report: FitReport,
 }
 
 /// Unchecked serialised form of [`Cnn`].
@@ -152,7 +155,7 @@ struct CnnRepr {
     x_scale: Standardizer,
     y_scale: Standardizer,
     tensors: Vec<StoredTensor>,
-    report: CnnFitReport,
+    report: FitReport,
 }
 
 impl TryFrom<CnnRepr> for Cnn {
@@ -247,9 +250,9 @@ impl Cnn {
     pub fn fit(
         images: ArrayView3<f32>,
         targets: ArrayView2<f64>,
-        params: &ValidCnnParams,
-    ) -> Result<(Cnn, CnnFitReport), CnnError> {
-        let p = params.params();
+        params: &Checked<CnnParams>,
+    ) -> Result<(Cnn, FitReport), CnnError> {
+        let p: &CnnParams = params;
         let (n, height, width) = images.dim();
         if targets.nrows() != n {
             return Err(CnnError::shape("target rows", n, targets.nrows()));
@@ -321,7 +324,7 @@ impl Cnn {
     }
 
     /// How training went.
-    pub fn fit_report(&self) -> &CnnFitReport {
+    pub fn fit_report(&self) -> &FitReport {
         &self.report
     }
 

@@ -4,7 +4,7 @@
 //! hyperparameter fitting.
 //!
 //! Every function here works on standardised data (see
-//! [`crate::learn::scale`]); one GP models one output axis, with its own
+//! [`crate::learn::models::scale`]); one GP models one output axis, with its own
 //! hyperparameters, as in Huhnstock (2014) and Urban et al. (2013).
 
 pub mod exact;
@@ -17,11 +17,15 @@ pub mod sparse;
 
 use serde::{Deserialize, Serialize};
 
+use crate::params::Checked;
+
+use crate::exit::{Classify, ExitClass};
+
 pub use exact::{ExactGp, ExactGpData, GpWorkspace};
 pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress};
 pub use kernel::{KernelKind, SeHyper};
 pub use mean::{LinearMean, MeanKind};
-pub use params::{GpParams, Subset, ValidGpParams};
+pub use params::{GpParams, Subset};
 pub use select::{farthest_point, greedy_variance};
 pub use sparse::{SparseGp, SparseGpData};
 
@@ -81,10 +85,10 @@ impl Gp {
         x: &[f64],
         d: usize,
         y: &[f64],
-        params: &ValidGpParams,
+        params: &Checked<GpParams>,
         progress: &mut dyn FnMut(FitProgress),
     ) -> Result<(Gp, FitInfo), GpError> {
-        Ok(match params.get().inducing {
+        Ok(match params.inducing {
             None => {
                 let (gp, info) = fit_gp(x, d, y, params, progress)?;
                 (Gp::Exact(gp), info)
@@ -216,4 +220,15 @@ pub enum GpError {
     /// The optimiser failed on every start.
     #[error("hyperparameter optimisation failed on every start: {0}")]
     Optimisation(String),
+}
+
+/// A fit that failed numerically is a failure; data, options or stored values
+/// that are refused are refused input.
+impl Classify for GpError {
+    fn class(&self) -> ExitClass {
+        match self {
+            GpError::NotPositiveDefinite { .. } | GpError::Optimisation(_) => ExitClass::Failure,
+            _ => ExitClass::Refused,
+        }
+    }
 }

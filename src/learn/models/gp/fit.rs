@@ -29,10 +29,11 @@ use serde::{Deserialize, Serialize};
 
 use super::exact::{check_data, neg_lml_and_grad, ExactGp};
 use super::kernel::{KernelKind, SeHyper};
-use super::params::{GpParams, Subset, ValidGpParams};
+use super::params::{GpParams, Subset};
 use super::select::{farthest_point, greedy_variance};
 use super::sparse::{neg_vfe_and_grad, SparseGp};
 use super::GpError;
+use crate::params::Checked;
 
 /// What a fit did.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -188,8 +189,12 @@ struct Fitter<'a> {
 }
 
 impl<'a> Fitter<'a> {
-    fn new(params: &'a ValidGpParams, d: usize, progress: &'a mut dyn FnMut(FitProgress)) -> Self {
-        let p = params.get();
+    fn new(
+        params: &'a Checked<GpParams>,
+        d: usize,
+        progress: &'a mut dyn FnMut(FitProgress),
+    ) -> Self {
+        let p: &GpParams = params;
         Fitter {
             p,
             d,
@@ -325,7 +330,7 @@ pub fn fit_gp(
     x: &[f64],
     d: usize,
     y: &[f64],
-    params: &ValidGpParams,
+    params: &Checked<GpParams>,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(ExactGp, FitInfo), GpError> {
     check_data(x, d, y)?;
@@ -377,7 +382,7 @@ pub fn fit_sparse(
     x: &[f64],
     d: usize,
     y: &[f64],
-    params: &ValidGpParams,
+    params: &Checked<GpParams>,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(SparseGp, FitInfo), GpError> {
     check_data(x, d, y)?;
@@ -425,7 +430,7 @@ pub fn fit_sparse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::gp::{Gp, GpWorkspace};
+    use crate::learn::models::gp::{Gp, GpWorkspace};
     use rand::Rng;
 
     #[test]

@@ -1,22 +1,17 @@
-//! Hyper-parameters of the network and its training, their ranges, and why a
-//! network cannot be configured or trained ([`NnError`]).
+//! Hyper-parameters of the network and its training, their ranges (checked
+//! as every parameter is: [`Check`] into [`crate::params::Checked`]), and why
+//! a network cannot be trained ([`NnError`]).
 
 use serde::{Deserialize, Serialize};
+
+use crate::params::{require, Check, ParamsError};
+
+use crate::exit::{Classify, ExitClass};
 
 /// Why a network cannot be configured or trained.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum NnError {
-    /// A hyper-parameter is out of range.
-    #[error("invalid NN parameter `{name}` = {value}: expected {expected}")]
-    InvalidParam {
-        /// Field name in [`NnParams`].
-        name: &'static str,
-        /// The rejected value.
-        value: String,
-        /// The allowed range.
-        expected: &'static str,
-    },
     /// Two sizes that must agree do not.
     #[error("shape mismatch: {what} is {got}, expected {expected}")]
     ShapeMismatch {
@@ -57,6 +52,13 @@ pub enum NnError {
         /// Column (output) index.
         col: usize,
     },
+}
+
+/// Options or data the network cannot take: refused input.
+impl Classify for NnError {
+    fn class(&self) -> ExitClass {
+        ExitClass::Refused
+    }
 }
 
 /// Hyper-parameters of the network and its training, as read from a config.
@@ -107,102 +109,72 @@ impl Default for NnParams {
     }
 }
 
-/// [`NnParams`] that passed [`NnParams::validate`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct ValidNnParams(NnParams);
-
-impl NnParams {
-    /// Checks every field against its range (see the table on [`NnParams`]).
-    pub fn validate(&self) -> Result<ValidNnParams, NnError> {
-        let p = self;
-        check("hidden", p.hidden, p.hidden >= 1, ">= 1")?;
-        check("l2", p.l2, p.l2.is_finite() && p.l2 >= 0.0, "finite, >= 0")?;
-        check_schedule(
-            p.learning_rate,
-            p.batch_size,
-            p.max_epochs,
-            p.patience,
-            p.validation_fraction,
-        )?;
-        Ok(ValidNnParams(self.clone()))
+/// Every field in its range (the table on [`NnParams`]); `key` names the
+/// fields in errors (`nn.hidden`).
+impl Check for NnParams {
+    fn check(self, key: &str) -> Result<Self, ParamsError> {
+        let p = &self;
+        require(key, "hidden", p.hidden, p.hidden >= 1, ">= 1")?;
+        let l2 = p.l2;
+        require(key, "l2", l2, l2.is_finite() && l2 >= 0.0, "finite, >= 0")?;
+        let schedule = Schedule {
+            learning_rate: p.learning_rate,
+            batch_size: p.batch_size,
+            max_epochs: p.max_epochs,
+            patience: p.patience,
+            validation_fraction: p.validation_fraction,
+        };
+        schedule.check(key)?;
+        Ok(self)
     }
 }
 
-impl ValidNnParams {
-    /// The validated parameters.
-    pub fn params(&self) -> &NnParams {
-        &self.0
+/// A mini-batch training schedule with early stopping, which the network
+/// and the CNN share.
+pub(crate) struct Schedule {
+    pub(crate) learning_rate: f64,
+    pub(crate) batch_size: usize,
+    pub(crate) max_epochs: usize,
+    pub(crate) patience: usize,
+    pub(crate) validation_fraction: f64,
+}
+
+impl Schedule {
+    /// Every field in its range; `key` names them in errors.
+    pub(crate) fn check(&self, key: &str) -> Result<(), ParamsError> {
+        let lr = self.learning_rate;
+        require(key, "learning_rate", lr, lr > 0.0 && lr <= 1.0, "in (0, 1]")?;
+        let b = self.batch_size;
+        require(key, "batch_size", b, b >= 1, ">= 1")?;
+        let e = self.max_epochs;
+        require(key, "max_epochs", e, e >= 1, ">= 1")?;
+        let n = self.patience;
+        require(key, "patience", n, n >= 1, ">= 1")?;
+        let f = self.validation_fraction;
+        require(
+            key,
+            "validation_fraction",
+            f,
+            f > 0.0 && f < 1.0,
+            "in (0, 1)",
+        )
     }
-}
-
-/// A hyper-parameter outside its range: the field, its value, what is
-/// accepted (the networks' `InvalidParam` errors carry it).
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct OutOfRange {
-    pub(crate) name: &'static str,
-    pub(crate) value: String,
-    pub(crate) expected: &'static str,
-}
-
-impl From<OutOfRange> for NnError {
-    fn from(e: OutOfRange) -> Self {
-        NnError::InvalidParam {
-            name: e.name,
-            value: e.value,
-            expected: e.expected,
-        }
-    }
-}
-
-/// `Ok` when `ok`, else which field is out of range.
-pub(crate) fn check(
-    name: &'static str,
-    value: impl std::fmt::Display,
-    ok: bool,
-    expected: &'static str,
-) -> Result<(), OutOfRange> {
-    if ok {
-        Ok(())
-    } else {
-        Err(OutOfRange {
-            name,
-            value: value.to_string(),
-            expected,
-        })
-    }
-}
-
-/// The checks of a mini-batch training schedule with early stopping, which
-/// the network and the CNN share.
-pub(crate) fn check_schedule(
-    learning_rate: f64,
-    batch_size: usize,
-    max_epochs: usize,
-    patience: usize,
-    validation_fraction: f64,
-) -> Result<(), OutOfRange> {
-    let lr = learning_rate;
-    check("learning_rate", lr, lr > 0.0 && lr <= 1.0, "in (0, 1]")?;
-    check("batch_size", batch_size, batch_size >= 1, ">= 1")?;
-    check("max_epochs", max_epochs, max_epochs >= 1, ">= 1")?;
-    check("patience", patience, patience >= 1, ">= 1")?;
-    let f = validation_fraction;
-    check("validation_fraction", f, f > 0.0 && f < 1.0, "in (0, 1)")
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::params::assert_each_refused;
 
     #[test]
     fn defaults_are_valid_and_match_the_thesis_net() {
         let p = NnParams::default();
         assert_eq!(p.hidden, 38);
-        assert_eq!(p.validate().map(|v| v.params().clone()), Ok(p));
+        assert_eq!(p.clone().checked("nn").map(|v| (*v).clone()).ok(), Some(p));
     }
 
     #[test]
-    fn invalid_parameters_are_named() {
+    fn invalid_parameters_and_schedules_are_named() {
         type Edit = fn(&mut NnParams);
         let cases: [(&str, Edit); 9] = [
             ("hidden", |p| p.hidden = 0),
@@ -215,22 +187,15 @@ mod tests {
             ("patience", |p| p.patience = 0),
             ("validation_fraction", |p| p.validation_fraction = 1.0),
         ];
-        for (field, set) in cases {
-            let mut p = NnParams::default();
-            set(&mut p);
-            match p.validate() {
-                Err(NnError::InvalidParam { name, .. }) => assert_eq!(name, field),
-                other => panic!("{field}: {other:?}"),
-            }
-        }
+        assert_each_refused("nn", &cases);
         let p = NnParams {
             validation_fraction: 0.0,
             ..NnParams::default()
         };
-        let err = p.validate().expect_err("zero fraction");
+        let err = p.checked("nn").expect_err("zero fraction");
         assert_eq!(
             err.to_string(),
-            "invalid NN parameter `validation_fraction` = 0: expected in (0, 1)"
+            "parameter nn.validation_fraction = 0: expected in (0, 1)"
         );
     }
 }

@@ -1,0 +1,281 @@
+//! Bags: written and read back, pairing, and the errors that name their place.
+
+use super::*;
+use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
+use crate::biotac::{N_ELECTRODES, N_PAC};
+use std::io::{Cursor, Write};
+
+#[derive(serde::Serialize)]
+struct WrenchMsg {
+    sec: i32,
+    nanosec: u32,
+    frame_id: String,
+    force: [f64; 3],
+    torque: [f64; 3],
+}
+
+fn wrench_cdr(stamp_s: f64, fx: f64) -> Vec<u8> {
+    let (sec, nanosec) = split_stamp(stamp_s);
+    let m = WrenchMsg {
+        sec,
+        nanosec,
+        frame_id: "ft_sensor".into(),
+        force: [fx, -2.0, 3.5],
+        torque: [0.01, -0.02, 0.03],
+    };
+    cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap()
+}
+
+fn reading_cdr(stamp_s: f64, e1: u16) -> Vec<u8> {
+    let mut electrodes = [3000; N_ELECTRODES];
+    electrodes[0] = e1;
+    let r = BioTacReading {
+        seq: e1,
+        stamp_s,
+        electrodes,
+        pdc: 2100,
+        pac: [2048; N_PAC],
+        tdc: 1800,
+        tac: 2000,
+    };
+    to_cdr(&r, &BioTacMeta::default())
+}
+
+/// A bag written with the mcap crate: channels by (topic, schema name,
+/// message encoding), messages as (channel, log time in s, bytes).
+fn bag(channels: &[(&str, &str, &str)], messages: &[(usize, f64, Vec<u8>)]) -> Vec<u8> {
+    let mut w = mcap::Writer::new(Cursor::new(Vec::new())).unwrap();
+    let ids: Vec<u16> = channels
+        .iter()
+        .map(|(topic, schema, encoding)| {
+            let schema = w.add_schema(schema, "ros2msg", b"# test").unwrap();
+            w.add_channel(schema, topic, encoding, &BTreeMap::new())
+                .unwrap()
+        })
+        .collect();
+    for (seq, (channel, log_time_s, data)) in messages.iter().enumerate() {
+        let header = mcap::records::MessageHeader {
+            channel_id: ids[*channel],
+            sequence: seq as u32,
+            log_time: (log_time_s * 1e9).round() as u64,
+            publish_time: (log_time_s * 1e9).round() as u64,
+        };
+        w.write_to_known_channel(&header, data).unwrap();
+    }
+    w.finish().unwrap();
+    w.into_inner().into_inner()
+}
+
+const BIOTAC: (&str, &str, &str) = ("/biotac/readings", BIOTAC_MSG_TYPE, "cdr");
+const FT: (&str, &str, &str) = ("/ft_sensor/wrench", WRENCH_STAMPED_TYPE, "cdr");
+
+/// Readings at 100 Hz from 10 s (e1 = row), wrenches 2 ms after them
+/// (fx = row), each on channel 0 and 1.
+fn session(rows: usize) -> Vec<(usize, f64, Vec<u8>)> {
+    let mut m = Vec::new();
+    for i in 0..rows {
+        let t = 10.0 + 0.01 * i as f64;
+        m.push((0, t + 0.001, reading_cdr(t, i as u16)));
+        m.push((1, t + 0.003, wrench_cdr(t + 0.002, i as f64)));
+    }
+    m
+}
+
+fn read(bytes: &[u8]) -> Result<Bag, BagError> {
+    let mut f = tempfile::NamedTempFile::new().unwrap();
+    f.write_all(bytes).unwrap();
+    read_bag(f.path(), &BagTopics::default())
+}
+
+#[test]
+fn readings_pair_with_the_nearest_wrench_within_the_tolerance() {
+    let mut m = session(10);
+    // No wrench near readings 0 and 1: they are left out.
+    m.retain(|(c, _, data)| *c == 0 || wrench_from_cdr(data).unwrap().1.force.x >= 2.0);
+    // A second wrench 4 ms after reading 5: farther than the one at 2 ms.
+    let fx = |m: &(usize, f64, Vec<u8>)| wrench_from_cdr(&m.2).map(|w| w.1.force.x);
+    let at = m.iter().position(|m| m.0 == 1 && fx(m) == Ok(5.0)).unwrap();
+    m.insert(at + 1, (1, 10.056, wrench_cdr(10.054, 99.0)));
+    // A wrench 25 ms after the last reading; another topic.
+    m.push((1, 10.12, wrench_cdr(10.115, 98.0)));
+    m.push((2, 10.12, b"not CDR".to_vec()));
+    let other = ("/rosout", "rcl_interfaces/msg/Log", "cdr");
+    let b = read(&bag(&[BIOTAC, FT, other], &m)).unwrap();
+    assert_eq!((b.unpaired_readings, b.unpaired_wrenches), (2, 2));
+    assert_eq!(b.records.len(), 8);
+    for (k, r) in b.records.iter().enumerate() {
+        let row = k + 2;
+        assert!((r.t - 0.01 * k as f64).abs() < 1e-9, "{}", r.t);
+        assert_eq!((r.set, r.trial), (1, 1));
+        assert_eq!(r.reading.electrodes[0], row as u16);
+        assert_eq!(r.wrench.force, Vector3::new(row as f64, -2.0, 3.5));
+        assert_eq!(r.wrench.torque, Vector3::new(0.01, -0.02, 0.03));
+    }
+}
+
+#[test]
+fn a_written_session_reads_back_record_for_record() {
+    let records: Vec<Record> = (0..50)
+        .map(|i| {
+            let mut electrodes = [3000; N_ELECTRODES];
+            electrodes[3] = 2000 + i as u16;
+            Record {
+                t: 0.01 * f64::from(i),
+                set: 3,
+                trial: 1 + i / 20,
+                reading: BioTacReading {
+                    seq: i as u16,
+                    stamp_s: 0.0,
+                    electrodes,
+                    pdc: 2100,
+                    pac: [2048; N_PAC],
+                    tdc: 1800,
+                    tac: 2000,
+                },
+                wrench: Wrench::new(
+                    Vector3::new(0.1, -0.2, 0.05 * f64::from(i)),
+                    Vector3::new(0.0, 0.001, 0.0),
+                ),
+            }
+        })
+        .collect();
+    let f = tempfile::NamedTempFile::new().unwrap();
+    write_bag(f.path(), &records, &BagTopics::default(), "biotac", 1e6).unwrap();
+    let back = read_bag(f.path(), &BagTopics::default()).unwrap();
+    assert_eq!(back.records.len(), 50);
+    assert_eq!((back.unpaired_readings, back.unpaired_wrenches), (0, 0));
+    for (a, b) in records.iter().zip(&back.records) {
+        assert!((a.t - b.t).abs() < 1e-6, "{} {}", a.t, b.t);
+        assert_eq!(a.reading.electrodes, b.reading.electrodes);
+        assert_eq!(a.wrench, b.wrench);
+    }
+}
+
+#[test]
+fn a_bag_without_a_topic_names_it_and_lists_the_topics_found() {
+    let readings_only: Vec<_> = session(5).into_iter().filter(|m| m.0 == 0).collect();
+    let err = read(&bag(&[BIOTAC, FT], &readings_only)).unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, BagError::MissingTopic { .. }), "{text}");
+    assert!(
+        text.contains("no message on topic /ft_sensor/wrench")
+            && text.contains("/biotac/readings (tactile_force_msgs/msg/BioTac)"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_topic_of_another_type_or_encoding_is_refused() {
+    for ft in [
+        ("/ft_sensor/wrench", "geometry_msgs/msg/Wrench", "cdr"),
+        ("/ft_sensor/wrench", WRENCH_STAMPED_TYPE, "json"),
+    ] {
+        let err = read(&bag(&[BIOTAC, ft], &session(3))).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, BagError::WrongType { .. }), "{text}");
+        assert!(
+            text.contains("topic /ft_sensor/wrench carries")
+                && text.contains(&format!("{} in {}", ft.1, ft.2))
+                && text.contains("expected geometry_msgs/msg/WrenchStamped in cdr"),
+            "{text}"
+        );
+    }
+}
+
+#[test]
+fn a_message_that_does_not_decode_is_named_by_topic_number_and_log_time() {
+    let mut m = session(5);
+    // The third reading: cut short.
+    m[4].2.truncate(30);
+    let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, BagError::Decode { index: 3, .. }), "{text}");
+    assert!(
+        text.contains("topic /biotac/readings, message 3 (log time 10.021")
+            && text.contains("not decodable as CDR"),
+        "{text}"
+    );
+    // A wrench whose frame_id claims 4 GB.
+    let mut m = session(5);
+    m[3].2[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err().to_string();
+    assert!(
+        err.contains("topic /ft_sensor/wrench, message 2")
+            && err.contains("a string longer than the message"),
+        "{err}"
+    );
+}
+
+#[test]
+fn stamps_that_jump_back_or_leave_a_gap_are_refused() {
+    let mut m = session(8);
+    // Reading 6 (message 6 of the topic) stamped 0.1 s before reading 5.
+    m[10].2 = reading_cdr(9.95, 5);
+    let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(err, BagError::ClockJump { index: 6, .. }),
+        "{text}"
+    );
+    assert!(
+        text.contains("topic /biotac/readings, message 6")
+            && text.contains("9.950000 s follows 10.040000 s"),
+        "{text}"
+    );
+    // A step back within the tolerance is taken (and sorted).
+    let mut m = session(8);
+    m[10].2 = reading_cdr(10.046, 5);
+    assert_eq!(read(&bag(&[BIOTAC, FT], &m)).unwrap().records.len(), 8);
+    // A wrench 1.5 s after the one before.
+    let mut m = session(8);
+    m[7].2 = wrench_cdr(11.532, 3.0);
+    let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err().to_string();
+    assert!(
+        err.contains("topic /ft_sensor/wrench, message 4") && err.contains("(+1.510000 s)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn no_pair_within_the_tolerance_says_the_tolerance_and_both_spans() {
+    let m: Vec<_> = session(5)
+        .into_iter()
+        .map(|(c, t, data)| match c {
+            1 => (c, t, wrench_cdr(t + 0.5, 0.0)),
+            _ => (c, t, data),
+        })
+        .collect();
+    let err = read(&bag(&[BIOTAC, FT], &m)).unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, BagError::NoPairs { .. }), "{text}");
+    assert!(
+        text.contains("within 0.005 s")
+            && text.contains("readings stamped 10.000000..10.040000 s")
+            && text.contains("wrenches 10.503000..10.543000 s"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_file_that_is_not_mcap_or_cut_short_gives_an_error_not_a_panic() {
+    let err = read(b"t,set,trial\n").unwrap_err();
+    assert!(matches!(err, BagError::NotMcap { .. }), "{err}");
+    assert!(matches!(read(b"").unwrap_err(), BagError::NotMcap { .. }));
+    let missing = read_bag(Path::new("/nonexistent/x.mcap"), &BagTopics::default());
+    assert!(matches!(missing, Err(BagError::Open { .. })));
+
+    let good = bag(&[BIOTAC, FT], &session(40));
+    assert_eq!(read(&good).unwrap().records.len(), 40);
+    let err = read(&good[..good.len() / 2]).unwrap_err();
+    assert!(matches!(err, BagError::Corrupt { .. }), "{err}");
+    assert!(err.to_string().contains("truncated or corrupt"), "{err}");
+    // Every cut fails; no flipped byte panics.
+    for cut in (8..good.len()).step_by(13) {
+        assert!(read(&good[..cut]).is_err(), "cut at {cut}");
+    }
+    for at in (0..good.len()).step_by(7) {
+        let mut bad = good.clone();
+        bad[at] ^= 0xA5;
+        let _ = read(&bad);
+    }
+}

@@ -1,0 +1,110 @@
+//! What the columns of a data set hold: the BioTac channels a model may
+//! take as features, and the values that cannot be true in a channel or a
+//! wrench column (a logging glitch).
+
+use crate::biotac::reading::Column;
+use crate::biotac::{ADC_MAX, N_ELECTRODES};
+use crate::wrench::Axis;
+
+/// What the BioTac channel columns of a file hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Counts {
+    /// Raw 12-bit ADC counts, 0 to 4095 (docs/ARCHITECTURE.md, "BioTac").
+    Raw,
+    /// Counts already tared: -4095 to 4095.
+    Tared,
+}
+
+/// The largest force (N) in a data file that can be true: a million
+/// newtons, beyond what any six-axis F/T sensor measures and anything a
+/// fingertip survives. A modelling bound that catches logging glitches.
+pub const MAX_FORCE_N: f64 = 1e6;
+/// The same for torques (Nm).
+pub const MAX_TORQUE_NM: f64 = 1e5;
+
+/// What column `name` must hold when `value` cannot be true there: a
+/// BioTac channel beyond the 12-bit range, a force or torque beyond any
+/// sensor's. None when the value can be true (or the column is no
+/// BioTac channel or wrench axis).
+pub(super) fn implausible(name: &str, value: f64, counts: Counts) -> Option<String> {
+    let adc = f64::from(ADC_MAX);
+    if Column::from_name(name).is_some() {
+        let low = match counts {
+            Counts::Raw => 0.0,
+            Counts::Tared => -adc,
+        };
+        let what = match counts {
+            Counts::Raw => "a raw",
+            Counts::Tared => "a tared",
+        };
+        return (!(low..=adc).contains(&value))
+            .then(|| format!("{what} 12-bit BioTac count, {low} to {adc}"));
+    }
+    let axis: Axis = name.parse().ok()?;
+    let (max, unit) = if axis.index() < 3 {
+        (MAX_FORCE_N, "N")
+    } else {
+        (MAX_TORQUE_NM, "Nm")
+    };
+    (value.abs() > max)
+        .then(|| format!("a wrench within +-{max:e} {unit}, what an F/T sensor can measure"))
+}
+
+/// Names of the 19 electrode columns, `e1..e19`: the GP's features.
+pub fn electrode_columns() -> Vec<String> {
+    (1..=N_ELECTRODES).map(|i| format!("e{i}")).collect()
+}
+
+/// A group of BioTac channels a model may take as features.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Channel {
+    /// The 19 impedance electrodes, `e1..e19`.
+    Electrodes,
+    /// Static pressure, `pdc`.
+    Pdc,
+    /// Temperature, `tdc`.
+    Tdc,
+    /// Heat flow, `tac`.
+    Tac,
+}
+
+impl std::str::FromStr for Channel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "electrodes" => Ok(Channel::Electrodes),
+            "pdc" => Ok(Channel::Pdc),
+            "tdc" => Ok(Channel::Tdc),
+            "tac" => Ok(Channel::Tac),
+            other => Err(format!(
+                "unknown channel {other:?}: expected electrodes, pdc, tdc or tac"
+            )),
+        }
+    }
+}
+
+impl Channel {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Channel::Electrodes => "electrodes",
+            Channel::Pdc => "pdc",
+            Channel::Tdc => "tdc",
+            Channel::Tac => "tac",
+        }
+    }
+}
+
+/// The feature columns of `channels`, in the order given.
+pub fn channel_columns(channels: &[Channel]) -> Vec<String> {
+    channels
+        .iter()
+        .flat_map(|c| match c {
+            Channel::Electrodes => electrode_columns(),
+            Channel::Pdc => vec!["pdc".into()],
+            Channel::Tdc => vec!["tdc".into()],
+            Channel::Tac => vec!["tac".into()],
+        })
+        .collect()
+}

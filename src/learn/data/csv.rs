@@ -1,0 +1,176 @@
+//! The training-data CSV format.
+//!
+//! Header of a collected file (one row per BioTac frame, 100 Hz):
+//!
+//! `t,set,trial,e1..e19,pdc,pac_mean,tdc,tac,fx,fy,fz,tx,ty,tz`
+//!
+//! | column | meaning | unit |
+//! |---|---|---|
+//! | t | time since the start of the trial | s |
+//! | set | data set: 1 mainly x, 2 mainly y, 3 mainly z, 4 combined | - |
+//! | trial | trial number within the set | - |
+//! | e1..e19 | raw electrode values (not tared) | ADC counts |
+//! | pdc, pac_mean, tdc, tac | static pressure, mean of the 22 PAC samples, temperature, heat flow | ADC counts |
+//! | fx, fy, fz | reference force on the finger, BioTac frame | N |
+//! | tx, ty, tz | reference torque about the BioTac origin, BioTac frame | Nm |
+//!
+//! Readers need only the columns they use: the feature columns, the target
+//! columns of the requested axes and, optionally, `set` and `trial`. Other
+//! columns are ignored.
+
+use std::path::Path;
+
+use ndarray::Array2;
+
+use super::columns::{electrode_columns, implausible, Counts};
+use super::{Dataset, DatasetError};
+use crate::record::Record;
+use crate::wrench::{Axis, AxisSet};
+
+/// The full header of a collected file.
+pub fn csv_header() -> Vec<String> {
+    let mut h: Vec<String> = ["t", "set", "trial"].map(String::from).to_vec();
+    h.extend(electrode_columns());
+    h.extend(["pdc", "pac_mean", "tdc", "tac"].map(String::from));
+    h.extend(Axis::ALL.iter().map(|a| a.name().to_string()));
+    h
+}
+
+/// Writes records as CSV with the header [`csv_header`].
+pub fn write_csv(path: &Path, records: &[Record]) -> Result<(), DatasetError> {
+    let p = path.display().to_string();
+    let csv_err = |source| DatasetError::Write {
+        path: p.clone(),
+        source,
+    };
+    let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
+    w.write_record(csv_header()).map_err(csv_err)?;
+    let mut row: Vec<String> = Vec::with_capacity(csv_header().len());
+    for r in records {
+        row.clear();
+        row.push(format!("{:.2}", r.t));
+        row.push(r.set.to_string());
+        row.push(r.trial.to_string());
+        row.extend(r.reading.electrodes.iter().map(|e| e.to_string()));
+        row.push(r.reading.pdc.to_string());
+        row.push(format!("{:.2}", r.reading.pac_mean()));
+        row.push(r.reading.tdc.to_string());
+        row.push(r.reading.tac.to_string());
+        row.extend(Axis::ALL.iter().map(|&a| format!("{:.6}", r.wrench.get(a))));
+        w.write_record(&row).map_err(csv_err)?;
+    }
+    w.flush().map_err(|e| csv_err(e.into()))
+}
+
+impl Dataset {
+    /// Reads the named feature columns and the target columns of `axes`;
+    /// BioTac channel columns hold `counts`. A value that cannot be true
+    /// (a count beyond 12 bits, a force beyond any F/T sensor's) is refused
+    /// with its line and column.
+    pub fn read_csv(
+        path: &Path,
+        features: &[String],
+        axes: &AxisSet,
+        counts: Counts,
+    ) -> Result<Self, DatasetError> {
+        let p = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| DatasetError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        let csv_err = |source| DatasetError::Csv {
+            path: p.clone(),
+            source,
+        };
+        // The line a record starts on, counted here: in files with CRLF
+        // line ends the csv crate's count, and its record offset, fall one
+        // line end short (the offset is at the '\n' of the previous one).
+        let line_at = |byte: u64| {
+            let mut end = usize::try_from(byte).unwrap_or(usize::MAX).min(bytes.len());
+            while bytes.get(end).is_some_and(|b| matches!(b, b'\r' | b'\n')) {
+                end += 1;
+            }
+            1 + bytes[..end].iter().filter(|&&b| b == b'\n').count() as u64
+        };
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(bytes.as_slice());
+        let header: Vec<String> = reader
+            .headers()
+            .map_err(csv_err)?
+            .iter()
+            .map(String::from)
+            .collect();
+        let find = |name: &str| header.iter().position(|h| h == name);
+        let need = |name: &str| {
+            find(name).ok_or_else(|| DatasetError::MissingColumn {
+                path: p.clone(),
+                column: name.to_string(),
+                header: header.join(","),
+            })
+        };
+        let feature_idx = features
+            .iter()
+            .map(|f| need(f))
+            .collect::<Result<Vec<_>, _>>()?;
+        let axis_idx = axes
+            .axes()
+            .iter()
+            .map(|a| need(a.name()))
+            .collect::<Result<Vec<_>, _>>()?;
+        let (set_idx, trial_idx) = (find("set"), find("trial"));
+
+        let mut xs = Vec::new();
+        let mut ys = Vec::new();
+        let (mut set, mut trial) = (Vec::new(), Vec::new());
+        for rec in reader.records() {
+            let rec = rec.map_err(csv_err)?;
+            let line = || rec.position().map_or(0, |pos| line_at(pos.byte()));
+            let num = |i: usize| -> Result<f64, DatasetError> {
+                let text = rec.get(i).unwrap_or("");
+                let value = text
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| DatasetError::BadValue {
+                        path: p.clone(),
+                        line: line(),
+                        column: header[i].clone(),
+                        value: text.to_string(),
+                    })?;
+                match implausible(&header[i], value, counts) {
+                    None => Ok(value),
+                    Some(expected) => Err(DatasetError::Implausible {
+                        path: p.clone(),
+                        at: format!("line {}", line()),
+                        column: header[i].clone(),
+                        value,
+                        expected,
+                    }),
+                }
+            };
+            for &i in &feature_idx {
+                xs.push(num(i)?);
+            }
+            for &i in &axis_idx {
+                ys.push(num(i)?);
+            }
+            set.push(set_idx.map(num).transpose()?.unwrap_or(0.0) as u32);
+            trial.push(trial_idx.map(num).transpose()?.unwrap_or(0.0) as u32);
+        }
+        let n = set.len();
+        if n == 0 {
+            return Err(DatasetError::Empty { path: p });
+        }
+        let shape_ok = "row-major buffers sized rows x columns";
+        Ok(Dataset {
+            features: features.to_vec(),
+            x: Array2::from_shape_vec((n, features.len()), xs).expect(shape_ok),
+            axes: axes.clone(),
+            y: Array2::from_shape_vec((n, axes.len()), ys).expect(shape_ok),
+            set,
+            trial,
+            images: None,
+        })
+    }
+}

@@ -1,0 +1,80 @@
+//! The wrench GP behind the shared interface ([`crate::learn::models::Learner`]).
+
+use ndarray::Array2;
+
+use super::{Estimate, EstimatorWorkspace, TareSpec, WrenchGp};
+use crate::learn::data::Dataset;
+use crate::learn::models::gp::{FitProgress, GpParams, MeanKind};
+use crate::learn::models::scale::InputScaling;
+use crate::learn::models::{Fitted, LearnError, Learner};
+use crate::params::Checked;
+use crate::wrench::Axis;
+
+/// A GP per axis with these options, its inputs presented as `scaling`
+/// says and tared as `tare` says.
+#[derive(Debug, Clone)]
+pub struct GpLearner {
+    /// The GP options.
+    pub params: Checked<GpParams>,
+    /// How the tared features reach the GP.
+    pub scaling: InputScaling,
+    /// How the training data were tared (recorded in the model).
+    pub tare: TareSpec,
+}
+
+impl Learner for GpLearner {
+    fn name(&self) -> &'static str {
+        "gp"
+    }
+
+    fn every_row(&self) -> bool {
+        self.params.mean != MeanKind::Zero
+    }
+
+    fn fit(
+        &self,
+        train: &Dataset,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<Box<dyn Fitted>, LearnError> {
+        let tare = self.tare.clone();
+        let model = WrenchGp::train_scaled(train, tare, self.scaling, &self.params, progress)
+            .map_err(|e| LearnError::new("gp", e))?;
+        Ok(Box::new(FittedGp::from(model)))
+    }
+}
+
+/// A trained wrench GP with scratch for single rows.
+struct FittedGp {
+    model: WrenchGp,
+    ws: EstimatorWorkspace,
+    out: Vec<Estimate>,
+}
+
+impl From<WrenchGp> for FittedGp {
+    fn from(model: WrenchGp) -> Self {
+        FittedGp {
+            ws: model.workspace(),
+            out: vec![Estimate::default(); model.axes().len()],
+            model,
+        }
+    }
+}
+
+impl Fitted for FittedGp {
+    fn predict(&self, data: &Dataset) -> Result<Array2<f64>, LearnError> {
+        let (mean, _) =
+            (self.model.predict(data.x.view(), false)).map_err(|e| LearnError::new("gp", e))?;
+        Ok(mean)
+    }
+
+    fn predict_row(&mut self, features: &[f64], with_std: bool) -> Result<(), LearnError> {
+        (self
+            .model
+            .predict_one(features, &mut self.ws, with_std, &mut self.out))
+        .map_err(|e| LearnError::new("gp", e))
+    }
+
+    fn has_std(&self) -> bool {
+        true
+    }
+}

@@ -1,0 +1,405 @@
+//! The wrench estimator: one GP per axis (exact, or sparse with inducing
+//! points) on standardised, tared electrode features, and its versioned model
+//! file (its format, saving and loading: `file.rs`), which records what made
+//! the model in types of its own ([`provenance`]).
+
+mod file;
+mod learner;
+pub mod provenance;
+
+use ndarray::{Array2, ArrayView2};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::Mutex;
+
+use super::gp::fit::FitProgress;
+use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace};
+use super::scale::{InputScaling, Standardizer};
+use crate::exit::{Classify, ExitClass};
+use crate::learn::data::Dataset;
+use crate::params::{Checked, ParamsError};
+use crate::sensor::{ModelInput, SensorSpec};
+use crate::wrench::{Axis, AxisSet};
+use file::{electrode_mask, AxisModel, ModelFile, Prior};
+
+pub use file::{MODEL_FORMAT, MODEL_VERSION};
+pub use learner::GpLearner;
+pub use provenance::{
+    AdaptedFrom, CalibrationRecord, Choice, CvRow, GpChoice, Selection, Validation,
+};
+
+/// Errors saving, loading or using a model.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModelError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("{path}: cannot write: {source}")]
+    Write {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// Not JSON: truncated or corrupt.
+    #[error("{path}: not a model file (truncated or corrupt JSON: {source})")]
+    Corrupt {
+        /// File path.
+        path: String,
+        /// Parser error, with line and column.
+        source: serde_json::Error,
+    },
+    /// JSON, but not a tactile_force wrench model.
+    #[error("{path}: format is {found:?}, expected {MODEL_FORMAT:?}")]
+    WrongFormat {
+        /// File path.
+        path: String,
+        /// The `format` field found.
+        found: String,
+    },
+    /// A model-file version this build cannot read.
+    #[error("{path}: model file version {found}, this build reads versions 2 to {MODEL_VERSION}")]
+    UnsupportedVersion {
+        /// File path.
+        path: String,
+        /// Version found.
+        found: u64,
+    },
+    /// The right format and version, but fields missing or of the wrong type.
+    #[error("{path}: invalid model file: {source}")]
+    Schema {
+        /// File path.
+        path: String,
+        /// Parser error naming the field.
+        source: serde_json::Error,
+    },
+    /// Parts of the file disagree (feature counts, axes, sizes).
+    #[error("{path}: inconsistent model file: {what}")]
+    Inconsistent {
+        /// File path.
+        path: String,
+        /// What disagrees, with the numbers.
+        what: String,
+    },
+    /// Features given to the model do not match the ones it was trained on.
+    #[error("model expects {expected} features, got {found}")]
+    FeatureCount {
+        /// Features the model uses.
+        expected: usize,
+        /// Features given.
+        found: usize,
+    },
+    /// Adaptation data whose features or axes are not the base model's.
+    #[error("cannot adapt: the base model has features {base:?}, the data {data:?}")]
+    AdaptMismatch {
+        /// The base model's features and axes.
+        base: String,
+        /// The data's.
+        data: String,
+    },
+    /// Training options out of range.
+    #[error(transparent)]
+    Options(#[from] ParamsError),
+    /// Training or rebuilding a GP failed.
+    #[error(transparent)]
+    Gp(#[from] GpError),
+}
+
+/// A file not written is a failure, a GP that did not fit says its own; the
+/// rest is a model file or data refused.
+impl Classify for ModelError {
+    fn class(&self) -> ExitClass {
+        match self {
+            ModelError::Write { .. } => ExitClass::Failure,
+            ModelError::Options(e) => e.class(),
+            ModelError::Gp(e) => e.class(),
+            _ => ExitClass::Refused,
+        }
+    }
+}
+
+/// How the training features were tared.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TareSpec {
+    /// Out-of-contact samples at the start of each trial that gave its baseline.
+    pub samples: usize,
+    /// Baseline of each feature, averaged over the training trials (counts).
+    pub mean_baseline: Vec<f64>,
+}
+
+/// Estimate of one wrench component: mean and 1-sigma of the latent force.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Estimate {
+    /// Posterior mean (N or Nm).
+    pub mean: f64,
+    /// Posterior standard deviation of the mean (N or Nm).
+    pub std: f64,
+}
+
+/// A trained wrench estimator.
+#[derive(Debug, Clone, Serialize)]
+#[serde(transparent)]
+pub struct WrenchGp(ModelFile<Gp>);
+
+/// Scratch for [`WrenchGp::predict_one`], allocated once per estimator.
+#[derive(Debug, Clone)]
+pub struct EstimatorWorkspace {
+    represented: Vec<f64>,
+    z: Vec<f64>,
+    gp: GpWorkspace,
+    prior: Option<Box<(EstimatorWorkspace, Vec<Estimate>)>>,
+}
+
+impl WrenchGp {
+    /// Trains one GP per axis of `data` (features already tared, presented
+    /// standardised), the axes in parallel. `progress` is told the axis and
+    /// the fit's progress after every evaluation.
+    pub fn train(
+        data: &Dataset,
+        tare: TareSpec,
+        params: &Checked<GpParams>,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<Self, ModelError> {
+        Self::train_scaled(data, tare, InputScaling::Standard, params, progress)
+    }
+
+    /// [`WrenchGp::train`] with the features presented as `scaling` says.
+    pub fn train_scaled(
+        data: &Dataset,
+        tare: TareSpec,
+        scaling: InputScaling,
+        params: &Checked<GpParams>,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<Self, ModelError> {
+        // Check before standardising: one infinity would spoil every row.
+        let d = data.features.len();
+        for (name, m) in [("features", &data.x), ("targets", &data.y)] {
+            if let Some(i) = m.iter().position(|v| !v.is_finite()) {
+                let cols = m.ncols();
+                return Err(GpError::NonFinite {
+                    row: i / cols,
+                    column: if name == "features" {
+                        i % cols
+                    } else {
+                        d + i % cols
+                    },
+                }
+                .into());
+            }
+        }
+        let electrode = electrode_mask(&data.features);
+        let represented = scaling.represent(&electrode, data.x.view());
+        let input = scaling.fit(represented.view());
+        let z = input.transform(represented.view());
+        let x: Vec<f64> = z.iter().copied().collect();
+        let d = input.dim();
+        let means = params.mean.fit(&x, d, data.y.view())?;
+        let progress = Mutex::new(progress);
+        let outputs = data
+            .axes
+            .axes()
+            .par_iter()
+            .enumerate()
+            .map(|(j, &axis)| {
+                // What the GP models: the target less its prior mean,
+                // standardised (so that the fit's starts and bounds hold).
+                let mut y = data.y.column(j).to_owned();
+                let linear = means[j].clone();
+                if let Some(l) = &linear {
+                    y.iter_mut().zip(l.at_rows(&x)).for_each(|(y, p)| *y -= p);
+                }
+                let targets = Standardizer::fit(y.view().insert_axis(ndarray::Axis(1)));
+                let (m, s) = (targets.mean[0], targets.scale[0]);
+                let y: Vec<f64> = y.iter().map(|v| (v - m) / s).collect();
+                let mut report = |p| {
+                    if let Ok(mut f) = progress.lock() {
+                        f(axis, p)
+                    }
+                };
+                let (gp, fit) = Gp::fit(&x, d, &y, params, &mut report)?;
+                Ok(AxisModel {
+                    axis,
+                    target_mean: m,
+                    target_scale: s,
+                    fit,
+                    linear,
+                    gp,
+                })
+            })
+            .collect::<Result<Vec<_>, GpError>>()?;
+        Ok(WrenchGp(ModelFile {
+            format: MODEL_FORMAT.into(),
+            version: MODEL_VERSION,
+            features: data.features.clone(),
+            axes: data.axes.clone(),
+            tare,
+            sensor: SensorSpec::Biotac,
+            scaling,
+            input,
+            n_train: data.len(),
+            outputs,
+            prior: None,
+            selection: None,
+            calibration: None,
+            electrode,
+        }))
+    }
+
+    /// How its features are presented to its GPs.
+    pub fn scaling(&self) -> InputScaling {
+        self.0.scaling
+    }
+
+    /// The model, with `base`'s estimate as the prior mean of its GPs and
+    /// `base`'s sensor: what [`WrenchGp::adapt`] makes.
+    pub(crate) fn on_top_of(mut self, base: &WrenchGp, from: AdaptedFrom) -> Self {
+        self.0.sensor = base.0.sensor.clone();
+        self.0.prior = Some(Prior {
+            from,
+            base: Box::new(base.0.clone()),
+        });
+        self
+    }
+
+    /// The model, recording how its options were chosen.
+    pub fn with_selection(mut self, selection: Selection) -> Self {
+        self.0.selection = Some(selection);
+        self
+    }
+
+    /// The model, recording the calibration that made it.
+    pub fn with_calibration(mut self, record: CalibrationRecord) -> Self {
+        self.0.calibration = Some(record);
+        self
+    }
+
+    /// The calibration that made it, when one did.
+    pub fn calibration(&self) -> Option<&CalibrationRecord> {
+        self.0.calibration.as_ref()
+    }
+
+    /// How its options were chosen, when `train --select` chose them.
+    pub fn selection(&self) -> Option<&Selection> {
+        self.0.selection.as_ref()
+    }
+
+    /// What the model was adapted from, when it was (`adapt`).
+    pub fn adapted_from(&self) -> Option<&AdaptedFrom> {
+        self.0.prior.as_ref().map(|p| &p.from)
+    }
+
+    /// Feature names, in input order.
+    pub fn features(&self) -> &[String] {
+        &self.0.features
+    }
+
+    /// Estimated axes, in output order.
+    pub fn axes(&self) -> &AxisSet {
+        &self.0.axes
+    }
+
+    /// How the training data was tared.
+    pub fn tare(&self) -> &TareSpec {
+        &self.0.tare
+    }
+
+    /// The sensor the model reads.
+    pub fn sensor(&self) -> &SensorSpec {
+        &self.0.sensor
+    }
+
+    /// The model, recording that its features come from `sensor` (`train`
+    /// on nail frames records their preprocessing).
+    pub fn with_sensor(mut self, sensor: SensorSpec) -> Self {
+        self.0.sensor = sensor;
+        self
+    }
+
+    /// What the model says of its input, for the sensor that feeds it.
+    pub fn input(&self) -> ModelInput<'_> {
+        ModelInput {
+            features: &self.0.features,
+            sensor: &self.0.sensor,
+            tare_samples: self.0.tare.samples,
+        }
+    }
+
+    /// Rows the model was trained on (an exact GP keeps a subset of them,
+    /// see [`Gp::size`]).
+    pub fn n_train(&self) -> usize {
+        self.0.n_train
+    }
+
+    /// Per axis: the fitted GP and what its fit did.
+    pub fn fits(&self) -> impl Iterator<Item = (Axis, &Gp, &FitInfo)> {
+        self.0.outputs.iter().map(|o| (o.axis, &o.gp, &o.fit))
+    }
+
+    /// Scratch for [`WrenchGp::predict_one`].
+    pub fn workspace(&self) -> EstimatorWorkspace {
+        self.0.workspace()
+    }
+
+    /// Estimates every axis from one row of tared features, without
+    /// allocating. `with_std = false` skips the variance (std = 0), which
+    /// costs O(n^2) per axis for the exact GP and O(m^2) for the sparse one.
+    /// An adapted model's std is that of its own GPs: how far the row is
+    /// from what the adaptation recording covered.
+    pub fn predict_one(
+        &self,
+        features: &[f64],
+        ws: &mut EstimatorWorkspace,
+        with_std: bool,
+        out: &mut [Estimate],
+    ) -> Result<(), ModelError> {
+        if features.len() != self.0.features.len() {
+            return Err(ModelError::FeatureCount {
+                expected: self.0.features.len(),
+                found: features.len(),
+            });
+        }
+        self.0.predict_one(features, ws, with_std, out);
+        Ok(())
+    }
+
+    /// Means and standard deviations (samples x axes) for rows of tared features.
+    pub fn predict(
+        &self,
+        x: ArrayView2<f64>,
+        with_std: bool,
+    ) -> Result<(Array2<f64>, Array2<f64>), ModelError> {
+        if x.ncols() != self.0.features.len() {
+            return Err(ModelError::FeatureCount {
+                expected: self.0.features.len(),
+                found: x.ncols(),
+            });
+        }
+        Ok(self.0.predict(x, with_std))
+    }
+}
+
+#[cfg(test)]
+pub(crate) fn quick_params() -> Checked<GpParams> {
+    super::gp::GpParams {
+        restarts: 1,
+        ..Default::default()
+    }
+    .validate()
+    .expect("default GP parameters")
+}
+
+/// A model fitted with [`quick_params`], for tests.
+#[cfg(test)]
+pub(crate) fn quick_fit(data: &Dataset, tare: TareSpec) -> WrenchGp {
+    WrenchGp::train(data, tare, &quick_params(), &mut |_, _| {}).expect("a small test model fits")
+}
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,152 @@
+//! What made a model, as its file records it: the model it was adapted
+//! from (`adapt`), how its options were chosen (`train --select`), and the
+//! calibration on the robot that made it. The model file owns these types;
+//! the workflows that make models fill them in.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::learn::data::Channel;
+use crate::learn::models::gp::MeanKind;
+use crate::learn::models::scale::InputScaling;
+use crate::wrench::Axis;
+
+/// Where an adapted model came from (`adapt`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptedFrom {
+    /// The base model file, as given.
+    pub model: String,
+    /// The recordings it was adapted with, as given.
+    pub data: Vec<String>,
+    /// Seconds of adaptation data (rows times the sensor's sample period).
+    pub seconds: f64,
+}
+
+/// The GP a candidate trains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GpChoice {
+    /// The exact GP conditioned on at most this many rows.
+    Exact(usize),
+    /// The sparse GP with this many inducing points, on every row.
+    Sparse(usize),
+}
+
+impl std::fmt::Display for GpChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GpChoice::Exact(n) => write!(f, "exact {n}"),
+            GpChoice::Sparse(m) => write!(f, "sparse {m}"),
+        }
+    }
+}
+
+/// One set of the options `select` chooses.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Choice {
+    /// The BioTac channels taken as features.
+    pub channels: Vec<Channel>,
+    /// How they reach the GP.
+    pub input: InputScaling,
+    /// Exact or sparse, and its size.
+    pub gp: GpChoice,
+    /// The prior mean.
+    pub mean: MeanKind,
+}
+
+impl std::fmt::Display for Choice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let channels: Vec<&str> = self.channels.iter().map(|c| c.name()).collect();
+        write!(
+            f,
+            "{}, {}, {}, {} mean",
+            channels.join("+"),
+            self.input.name(),
+            self.gp,
+            self.mean.name()
+        )
+    }
+}
+
+/// A candidate's cross-validation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CvRow {
+    /// The options.
+    pub choice: Choice,
+    /// RMSE per axis on the held-out trials, pooled (N or Nm).
+    pub rmse: BTreeMap<Axis, f64>,
+    /// Mean over axes of the RMSE over the targets' standard deviation
+    /// (lower is better).
+    pub score: f64,
+    /// Seconds its folds took.
+    pub seconds: f64,
+}
+
+/// What `select` did: every candidate's cross-validation, the one chosen,
+/// and what the budget left untried.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Selection {
+    /// Trial-wise folds per candidate.
+    pub folds: usize,
+    /// The time budget (s).
+    pub budget_s: f64,
+    /// The time the search took (s).
+    pub spent_s: f64,
+    /// Every candidate scored, in the order tried.
+    pub table: Vec<CvRow>,
+    /// Index of the chosen candidate in `table`: the best score.
+    pub chosen: usize,
+    /// Candidates the budget left untried, or the data could not serve (a
+    /// channel missing), with the reason.
+    pub untried: Vec<(Choice, String)>,
+}
+
+impl Selection {
+    /// The chosen options.
+    pub fn choice(&self) -> &Choice {
+        &self.table[self.chosen].choice
+    }
+}
+
+/// One model scored on the held-out pushes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Validation {
+    /// "current", "adapted" or "from scratch".
+    pub model: String,
+    /// RMSE per axis on the held-out pushes (N or Nm).
+    pub rmse: BTreeMap<Axis, f64>,
+    /// Mean over axes of the RMSE over the targets' standard deviation.
+    pub score: f64,
+}
+
+/// What a calibration did (in the model file it made).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationRecord {
+    /// "adapted" or "from scratch".
+    pub chosen: String,
+    /// The current model and both candidates on the held-out pushes.
+    pub validation: Vec<Validation>,
+    /// The from-scratch candidate's options.
+    pub scratch_options: Option<Choice>,
+    /// Pushes recorded, and those held out (1-based).
+    pub pushes: u32,
+    /// The held-out pushes.
+    pub held_out: Vec<u32>,
+    /// Rows recorded.
+    pub rows: usize,
+    /// Seconds the arm moved.
+    pub motion_s: f64,
+    /// Seconds of compute (training and validation).
+    pub compute_s: f64,
+    /// The largest force the F/T sensor measured (N).
+    pub peak_force_n: f64,
+    /// The recording's file (MCAP), when written.
+    pub session: Option<String>,
+}
