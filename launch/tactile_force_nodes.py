@@ -44,8 +44,10 @@ def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_fa
         arm["robot.base_link"], arm["robot.tip_link"] = links
     sim = ("sim_robot", files, dict(arm, real_time_factor=real_time_factor))
     first = sim if use_sim else ("biotac_driver", [], dict(shared, port=port))
+    # In simulation the task starts at once; on a real arm the controller
+    # commands zero until a goal, or a set of its `task`, asks for motion.
     return [
         first,
         ("wrench_estimator", files, dict(shared, model_file=model)),
-        ("force_controller", files, arm),
+        ("force_controller", files, dict(arm, autostart=use_sim)),
     ]

@@ -129,7 +129,7 @@ fn no_press_of_the_calibration_passes_the_force_limit_across_seeds_and_objects()
             if object == "stuffed_animal" {
                 assert_eq!(
                     rec.ended,
-                    Ended::Stopped(StopReason::Timeout),
+                    Ended::Stopped(StopReason::TravelLimit),
                     "seed {seed}"
                 );
             } else {
@@ -165,7 +165,7 @@ fn a_calibration_that_cannot_succeed_stops_the_arm_and_says_why() {
     let mut far = calibration(2);
     far.sim.object_gap_mm = 50.0;
     let rec = record(&far, 1, &mut |_, _| {}).unwrap();
-    assert_eq!(rec.ended, Ended::Stopped(StopReason::Timeout));
+    assert_eq!(rec.ended, Ended::Stopped(StopReason::TravelLimit));
     assert!(rec.ended.failure().unwrap().contains("no contact found"));
     assert!(rec.peak_force_n < 0.2, "{}", rec.peak_force_n);
     // Three pushes are too few to train on and validate.

@@ -101,13 +101,13 @@ fn contact_stiffness_from_10_to_1e6_n_per_m() {
     }
     // 10 N/m: 1 N needs 100 mm of squeeze, more than the 50 mm approach
     // distance. The move presses gently, never past the force limit, and
-    // stops at that distance with a timeout.
+    // stops at that distance (travel_limit).
     let r = run(object(10.0));
     assert_sane(&r.rows, MAX_SPEED);
     let s = &r.summary;
     assert!(s.contact_time_s.is_some() && s.peak_force_n < 1.0, "{s:?}");
     assert!(!s.aborted && s.final_phase == "stopped", "{s:?}");
-    assert_eq!(s.reason, Some("timeout"), "{s:?}");
+    assert_eq!(s.reason, Some("travel_limit"), "{s:?}");
 }
 
 #[test]

@@ -55,9 +55,10 @@ fn a_control_period_allocates_nothing_after_the_first() {
             let t = k as f64 * 0.01;
             js.stamp_s = t;
             estimate.stamp_s = t;
-            // A push along x and z: every axis of the guided move moves.
+            // Pushes to and fro along x and z: every axis of the guided
+            // move moves, within its travel.
             estimate.mean.force.x = 0.5 * (k as f64 * 0.1).sin();
-            estimate.mean.force.z = 2.0;
+            estimate.mean.force.z = 1.0 + 0.5 * (k as f64 * 0.1).cos();
             c.on_joint_state(&js).unwrap();
             c.on_estimate(estimate).unwrap();
             let out = c.tick(t);

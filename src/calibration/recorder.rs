@@ -29,8 +29,8 @@ const UNPAIRED: usize = 16;
 pub enum Ended {
     /// Every push of the pattern done.
     Done,
-    /// The task stopped: no contact found (timeout), the force limit, an
-    /// axis the arm cannot make, out of its time.
+    /// The task stopped: no contact found (travel_limit, timeout), the force
+    /// limit, an axis the arm cannot make, out of its time.
     Stopped(StopReason),
     /// No F/T wrench for [`FT_STALE_S`] after this many seconds of motion:
     /// the arm was halted, the task stopped.
@@ -49,9 +49,12 @@ impl Ended {
     pub fn failure(self) -> Option<String> {
         match self {
             Ended::Done => None,
+            Ended::Stopped(StopReason::TravelLimit) => Some(
+                "no contact found within the approach distance (calibrate.max_distance_m)".into(),
+            ),
             Ended::Stopped(StopReason::Timeout) => Some(
-                "no contact found within the approach distance, or out of time \
-                 (calibrate.max_distance_m, max_duration_s)"
+                "out of time, or no contact found within the approach's time \
+                 (calibrate.max_duration_s)"
                     .into(),
             ),
             Ended::Stopped(StopReason::InContact) => Some(

@@ -31,12 +31,17 @@ use super::task::{
     missing_axis, translation, ForceLaw, Task, TaskEnvelope, TaskFigures, TaskInput, TaskLoop,
     TaskSection,
 };
-use super::tuning::LoopTiming;
+use super::tuning::{LoopTiming, Margins};
 use super::{Envelope, Phase, StopReason};
 use crate::contact::{shear_stiffness, BodyParams};
 use crate::kinematics::Twist;
 use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
 use crate::wrench::Axis;
+
+/// The share of the finger's estimated velocity the arm adds to its PD's.
+const FEEDFORWARD_SHARE: f64 = 0.8;
+/// The finger's estimated speed below which the arm adds none (m/s).
+const FEEDFORWARD_DEADBAND_MPS: f64 = 0.01;
 
 /// Guided-move settings (`force_controller.guided` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
@@ -58,6 +63,9 @@ pub struct GuidedParams {
     pub retract_speed_mps: f64,
     /// Distance of that retract along the pad's normal (m).
     pub retract_distance_m: f64,
+    /// The margins the gains keep: following a finger trades some of the
+    /// hold's damping (`pd.margins`) for a smaller lag behind it.
+    pub margins: Margins,
 }
 
 impl Check for GuidedParams {
@@ -84,6 +92,7 @@ impl Check for GuidedParams {
         ] {
             positive(&format!("{key}.{field}"), v)?;
         }
+        self.margins.check(&format!("{key}.margins"))?;
         Ok(self)
     }
 }
@@ -107,6 +116,9 @@ pub struct GuidedInput {
     /// Position along the pad's normal (+z of the BioTac frame at the
     /// start) now (m).
     pub normal_m: f64,
+    /// The BioTac's velocity when the force's reading was taken, BioTac
+    /// frame (m/s), when known.
+    pub arm_velocity: Option<Vector3<f64>>,
     /// The loop's timing as measured.
     pub timing: LoopTiming,
 }
@@ -142,7 +154,7 @@ impl GuidedMove {
         controlled: [bool; 3],
         prior_body: f64,
     ) -> Self {
-        let axis = || PdAxis::new(&law.pd, p.deadband_n);
+        let axis = || PdAxis::new(&law.pd, p.margins, p.deadband_n);
         let watchdog = || OscillationDetector::new(law.oscillation.threshold_n);
         GuidedMove {
             pd: controlled.map(|c| c.then(axis)),
@@ -194,6 +206,16 @@ impl GuidedMove {
         for (j, pd) in self.pd.iter_mut().enumerate() {
             if let Some(pd) = pd {
                 v[j] = -pd.step(p.target_force_n[j], i.force[j], i.dt);
+                // Across the pad, the finger's velocity: the arm's, and the
+                // force's rate through the contact's stiffness
+                // (F = k (x_finger - x_arm)).
+                if let (Some(arm), true) = (i.arm_velocity, j < 2) {
+                    let finger = arm[j] + pd.force_rate() / k[j];
+                    let along =
+                        finger.signum() * (finger.abs() - FEEDFORWARD_DEADBAND_MPS).max(0.0);
+                    v[j] = (v[j] + FEEDFORWARD_SHARE * along)
+                        .clamp(-self.law.pd.max_speed_mps, self.law.pd.max_speed_mps);
+                }
             }
         }
         self.since_fresh_s += i.dt;
@@ -241,7 +263,8 @@ impl GuidedMove {
             return v;
         }
         self.pressed |= i.force.z >= p.target_force_n[2] - p.deadband_n;
-        if let (Some(x), true, false) = (i.pressed_m, i.force.z >= p.contact_force_n, self.pressed) {
+        if let (Some(x), true, false) = (i.pressed_m, i.force.z >= p.contact_force_n, self.pressed)
+        {
             self.stiffness.push(x, i.force.z);
         }
         let dt = std::mem::take(&mut self.since_fresh_s);
@@ -340,6 +363,7 @@ impl Task for GuidedMove {
             pressed_m: i.force_position.map(|x| x.dot(&press)),
             travelled_m: moved.norm(),
             normal_m: moved.dot(&(i.start.rotation * Vector3::z())),
+            arm_velocity: i.force_velocity.map(|v| i.pose.rotation.inverse() * v),
             timing: *i.timing,
         };
         translation(i.pose.rotation * self.velocity(&input))
@@ -420,6 +444,10 @@ mod tests {
             max_travel_m: 0.1,
             retract_speed_mps: 0.01,
             retract_distance_m: 0.005,
+            margins: Margins {
+                phase_deg: 45.0,
+                gain: 2.0,
+            },
         };
         let law = crate::control::guarded::tests::law();
         GuidedMove::new(p.checked("guided").unwrap(), &law, [true; 3], 300.0)
@@ -434,6 +462,7 @@ mod tests {
             pressed_m: None,
             travelled_m: 0.0,
             normal_m: 0.0,
+            arm_velocity: None,
             timing: LoopTiming {
                 transport_s: 0.0,
                 latency_s: 0.01,
@@ -528,5 +557,38 @@ mod tests {
         };
         assert_eq!(g.velocity(&done), Vector3::zeros());
         assert_eq!(g.phase(), Phase::Stopped);
+    }
+
+    #[test]
+    fn across_the_pad_the_arm_moves_with_the_finger_and_lags_it_less() {
+        // A finger sliding at 30 mm/s along x over a contact of 250 N/m,
+        // the arm tracking commands 40 ms late: the force it takes to move.
+        let lag_behind = |feedforward: bool| {
+            let mut g = guided();
+            let (k, dt) = (250.0, 0.01);
+            let (mut arm, mut finger, mut queue) = (0.0, 0.0, vec![0.0; 4]);
+            let (mut v_arm, mut worst) = (0.0, 0.0f64);
+            for step in 0..300 {
+                finger += 0.03 * dt;
+                let f = k * (finger - arm);
+                let i = GuidedInput {
+                    arm_velocity: feedforward.then(|| Vector3::new(v_arm, 0.0, 0.0)),
+                    timing: LoopTiming {
+                        latency_s: 0.04,
+                        ..input(Vector3::zeros()).timing
+                    },
+                    ..input(Vector3::new(f, 0.0, 1.0))
+                };
+                queue.push(g.velocity(&i).x);
+                v_arm = queue.remove(0);
+                arm += v_arm * dt;
+                if step > 200 {
+                    worst = worst.max(f.abs());
+                }
+            }
+            worst
+        };
+        let (with, without) = (lag_behind(true), lag_behind(false));
+        assert!(with < 0.7 * without, "{with} N with, {without} N without");
     }
 }

@@ -95,6 +95,8 @@ pub struct ArmResponse {
 const POSITIONS: usize = 128;
 /// Commands kept.
 const COMMANDS: usize = 128;
+/// The span of a velocity from positions (s).
+const VELOCITY_SPAN_S: f64 = 0.02;
 /// Closer positions are not kept (s): a fast joint_states stream.
 const POSITION_SPACING_S: f64 = 0.004;
 /// The window a fit reads (s).
@@ -161,6 +163,13 @@ impl ArmTrack {
             }
         }
         None
+    }
+
+    /// The velocity at `t`, from the positions [`VELOCITY_SPAN_S`] apart
+    /// that end there; None outside what is kept.
+    pub fn velocity_at(&self, t: f64) -> Option<Vector3<f64>> {
+        let (p1, p0) = (self.position_at(t)?, self.position_at(t - VELOCITY_SPAN_S)?);
+        Some((p1 - p0) / VELOCITY_SPAN_S)
     }
 
     /// The arm's latency and lag fitted on the last [`FIT_WINDOW_S`], when
@@ -457,6 +466,11 @@ impl LoopMeter {
     /// The BioTac's position at `t`, when recent.
     pub fn position_at(&self, t: f64) -> Option<Vector3<f64>> {
         self.track.position_at(t)
+    }
+
+    /// The BioTac's velocity at `t`, when recent.
+    pub fn velocity_at(&self, t: f64) -> Option<Vector3<f64>> {
+        self.track.velocity_at(t)
     }
 
     /// How old the newest estimate may be before the arm halts (s): the

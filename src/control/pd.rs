@@ -80,7 +80,8 @@ impl LoopDelays {
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PdParams {
-    /// The margins the gain keeps on the loop the controller measures.
+    /// The margins the gain keeps on the loop the controller measures (a
+    /// task may keep its own: the guided move's).
     pub margins: Margins,
     /// Time constant of the force low-pass feeding the derivative (s).
     pub derivative_filter_s: f64,
@@ -118,16 +119,16 @@ pub struct PdAxis {
 }
 
 impl PdAxis {
-    /// The law with a deadband (N), its gain zero until
-    /// [`PdAxis::tune`]d.
-    pub fn new(p: &Checked<PdParams>, deadband_n: f64) -> Self {
+    /// The law with a deadband (N) and the margins its gain keeps, its
+    /// gain zero until [`PdAxis::tune`]d.
+    pub fn new(p: &Checked<PdParams>, margins: Margins, deadband_n: f64) -> Self {
         PdAxis {
             gain: 0.0,
             derivative_time_s: 0.0,
             filter_s: p.derivative_filter_s,
             deadband_n,
             max_speed: p.max_speed_mps,
-            margins: p.margins,
+            margins,
             softened: 1.0,
             tuned: None,
             filtered: None,
@@ -248,7 +249,7 @@ mod tests {
     fn a_tuned_law_settles_without_ringing_on_any_stiffness_and_delay() {
         for k in [50.0, 1e3, 1e5] {
             for delay in [0usize, 2, 4] {
-                let mut pd = PdAxis::new(&params(), 0.0);
+                let mut pd = PdAxis::new(&params(), params().margins, 0.0);
                 pd.tune(k, &timing(delay));
                 let f = settle(&mut pd, k, delay);
                 let peak = f.iter().copied().fold(0.0, f64::max);
@@ -260,7 +261,7 @@ mod tests {
 
     #[test]
     fn the_gain_follows_the_stiffness_and_the_watchdog_lowers_it_for_good() {
-        let mut pd = PdAxis::new(&params(), 0.0);
+        let mut pd = PdAxis::new(&params(), params().margins, 0.0);
         assert_eq!(pd.gain(), 0.0, "untuned");
         pd.tune(1000.0, &timing(2));
         let g = pd.gain();
@@ -281,7 +282,7 @@ mod tests {
     fn deadband_and_clamp() {
         let mut p = *params();
         p.max_speed_mps = 0.01;
-        let mut pd = PdAxis::new(&p.checked("pd").unwrap(), 0.2);
+        let mut pd = PdAxis::new(&p.checked("pd").unwrap(), p.margins, 0.2);
         pd.tune(1e5, &timing(0));
         assert_eq!(pd.step(1.0, 0.85, 0.01), 0.0, "inside the deadband");
         let u = pd.step(1.0, 0.7, 0.01);
@@ -296,7 +297,7 @@ mod tests {
             lag_s: 0.02,
             ..timing(3)
         };
-        let mut pd = PdAxis::new(&params(), 0.0);
+        let mut pd = PdAxis::new(&params(), params().margins, 0.0);
         pd.tune(1e3, &lagged);
         assert!((pd.derivative_time_s - 0.025).abs() < 1e-12);
         let mut u = 0.0;

@@ -434,6 +434,8 @@ pub struct TaskInput<'a> {
     /// The BioTac's position (base frame) when the force's reading was
     /// taken, when the arm's positions reach back to it.
     pub force_position: Option<Vector3<f64>>,
+    /// The BioTac's velocity (base frame) then, likewise.
+    pub force_velocity: Option<Vector3<f64>>,
     /// The loop's timing as measured (the bounds until then).
     pub timing: &'a LoopTiming,
 }

@@ -240,10 +240,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         }
         TaskKind::Guided => {
             let (mut s, mut ratio) = (0.0f64, 0.0f64);
-            for r in rows
-                .iter()
-                .filter(|r| r.phase != Phase::Stopped)
-            {
+            for r in rows.iter().filter(|r| r.phase != Phase::Stopped) {
                 let Some(f) = r.finger.filter(|f| f.peak_speed_mps > 0.0) else {
                     continue;
                 };
@@ -351,17 +348,17 @@ mod tests {
         assert_eq!(s.contact_time_s, Some(1.0));
         assert!((s.peak_force_n - 1.2).abs() < 1e-12 && (s.overshoot_n - 0.2).abs() < 1e-12);
         assert!((s.settle_time_s.unwrap() - 0.1).abs() < 1e-9, "{s:?}");
-        assert!((s.hold_after_contact_s.unwrap() - 0.5).abs() < 1e-9, "{s:?}");
+        assert!(
+            (s.hold_after_contact_s.unwrap() - 0.5).abs() < 1e-9,
+            "{s:?}"
+        );
         assert!((s.steady_state_error_n.unwrap() - 0.02).abs() < 1e-9);
         // RMS over 300 rows from contact: 10 at 0.2 N, 290 at 0.02 N.
         let rms = ((10.0 * 0.04 + 290.0 * 0.0004) / 300.0f64).sqrt();
         assert!((s.rms_force_error_n.unwrap() - rms).abs() < 1e-12);
         assert!((s.max_off_axis_speed_mps - 0.002).abs() < 1e-12);
         assert!((s.max_off_axis_ratio.unwrap() - 0.2).abs() < 1e-12);
-        assert_eq!(
-            (s.aborted, s.reason, s.final_phase),
-            (false, None, "hold")
-        );
+        assert_eq!((s.aborted, s.reason, s.final_phase), (false, None, "hold"));
         assert_eq!((s.damped_periods, s.max_damping), (200, 0.01));
     }
 

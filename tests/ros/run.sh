@@ -6,9 +6,23 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 # shellcheck disable=SC1091
 . "${CARGO_TARGET_DIR:-target}/ros2/env.sh"
+# The independent plant of hold_sweep.py: MuJoCo and example-robot-data's
+# UR5 (pinned), into the ROS venv that runs the rclpy peer.
+if ! python -c 'import mujoco' 2>/dev/null ||
+  ! python -m pip show --quiet example-robot-data >/dev/null 2>&1; then
+  _ROS_WHEELS_BOOTSTRAP_COMPLETE=1 python -m pip install --quiet --disable-pip-version-check \
+    "mujoco==4.0.0" "example-robot-data==6.0.0"
+fi
 status=0
 for t in tests/ros/test_*.py; do
   echo "== $t"
   python "$t" || status=1
 done
+# Both moves with the shipped parameters, nothing declared, on an arm with
+# an 8 ms command cycle and bodies the controller is not told about: on our
+# simulator, and the guarded move on MuJoCo's UR5 (its guided move misses
+# the Fz bound there: docs/results.md).
+echo "== tests/ros/hold_sweep.py --grid ci"
+python tests/ros/hold_sweep.py --grid ci --plants ours || status=1
+python tests/ros/hold_sweep.py --grid ci --plants mujoco --moves guarded || status=1
 exit "$status"

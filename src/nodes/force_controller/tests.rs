@@ -98,7 +98,10 @@ fn a_task_switch_is_checked_as_at_start_up_and_refused_during_a_goal() {
     // Checked without a description: the guided move's speeds are beyond
     // the envelope of the guarded scene's bodies (anything, up to rigid).
     let e = n.set_task("guided", true).unwrap_err();
-    assert!(e.contains("pd.max_speed_mps") && e.contains("unknown"), "{e}");
+    assert!(
+        e.contains("pd.max_speed_mps") && e.contains("unknown"),
+        "{e}"
+    );
     // Checking alone changes nothing; applying switches.
     n.set_task("calibrate", false).unwrap();
     assert_eq!(n.status().values[0], ("task".into(), "guarded".into()));

@@ -1,0 +1,121 @@
+//! Both moves with one parameter set (nothing declared: the object
+//! `unknown` to the controller, the shipped loop bounds) in the embedded
+//! loop, across arms that take commands on a cycle of their own (2-16 ms),
+//! servo lags (0-30 ms) and bodies from 50 N/m to rigid, approaching at
+//! 10 mm/s; the guided move over the same latency grid. Prints one row per
+//! run against issue 34's bounds and exits 1 when a run misses one.
+//!
+//! ```sh
+//! cargo run --release --example hold_sweep
+//! ```
+//!
+//! The same sweep over DDS: tests/ros/hold_sweep.py.
+
+use std::process::ExitCode;
+
+use tactile_force::contact::BodyParams;
+use tactile_force::control::TaskKind;
+use tactile_force::learn::default_model::load_or_train;
+use tactile_force::report::summary::Summary;
+use tactile_force::runtime::demo::run_scene;
+use tactile_force::runtime::{Pacing, Scene};
+
+const CYCLES_S: [f64; 4] = [0.002, 0.004, 0.008, 0.016];
+const LAGS_S: [f64; 4] = [0.0, 0.01, 0.02, 0.03];
+const STIFFNESS_N_PER_M: [f64; 9] = [50.0, 100.0, 300.0, 1e3, 3e3, 1e4, 3.7e4, 1e5, 1e6];
+
+fn main() -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let mut missed = 0;
+    println!("guarded move, 10 mm/s, hold 1 N (bounds: hold, peak <= 1.1 N, |mean - 1| <= 0.05 N, sd <= 0.02 N)");
+    println!("cycle ms  lag ms  body N/m  result  peak N  |mean-1| N  sd N    contact->hold s");
+    let guarded = Scene::builtin(TaskKind::Guarded)?;
+    let (model, _) = load_or_train(&guarded.estimator.default_model, &mut || {})?;
+    for (cycle, lag) in grid() {
+        for k in STIFFNESS_N_PER_M {
+            let body = BodyParams {
+                stiffness_n_per_m: k,
+                damping_n_s_per_m: 0.06 * k.sqrt(),
+                friction: 0.5,
+            };
+            let mut s = guarded.clone().with_body("sweep", body);
+            s.controller.object = "unknown".into();
+            s.controller.safety.objects = vec!["unknown".into()];
+            s.sim.object = "sweep".into();
+            s.sim.duration_s = 12.0;
+            at(&mut s, cycle, lag);
+            let m = run_scene(&s, model.clone(), 1, Pacing::Lockstep, &mut |_| {})?.summary;
+            let ok = m.final_phase == "hold"
+                && m.peak_force_n <= 1.1
+                && m.steady_state_error_n.is_some_and(|e| e <= 0.05)
+                && m.final_sd_n.is_some_and(|sd| sd <= 0.02);
+            missed += usize::from(!ok);
+            println!(
+                "{:8.0}  {:6.0}  {k:8.0}  {:<6}  {:.3}   {:.4}      {:.4}  {}{}",
+                cycle * 1e3,
+                lag * 1e3,
+                m.final_phase,
+                m.peak_force_n,
+                m.steady_state_error_n.unwrap_or(f64::NAN),
+                m.final_sd_n.unwrap_or(f64::NAN),
+                figure(m.hold_after_contact_s),
+                if ok { "" } else { "  MISSED" }
+            );
+        }
+    }
+    println!("guided move, the finger of config/guided_move.yaml (bounds: RMS <= 0.3 N per axis, off-axis <= 10 %)");
+    println!("cycle ms  lag ms  RMS fx, fy, fz N       off-axis");
+    let guided = Scene::builtin(TaskKind::Guided)?;
+    let (model, _) = load_or_train(&guided.estimator.default_model, &mut || {})?;
+    for (cycle, lag) in grid() {
+        let mut s = guided.clone();
+        at(&mut s, cycle, lag);
+        let m = run_scene(&s, model.clone(), 1, Pacing::Lockstep, &mut |_| {})?.summary;
+        let ok = guided_ok(&m);
+        missed += usize::from(!ok);
+        let rms: Vec<String> = m
+            .rms_force_error_by_axis_n
+            .values()
+            .map(|e| format!("{e:.3}"))
+            .collect();
+        println!(
+            "{:8.0}  {:6.0}  {:<21}  {:.1} %{}",
+            cycle * 1e3,
+            lag * 1e3,
+            rms.join(" "),
+            100.0 * m.max_off_axis_ratio.unwrap_or(f64::NAN),
+            if ok { "" } else { "  MISSED" }
+        );
+    }
+    println!("{missed} runs missed a bound");
+    Ok(if missed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Every (command cycle, servo lag) pair of the sweep.
+fn grid() -> impl Iterator<Item = (f64, f64)> {
+    CYCLES_S
+        .into_iter()
+        .flat_map(|c| LAGS_S.into_iter().map(move |l| (c, l)))
+}
+
+/// The simulated arm takes commands every `cycle` s (pure latency), then
+/// through a servo lag of `lag` s.
+fn at(s: &mut Scene, cycle: f64, lag: f64) {
+    s.sim.command_cycle_s = cycle;
+    s.sim.command_latency_s = 0.0;
+    s.sim.velocity_lag_s = lag;
+}
+
+fn guided_ok(m: &Summary) -> bool {
+    m.final_phase != "stopped"
+        && m.rms_force_error_by_axis_n.len() == 3
+        && m.rms_force_error_by_axis_n.values().all(|&e| e <= 0.3)
+        && m.max_off_axis_ratio.is_some_and(|r| r <= 0.1)
+}
+
+fn figure(v: Option<f64>) -> String {
+    v.map_or("-".into(), |v| format!("{v:.2}"))
+}

@@ -1,0 +1,270 @@
+use super::*;
+
+fn params() -> GuardedParams {
+    GuardedParams {
+        direction: [0.0, 0.0, -2.0],
+        approach_speed_mps: 0.01,
+        target_force_n: 1.0,
+        contact_force_n: 0.15,
+        contact_pdc_counts: 30.0,
+        force_limit_n: 3.0,
+        max_distance_m: 0.05,
+        max_approach_s: 8.0,
+        retract_speed_mps: 0.01,
+        retract_distance_m: 0.005,
+        settle_band_n: 0.05,
+        settle_time_s: 0.1,
+        settle_sd_n: 0.02,
+    }
+}
+
+/// The loop of the tests: 10 ms, an envelope that assumed 40 ms.
+pub(crate) fn law() -> ForceLaw {
+    ForceLaw {
+        pd: crate::control::PdParams {
+            margins: crate::control::Margins {
+                phase_deg: 60.0,
+                gain: 2.5,
+            },
+            derivative_filter_s: 0.01,
+            max_speed_mps: 0.05,
+        }
+        .checked("pd")
+        .unwrap(),
+        skin: crate::contact::SkinParams {
+            force_scale_n: 0.5,
+            length_scale_mm: 1.2,
+            shear_stiffness_n_per_m: 1500.0,
+        },
+        oscillation: crate::control::OscillationParams {
+            threshold_n: 0.02,
+            gain_factor: 0.5,
+        },
+        reaction_s: 0.04,
+        period_s: 0.01,
+    }
+}
+
+/// A loop of 10 ms with no delay.
+const TIMING: LoopTiming = LoopTiming {
+    transport_s: 0.0,
+    latency_s: 0.0,
+    lag_s: 0.0,
+    period_s: 0.01,
+};
+
+/// A move with [`params`] expecting a stiff body.
+fn guarded() -> GuardedMove {
+    GuardedMove::new(params().checked("guarded").unwrap(), &law(), 1e5)
+}
+
+fn input(force_n: f64, travelled_m: f64) -> GuardedInput {
+    GuardedInput {
+        force_n,
+        pdc_rise: 0.0,
+        travelled_m,
+        out_of_range: false,
+        dt: 0.01,
+        fresh: true,
+        position_m: Some(travelled_m),
+        timing: TIMING,
+    }
+}
+
+/// The force of the skin in series with a body of stiffness `k` (N/m)
+/// pressed by `p` (m).
+fn press(p: f64, k: f64) -> f64 {
+    let skin = law().skin;
+    let (mut lo, mut hi) = (0.0, 100.0);
+    for _ in 0..60 {
+        let f = (lo + hi) / 2.0;
+        let x = 1.2e-3 * (f / skin.force_scale_n).ln_1p() + f / k;
+        if x > p {
+            hi = f;
+        } else {
+            lo = f;
+        }
+    }
+    if p > 0.0 {
+        lo
+    } else {
+        0.0
+    }
+}
+
+#[test]
+fn approach_contact_regulate_hold_and_the_body_found_on_the_way() {
+    for body in [300.0, 1e4] {
+        let mut g = guarded();
+        assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
+        // Object 5 mm away, ideal velocity tracking.
+        let mut x: f64 = 0.0;
+        let mut phases = vec![];
+        for _ in 0..600 {
+            let f = press(x - 0.005, body);
+            let v = g.speed(&input(f, x));
+            assert!(v <= 0.01 + 1e-12, "never faster than the approach");
+            x += v * 0.01;
+            if phases.last() != Some(&g.phase()) {
+                phases.push(g.phase());
+            }
+        }
+        assert_eq!(phases, [Phase::Approach, Phase::Regulate, Phase::Hold]);
+        assert!((press(x - 0.005, body) - 1.0).abs() < 0.01, "{body}");
+        assert_eq!(g.reason(), None);
+        let fitted = g.body().unwrap();
+        assert!((fitted / body - 1.0).abs() < 0.1, "{body}: {fitted}");
+    }
+}
+
+#[test]
+fn pdc_alone_detects_contact() {
+    let mut g = guarded();
+    g.speed(&GuardedInput {
+        pdc_rise: 40.0,
+        ..input(0.0, 0.001)
+    });
+    assert_eq!(g.phase(), Phase::Regulate);
+}
+
+#[test]
+fn nothing_touched_stops_at_the_distance_or_the_time() {
+    let mut g = guarded();
+    assert_eq!(g.speed(&input(0.0, 0.049)), 0.01);
+    assert_eq!(g.speed(&input(0.0, 0.05)), 0.0);
+    assert_eq!(
+        (g.phase(), g.reason()),
+        (Phase::Stopped, Some(StopReason::TravelLimit))
+    );
+    assert_eq!(g.speed(&input(0.0, 0.05)), 0.0, "stays stopped");
+    // An arm that does not move: the time limit.
+    let mut g = guarded();
+    let ticks = (0..10_000)
+        .position(|_| g.speed(&input(0.0, 0.0)) == 0.0)
+        .unwrap();
+    assert_eq!(ticks, 800, "8 s of approach");
+    assert_eq!(g.reason(), Some(StopReason::Timeout));
+}
+
+#[test]
+fn a_slower_loop_than_the_envelope_assumed_slows_the_approach() {
+    let mut g = guarded();
+    let slow = GuardedInput {
+        timing: LoopTiming {
+            latency_s: 0.05,
+            lag_s: 0.02,
+            ..TIMING
+        },
+        ..input(0.0, 0.0)
+    };
+    // 80 ms against the 40 ms assumed: half the speed.
+    assert!((g.speed(&slow) - 0.005).abs() < 1e-12);
+}
+
+#[test]
+fn a_hold_is_a_settled_force_and_an_oscillation_lowers_the_gain_then_retracts() {
+    let mut g = guarded();
+    g.speed(&input(1.0, 0.010));
+    // In the band but swinging +-0.04 N at 12.5 Hz: never settled; the
+    // gain lowered once, then a retract.
+    let swing = |k: usize| 1.0 + if k % 8 < 4 { 0.04 } else { -0.04 };
+    let mut k = 0;
+    while g.figures().softened == 0 {
+        g.speed(&input(swing(k), 0.011));
+        assert_ne!(g.phase(), Phase::Hold);
+        k += 1;
+        assert!(k < 100, "never detected");
+    }
+    assert!(k <= 40, "three cycles and the filter's settling: {k}");
+    while g.phase() == Phase::Regulate {
+        g.speed(&input(swing(k), 0.011));
+        k += 1;
+        assert!(k < 200, "never retracted");
+    }
+    assert_eq!(
+        (g.phase(), g.reason()),
+        (Phase::Retract, Some(StopReason::Oscillating))
+    );
+    // Steady within the band: a hold once the window is full.
+    let mut g = guarded();
+    g.speed(&input(0.5, 0.010));
+    let held = (0..20).position(|_| {
+        g.speed(&input(1.01, 0.011));
+        g.phase() == Phase::Hold
+    });
+    assert_eq!(held, Some(9), "the 10th estimate fills the window");
+    assert_eq!(g.figures().settled_sd_n, Some(0.0));
+}
+
+#[test]
+fn a_stopped_move_stays_still() {
+    let mut g = guarded();
+    assert_eq!(g.speed(&input(0.0, 0.0)), 0.01);
+    g.stop();
+    assert_eq!(g.speed(&input(0.0, 0.001)), 0.0);
+    assert_eq!((g.phase(), g.reason()), (Phase::Stopped, None));
+}
+
+#[test]
+fn regulating_never_goes_past_the_approach_distance() {
+    // A PDC rise from a touch behind the pad: contact, but the force
+    // along the approach direction stays below the target.
+    let mut g = guarded();
+    let touch = |travelled_m| GuardedInput {
+        pdc_rise: 100.0,
+        ..input(-1.0, travelled_m)
+    };
+    assert!(g.speed(&touch(0.0)) > 0.0);
+    assert_eq!(g.phase(), Phase::Regulate);
+    assert!(g.speed(&touch(0.049)) > 0.0);
+    assert_eq!(g.speed(&touch(0.05)), 0.0);
+    assert_eq!(
+        (g.phase(), g.reason()),
+        (Phase::Stopped, Some(StopReason::TravelLimit))
+    );
+}
+
+#[test]
+fn over_force_retracts_in_the_same_cycle_then_stops() {
+    for start in [Phase::Approach, Phase::Regulate] {
+        let mut g = guarded();
+        if start == Phase::Regulate {
+            g.speed(&input(0.5, 0.010));
+        }
+        let v = g.speed(&input(3.5, 0.012));
+        assert_eq!((v, g.phase()), (-0.01, Phase::Retract), "from {start:?}");
+        assert_eq!(g.speed(&input(0.0, 0.008)), -0.01);
+        assert_eq!(g.speed(&input(0.0, 0.007)), 0.0);
+        assert_eq!(
+            (g.phase(), g.reason()),
+            (Phase::Stopped, Some(StopReason::ForceLimit))
+        );
+    }
+}
+
+#[test]
+fn out_of_range_input_retracts_like_over_force() {
+    // Even over the limit (3 N): the estimate is not trusted.
+    for force_n in [1.0, 3.5] {
+        let mut g = guarded();
+        g.speed(&input(0.5, 0.010));
+        let v = g.speed(&GuardedInput {
+            out_of_range: true,
+            ..input(force_n, 0.011)
+        });
+        assert_eq!((v, g.phase()), (-0.01, Phase::Retract));
+        assert_eq!(g.reason(), Some(StopReason::OutOfRange), "{force_n} N");
+    }
+}
+
+#[test]
+fn bad_parameters_are_named() {
+    let mut p = params();
+    p.force_limit_n = 0.5;
+    let e = p.checked("guarded").unwrap_err().to_string();
+    assert!(e.contains("guarded.force_limit_n"), "{e}");
+    p = params();
+    p.direction = [0.0; 3];
+    let e = p.checked("guarded").unwrap_err().to_string();
+    assert!(e.contains("guarded.direction"), "{e}");
+}
