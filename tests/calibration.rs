@@ -9,10 +9,9 @@ use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::calibration::{pattern, CalibrateParams, Ended};
 use tactile_force::control::{StopReason, TaskKind};
 use tactile_force::kinematics::ShippedRobot;
-use tactile_force::learn::calibration::{fit, CalibrationError, Recorded};
+use tactile_force::learn::calibration::{fit, gp_params, CalibrationError, Recorded};
 use tactile_force::learn::data::Dataset;
 use tactile_force::learn::evaluate::score_model;
-use tactile_force::learn::models::gp::GpParams;
 use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::runtime::calibrate::{record, Recording};
 use tactile_force::runtime::demo::run_scene;
@@ -65,14 +64,7 @@ fn a_calibration_of_unit_2_makes_a_model_that_holds_the_guarded_move_on_every_ob
     // Before: the default model doubts unit 2's readings and stops.
     let before = guarded(2, "wooden_box", &current);
     assert_eq!(before.reason, Some("out_of_range"), "{before:?}");
-    let (calibrated, r) = fit(
-        &rec.records,
-        &current,
-        recorded(&rec),
-        3.0,
-        &GpParams::default(),
-    )
-    .unwrap();
+    let (calibrated, r) = fit(&rec.records, &current, recorded(&rec), &gp_params()).unwrap();
     let score = |name: &str| r.validation.iter().find(|v| v.model == name).unwrap().score;
     assert!(score(&r.chosen) < score("current"), "{r:?}");
     assert_eq!(calibrated.calibration(), Some(&r));
@@ -176,7 +168,7 @@ fn a_calibration_that_cannot_succeed_stops_the_arm_and_says_why() {
         .filter(|r| r.trial <= 3)
         .cloned()
         .collect();
-    let e = fit(&three, &model(), recorded(&rec), 3.0, &GpParams::default()).unwrap_err();
+    let e = fit(&three, &model(), recorded(&rec), &gp_params()).unwrap_err();
     assert!(
         matches!(e, CalibrationError::TooFew { pushes: 3, .. }),
         "{e}"

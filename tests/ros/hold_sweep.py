@@ -158,7 +158,7 @@ def guarded_mujoco(cycle_ms, lag_ms, k):
         got = guarded_result(client, node)
         time.sleep(3.0)
         forces = [(t, f[2]) for t, f in plant.truth]
-        return summarize(got, forces, idle)
+        return dict(summarize(got, forces, idle), behind=plant.behind_s)
     finally:
         plant.running = False
         physics.join(timeout=5)
@@ -221,7 +221,7 @@ def guided_mujoco(cycle_ms, lag_ms):
     spinner = Spinner(plant)
     try:
         plant.run(plant.path.duration + 2.0)
-        return guided_figures(*plant.guided_record())
+        return dict(guided_figures(*plant.guided_record()), behind=plant.behind_s)
     finally:
         spinner.stop()
         plant.destroy_node()
@@ -238,6 +238,11 @@ def guided_figures(forces, arm, finger):
     rms = [(sum((f[i] - target[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
     off, _ = dds.off_axis_ratio(arm, finger, t0 + 1.0)
     return {"ok": max(rms) <= 0.3 and off <= 0.1, "rms": rms, "off": off}
+
+
+def late(r):
+    """How far the MuJoCo plant fell behind real time, when it did (ms)."""
+    return f"  (plant up to {1e3 * r['behind']:.0f} ms late)" if r.get("behind", 0) > 0.005 else ""
 
 
 def main():
@@ -275,9 +280,10 @@ def sweep_guarded(guarded, plant, cycles, lags, bodies):
                 if "peak" in r:
                     print(f"{c:8d}  {lag:6d}  {body:>9}  {r['reason']:<7}  {r['peak']:.3f}   {r['err']:.4f}"
                           f"      {r['sd']:.4f}  {r['to_hold']:6.2f}           {r['k']:7.0f}  "
-                          f"{1e3 * r['delay']:6.1f}    {r['idle']}{'' if r['ok'] else '  MISSED'}", flush=True)
+                          f"{1e3 * r['delay']:6.1f}    {r['idle']}{late(r)}{'' if r['ok'] else '  MISSED'}",
+                          flush=True)
                 else:
-                    print(f"{c:8d}  {lag:6d}  {body:>9}  {r.get('why')}  MISSED", flush=True)
+                    print(f"{c:8d}  {lag:6d}  {body:>9}  {r.get('why')}{late(r)}  MISSED", flush=True)
     return failed
 
 
@@ -292,9 +298,9 @@ def sweep_guided(guided, plant, cycles, lags):
             failed += not r["ok"]
             if "rms" in r:
                 print(f"{c:8d}  {lag:6d}   {r['rms'][0]:.3f} {r['rms'][1]:.3f} {r['rms'][2]:.3f}"
-                      f"      {100 * r['off']:.1f} %{'' if r['ok'] else '  MISSED'}", flush=True)
+                      f"      {100 * r['off']:.1f} %{late(r)}{'' if r['ok'] else '  MISSED'}", flush=True)
             else:
-                print(f"{c:8d}  {lag:6d}   {r.get('why')}  MISSED", flush=True)
+                print(f"{c:8d}  {lag:6d}   {r.get('why')}{late(r)}  MISSED", flush=True)
     return failed
 
 

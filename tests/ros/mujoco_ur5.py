@@ -155,6 +155,7 @@ class Ur5Plant(Node):
         self.motion = []
         self.commands = 0
         self.nonzero = 0  # commands with a velocity that is not zero
+        self.behind_s = 0.0  # the most the physics fell behind real time
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_publisher(String, "/robot_description", latched).publish(String(data=self.urdf))
@@ -303,26 +304,27 @@ class Ur5Plant(Node):
         steps_per_cycle = max(1, round(self.cycle_s / PHYSICS_DT))
         steps_per_estimate = round(ESTIMATE_PERIOD / PHYSICS_DT)
         alpha = 1.0 if self.lag_s <= 0 else 1 - math.exp(-PHYSICS_DT / self.lag_s)
+        arm = [self.model.actuator(n).id for n in JOINTS]
+        finger = [self.model.actuator(f"finger_{i}").id for i in range(3)] if self.path else []
+        qpos = [self.model.joint(n).qposadr[0] for n in JOINTS]
         step = 0
         while self.running and step * PHYSICS_DT < seconds:
             t_sim = step * PHYSICS_DT
             ahead = t_sim - (time.monotonic() - start)
             if ahead > 0:
                 time.sleep(ahead)
+            self.behind_s = max(self.behind_s, -ahead)
             if step % steps_per_cycle == 0:
                 with self.lock:
                     # The command read at the last cycle acts from now.
                     self.acting, self.read = self.read, self.latest.copy()
-                js = JointState(name=JOINTS, position=[float(self.data.joint(n).qpos[0]) for n in JOINTS])
+                js = JointState(name=JOINTS, position=[float(self.data.qpos[i]) for i in qpos])
                 js.header.stamp = self.get_clock().now().to_msg()
                 self.joints.publish(js)
-            if self.path is not None:
-                offset = self.path.at(t_sim)
-                for i in range(3):
-                    self.data.actuator(f"finger_{i}").ctrl = offset[i]
+            if finger:
+                self.data.ctrl[finger] = self.path.at(t_sim)
             self.servo += (self.acting - self.servo) * alpha
-            for i, name in enumerate(JOINTS):
-                self.data.actuator(name).ctrl = self.servo[i]
+            self.data.ctrl[arm] = self.servo
             mujoco.mj_step(self.model, self.data)
             if step % steps_per_estimate == 0:
                 f = self.pad_force()
