@@ -115,14 +115,7 @@ impl Envelope {
 
     /// The fastest speed towards the body that peaks within the limit (m/s).
     pub fn max_speed_mps(&self) -> f64 {
-        self.max_speed_from_mps(self.trigger_n)
-    }
-
-    /// The fastest speed towards the body, pressing it already with `f`
-    /// (N, at least the trigger), that peaks within the limit (m/s).
-    pub fn max_speed_from_mps(&self, f: f64) -> f64 {
-        let left = self.compression(self.limit_n) - self.compression(f.max(self.trigger_n));
-        left.max(0.0) / self.reaction_s
+        (self.compression(self.limit_n) - self.compression(self.trigger_n)) / self.reaction_s
     }
 
     /// The predicted peak force at speed `v` (N): the root of

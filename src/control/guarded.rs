@@ -196,8 +196,6 @@ pub struct GuardedMove {
     stiffness: ContactStiffness,
     /// The body's stiffness assumed until fitted (N/m).
     prior_body: f64,
-    /// The safety envelope against that body, for the speed in contact.
-    envelope: Envelope,
     watchdog: OscillationDetector,
     softened: u32,
     settle: SettleWindow,
@@ -219,15 +217,6 @@ impl GuardedMove {
             pd: PdAxis::new(&law.pd, law.pd.margins, 0.0),
             stiffness: ContactStiffness::new(law.skin),
             prior_body,
-            envelope: Envelope {
-                skin: law.skin,
-                stiffness_n_per_m: prior_body,
-                shear: false,
-                trigger_n: p.contact_force_n,
-                target_n: p.target_force_n,
-                limit_n: p.force_limit_n,
-                reaction_s: law.reaction_s,
-            },
             watchdog: OscillationDetector::new(law.oscillation.threshold_n),
             softened: 0,
             settle: SettleWindow::new(window),
@@ -265,20 +254,7 @@ impl GuardedMove {
     /// `reaction_s`: slower by the share it exceeds what the safety
     /// envelope assumed, so that the force still peaks within its limit.
     fn approach_speed(&self, reaction_s: f64) -> f64 {
-        self.slowed(self.p.approach_speed_mps, reaction_s)
-    }
-
-    /// In contact with `force_n`: the approach speed, or faster where the
-    /// safety envelope allows it from that force (into a soft body, whose
-    /// force rises slowly), slowed as the approach is.
-    fn contact_speed(&self, force_n: f64, reaction_s: f64) -> f64 {
-        let envelope = self.envelope.max_speed_from_mps(force_n);
-        self.slowed(self.p.approach_speed_mps.max(envelope), reaction_s)
-    }
-
-    /// `v` slowed by the share `reaction_s` exceeds the envelope's reaction.
-    fn slowed(&self, v: f64, reaction_s: f64) -> f64 {
-        v * (self.law.reaction_s / reaction_s).min(1.0)
+        self.p.approach_speed_mps * (self.law.reaction_s / reaction_s).min(1.0)
     }
 
     fn retract(&mut self, reason: StopReason, travelled_m: f64) {
@@ -346,7 +322,7 @@ impl GuardedMove {
 
     /// In contact: the stiffness fit, the watchdog and the settling window
     /// take each new estimate; the speed is the PD's, never towards the
-    /// object faster than [`GuardedMove::contact_speed`].
+    /// object faster than the approach.
     fn regulate(&mut self, u: f64, i: &GuardedInput, reaction_s: f64) -> f64 {
         let p = self.p;
         if i.fresh {
@@ -381,7 +357,7 @@ impl GuardedMove {
         } else {
             Phase::Regulate
         };
-        u.min(self.contact_speed(i.force_n, reaction_s))
+        u.min(self.approach_speed(reaction_s))
     }
 }
 

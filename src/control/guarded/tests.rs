@@ -99,20 +99,11 @@ fn approach_contact_regulate_hold_and_the_body_found_on_the_way() {
         assert_eq!(g.direction(), Vector3::new(0.0, 0.0, -1.0));
         // Object 5 mm away, ideal velocity tracking.
         let mut x: f64 = 0.0;
-        let (mut phases, mut fastest) = (vec![], 0.0f64);
+        let mut phases = vec![];
         for _ in 0..600 {
             let f = press(x - 0.005, body);
             let v = g.speed(&input(f, x));
-            // In contact, faster only where the envelope allows it from f.
-            let allowed = if f >= 0.15 {
-                0.01f64.max(g.envelope.max_speed_from_mps(f))
-            } else {
-                0.01
-            };
-            assert!(v <= allowed + 1e-12, "{body}: {v} m/s at {f} N");
-            if f >= 0.15 {
-                fastest = fastest.max(v);
-            }
+            assert!(v <= 0.01 + 1e-12, "never faster than the approach");
             x += v * 0.01;
             if phases.last() != Some(&g.phase()) {
                 phases.push(g.phase());
@@ -123,8 +114,6 @@ fn approach_contact_regulate_hold_and_the_body_found_on_the_way() {
         assert_eq!(g.reason(), None);
         let fitted = g.body().unwrap();
         assert!((fitted / body - 1.0).abs() < 0.1, "{body}: {fitted}");
-        // Pressed faster than the approach, within the envelope.
-        assert!(fastest > 0.02, "{body}: {fastest} m/s");
     }
 }
 
