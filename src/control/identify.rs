@@ -329,6 +329,11 @@ impl AgeWindow {
 const CONTACT_SAMPLES: usize = 24;
 /// Least spread of the force in the window for a fit (N).
 const MIN_FORCE_SPREAD_N: f64 = 0.1;
+/// A reading joins the window once the BioTac moved this far (m) or the
+/// force changed this much (N, six times a 5 mN estimate noise) since the
+/// last that joined: a slow press into a soft body still spans the force.
+const SAMPLE_STEP_M: f64 = 2.5e-4;
+const SAMPLE_STEP_N: f64 = 0.03;
 
 /// The compliance of the body the BioTac presses, from force against
 /// position along the approach.
@@ -336,6 +341,8 @@ const MIN_FORCE_SPREAD_N: f64 = 0.1;
 pub struct ContactStiffness {
     skin: SkinParams,
     samples: Ring<(f64, f64), CONTACT_SAMPLES>,
+    /// The position and force of the last reading that joined (m, N).
+    last: Option<(f64, f64)>,
     /// The body's stiffness fitted last (N/m; infinite: rigid).
     body: Option<f64>,
 }
@@ -346,17 +353,25 @@ impl ContactStiffness {
         ContactStiffness {
             skin,
             samples: Ring::new((0.0, 0.0)),
+            last: None,
             body: None,
         }
     }
 
     /// Takes the position along the approach `x` (m) at the reading whose
-    /// pressing force is `f` (N), in contact; refits when the window's
-    /// forces spread enough. The body's stiffness when (re)fitted.
+    /// pressing force is `f` (N), in contact, when it moved or pressed
+    /// enough since the last it took; refits when the window's forces
+    /// spread enough. The body's stiffness when (re)fitted.
     pub fn push(&mut self, x: f64, f: f64) -> Option<f64> {
         if !(x.is_finite() && f.is_finite() && f > 0.0) {
             return None;
         }
+        if let Some((x1, f1)) = self.last {
+            if (x - x1).abs() < SAMPLE_STEP_M && (f - f1).abs() < SAMPLE_STEP_N {
+                return None;
+            }
+        }
+        self.last = Some((x, f));
         let x0 = self.skin.length_scale_mm * 1e-3;
         let y = x - x0 * (f / self.skin.force_scale_n).ln_1p();
         self.samples.push((f, y));

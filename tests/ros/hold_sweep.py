@@ -35,7 +35,7 @@ import time
 
 import rclpy
 from rclpy.action import ActionClient
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from std_msgs.msg import Float64MultiArray
@@ -83,10 +83,11 @@ def guarded_result(client, node, timeout=30.0):
 
 
 class Spinner:
-    """An executor spinning `nodes` on a thread of its own."""
+    """An executor spinning `nodes` on a thread of its own (one thread: the
+    plant's physics needs the rest of the interpreter)."""
 
     def __init__(self, *nodes):
-        self.executor = MultiThreadedExecutor()
+        self.executor = SingleThreadedExecutor()
         for n in nodes:
             self.executor.add_node(n)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)

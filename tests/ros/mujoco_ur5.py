@@ -15,8 +15,9 @@ linear), whose spring force is the force the controller is given, as
 this plant replaces the BioTac and its estimator, not the controller. The
 pad touches, through MuJoCo's contacts (friction 1):
 
-- `object`: a plate 10 mm under the pad on a spring of the stiffness asked
-  (N/m), along the pad's normal, or fixed (`rigid`);
+- `object`: a plate of 50 g 10 mm under the pad on a spring of the
+  stiffness asked (N/m), along the pad's normal, damped at half the
+  critical damping (a soft body does not ring), or fixed (`rigid`);
 - `finger`: a fingertip (flat, 30 mm square) under the pad that follows the guided scene's path
   (config/guided_move.yaml: waits, minimum-jerk pushes and circles, in the
   BioTac frame at the start) on position servos of 300 N/m (a person's
@@ -66,6 +67,11 @@ NOSLIP_ITERATIONS = 10
 FINGER_STIFFNESS = 300.0
 FINGER_DAMPING = 3.0
 PHYSICS_DT = 0.0005
+# The object's plate (kg) and its damping ratio on its spring.
+PLATE_MASS = 0.05
+PLATE_DAMPING_RATIO = 0.5
+# The servos, the finger and the command cycles move in ticks of 1 ms.
+TICK = 0.001
 ESTIMATE_PERIOD = 0.01
 NOISE_N = 0.005
 
@@ -226,8 +232,8 @@ class Ur5Plant(Node):
             else:
                 obj = world.add_body(name="object", pos=centre, quat=q)
                 obj.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1], stiffness=arg,
-                              damping=0.06 * math.sqrt(arg))
-                obj.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, plate_half], mass=0.05,
+                              damping=PLATE_DAMPING_RATIO * 2.0 * math.sqrt(arg * PLATE_MASS))
+                obj.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, plate_half], mass=PLATE_MASS,
                              friction=[1.0, 0.005, 0.0001], solref=CONTACT_SOLREF)
             self.path = None
         else:
@@ -299,22 +305,24 @@ class Ur5Plant(Node):
         msg.header.frame_id = "biotac"
 
     def run(self, seconds):
-        """Runs the plant in real time for `seconds`, publishing as it goes."""
+        """Runs the plant in real time for `seconds`, publishing as it goes:
+        the servos and the finger move every TICK, the physics in between."""
         start = time.monotonic()
-        steps_per_cycle = max(1, round(self.cycle_s / PHYSICS_DT))
-        steps_per_estimate = round(ESTIMATE_PERIOD / PHYSICS_DT)
-        alpha = 1.0 if self.lag_s <= 0 else 1 - math.exp(-PHYSICS_DT / self.lag_s)
+        steps = round(TICK / PHYSICS_DT)
+        ticks_per_cycle = max(1, round(self.cycle_s / TICK))
+        ticks_per_estimate = round(ESTIMATE_PERIOD / TICK)
+        alpha = 1.0 if self.lag_s <= 0 else 1 - math.exp(-TICK / self.lag_s)
         arm = [self.model.actuator(n).id for n in JOINTS]
         finger = [self.model.actuator(f"finger_{i}").id for i in range(3)] if self.path else []
         qpos = [self.model.joint(n).qposadr[0] for n in JOINTS]
-        step = 0
-        while self.running and step * PHYSICS_DT < seconds:
-            t_sim = step * PHYSICS_DT
+        tick = 0
+        while self.running and tick * TICK < seconds:
+            t_sim = tick * TICK
             ahead = t_sim - (time.monotonic() - start)
             if ahead > 0:
                 time.sleep(ahead)
             self.behind_s = max(self.behind_s, -ahead)
-            if step % steps_per_cycle == 0:
+            if tick % ticks_per_cycle == 0:
                 with self.lock:
                     # The command read at the last cycle acts from now.
                     self.acting, self.read = self.read, self.latest.copy()
@@ -325,18 +333,22 @@ class Ur5Plant(Node):
                 self.data.ctrl[finger] = self.path.at(t_sim)
             self.servo += (self.acting - self.servo) * alpha
             self.data.ctrl[arm] = self.servo
-            mujoco.mj_step(self.model, self.data)
-            if step % steps_per_estimate == 0:
-                f = self.pad_force()
-                t = self.now()
-                self.truth.append((t, f))
-                self.record_motion(t)
-                mean, std = WrenchStamped(), WrenchStamped()
-                self.stamp(mean, t)
-                self.stamp(std, t)
-                noisy = f + self.rng.normal(0, NOISE_N, 3)
-                mean.wrench.force.x, mean.wrench.force.y, mean.wrench.force.z = (float(v) for v in noisy)
-                std.wrench.force.x = std.wrench.force.y = std.wrench.force.z = NOISE_N
-                self.mean.publish(mean)
-                self.std.publish(std)
-            step += 1
+            mujoco.mj_step(self.model, self.data, steps)
+            if tick % ticks_per_estimate == 0:
+                self.publish_estimate()
+            tick += 1
+
+    def publish_estimate(self):
+        """The pad's force, stamped now, with noise, as the estimator's."""
+        f = self.pad_force()
+        t = self.now()
+        self.truth.append((t, f))
+        self.record_motion(t)
+        mean, std = WrenchStamped(), WrenchStamped()
+        self.stamp(mean, t)
+        self.stamp(std, t)
+        noisy = f + self.rng.normal(0, NOISE_N, 3)
+        mean.wrench.force.x, mean.wrench.force.y, mean.wrench.force.z = (float(v) for v in noisy)
+        std.wrench.force.x = std.wrench.force.y = std.wrench.force.z = NOISE_N
+        self.mean.publish(mean)
+        self.std.publish(std)

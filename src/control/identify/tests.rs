@@ -130,6 +130,19 @@ fn the_body_behind_the_skin_is_found_from_force_against_position() {
             "{body}: body {k}, {got} vs {truth}"
         );
     }
+    // A slow press into a soft body: 2 mN more per reading, 24 readings
+    // spread less than the fit needs, the readings kept span it.
+    let mut s = ContactStiffness::new(skin);
+    let mut fitted = None;
+    for i in 0..425 {
+        let f = 0.15 + 0.002 * i as f64;
+        let x = 0.02 + 1.2e-3 * (f / 0.5f64).ln_1p() + f / 50.0;
+        fitted = s.push(x, f + rng.random_range(-0.005..0.005)).or(fitted);
+    }
+    assert!(
+        fitted.is_some_and(|k| (k / 50.0 - 1.0).abs() < 0.1),
+        "{fitted:?}"
+    );
     // Until fitted, the prior stands in.
     let s = ContactStiffness::new(skin);
     let prior = s.effective(1.0, 300.0);
