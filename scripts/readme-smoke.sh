@@ -9,8 +9,8 @@
 #   scripts/readme-smoke.sh --test-command   print the Quickstart's test command
 #                                            (.ci/run runs what this prints)
 #
-# A line passes when it exits 0 and every file it names with --out, --plot or
-# --csv exists and is not empty. The default models are trained afresh (an
+# A line passes when it exits 0 (or N, for a line that ends `# exits N`) and
+# every file it names with --out, --plot or --csv exists and is not empty. The default models are trained afresh (an
 # empty TACTILE_FORCE_CACHE), as on a new machine. Each page runs on its own:
 # the files its lines write are removed before the next page (unless they
 # were there before), so no page needs another's.
@@ -53,9 +53,17 @@ for page in "${pages[@]}"; do
       esac
     done
     for f in "${outputs[@]}"; do [ -e "$f" ] || created+=("$f"); done
+    # A line that documents a refusal or a failure says so: `# exits N`.
+    expected=0
+    if [[ $line =~ \#\ exits\ ([0-9]+) ]]; then expected=${BASH_REMATCH[1]}; fi
     echo "readme-smoke: $page: \$ $line"
     start=$SECONDS
-    bash -c "$line"
+    rc=0
+    bash -c "$line" || rc=$?
+    [ "$rc" -eq "$expected" ] || {
+      echo "readme-smoke: '$line' ($page) exited $rc, expected $expected" >&2
+      exit 1
+    }
     for f in "${outputs[@]}"; do
       [ -s "$f" ] || { echo "readme-smoke: '$line' ($page) did not write $f" >&2; exit 1; }
     done
