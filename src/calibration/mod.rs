@@ -1,6 +1,6 @@
 //! The calibration of a mounted BioTac on the robot, from the pattern to
 //! the recording: the arm presses a calibration block in a scripted
-//! pattern ([`pattern`]) as a task of the force controller ([`task`]), with
+//! pattern ([`mod@pattern`]) as a task of the force controller ([`task`]), with
 //! the wrist's F/T sensor as the force; a goal puts that task on the
 //! surface to press ([`goal`]); the F/T wrenches and the BioTac's readings
 //! are paired and recorded ([`recorder`]). The model is then fitted on the

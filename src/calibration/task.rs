@@ -1,5 +1,5 @@
 //! The calibration task: the arm presses the BioTac on a known surface (a
-//! calibration block) in the pattern ([`super::pattern`]), with the F/T
+//! calibration block) in the pattern ([`mod@super::pattern`]), with the F/T
 //! sensor, not the BioTac, as its force feedback, so that a model can be
 //! trained on what the BioTac reads. Each push is a trial of the recording,
 //! and starts with a rest out of contact (its tare).

@@ -165,14 +165,14 @@ impl ArmTrack {
         None
     }
 
-    /// The velocity at `t`, from the positions [`VELOCITY_SPAN_S`] apart
+    /// The velocity at `t`, from the positions `VELOCITY_SPAN_S` apart
     /// that end there; None outside what is kept.
     pub fn velocity_at(&self, t: f64) -> Option<Vector3<f64>> {
         let (p1, p0) = (self.position_at(t)?, self.position_at(t - VELOCITY_SPAN_S)?);
         Some((p1 - p0) / VELOCITY_SPAN_S)
     }
 
-    /// The arm's latency and lag fitted on the last [`FIT_WINDOW_S`], when
+    /// The arm's latency and lag fitted on the last `FIT_WINDOW_S`, when
     /// the commands moved the arm enough and the fit explains most of it.
     pub fn fit(&self) -> Option<ArmResponse> {
         let (t_end, _) = self.positions.last()?;

@@ -1,7 +1,7 @@
 //! A stability watchdog: sustained oscillation of the force.
 //!
 //! The force, less its slow part (a first-order low-pass at
-//! [`SLOW_HZ`]), swings about zero. A swing is counted when it passes
+//! `SLOW_HZ`), swings about zero. A swing is counted when it passes
 //! `+threshold` after `-threshold`, or the reverse (hysteresis: noise
 //! smaller than the threshold crosses nothing). Consecutive swings whose
 //! half periods lie in the 3-30 Hz band build a count; a half period

@@ -1,5 +1,5 @@
 //! `force_controller`: `joint_states` (sensor_msgs/JointState),
-//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`] ->
+//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`](crate::nodes::controller::ForceController) ->
 //! `velocity_controller/commands` (std_msgs/Float64MultiArray, one velocity
 //! per joint in chain order: the ros2_control JointGroupVelocityController
 //! convention), or with `command_interface: twist`, `twist_commands`
@@ -16,10 +16,12 @@
 //!
 //! The controller steps on each new estimate (the mean and the std of one
 //! reading both in), so an estimate acts as soon as it arrives rather than
-//! up to a period later on a timer of its own. With no estimate for 1.5
-//! periods it commands zero velocity, every period, until estimates return
-//! ([`ForceController::estimate_late`]). The age of each estimate's reading
-//! when stepped on is measured from its stamp ([`LoopDelayMonitor`]) and
+//! up to a period later on a timer of its own. With no estimate for longer
+//! than the bound it measured, it commands zero velocity, every period,
+//! until estimates return
+//! ([`estimate_late`](crate::nodes::controller::ForceController::estimate_late)).
+//! The age of each estimate's reading when stepped on is measured from its
+//! stamp ([`LoopDelayMonitor`](crate::nodes::loop_delay::LoopDelayMonitor)) and
 //! reported on `/diagnostics` once a second, with a warning when it exceeds
 //! what the gains assume.
 //!

@@ -235,7 +235,7 @@ mod tests {
             Parameter::new(ParameterValue::String("carton_box".into())),
         );
         params.insert(
-            "pd.gain_ratio".to_string(),
+            "pd.derivative_filter_s".to_string(),
             Parameter::new(ParameterValue::String("fast".into())),
         );
         declare(&mut params, &defaults, |_| "test");
@@ -248,12 +248,12 @@ mod tests {
             "{err}"
         );
         params.insert(
-            "pd.gain_ratio".to_string(),
+            "pd.derivative_filter_s".to_string(),
             Parameter::new(ParameterValue::Integer(1)),
         );
         let p: crate::control::ControllerParams = read(&params, &[], "force_controller").unwrap();
         assert_eq!(p.object, "carton_box");
-        assert_eq!(p.pd.gain_ratio, 1.0);
+        assert_eq!(p.pd.derivative_filter_s, 1.0);
     }
 
     #[test]
@@ -276,7 +276,7 @@ mod tests {
             err.contains("task") && err.contains("expected guided"),
             "{err}"
         );
-        let err = p.check_parameter("pd.gain_ratio", &guided).unwrap_err();
+        let err = p.check_parameter("pd.max_speed_mps", &guided).unwrap_err();
         assert!(err.to_string().contains("read at start-up only"), "{err}");
         let err = RuntimeParams::none().check_parameter("task", &guided);
         assert!(err
