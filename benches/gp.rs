@@ -31,7 +31,7 @@ fn data() -> Dataset {
     write_csv(file.path(), &records).expect("write CSV");
     let mut ds = Dataset::read_csv(
         file.path(),
-        &electrode_columns(),
+        &electrode_columns(tactile_force::biotac::ElectrodeLayout::Biotac),
         &"fx,fy,fz".parse().unwrap(),
         Counts::Raw,
     )

@@ -42,7 +42,7 @@ fn valid_stream(rng: &mut ChaCha8Rng) -> Vec<u8> {
             let reading = BioTacReading {
                 seq: 0,
                 stamp_s: 0.0,
-                electrodes: std::array::from_fn(|_| value()),
+                electrodes: std::array::from_fn::<u16, 19, _>(|_| value()).into(),
                 pdc: value(),
                 pac: std::array::from_fn(|_| value()),
                 tdc: value(),

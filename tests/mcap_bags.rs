@@ -28,7 +28,7 @@ fn read(name: &str) -> Result<Bag, BagError> {
 #[test]
 #[ignore = "needs tests/bag/run.sh (Python mcap writer)"]
 fn the_good_bag_gives_every_csv_row_with_its_values() {
-    let mut features = electrode_columns();
+    let mut features = electrode_columns(tactile_force::biotac::ElectrodeLayout::Biotac);
     features.extend(["pdc", "tdc", "tac", "pac_mean"].map(String::from));
     let axes = AxisSet::new(Axis::ALL.to_vec()).unwrap();
     let csv =

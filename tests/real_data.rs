@@ -6,6 +6,7 @@
 
 use std::path::PathBuf;
 
+use tactile_force::biotac::ElectrodeLayout;
 use tactile_force::learn::choice::{select, Choice};
 use tactile_force::learn::data::{channel_columns, Channel, Counts, Dataset};
 use tactile_force::learn::evaluate::{cross_validate, EvalOptions};
@@ -59,7 +60,7 @@ fn recording_fz(features: &[String]) -> (Dataset, TareSpec) {
 /// Per press and overall: (RMSE, R2) of the GP on fz with the options of
 /// `choice`, each press tested on a model of the other two (learn::evaluate).
 fn leave_one_press_out(choice: &Choice) -> (Vec<(f64, f64)>, (f64, f64)) {
-    let (ds, tare) = recording_fz(&choice.features());
+    let (ds, tare) = recording_fz(&choice.features(ElectrodeLayout::Biotac));
     let opts = EvalOptions {
         scaling: choice.input,
         max_train: 2000,
@@ -110,7 +111,7 @@ fn select_picks_what_leaving_one_press_out_favours() {
         Channel::Tdc,
         Channel::Tac,
     ];
-    let (ds, tare) = recording_fz(&channel_columns(&every));
+    let (ds, tare) = recording_fz(&channel_columns(&every, ElectrodeLayout::Biotac));
     let s = select(&ds, &tare, 5, 600.0, &GpParams::default(), &mut |_, _| {}).unwrap();
     assert_eq!(s.folds, 3, "three presses: leave one press out");
     assert!(s.untried.is_empty(), "{:?}", s.untried);

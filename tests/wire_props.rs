@@ -48,7 +48,7 @@ fn reading() -> impl Strategy<Value = BioTacReading> {
             |(electrodes, pac, [pdc, tdc, tac], seq, stamp_s)| BioTacReading {
                 seq,
                 stamp_s,
-                electrodes,
+                electrodes: electrodes.into(),
                 pdc,
                 pac,
                 tdc,
@@ -223,7 +223,7 @@ fn push_allocates_nothing() {
     let r = BioTacReading {
         seq: 0,
         stamp_s: 0.0,
-        electrodes: [2000; 19],
+        electrodes: [2000; 19].into(),
         pdc: 1500,
         pac: [2048; 22],
         tdc: 2600,

@@ -11,7 +11,7 @@
 
 use nalgebra::Vector3;
 
-use super::N_ELECTRODES;
+use super::{ElectrodeLayout, MAX_ELECTRODES, N_ELECTRODES};
 
 /// Radius of the skin capsule (mm). Architecture page, "Reference facts / BioTac".
 pub const SKIN_RADIUS_MM: f64 = 7.0;
@@ -95,6 +95,26 @@ pub const ELECTRODES: [Electrode; N_ELECTRODES] = [
     E19,
 ];
 
+/// The simulator's E20..E24 of a BioTac SP: a modelling choice, not
+/// SynTouch's SP layout (which we have not found published). Five more
+/// electrodes on the pad, where forces on the pad fall, so 24-electrode
+/// readings carry more than 19: E20 on the midline between E17 and E18,
+/// E21..E24 at 2.5 mm either side of the midline, at E17..E18 and E18..E19's
+/// midpoints, on the core (radius 5.08 mm, E17..E19's depth).
+pub const SP_EXTRA: [Electrode; MAX_ELECTRODES - N_ELECTRODES] = [
+    electrode([-6.300, 0.0, -5.080], [0.0, 0.0, -1.0]),
+    electrode([-6.300, -2.500, -4.422], [0.0, -0.492, -0.870]),
+    mirror_y(electrode([-6.300, -2.500, -4.422], [0.0, -0.492, -0.870])),
+    electrode([-11.700, -2.500, -4.422], [0.0, -0.492, -0.870]),
+    mirror_y(electrode([-11.700, -2.500, -4.422], [0.0, -0.492, -0.870])),
+];
+
+/// The electrodes of `layout`, E1 first: [`ELECTRODES`], then [`SP_EXTRA`]
+/// for a BioTac SP.
+pub fn electrodes(layout: ElectrodeLayout) -> impl Iterator<Item = &'static Electrode> {
+    ELECTRODES.iter().chain(&SP_EXTRA).take(layout.count())
+}
+
 /// A point on the skin capsule with its outward unit normal (core frame, mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfacePoint {
@@ -177,7 +197,7 @@ mod tests {
 
     #[test]
     fn electrode_normals_are_unit_vectors() {
-        for (i, e) in ELECTRODES.iter().enumerate() {
+        for (i, e) in electrodes(ElectrodeLayout::BiotacSp).enumerate() {
             let n = e.normal().norm();
             assert!((n - 1.0).abs() < 0.01, "E{} normal has norm {n}", i + 1);
         }
@@ -196,7 +216,9 @@ mod tests {
 
     #[test]
     fn electrodes_sit_about_1_9_mm_under_the_skin_and_on_the_pad_side() {
-        for (i, e) in ELECTRODES.iter().enumerate() {
+        assert_eq!(electrodes(ElectrodeLayout::Biotac).count(), 19);
+        assert_eq!(electrodes(ElectrodeLayout::BiotacSp).count(), 24);
+        for (i, e) in electrodes(ElectrodeLayout::BiotacSp).enumerate() {
             let p = e.position();
             let s = SurfacePoint::project(&p);
             let depth = (s.point_mm - p).norm();

@@ -11,7 +11,10 @@ pub mod tare;
 pub mod wire;
 
 pub use driver::HoldLastGood;
-pub use reading::{BioTacReading, ADC_MAX, FRAME_PERIOD_S, N_ELECTRODES, N_PAC};
+pub use reading::{
+    BioTacReading, ElectrodeLayout, Electrodes, ADC_MAX, FRAME_PERIOD_S, MAX_ELECTRODES,
+    N_ELECTRODES, N_PAC,
+};
 pub use sim::{BioTacSim, BioTacSimConfig, Contact};
 pub use tare::{Tare, TareError};
 pub use wire::{ChannelMask, DecodedFrame, Decoder, DecoderStats, FrameError, WordError};

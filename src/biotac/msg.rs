@@ -11,7 +11,7 @@
 
 use serde_json::{json, Value};
 
-use crate::biotac::reading::{N_ELECTRODES, N_PAC};
+use crate::biotac::reading::{Electrodes, MAX_ELECTRODES, N_ELECTRODES, N_PAC};
 use crate::biotac::{BioTacReading, ADC_MAX};
 use crate::exit::{Classify, ExitClass};
 
@@ -34,6 +34,9 @@ pub enum BioTacMsgError {
         /// Nanoseconds.
         nanosec: u32,
     },
+    /// An electrode count no BioTac has.
+    #[error("BioTac message: {0}")]
+    Layout(#[from] crate::biotac::reading::LayoutError),
     /// A count above the 12-bit range.
     #[error("BioTac message: `{field}` = {value} is above 4095")]
     Range {
@@ -97,16 +100,42 @@ pub fn to_json(r: &BioTacReading, meta: &BioTacMeta) -> Value {
     })
 }
 
-/// The message's fields in CDR order (`msg/msg/BioTac.msg`).
+/// How a message's `electrodes` field is laid out: the sequence of today's
+/// `msg/msg/BioTac.msg`, or the fixed `uint16[19]` of messages recorded
+/// before the BioTac SP (their bags' schema says so).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ElectrodeField {
+    /// `uint16[] electrodes`: 19 or 24 values.
+    Sequence,
+    /// `uint16[19] electrodes`.
+    Fixed19,
+}
+
+impl ElectrodeField {
+    /// The layout a message definition (a bag's schema text) declares.
+    pub fn of_definition(definition: &str) -> Self {
+        let fixed = definition.lines().any(|l| {
+            let code = l.split('#').next().unwrap_or("");
+            code.split_whitespace().eq(["uint16[19]", "electrodes"])
+        });
+        match fixed {
+            true => ElectrodeField::Fixed19,
+            false => ElectrodeField::Sequence,
+        }
+    }
+}
+
+/// The message's fields in CDR order (`msg/msg/BioTac.msg`), electrodes
+/// as `E` (a sequence, or the older fixed array).
 #[derive(serde::Serialize, serde::Deserialize)]
-struct CdrBioTac {
+struct CdrBioTac<E> {
     sec: i32,
     nanosec: u32,
     frame_id: String,
     serial: String,
     sensor_index: u8,
     seq: u16,
-    electrodes: [u16; N_ELECTRODES],
+    electrodes: E,
     pdc: u16,
     pac: [u16; N_PAC],
     tdc: u16,
@@ -182,14 +211,22 @@ impl<'a> CdrLengths<'a> {
 
 /// Checks every string and sequence length of a BioTac message in `bytes`
 /// ([`CdrLengths`]).
-fn check_lengths(bytes: &[u8]) -> Result<(), BioTacMsgError> {
+fn check_lengths(bytes: &[u8], field: ElectrodeField) -> Result<(), BioTacMsgError> {
     let walk = || -> Result<(), &'static str> {
         let mut cdr = CdrLengths::new(bytes)?;
         cdr.skip(4, 8); // stamp: sec, nanosec
         cdr.string()?; // frame_id
         cdr.string()?; // serial
         cdr.skip(1, 1); // sensor_index
-        cdr.skip(2, 2 * (1 + N_ELECTRODES + 1 + N_PAC + 2)); // seq .. tac
+        cdr.skip(2, 2); // seq
+        let electrodes = match field {
+            ElectrodeField::Fixed19 => N_ELECTRODES,
+            ElectrodeField::Sequence => cdr.length()?,
+        };
+        if electrodes > MAX_ELECTRODES {
+            return Err("more electrodes than a BioTac SP has");
+        }
+        cdr.skip(2, 2 * (electrodes + 1 + N_PAC + 2)); // electrodes .. tac
         let channels = cdr.length()?;
         // Each name takes at least its 4-byte length.
         if channels > cdr.left() / 4 {
@@ -202,10 +239,31 @@ fn check_lengths(bytes: &[u8]) -> Result<(), BioTacMsgError> {
 
 /// The reading in a serialized message (CDR, with its encapsulation
 /// header, as DDS delivers it); refuses bytes that do not decode, stamps
-/// that are not times and counts above 4095.
+/// that are not times, an electrode count no BioTac has and counts above
+/// 4095.
 pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
-    check_lengths(bytes)?;
-    let m: CdrBioTac = cdr::deserialize(bytes).map_err(|e| BioTacMsgError::Cdr(e.to_string()))?;
+    from_cdr_as(bytes, ElectrodeField::Sequence)
+}
+
+/// [`from_cdr`] for a message whose electrodes are laid out as `field`.
+pub fn from_cdr_as(
+    bytes: &[u8],
+    field: ElectrodeField,
+) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
+    check_lengths(bytes, field)?;
+    let cdr_error = |e: cdr::Error| BioTacMsgError::Cdr(e.to_string());
+    let m: CdrBioTac<Electrodes> = match field {
+        ElectrodeField::Sequence => {
+            let m: CdrBioTac<Vec<u16>> = cdr::deserialize(bytes).map_err(cdr_error)?;
+            let electrodes = Electrodes::from_slice(&m.electrodes)?;
+            m.with_electrodes(electrodes)
+        }
+        ElectrodeField::Fixed19 => {
+            let m: CdrBioTac<[u16; N_ELECTRODES]> = cdr::deserialize(bytes).map_err(cdr_error)?;
+            let electrodes = m.electrodes.into();
+            m.with_electrodes(electrodes)
+        }
+    };
     if m.sec < 0 || m.nanosec >= 1_000_000_000 {
         return Err(BioTacMsgError::Stamp {
             sec: m.sec,
@@ -249,7 +307,27 @@ pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
         .expect("CDR of a BioTac message")
 }
 
-impl CdrBioTac {
+impl<E> CdrBioTac<E> {
+    /// The same fields with `electrodes`.
+    fn with_electrodes<F>(self, electrodes: F) -> CdrBioTac<F> {
+        CdrBioTac {
+            sec: self.sec,
+            nanosec: self.nanosec,
+            frame_id: self.frame_id,
+            serial: self.serial,
+            sensor_index: self.sensor_index,
+            seq: self.seq,
+            electrodes,
+            pdc: self.pdc,
+            pac: self.pac,
+            tdc: self.tdc,
+            tac: self.tac,
+            invalid_channels: self.invalid_channels,
+        }
+    }
+}
+
+impl CdrBioTac<Vec<u16>> {
     /// The message's fields for `r` and `meta`.
     fn new(r: &BioTacReading, meta: &BioTacMeta) -> Self {
         let (sec, nanosec) = split_stamp(r.stamp_s);
@@ -260,7 +338,7 @@ impl CdrBioTac {
             serial: meta.serial.clone(),
             sensor_index: meta.sensor_index,
             seq: r.seq,
-            electrodes: r.electrodes,
+            electrodes: r.electrodes.to_vec(),
             pdc: r.pdc,
             pac: r.pac,
             tdc: r.tdc,
@@ -299,7 +377,7 @@ mod tests {
         BioTacReading {
             seq: 65535,
             stamp_s: 12.25,
-            electrodes: std::array::from_fn(|i| 100 * i as u16 + 7),
+            electrodes: std::array::from_fn::<u16, 19, _>(|i| 100 * i as u16 + 7).into(),
             pdc: 2000,
             pac: std::array::from_fn(|i| 2048 + i as u16),
             tdc: 1800,
@@ -333,17 +411,15 @@ mod tests {
                 "uint16" => assert!(x.as_u64().unwrap() <= u16::MAX as u64, "{name}"),
                 "uint16[]" => {
                     let a = x.as_array().unwrap();
-                    assert_eq!(Some(a.len()), *len, "{name}");
+                    assert_eq!(len.unwrap_or(N_ELECTRODES), a.len(), "{name}");
                     assert!(a.iter().all(|e| e.as_u64().unwrap() <= 4095), "{name}");
                 }
                 "string[]" => assert!(x.as_array().unwrap().iter().all(Value::is_string)),
                 other => panic!("field {name}: type {other} not handled"),
             }
         }
-        assert_eq!(
-            fields.iter().find(|f| f.0 == "electrodes").unwrap().2,
-            Some(N_ELECTRODES)
-        );
+        // A sequence: 19 electrodes, or 24 from a BioTac SP.
+        assert_eq!(fields.iter().find(|f| f.0 == "electrodes").unwrap().2, None);
         assert_eq!(fields.iter().find(|f| f.0 == "pac").unwrap().2, Some(N_PAC));
     }
 
@@ -378,6 +454,15 @@ mod tests {
         // Big-endian CDR decodes too.
         let be = cdr::serialize::<_, _, cdr::CdrBe>(&m, cdr::Infinite).unwrap();
         assert_eq!(from_cdr(&be).unwrap().0, r);
+        // 24 electrodes: a BioTac SP's; 20 are no sensor's.
+        let mut sp = r;
+        sp.electrodes = Electrodes::from_slice(&[3000; MAX_ELECTRODES]).unwrap();
+        assert_eq!(from_cdr(&to_cdr(&sp, &meta)).unwrap().0, sp);
+        let mut odd = CdrBioTac::new(&r, &meta);
+        odd.electrodes = vec![3000; 20];
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&odd, cdr::Infinite).unwrap();
+        let err = from_cdr(&bytes).unwrap_err().to_string();
+        assert!(err.contains("20 electrodes"), "{err}");
         m.pac[3] = 5000;
         let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
         let err = from_cdr(&bytes).unwrap_err().to_string();
@@ -406,7 +491,7 @@ mod tests {
             serial: String::new(),
             sensor_index: 0,
             seq: 0,
-            electrodes: [0; N_ELECTRODES],
+            electrodes: vec![0u16; N_ELECTRODES],
             pdc: 0,
             pac: [0; N_PAC],
             tdc: 0,
@@ -419,5 +504,31 @@ mod tests {
         let err = from_cdr(&bytes).unwrap_err().to_string();
         assert!(err.contains("more invalid channels"), "{err}");
         assert!(from_cdr(&[1, 2, 3]).is_err() && from_cdr(&[]).is_err());
+        // An electrode sequence claiming more values than a BioTac SP has.
+        let mut bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
+        // Header 4, stamp 8, two empty strings (length and NUL) 5 + 3 + 5,
+        // index 1, seq 2 (aligned): the sequence length at 4 + 24.
+        let at = 28;
+        assert_eq!(bytes[at..at + 4], 19u32.to_le_bytes());
+        bytes[at..at + 4].copy_from_slice(&0x7000_0000u32.to_le_bytes());
+        let err = from_cdr(&bytes).unwrap_err().to_string();
+        assert!(err.contains("more electrodes than a BioTac SP"), "{err}");
+    }
+
+    #[test]
+    fn messages_recorded_with_the_fixed_19_electrode_array_decode() {
+        let old = "std_msgs/Header header\nuint16 seq\nuint16[19] electrodes  # E1..E19\n";
+        assert_eq!(ElectrodeField::of_definition(old), ElectrodeField::Fixed19);
+        let today = include_str!("../../msg/msg/BioTac.msg");
+        assert_eq!(
+            ElectrodeField::of_definition(today),
+            ElectrodeField::Sequence
+        );
+        let r = reading();
+        let m = CdrBioTac::new(&r, &BioTacMeta::default());
+        let fixed = m.with_electrodes(<[u16; N_ELECTRODES]>::try_from(&r.electrodes[..]).unwrap());
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&fixed, cdr::Infinite).unwrap();
+        assert_eq!(from_cdr_as(&bytes, ElectrodeField::Fixed19).unwrap().0, r);
+        assert!(from_cdr(&bytes).is_err(), "not a sequence");
     }
 }

@@ -28,17 +28,21 @@
 //! electrodes ahead of the shift see more compression and those behind less.
 //! All parameters are in `config/biotac_sim.yaml`.
 
-use std::path::{Path, PathBuf};
-
 use nalgebra::Vector3;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
-use serde::{Deserialize, Serialize};
 
-use super::geometry::{SurfacePoint, ELECTRODES};
-use super::{BioTacReading, ADC_MAX, N_ELECTRODES, N_PAC};
-use crate::exit::{Classify, ExitClass};
+mod config;
+
+use config::ADC;
+pub(crate) use config::{check_range, check_value, gaussian, read_config, uniform};
+pub use config::{
+    BioTacSimConfig, ConfigError, ElectrodeParams, PacParams, PdcParams, SensorParams, TacParams,
+    TdcParams, ThermalRanges,
+};
+
+use super::geometry::{electrodes, SurfacePoint};
+use super::{BioTacReading, Electrodes, N_PAC};
 use crate::wrench::Wrench;
 
 /// The simulator configuration shipped with the crate (sensor and protocol).
@@ -47,296 +51,6 @@ pub const DEFAULT_CONFIG_YAML: &str = include_str!("../../config/biotac_sim.yaml
 /// Series resistance of the electrode readout (kOhm): `E = 4095 / (1 + Z / 10 kOhm)`.
 /// Architecture page, "Reference facts / BioTac".
 const READOUT_KOHM: f64 = 10.0;
-
-/// Why a simulator configuration is not usable.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum ConfigError {
-    /// The file could not be read.
-    #[error("cannot read simulator configuration {path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The YAML does not parse, or a key is missing, unknown or of the wrong type.
-    #[error("simulator configuration: {0}")]
-    Yaml(#[from] serde_yaml_ng::Error),
-    /// A number is out of its range or not finite.
-    #[error("simulator configuration: {key} = {value}: expected {expected}")]
-    Value {
-        /// Dotted key, e.g. `sensor.electrodes.noise_counts`.
-        key: String,
-        /// The value found.
-        value: f64,
-        /// What the value must be.
-        expected: String,
-    },
-    /// A `[low, high]` range with low > high.
-    #[error("simulator configuration: {key} = [{low}, {high}]: expected low <= high")]
-    Range {
-        /// Dotted key.
-        key: String,
-        /// The low end found.
-        low: f64,
-        /// The high end found.
-        high: f64,
-    },
-    /// A list that must not be empty is empty.
-    #[error("simulator configuration: {key} is empty")]
-    Empty {
-        /// Dotted key.
-        key: String,
-    },
-}
-
-/// A sensor or protocol file refused: refused input.
-impl Classify for ConfigError {
-    fn class(&self) -> ExitClass {
-        ExitClass::Refused
-    }
-}
-
-/// Checks `low <= value <= high` and finiteness; names `key` on failure.
-pub(crate) fn check_value(key: &str, value: f64, low: f64, high: f64) -> Result<(), ConfigError> {
-    if value.is_finite() && value >= low && value <= high {
-        Ok(())
-    } else {
-        Err(ConfigError::Value {
-            key: key.to_string(),
-            value,
-            expected: format!("a finite number in [{low}, {high}]"),
-        })
-    }
-}
-
-/// Checks a `[low, high]` range: both ends within `[min, max]`, low <= high.
-pub(crate) fn check_range(key: &str, r: [f64; 2], min: f64, max: f64) -> Result<(), ConfigError> {
-    check_value(&format!("{key}[0]"), r[0], min, max)?;
-    check_value(&format!("{key}[1]"), r[1], min, max)?;
-    if r[0] > r[1] {
-        return Err(ConfigError::Range {
-            key: key.to_string(),
-            low: r[0],
-            high: r[1],
-        });
-    }
-    Ok(())
-}
-
-/// A uniform draw from the range `[low, high]` (a point range gives its value).
-pub(crate) fn uniform(rng: &mut impl Rng, r: [f64; 2]) -> f64 {
-    r[0] + (r[1] - r[0]) * rng.random::<f64>()
-}
-
-/// A zero-mean normal draw with standard deviation `std`.
-pub(crate) fn gaussian(rng: &mut impl Rng, std: f64) -> f64 {
-    std * rng.sample::<f64, _>(StandardNormal)
-}
-
-/// Thermal baseline coefficient ranges, drawn per electrode (architecture page).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ThermalRanges {
-    /// `a`: amplitude of the thermal rise (counts), range.
-    pub a_counts: [f64; 2],
-    /// `b`: temperature offset (TDC counts), range.
-    pub b_counts: [f64; 2],
-    /// `c`: thermal rate (1 / TDC count, negative), range.
-    pub c_per_count: [f64; 2],
-    /// `d`: baseline at TDC = -b (counts), range.
-    pub d_counts: [f64; 2],
-}
-
-/// Electrode model parameters (`sensor.electrodes`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ElectrodeParams {
-    /// Std of the electrode ADC noise (counts).
-    pub noise_counts: f64,
-    /// Thermal baseline coefficient ranges.
-    pub thermal: ThermalRanges,
-    /// Relative spread of the per-electrode impedance gain (gain in 1 +- spread).
-    pub gain_spread: f64,
-    /// Std of the Gaussian pressure footprint on the skin (mm).
-    pub pressure_width_mm: f64,
-    /// Std of the region the skin slides over under tangential force (mm).
-    pub shear_width_mm: f64,
-    /// Compression (N-equivalent) per N of tangential force one shear width ahead.
-    pub shear_gain: f64,
-    /// Largest impedance rise when the skin bottoms out on the core (kOhm).
-    pub compression_max_kohm: f64,
-    /// Compression at which the rise reaches tanh(1) of its maximum (N).
-    pub compression_sat_n: f64,
-    /// Largest fraction of the baseline impedance lost when the skin lifts off.
-    pub release_max_fraction: f64,
-}
-
-/// Static pressure parameters (`sensor.pdc`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PdcParams {
-    /// Out-of-contact PDC, drawn per unit (counts), range.
-    pub baseline_counts: [f64; 2],
-    /// Largest rise with normal force (counts).
-    pub rise_max_counts: f64,
-    /// Normal force at which the rise reaches 63 % (N).
-    pub sat_n: f64,
-    /// Std of the noise (counts).
-    pub noise_counts: f64,
-}
-
-/// Dynamic pressure parameters (`sensor.pac`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PacParams {
-    /// Out-of-contact PAC, drawn per unit (counts), range.
-    pub baseline_counts: [f64; 2],
-    /// Response to the rate of change of normal force (counts per N/s).
-    pub rate_gain_counts_per_n_per_s: f64,
-    /// Std of the noise (counts).
-    pub noise_counts: f64,
-}
-
-/// Heat-flow parameters (`sensor.tac`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TacParams {
-    /// Baseline, drawn per unit (counts), range.
-    pub baseline_counts: [f64; 2],
-    /// Std of the noise (counts).
-    pub noise_counts: f64,
-}
-
-/// Temperature parameters (`sensor.tdc`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TdcParams {
-    /// TDC at power-up, drawn per unit (counts), range.
-    pub initial_counts: [f64; 2],
-    /// Std of the noise (counts).
-    pub noise_counts: f64,
-}
-
-/// The forward-model parameters as written in the `sensor:` section.
-/// Validate them with [`SensorParams::validate`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorParams {
-    /// Electrode model.
-    pub electrodes: ElectrodeParams,
-    /// Static pressure.
-    pub pdc: PdcParams,
-    /// Dynamic pressure.
-    pub pac: PacParams,
-    /// Heat flow.
-    pub tac: TacParams,
-    /// Temperature.
-    pub tdc: TdcParams,
-}
-
-/// The shape of the simulator file as the sensor model reads it: the
-/// `protocol:` section belongs to [`crate::sim::collect::CollectConfig`].
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SensorFile {
-    sensor: SensorParams,
-    #[serde(default, rename = "protocol")]
-    _protocol: serde::de::IgnoredAny,
-}
-
-const ADC: f64 = ADC_MAX as f64;
-
-impl SensorParams {
-    /// Checks every value (finite, in range) and returns the checked config.
-    pub fn validate(self) -> Result<BioTacSimConfig, ConfigError> {
-        let (e, t) = (&self.electrodes, &self.electrodes.thermal);
-        let (pdc, pac, tac, tdc) = (&self.pdc, &self.pac, &self.tac, &self.tdc);
-        // Key, value, allowed [min, max].
-        #[rustfmt::skip]
-        let values = [
-            ("sensor.electrodes.noise_counts", e.noise_counts, 0.0, 100.0),
-            ("sensor.electrodes.gain_spread", e.gain_spread, 0.0, 0.9),
-            ("sensor.electrodes.pressure_width_mm", e.pressure_width_mm, 0.1, 50.0),
-            ("sensor.electrodes.shear_width_mm", e.shear_width_mm, 0.1, 50.0),
-            ("sensor.electrodes.shear_gain", e.shear_gain, 0.0, 100.0),
-            ("sensor.electrodes.compression_max_kohm", e.compression_max_kohm, 0.0, 1e4),
-            ("sensor.electrodes.compression_sat_n", e.compression_sat_n, 1e-3, 1e3),
-            ("sensor.electrodes.release_max_fraction", e.release_max_fraction, 1e-3, 0.99),
-            ("sensor.pdc.rise_max_counts", pdc.rise_max_counts, 0.0, ADC),
-            ("sensor.pdc.sat_n", pdc.sat_n, 1e-3, 1e3),
-            ("sensor.pdc.noise_counts", pdc.noise_counts, 0.0, 100.0),
-            ("sensor.pac.rate_gain_counts_per_n_per_s", pac.rate_gain_counts_per_n_per_s, -1e3, 1e3),
-            ("sensor.pac.noise_counts", pac.noise_counts, 0.0, 100.0),
-            ("sensor.tac.noise_counts", tac.noise_counts, 0.0, 100.0),
-            ("sensor.tdc.noise_counts", tdc.noise_counts, 0.0, 100.0),
-        ];
-        for (key, value, min, max) in values {
-            check_value(key, value, min, max)?;
-        }
-        // Key, [low, high], allowed [min, max] for both ends.
-        #[rustfmt::skip]
-        let ranges = [
-            ("sensor.electrodes.thermal.a_counts", t.a_counts, 0.0, ADC),
-            ("sensor.electrodes.thermal.b_counts", t.b_counts, -1e5, 1e5),
-            ("sensor.electrodes.thermal.c_per_count", t.c_per_count, -1.0, 0.0),
-            ("sensor.electrodes.thermal.d_counts", t.d_counts, 1.0, ADC - 1.0),
-            ("sensor.pdc.baseline_counts", pdc.baseline_counts, 0.0, ADC),
-            ("sensor.pac.baseline_counts", pac.baseline_counts, 0.0, ADC),
-            ("sensor.tac.baseline_counts", tac.baseline_counts, 0.0, ADC),
-            ("sensor.tdc.initial_counts", tdc.initial_counts, 0.0, ADC),
-        ];
-        for (key, range, min, max) in ranges {
-            check_range(key, range, min, max)?;
-        }
-        Ok(BioTacSimConfig { params: self })
-    }
-}
-
-/// The text of a simulator YAML file.
-pub(crate) fn read_config(path: &Path) -> Result<String, ConfigError> {
-    std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
-/// Checked forward-model parameters; build with [`BioTacSimConfig::from_yaml_str`],
-/// [`BioTacSimConfig::from_file`] or `Default` (the shipped `config/biotac_sim.yaml`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct BioTacSimConfig {
-    params: SensorParams,
-}
-
-impl BioTacSimConfig {
-    /// Parses the `sensor:` section of a simulator YAML file and validates it.
-    pub fn from_yaml_str(yaml: &str) -> Result<Self, ConfigError> {
-        let file: SensorFile = serde_yaml_ng::from_str(yaml)?;
-        file.sensor.validate()
-    }
-
-    /// Reads and validates a simulator YAML file.
-    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
-        Self::from_yaml_str(&read_config(path)?)
-    }
-
-    /// The validated parameters.
-    pub fn params(&self) -> &SensorParams {
-        &self.params
-    }
-}
-
-impl Default for BioTacSimConfig {
-    /// The shipped `config/biotac_sim.yaml`.
-    fn default() -> Self {
-        // The embedded file is checked by the unit tests, so this cannot fail
-        // at run time unless the shipped file is broken.
-        Self::from_yaml_str(DEFAULT_CONFIG_YAML)
-            .expect("config/biotac_sim.yaml shipped with the crate is valid")
-    }
-}
 
 /// A contact between an object and the skin.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -404,7 +118,7 @@ struct ElectrodeUnit {
 #[derive(Debug, Clone)]
 pub struct BioTacSim {
     params: SensorParams,
-    electrodes: [ElectrodeUnit; N_ELECTRODES],
+    electrodes: Vec<ElectrodeUnit>,
     pdc_baseline: f64,
     pac_baseline: f64,
     tac_baseline: f64,
@@ -421,24 +135,26 @@ impl BioTacSim {
     /// A unit with baselines drawn from `config` using `unit_seed`; the same
     /// seed gives the same unit and the same noise sequence.
     pub fn new(config: &BioTacSimConfig, unit_seed: u64) -> Self {
-        let p = config.params.clone();
+        let p = config.params().clone();
         let mut rng = ChaCha8Rng::seed_from_u64(unit_seed);
         let t = &p.electrodes.thermal;
         let spread = p.electrodes.gain_spread;
-        let electrodes = ELECTRODES.map(|e| {
-            let thermal = ThermalCoeffs {
-                a: uniform(&mut rng, t.a_counts),
-                b: uniform(&mut rng, t.b_counts),
-                c: uniform(&mut rng, t.c_per_count),
-                d: uniform(&mut rng, t.d_counts),
-            };
-            let skin_point_mm = SurfacePoint::project(&e.position()).point_mm;
-            ElectrodeUnit {
-                thermal,
-                gain: uniform(&mut rng, [1.0 - spread, 1.0 + spread]),
-                skin_point_mm,
-            }
-        });
+        let electrodes = electrodes(p.layout)
+            .map(|e| {
+                let thermal = ThermalCoeffs {
+                    a: uniform(&mut rng, t.a_counts),
+                    b: uniform(&mut rng, t.b_counts),
+                    c: uniform(&mut rng, t.c_per_count),
+                    d: uniform(&mut rng, t.d_counts),
+                };
+                let skin_point_mm = SurfacePoint::project(&e.position()).point_mm;
+                ElectrodeUnit {
+                    thermal,
+                    gain: uniform(&mut rng, [1.0 - spread, 1.0 + spread]),
+                    skin_point_mm,
+                }
+            })
+            .collect();
         BioTacSim {
             pdc_baseline: uniform(&mut rng, p.pdc.baseline_counts),
             pac_baseline: uniform(&mut rng, p.pac.baseline_counts),
@@ -479,15 +195,15 @@ impl BioTacSim {
         self.sensitivity = factor;
     }
 
-    /// Thermal coefficients of E1..E19 of this unit.
-    pub fn thermal(&self) -> [ThermalCoeffs; N_ELECTRODES] {
-        self.electrodes.map(|e| e.thermal)
+    /// Thermal coefficients of this unit's electrodes, E1 first.
+    pub fn thermal(&self) -> Vec<ThermalCoeffs> {
+        self.electrodes.iter().map(|e| e.thermal).collect()
     }
 
     /// Noise-free out-of-contact electrode values at the current temperature
     /// (counts), kept inside the ADC range.
-    pub fn electrode_baselines(&self) -> [f64; N_ELECTRODES] {
-        self.electrodes.map(|e| self.baseline(&e))
+    pub fn electrode_baselines(&self) -> Vec<f64> {
+        self.electrodes.iter().map(|e| self.baseline(e)).collect()
     }
 
     fn baseline(&self, e: &ElectrodeUnit) -> f64 {
@@ -497,7 +213,7 @@ impl BioTacSim {
 
     /// Noise-free electrode values (counts) for `contact` at the current
     /// temperature, before rounding and clamping.
-    pub fn electrode_values(&self, contact: Option<&Contact>) -> [f64; N_ELECTRODES] {
+    pub fn electrode_values(&self, contact: Option<&Contact>) -> Vec<f64> {
         let ep = &self.params.electrodes;
         let load = contact.map(|c| {
             let s = c.surface();
@@ -509,9 +225,9 @@ impl BioTacSim {
             )
         });
         let slope = ep.compression_max_kohm / ep.compression_sat_n;
-        self.electrodes.map(|e| {
+        let value = |e: &ElectrodeUnit| {
             let gain = e.gain * self.sensitivity;
-            let e0 = self.baseline(&e);
+            let e0 = self.baseline(e);
             let z0 = READOUT_KOHM * (ADC / e0 - 1.0);
             let Some((c, normal_n, tangential_n)) = load else {
                 return e0;
@@ -531,7 +247,8 @@ impl BioTacSim {
                 -floor * (gain * slope * -u / floor).tanh()
             };
             ADC / (1.0 + (z0 + dz) / READOUT_KOHM)
-        })
+        };
+        self.electrodes.iter().map(value).collect()
     }
 
     /// Samples one frame for `contact` (None = out of contact), advancing the
@@ -539,7 +256,7 @@ impl BioTacSim {
     pub fn step(&mut self, contact: Option<&Contact>, dt_s: f64) -> BioTacReading {
         let values = self.electrode_values(contact);
         let p = &self.params;
-        let mut electrodes = [0u16; N_ELECTRODES];
+        let mut electrodes = Electrodes::filled(p.layout, 0);
         for (out, v) in electrodes.iter_mut().zip(values) {
             *out = to_counts(v + gaussian(&mut self.rng, p.electrodes.noise_counts));
         }

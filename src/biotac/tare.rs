@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::reading::Column;
-use super::{BioTacReading, N_ELECTRODES};
+use super::BioTacReading;
 
 use crate::exit::{Classify, ExitClass};
 
@@ -44,8 +44,8 @@ impl Classify for TareError {
 /// Mean out-of-contact values of every channel (ADC counts).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Tare {
-    /// Mean of E1..E19 out of contact (counts).
-    electrodes: [f64; N_ELECTRODES],
+    /// Mean of E1..E19 (E1..E24 on a BioTac SP) out of contact (counts).
+    electrodes: Vec<f64>,
     /// Mean PDC out of contact (counts).
     pdc: f64,
     /// Mean of the PAC samples, TDC and TAC out of contact (counts); absent
@@ -67,7 +67,9 @@ impl Tare {
         let n = readings.len() as f64;
         let mean = |c: Column| readings.iter().map(|r| c.value(r)).sum::<f64>() / n;
         Ok(Tare {
-            electrodes: std::array::from_fn(|i| mean(Column::Electrode(i))),
+            electrodes: (0..readings[0].electrodes.len())
+                .map(|i| mean(Column::Electrode(i)))
+                .collect(),
             pdc: mean(Column::Pdc),
             pac_mean: mean(Column::PacMean),
             tdc: mean(Column::Tdc),
@@ -109,8 +111,8 @@ impl Tare {
         Ok(tare)
     }
 
-    /// Baseline electrode values E1..E19 (counts).
-    pub fn electrodes(&self) -> &[f64; N_ELECTRODES] {
+    /// Baseline electrode values E1..E19 or E1..E24 (counts).
+    pub fn electrodes(&self) -> &[f64] {
         &self.electrodes
     }
 
@@ -121,15 +123,17 @@ impl Tare {
 
     /// Electrode values minus the baseline (counts): compression gives
     /// negative values, ~0 out of contact.
-    pub fn tared(&self, r: &BioTacReading) -> [f64; N_ELECTRODES] {
-        std::array::from_fn(|i| f64::from(r.electrodes[i]) - self.electrodes[i])
+    pub fn tared(&self, r: &BioTacReading) -> Vec<f64> {
+        (0..self.electrodes.len())
+            .map(|i| self.tared_column(Column::Electrode(i), r))
+            .collect()
     }
 
     /// `column`'s value in `r` minus its baseline (counts).
     pub fn tared_column(&self, column: Column, r: &BioTacReading) -> f64 {
         column.value(r)
             - match column {
-                Column::Electrode(i) => self.electrodes[i],
+                Column::Electrode(i) => self.electrodes.get(i).copied().unwrap_or(0.0),
                 Column::Pdc => self.pdc,
                 Column::PacMean => self.pac_mean,
                 Column::Tdc => self.tdc,

@@ -57,7 +57,7 @@
 //! let reading = BioTacReading {
 //!     seq: 7,
 //!     stamp_s: 0.0,
-//!     electrodes: [2000; 19],
+//!     electrodes: [2000; 19].into(),
 //!     pdc: 1500,
 //!     pac: [2048; 22],
 //!     tdc: 2600,
@@ -358,6 +358,8 @@ pub struct DecodedFrame {
 
 /// The frame for one reading. `reading.seq` is ignored in favour of `seq`;
 /// a sensor index of 3 or more is written as given, and decoders reject it.
+/// The frame holds a BioTac's E1..E19: a BioTac SP's E20..E24 are not
+/// carried (the bridge reads BioTacs).
 ///
 /// Values above 4095 are a caller bug (see [`encode_word`]).
 pub fn encode_frame(
@@ -413,7 +415,7 @@ pub fn decode_frame(frame: &[u8; FRAME_LEN]) -> Result<DecodedFrame, FrameError>
     let mut reading = BioTacReading {
         seq,
         stamp_s: 0.0,
-        electrodes: [0; N_ELECTRODES],
+        electrodes: [0; N_ELECTRODES].into(),
         pdc: 0,
         pac: [0; N_PAC],
         tdc: 0,

@@ -232,7 +232,7 @@ mod tests {
         BioTacReading {
             seq: 0,
             stamp_s: t,
-            electrodes: [3000; crate::biotac::N_ELECTRODES],
+            electrodes: [3000; crate::biotac::N_ELECTRODES].into(),
             pdc,
             pac: [2000; crate::biotac::N_PAC],
             tdc: 1800,

@@ -8,7 +8,7 @@ use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::models::gp::GpParams;
 use tactile_force::learn::models::wrench_gp::{AdaptedFrom, WrenchGp};
 
-use super::data::{load_sessions, SourceArgs};
+use super::data::{load_sessions, Features, SourceArgs};
 use super::output::{progress_bar, show};
 use super::{Context, Result};
 
@@ -41,7 +41,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
     let base = WrenchGp::load(&a.model)?;
     let sessions = load_sessions(
         &a.data,
-        base.features(),
+        Features::Model(base.features()),
         base.axes(),
         Some(base.tare().samples),
         &a.source,

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use tactile_force::biotac::sim::BioTacSimConfig;
+use tactile_force::biotac::ElectrodeLayout;
 use tactile_force::learn::data::write_csv;
 use tactile_force::nail::collect::{collect_nail, NailWriter, Protocol};
 use tactile_force::nail::sim::NailSimConfig;
@@ -28,8 +29,10 @@ pub(crate) enum ProtocolArg {
 /// The simulated sensors.
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum SensorArg {
-    /// The BioTac.
+    /// The BioTac (19 electrodes, or as `--config` says).
     Biotac,
+    /// The BioTac SP: 24 electrodes (columns e1..e24).
+    BiotacSp,
     /// The nail camera.
     Nail,
 }
@@ -37,7 +40,8 @@ pub(crate) enum SensorArg {
 #[derive(Args)]
 pub(crate) struct CollectArgs {
     /// Output: a CSV for the BioTac (header:
-    /// t,set,trial,e1..e19,pdc,pac_mean,tdc,tac,fx,fy,fz,tx,ty,tz); a
+    /// t,set,trial,e1..e19,pdc,pac_mean,tdc,tac,fx,fy,fz,tx,ty,tz; e1..e24
+    /// for the BioTac SP); a
     /// directory for the nail camera (frames/NNNNNN.png and labels.csv:
     /// t,set,trial,frame,fx,fy,fz,tx,ty,tz).
     #[arg(long)]
@@ -84,6 +88,10 @@ pub(crate) fn run_collect(a: CollectArgs) -> Result<()> {
     let (sensor, protocol) = match &a.config {
         Some(p) => (BioTacSimConfig::from_file(p)?, CollectConfig::from_file(p)?),
         None => (BioTacSimConfig::default(), CollectConfig::default()),
+    };
+    let sensor = match a.sensor {
+        SensorArg::BiotacSp => sensor.with_layout(ElectrodeLayout::BiotacSp),
+        _ => sensor,
     };
     let protocol = match a.trials {
         Some(n) => protocol.with_trials(n).context("--trials")?,

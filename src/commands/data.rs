@@ -7,9 +7,10 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use nalgebra::Vector3;
 
+use tactile_force::biotac::ElectrodeLayout;
 use tactile_force::learn::data::bag::{read_bag, BagTopics};
 use tactile_force::learn::data::nail::read_nail_dirs;
-use tactile_force::learn::data::{Counts, Dataset};
+use tactile_force::learn::data::{channel_columns, Channel, Counts, Dataset, DatasetError};
 use tactile_force::learn::models::wrench_gp::TareSpec;
 use tactile_force::nail::collect::is_nail_dir;
 use tactile_force::sensor::nail;
@@ -142,15 +143,54 @@ impl Sessions {
     }
 }
 
+/// The BioTac features to read from data files.
+#[derive(Clone, Copy)]
+pub(crate) enum Features<'a> {
+    /// These channels, of the electrodes the files hold (19, or 24 from a
+    /// BioTac SP).
+    Channels(&'a [Channel]),
+    /// A model's features by name: the files must hold its sensor's layout.
+    Model(&'a [String]),
+}
+
+/// The electrode layout of BioTac data files: a BioTac SP's when they hold
+/// `e20`; refused when they mix layouts.
+fn data_layout(paths: &[PathBuf], axes: &AxisSet, source: &SourceArgs) -> Result<ElectrodeLayout> {
+    let mut layouts = Vec::with_capacity(paths.len());
+    for path in paths {
+        let sp = ["e20".to_string()];
+        let layout = match read_data(path, &sp, axes, Counts::Tared, source) {
+            Ok(_) => ElectrodeLayout::BiotacSp,
+            Err(e) if matches!(e.cause(), Some(DatasetError::MissingColumn { column, .. }) if column == "e20") => {
+                ElectrodeLayout::Biotac
+            }
+            Err(e) => return Err(e),
+        };
+        layouts.push((path, layout));
+    }
+    let Some(&(first, layout)) = layouts.first() else {
+        return Ok(ElectrodeLayout::default());
+    };
+    match layouts.iter().find(|(_, l)| *l != layout) {
+        Some((other, l)) => Err(BadArgument(format!(
+            "the data files mix sensors: {} holds {layout}, {} holds {l}",
+            first.display(),
+            other.display()
+        ))
+        .into()),
+        None => Ok(layout),
+    }
+}
+
 /// Reads sessions of either sensor, each trial tared on its first
 /// `tare_samples` rows (0: already tared; None: the sensor's default).
-/// BioTac files (CSV, MCAP) give the `features` channels. Nail-camera
+/// BioTac files (CSV, MCAP) give the `features`. Nail-camera
 /// directories give the principal components of their frames' nail pixels
 /// (`features` does not apply), projected as `sensor` says or, without it,
 /// as fitted on these directories' frames (no labels are used).
 pub(crate) fn load_sessions(
     paths: &[PathBuf],
-    features: &[String],
+    features: Features,
     axes: &AxisSet,
     tare_samples: Option<usize>,
     source: &SourceArgs,
@@ -210,6 +250,18 @@ pub(crate) fn load_sessions(
         let msg = format!("BioTac data given to a model of the {} sensor", s.name());
         return Err(BadArgument(msg).into());
     }
+    let layout = data_layout(paths, axes, source)?;
+    if let Some(&SensorSpec::Biotac { electrodes }) = sensor {
+        if electrodes != layout {
+            let msg = format!("model trained on {electrodes}, readings have {layout}");
+            return Err(BadArgument(msg).into());
+        }
+    }
+    let features = match features {
+        Features::Channels(channels) => channel_columns(channels, layout),
+        Features::Model(names) => names.to_vec(),
+    };
+    let features = &features[..];
     let tare_samples = tare_samples.unwrap_or(biotac::DEFAULT_TARE_SAMPLES);
     let mut sets = Vec::with_capacity(paths.len());
     let mut mean_baseline = vec![0.0; features.len()];
@@ -227,6 +279,6 @@ pub(crate) fn load_sessions(
     Ok(Sessions {
         sets,
         tare,
-        sensor: SensorSpec::Biotac,
+        sensor: SensorSpec::biotac(layout),
     })
 }

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use tactile_force::learn::data::channel_columns;
 use tactile_force::learn::evaluate::{
     cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
     FoldScores,
@@ -18,7 +17,7 @@ use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::params::Check;
 use tactile_force::sensor::SensorSpec;
 
-use super::data::{load_sessions, SourceArgs};
+use super::data::{load_sessions, Features, SourceArgs};
 use super::output::{
     file_labels, print_selection, print_table, print_validation, progress_bar, show,
 };
@@ -69,12 +68,12 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
         return run_score(model, &a.test, &a.fit.source, a.peak_min_n, a.json);
     }
     let (features, axes, n, source) = (
-        channel_columns(&a.fit.channels),
+        Features::Channels(&a.fit.channels),
         &a.fit.axes,
         a.fit.tare_samples,
         &a.fit.source,
     );
-    let load = |paths: &[PathBuf], sensor| load_sessions(paths, &features, axes, n, source, sensor);
+    let load = |paths: &[PathBuf], sensor| load_sessions(paths, features, axes, n, source, sensor);
     let bar = progress_bar();
     let mut on_progress = |p| show(&bar, p);
     let (eval, labels) = if let Some(data) = &a.data {
@@ -129,7 +128,7 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
 /// every axis), so the network keeps the default penalty.
 fn nn_params(sensor: &SensorSpec) -> NnParams {
     match sensor {
-        SensorSpec::Biotac => NnParams::default(),
+        SensorSpec::Biotac { .. } => NnParams::default(),
         SensorSpec::Nail(_) => NnParams {
             hidden: 20,
             patience: 7,
@@ -195,7 +194,7 @@ pub(crate) fn run_score(
     }
     let sessions = load_sessions(
         tests,
-        model.features(),
+        Features::Model(model.features()),
         model.axes(),
         Some(model.tare().samples),
         source,

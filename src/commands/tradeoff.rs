@@ -13,7 +13,7 @@ use tactile_force::params::Check;
 use tactile_force::report::plot;
 use tactile_force::wrench::AxisSet;
 
-use super::data::{load_sessions, SourceArgs};
+use super::data::{load_sessions, Features, SourceArgs};
 use super::output::{axis_headers, axis_scores, progress_bar};
 use super::BadArgument;
 use super::Result;
@@ -65,10 +65,10 @@ pub fn run_tradeoff(a: TradeoffArgs) -> Result<()> {
         let msg = format!("--folds {}: at least 2 (one fold is held out)", a.folds);
         return Err(BadArgument(msg).into());
     }
-    let features = tactile_force::learn::data::electrode_columns();
+    let features = [tactile_force::learn::data::Channel::Electrodes];
     let sessions = load_sessions(
         std::slice::from_ref(&a.data),
-        &features,
+        Features::Channels(&features),
         &a.axes,
         Some(a.tare_samples),
         &a.source,

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use tactile_force::learn::choice::select;
-use tactile_force::learn::data::{channel_columns, Channel, DatasetError};
+use tactile_force::learn::data::{Channel, DatasetError};
 use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
 use tactile_force::learn::models::scale::InputScaling;
@@ -14,7 +14,7 @@ use tactile_force::params::Checked;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
 
-use super::data::{load_sessions, SourceArgs};
+use super::data::{load_sessions, Features, SourceArgs};
 use super::output::{print_selection, progress_bar, show};
 use super::{BadArgument, Context, Failure, Result};
 
@@ -80,7 +80,7 @@ impl FitArgs {
     /// How the features of `sensor` reach the GP.
     pub(crate) fn scaling(&self, sensor: &SensorSpec) -> Result<InputScaling> {
         match (sensor, self.input) {
-            (SensorSpec::Biotac, input) => Ok(input.unwrap_or(InputScaling::Standard)),
+            (SensorSpec::Biotac { .. }, input) => Ok(input.unwrap_or(InputScaling::Standard)),
             (SensorSpec::Nail(_), None | Some(InputScaling::Raw)) => Ok(InputScaling::Raw),
             (SensorSpec::Nail(_), Some(other)) => Err(BadArgument(format!(
                 "--input {other:?}: nail-camera models take their projected pixels raw, so \
@@ -118,7 +118,7 @@ pub(crate) struct TrainArgs {
 /// The GP options of `fit` for data of `sensor`.
 pub(crate) fn gp_params(fit: &FitArgs, sensor: &SensorSpec) -> Result<Checked<GpParams>> {
     let default_mean = match sensor {
-        SensorSpec::Biotac => MeanKind::Zero,
+        SensorSpec::Biotac { .. } => MeanKind::Zero,
         SensorSpec::Nail(_) => MeanKind::Cubic,
     };
     Ok(GpParams {
@@ -142,7 +142,7 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     }
     let sessions = load_sessions(
         &a.data,
-        &channel_columns(&a.fit.channels),
+        Features::Channels(&a.fit.channels),
         &a.fit.axes,
         a.fit.tare_samples,
         &a.fit.source,
@@ -178,7 +178,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     let load = |channels: &[Channel]| {
         load_sessions(
             &a.data,
-            &channel_columns(channels),
+            Features::Channels(channels),
             &a.fit.axes,
             a.fit.tare_samples,
             &a.fit.source,
@@ -193,7 +193,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
             Err(e)
         }
     })?;
-    if !matches!(sessions.sensor, SensorSpec::Biotac) {
+    if !matches!(sessions.sensor, SensorSpec::Biotac { .. }) {
         let msg = "--select chooses among BioTac channels; nail-camera data take their own options";
         return Err(BadArgument(msg.into()).into());
     }

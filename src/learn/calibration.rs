@@ -100,12 +100,16 @@ pub fn fit(
             rows: records.len(),
         });
     }
-    let every = channel_columns(&[
-        Channel::Electrodes,
-        Channel::Pdc,
-        Channel::Tdc,
-        Channel::Tac,
-    ]);
+    let layout = records[0].reading.electrodes.layout();
+    let every = channel_columns(
+        &[
+            Channel::Electrodes,
+            Channel::Pdc,
+            Channel::Tdc,
+            Channel::Tac,
+        ],
+        layout,
+    );
     let mut all = Dataset::from_records(records, &every, current.axes(), "calibration")?;
     let samples = current.tare().samples;
     let tare = TareSpec {
@@ -158,8 +162,8 @@ pub fn fit(
         &mut |_, _| {},
     )?;
     let choice = Choice::default_options();
-    let (train_new, new_tare) = cut_to(&train, &tare, &choice.features())?;
-    let (test_new, _) = cut_to(&test, &tare, &choice.features())?;
+    let (train_new, new_tare) = cut_to(&train, &tare, &choice.features(layout))?;
+    let (test_new, _) = cut_to(&test, &tare, &choice.features(layout))?;
     let new_params = choice
         .gp_params(base)
         .validate()
@@ -190,7 +194,7 @@ pub fn fit(
         let m = current.adapt(&data, t, from(session), &params, &mut |_, _| {})?;
         (m, "adapted", data)
     } else {
-        let (data, t) = cut_to(&all, &tare, &choice.features())?;
+        let (data, t) = cut_to(&all, &tare, &choice.features(layout))?;
         let m = WrenchGp::train_scaled(&data, t, choice.input, &new_params, &mut |_, _| {})?
             .with_sensor(current.sensor().clone());
         (m, "from scratch", data)
@@ -263,6 +267,7 @@ fn cut_to(
 mod tests {
     use super::*;
     use crate::biotac::sim::BioTacSimConfig;
+    use crate::biotac::ElectrodeLayout;
     use crate::learn::data::electrode_columns;
     use crate::learn::models::wrench_gp::quick_fit;
     use crate::sim::collect::{collect, CollectConfig};
@@ -281,7 +286,13 @@ mod tests {
         };
         let (records, other) = (session(1), session(2));
         let axes = "fz".parse().unwrap();
-        let mut data = Dataset::from_records(&other, &electrode_columns(), &axes, "u2").unwrap();
+        let mut data = Dataset::from_records(
+            &other,
+            &electrode_columns(ElectrodeLayout::Biotac),
+            &axes,
+            "u2",
+        )
+        .unwrap();
         let tare = TareSpec {
             samples: 10,
             mean_baseline: data.tare_per_trial(10).unwrap(),

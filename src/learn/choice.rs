@@ -18,12 +18,13 @@ use std::time::Instant;
 
 use ndarray::{Array2, Axis as NdAxis};
 
-use super::data::{channel_columns, trialwise_folds, Channel, Dataset};
+use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind};
 use super::models::metrics::rmse_columns;
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
+use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};
 
@@ -41,14 +42,14 @@ impl Choice {
         }
     }
 
-    /// The feature columns it takes.
-    pub fn features(&self) -> Vec<String> {
-        channel_columns(&self.channels)
+    /// The feature columns it takes from a sensor of `layout`.
+    pub fn features(&self, layout: ElectrodeLayout) -> Vec<String> {
+        channel_columns(&self.channels, layout)
     }
 
     /// `data` and `tare` cut to its features; the reason when the data lack one.
     pub fn cut(&self, data: &Dataset, tare: &TareSpec) -> Result<(Dataset, TareSpec), String> {
-        columns(data, tare, &self.features())
+        columns(data, tare, &self.features(layout_of(&data.features)))
             .map_err(|column| format!("the data have no column {column:?}"))
     }
 
@@ -314,12 +315,15 @@ mod tests {
     fn session() -> (Dataset, TareSpec) {
         let cfg = CollectConfig::default().with_trials(3).unwrap();
         let records = collect(&cfg, &BioTacSimConfig::default(), 1, 1);
-        let all = channel_columns(&[
-            Channel::Electrodes,
-            Channel::Pdc,
-            Channel::Tdc,
-            Channel::Tac,
-        ]);
+        let all = channel_columns(
+            &[
+                Channel::Electrodes,
+                Channel::Pdc,
+                Channel::Tdc,
+                Channel::Tac,
+            ],
+            ElectrodeLayout::Biotac,
+        );
         let mut ds =
             Dataset::from_records(&records, &all, &"fz".parse().unwrap(), "session").unwrap();
         // Every 4th row keeps it quick.

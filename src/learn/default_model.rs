@@ -127,7 +127,12 @@ impl Classify for DefaultModelError {
 pub fn training_data(axes: &AxisSet) -> Result<(Dataset, TareSpec), DefaultModelError> {
     let sensor = BioTacSimConfig::default();
     let records = collect(&CollectConfig::default(), &sensor, DATA_SEED, DATA_SEED);
-    let mut data = Dataset::from_records(&records, &electrode_columns(), axes, "simulated data")?;
+    let mut data = Dataset::from_records(
+        &records,
+        &electrode_columns(crate::biotac::ElectrodeLayout::Biotac),
+        axes,
+        "simulated data",
+    )?;
     let mean_baseline = data.tare_per_trial(TARE_SAMPLES)?;
     let tare = TareSpec {
         samples: TARE_SAMPLES,

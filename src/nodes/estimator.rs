@@ -269,7 +269,7 @@ mod tests {
         let x = Array2::from_shape_fn((n, 19), |(i, j)| -(((i * 7 + j * 3) % 11) as f64));
         let y = Array2::from_shape_fn((n, 1), |(i, _)| -x.row(i).sum() / 19.0);
         let data = Dataset {
-            features: electrode_columns(),
+            features: electrode_columns(crate::biotac::ElectrodeLayout::Biotac),
             x,
             axes: "fz".parse().unwrap(),
             y,
@@ -288,7 +288,7 @@ mod tests {
         BioTacReading {
             seq: 0,
             stamp_s,
-            electrodes: [2000 - pressed; 19],
+            electrodes: [2000 - pressed; 19].into(),
             pdc: 2000 + pressed,
             pac: [0; 22],
             tdc: 0,

@@ -117,7 +117,7 @@ pub async fn run() -> Result<(), RosError> {
         tare_max_age_s,
     };
     match model.sensor() {
-        SensorSpec::Biotac => biotac::run(node, model, settings).await,
+        SensorSpec::Biotac { .. } => biotac::run(node, model, settings).await,
         SensorSpec::Nail(_) => nail::run(node, model, settings).await,
     }
 }

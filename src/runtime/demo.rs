@@ -14,6 +14,7 @@ use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::controller::task_envelope;
 use crate::report::summary::{summarize, Identified, RunInfo, Summary};
 use crate::report::TraceRow;
+use crate::sensor::SensorSpec;
 
 /// A finished run.
 #[derive(Debug, Clone)]
@@ -65,7 +66,12 @@ pub fn run_scene(
     pacing: Pacing,
     on_row: &mut dyn FnMut(&TraceRow),
 ) -> Result<DemoRun, SceneError> {
-    let mut nodes = scene.build(model, &BioTacSimConfig::default(), seed)?;
+    // The simulated BioTac has the electrodes the model was trained on.
+    let sensor = match model.sensor() {
+        &SensorSpec::Biotac { electrodes } => BioTacSimConfig::default().with_layout(electrodes),
+        _ => BioTacSimConfig::default(),
+    };
+    let mut nodes = scene.build(model, &sensor, seed)?;
     let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name)?;
     let rows = run(&mut nodes, pacing, on_row)?;
     let mut summary = summarize(&info, &rows);

@@ -4,7 +4,7 @@
 
 use super::{ModelInput, SensorError, SensorInput, SensorSpec};
 use crate::biotac::reading::Column;
-use crate::biotac::{BioTacReading, Tare};
+use crate::biotac::{BioTacReading, ElectrodeLayout, Tare};
 
 /// The sensor's name.
 pub const NAME: &str = "biotac";
@@ -16,6 +16,7 @@ pub const DEFAULT_TARE_SAMPLES: usize = 50;
 /// A BioTac feeding a model: its channels and its tare.
 #[derive(Debug, Clone)]
 pub struct BioTacInput {
+    layout: ElectrodeLayout,
     columns: Vec<Column>,
     tare_samples: usize,
     tare_readings: Vec<BioTacReading>,
@@ -39,26 +40,36 @@ impl SensorInput for BioTacInput {
     type Reading = BioTacReading;
 
     fn for_model(model: ModelInput) -> Result<Self, SensorError> {
-        if *model.sensor != SensorSpec::Biotac {
+        let &SensorSpec::Biotac { electrodes: layout } = model.sensor else {
             return Err(SensorError::WrongSensor {
                 model: model.sensor.name(),
                 node: NAME,
             });
-        }
+        };
         let columns = model
             .features
             .iter()
             .map(|f| Column::from_name(f))
             .collect::<Option<Vec<_>>>()
+            .filter(|c| {
+                c.iter()
+                    .all(|c| !matches!(c, Column::Electrode(i) if *i >= layout.count()))
+            })
             .ok_or_else(|| SensorError::Features {
                 found: model.features.to_vec(),
-                feeds: "BioTac channels: e1..e19, pdc, pac_mean, tdc, tac",
+                feeds: match layout {
+                    ElectrodeLayout::Biotac => "BioTac channels: e1..e19, pdc, pac_mean, tdc, tac",
+                    ElectrodeLayout::BiotacSp => {
+                        "BioTac SP channels: e1..e24, pdc, pac_mean, tdc, tac"
+                    }
+                },
             })?;
         let tare_samples = match model.tare_samples {
             0 => DEFAULT_TARE_SAMPLES,
             n => n,
         };
         Ok(BioTacInput {
+            layout,
             columns,
             tare_samples,
             tare_readings: Vec::with_capacity(tare_samples),
@@ -79,6 +90,12 @@ impl SensorInput for BioTacInput {
     }
 
     fn features(&mut self, r: &BioTacReading, out: &mut [f64]) -> Result<Option<f64>, SensorError> {
+        if r.electrodes.layout() != self.layout {
+            return Err(SensorError::Layout {
+                model: self.layout,
+                readings: r.electrodes.layout(),
+            });
+        }
         let Some(tare) = &self.tare else {
             self.tare_readings.push(*r);
             if self.tare_readings.len() == self.tare_samples {
@@ -94,3 +111,6 @@ impl SensorInput for BioTacInput {
         Ok(Some(tare.tared_pdc(r)))
     }
 }
+
+#[cfg(test)]
+mod tests;

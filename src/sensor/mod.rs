@@ -3,7 +3,8 @@
 //! features, its contact cue) and what a model file records of the sensor
 //! it was trained on ([`SensorSpec`]). One module per sensor:
 //!
-//! - [`biotac`]: BioTac readings (19 electrodes, pressures, temperature);
+//! - [`biotac`]: BioTac readings (19 electrodes, 24 on a BioTac SP,
+//!   pressures, temperature);
 //!   the features are channels tared on the first readings out of contact;
 //!   the contact cue is the PDC rise; training data are CSV files or ROS
 //!   bags ([`crate::learn::data`], [`crate::learn::data::bag`]).
@@ -22,26 +23,43 @@ pub mod nail;
 
 use serde::{Deserialize, Serialize};
 
+use crate::biotac::ElectrodeLayout;
 use crate::exit::{Classify, ExitClass};
 use crate::nail::preprocess::PreprocessError;
 
 /// What a model file records of its sensor.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum SensorSpec {
     /// A BioTac: the features are its channels by name (files before this
-    /// record are BioTac models).
-    #[default]
-    Biotac,
+    /// record are BioTac models), from readings of its electrode layout
+    /// (files before the layout was recorded: a BioTac's 19).
+    Biotac {
+        /// The sensor's electrodes.
+        #[serde(default)]
+        electrodes: ElectrodeLayout,
+    },
     /// The nail camera: the preprocessing and projection of its frames.
     Nail(Box<nail::NailSpec>),
 }
 
+impl Default for SensorSpec {
+    /// A BioTac with 19 electrodes.
+    fn default() -> Self {
+        SensorSpec::biotac(ElectrodeLayout::Biotac)
+    }
+}
+
 impl SensorSpec {
+    /// A BioTac of `electrodes`.
+    pub fn biotac(electrodes: ElectrodeLayout) -> Self {
+        SensorSpec::Biotac { electrodes }
+    }
+
     /// Time between two readings (s).
     pub fn sample_period_s(&self) -> f64 {
         match self {
-            SensorSpec::Biotac => crate::biotac::reading::FRAME_PERIOD_S,
+            SensorSpec::Biotac { .. } => crate::biotac::reading::FRAME_PERIOD_S,
             SensorSpec::Nail(spec) => spec.frame_period_s,
         }
     }
@@ -49,7 +67,7 @@ impl SensorSpec {
     /// The sensor's name, as `--sensor` takes it.
     pub fn name(&self) -> &'static str {
         match self {
-            SensorSpec::Biotac => biotac::NAME,
+            SensorSpec::Biotac { .. } => biotac::NAME,
             SensorSpec::Nail(_) => nail::NAME,
         }
     }
@@ -85,6 +103,14 @@ pub enum SensorError {
         found: Vec<String>,
         /// What the sensor makes.
         feeds: &'static str,
+    },
+    /// Readings of another electrode layout than the model's.
+    #[error("model trained on {model}, readings have {readings}")]
+    Layout {
+        /// The model's layout.
+        model: ElectrodeLayout,
+        /// The readings'.
+        readings: ElectrodeLayout,
     },
     /// A frame could not be preprocessed.
     #[error(transparent)]

@@ -1,5 +1,8 @@
 use super::*;
-use crate::biotac::FRAME_PERIOD_S;
+use crate::biotac::geometry::ELECTRODES;
+use crate::biotac::ADC_MAX;
+use crate::biotac::{FRAME_PERIOD_S, N_ELECTRODES};
+use std::path::Path;
 
 fn pad_contact(force: Vector3<f64>) -> Contact {
     Contact {
@@ -59,7 +62,7 @@ fn contact_wrench_is_r_cross_f_in_metres() {
 fn electrodes_drop_monotonically_under_normal_force_and_stay_in_range() {
     let sim = BioTacSim::new(&noise_free(), 7);
     let base = sim.electrode_baselines();
-    let mut last = base;
+    let mut last = base.clone();
     let e17 = 16;
     for k in 1..=60 {
         let f = 0.5 * k as f64;

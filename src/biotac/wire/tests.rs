@@ -8,7 +8,7 @@ pub(in crate::biotac) fn reading(offset: u16) -> BioTacReading {
     BioTacReading {
         seq: 0,
         stamp_s: 0.0,
-        electrodes: std::array::from_fn(value),
+        electrodes: std::array::from_fn::<u16, 19, _>(value).into(),
         pdc: value(19),
         pac: std::array::from_fn(|i| value(20 + i)),
         tdc: value(42),

@@ -3,7 +3,7 @@
 //! wrench column (a logging glitch).
 
 use crate::biotac::reading::Column;
-use crate::biotac::{ADC_MAX, N_ELECTRODES};
+use crate::biotac::{ElectrodeLayout, ADC_MAX, MAX_ELECTRODES};
 use crate::wrench::Axis;
 
 /// What the BioTac channel columns of a file hold.
@@ -50,16 +50,27 @@ pub(super) fn implausible(name: &str, value: f64, counts: Counts) -> Option<Stri
         .then(|| format!("a wrench within +-{max:e} {unit}, what an F/T sensor can measure"))
 }
 
-/// Names of the 19 electrode columns, `e1..e19`: the GP's features.
-pub fn electrode_columns() -> Vec<String> {
-    (1..=N_ELECTRODES).map(|i| format!("e{i}")).collect()
+/// Names of the electrode columns of `layout`, `e1..e19` or `e1..e24`: the
+/// GP's features.
+pub fn electrode_columns(layout: ElectrodeLayout) -> Vec<String> {
+    (1..=layout.count()).map(|i| format!("e{i}")).collect()
+}
+
+/// The layout whose electrode columns `names` hold: a BioTac SP's when
+/// any of `e20..e24` is there, else a BioTac's.
+pub fn layout_of(names: &[String]) -> ElectrodeLayout {
+    let sp = (20..=MAX_ELECTRODES).any(|i| names.iter().any(|n| *n == format!("e{i}")));
+    match sp {
+        true => ElectrodeLayout::BiotacSp,
+        false => ElectrodeLayout::Biotac,
+    }
 }
 
 /// A group of BioTac channels a model may take as features.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Channel {
-    /// The 19 impedance electrodes, `e1..e19`.
+    /// The impedance electrodes, `e1..e19` (`e1..e24` on a BioTac SP).
     Electrodes,
     /// Static pressure, `pdc`.
     Pdc,
@@ -96,12 +107,13 @@ impl Channel {
     }
 }
 
-/// The feature columns of `channels`, in the order given.
-pub fn channel_columns(channels: &[Channel]) -> Vec<String> {
+/// The feature columns of `channels` on a sensor of `layout`, in the order
+/// given.
+pub fn channel_columns(channels: &[Channel], layout: ElectrodeLayout) -> Vec<String> {
     channels
         .iter()
         .flat_map(|c| match c {
-            Channel::Electrodes => electrode_columns(),
+            Channel::Electrodes => electrode_columns(layout),
             Channel::Pdc => vec!["pdc".into()],
             Channel::Tdc => vec!["tdc".into()],
             Channel::Tac => vec!["tac".into()],

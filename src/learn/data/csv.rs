@@ -3,13 +3,14 @@
 //! Header of a collected file (one row per BioTac frame, 100 Hz):
 //!
 //! `t,set,trial,e1..e19,pdc,pac_mean,tdc,tac,fx,fy,fz,tx,ty,tz`
+//! (`e1..e24` from a BioTac SP)
 //!
 //! | column | meaning | unit |
 //! |---|---|---|
 //! | t | time since the start of the trial | s |
 //! | set | data set: 1 mainly x, 2 mainly y, 3 mainly z, 4 combined | - |
 //! | trial | trial number within the set | - |
-//! | e1..e19 | raw electrode values (not tared) | ADC counts |
+//! | e1..e19 (e1..e24) | raw electrode values (not tared) | ADC counts |
 //! | pdc, pac_mean, tdc, tac | static pressure, mean of the 22 PAC samples, temperature, heat flow | ADC counts |
 //! | fx, fy, fz | reference force on the finger, BioTac frame | N |
 //! | tx, ty, tz | reference torque about the BioTac origin, BioTac frame | Nm |
@@ -23,29 +24,32 @@ use std::path::Path;
 use ndarray::Array2;
 
 use super::columns::{electrode_columns, implausible, Counts};
-use super::{Dataset, DatasetError};
+use super::{records_layout, Dataset, DatasetError};
+use crate::biotac::ElectrodeLayout;
 use crate::record::Record;
 use crate::wrench::{Axis, AxisSet};
 
-/// The full header of a collected file.
-pub fn csv_header() -> Vec<String> {
+/// The full header of a collected file from a sensor of `layout`.
+pub fn csv_header(layout: ElectrodeLayout) -> Vec<String> {
     let mut h: Vec<String> = ["t", "set", "trial"].map(String::from).to_vec();
-    h.extend(electrode_columns());
+    h.extend(electrode_columns(layout));
     h.extend(["pdc", "pac_mean", "tdc", "tac"].map(String::from));
     h.extend(Axis::ALL.iter().map(|a| a.name().to_string()));
     h
 }
 
-/// Writes records as CSV with the header [`csv_header`].
+/// Writes records as CSV with the header [`csv_header`] of their layout;
+/// refuses records that mix layouts.
 pub fn write_csv(path: &Path, records: &[Record]) -> Result<(), DatasetError> {
     let p = path.display().to_string();
+    let header = csv_header(records_layout(records, &p)?);
     let csv_err = |source| DatasetError::Write {
         path: p.clone(),
         source,
     };
     let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
-    w.write_record(csv_header()).map_err(csv_err)?;
-    let mut row: Vec<String> = Vec::with_capacity(csv_header().len());
+    w.write_record(&header).map_err(csv_err)?;
+    let mut row: Vec<String> = Vec::with_capacity(header.len());
     for r in records {
         row.clear();
         row.push(format!("{:.2}", r.t));

@@ -13,13 +13,14 @@ use std::collections::BTreeMap;
 use ndarray::{Array2, Array3, Axis as NdAxis};
 
 use crate::biotac::reading::Column;
+use crate::biotac::ElectrodeLayout;
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 use crate::wrench::AxisSet;
 use columns::implausible;
 
 pub use columns::{
-    channel_columns, electrode_columns, Channel, Counts, MAX_FORCE_N, MAX_TORQUE_NM,
+    channel_columns, electrode_columns, layout_of, Channel, Counts, MAX_FORCE_N, MAX_TORQUE_NM,
 };
 pub use csv::{csv_header, write_csv};
 
@@ -87,6 +88,16 @@ pub enum DatasetError {
         /// What such a column holds.
         expected: String,
     },
+    /// Readings of a BioTac and of a BioTac SP in one session.
+    #[error("{path}: readings of {first} and of {other} in one session")]
+    MixedLayouts {
+        /// File path.
+        path: String,
+        /// The first reading's layout.
+        first: ElectrodeLayout,
+        /// Another reading's.
+        other: ElectrodeLayout,
+    },
     /// The file has a header but no rows.
     #[error("{path}: no data rows")]
     Empty {
@@ -120,6 +131,26 @@ impl Classify for DatasetError {
     }
 }
 
+/// The electrode layout of every record (a BioTac's when there are none),
+/// refused when they mix layouts.
+pub fn records_layout(records: &[Record], source: &str) -> Result<ElectrodeLayout, DatasetError> {
+    let Some(first) = records.first().map(|r| r.reading.electrodes.layout()) else {
+        return Ok(ElectrodeLayout::default());
+    };
+    match records
+        .iter()
+        .map(|r| r.reading.electrodes.layout())
+        .find(|l| *l != first)
+    {
+        Some(other) => Err(DatasetError::MixedLayouts {
+            path: source.to_string(),
+            first,
+            other,
+        }),
+        None => Ok(first),
+    }
+}
+
 /// Samples as rows: features, targets and the trial each row belongs to.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dataset {
@@ -142,24 +173,27 @@ pub struct Dataset {
 }
 
 impl Dataset {
-    /// The `features` (columns of [`csv_header`]: e1..e19, pdc, pac_mean,
-    /// tdc, tac) and `axes` targets of records, as [`Dataset::read_csv`]
-    /// reads them back from [`write_csv`]'s file; `source` names the
-    /// records in an error.
+    /// The `features` (columns of [`csv_header`]: e1..e19 or e1..e24, pdc,
+    /// pac_mean, tdc, tac) and `axes` targets of records, as
+    /// [`Dataset::read_csv`] reads them back from [`write_csv`]'s file;
+    /// `source` names the records in an error.
     pub fn from_records(
         records: &[Record],
         features: &[String],
         axes: &AxisSet,
         source: &str,
     ) -> Result<Self, DatasetError> {
+        let layout = records_layout(records, source)?;
         let columns = features
             .iter()
             .map(|f| {
-                Column::from_name(f).ok_or_else(|| DatasetError::MissingColumn {
-                    path: source.to_string(),
-                    column: f.clone(),
-                    header: csv_header().join(","),
-                })
+                Column::from_name(f)
+                    .filter(|c| !matches!(c, Column::Electrode(i) if *i >= layout.count()))
+                    .ok_or_else(|| DatasetError::MissingColumn {
+                        path: source.to_string(),
+                        column: f.clone(),
+                        header: csv_header(layout).join(","),
+                    })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let n = records.len();

@@ -67,7 +67,7 @@ fn a_bag_reading_or_wrench_that_cannot_be_true_is_refused_with_its_place() {
             reading: BioTacReading {
                 seq: 0,
                 stamp_s: 0.0,
-                electrodes,
+                electrodes: electrodes.into(),
                 pdc: 2000,
                 pac: [2000; N_PAC],
                 tdc: 2000,
@@ -99,34 +99,58 @@ fn a_bag_reading_or_wrench_that_cannot_be_true_is_refused_with_its_place() {
 }
 
 #[test]
-fn records_in_memory_equal_records_read_back_from_csv() {
+fn records_in_memory_equal_records_read_back_from_csv_for_both_layouts() {
     use crate::biotac::sim::BioTacSimConfig;
+    use crate::biotac::ElectrodeLayout;
     use crate::sim::collect::{collect, CollectConfig};
-    let records = &collect(&CollectConfig::default(), &BioTacSimConfig::default(), 3, 3)[..300];
-    let f = tempfile::NamedTempFile::new().unwrap();
-    write_csv(f.path(), records).unwrap();
-    let axes = AxisSet::forces();
     let all = [
         Channel::Electrodes,
         Channel::Pdc,
         Channel::Tdc,
         Channel::Tac,
     ];
-    let features = channel_columns(&all);
-    assert_eq!(features.len(), 22);
-    let read = Dataset::read_csv(f.path(), &features, &axes, Counts::Raw).unwrap();
-    let mem = Dataset::from_records(records, &features, &axes, "memory").unwrap();
-    assert_eq!((mem.x, mem.set, mem.trial), (read.x, read.set, read.trial));
-    let err = Dataset::from_records(records, &["pressure".into()], &axes, "memory");
-    assert!(err
+    let axes = AxisSet::forces();
+    let mut both = Vec::new();
+    for (layout, n_features) in [
+        (ElectrodeLayout::Biotac, 22),
+        (ElectrodeLayout::BiotacSp, 27),
+    ] {
+        let sensor = BioTacSimConfig::default().with_layout(layout);
+        let records = collect(&CollectConfig::default(), &sensor, 3, 3)[..300].to_vec();
+        let f = tempfile::NamedTempFile::new().unwrap();
+        write_csv(f.path(), &records).unwrap();
+        let features = channel_columns(&all, layout);
+        assert_eq!(features.len(), n_features);
+        assert_eq!(layout_of(&features), layout);
+        let read = Dataset::read_csv(f.path(), &features, &axes, Counts::Raw).unwrap();
+        let mem = Dataset::from_records(&records, &features, &axes, "memory").unwrap();
+        assert_eq!(
+            (&mem.x, &mem.set, &mem.trial),
+            (&read.x, &read.set, &read.trial)
+        );
+        let err = Dataset::from_records(&records, &["pressure".into()], &axes, "memory");
+        assert!(err
+            .unwrap_err()
+            .to_string()
+            .contains("missing column \"pressure\""));
+        // The file keeps targets to the precision it writes them with.
+        let worst = (&mem.y - &read.y)
+            .mapv(f64::abs)
+            .fold(0.0f64, |a, &b| a.max(b));
+        assert!(worst < 1e-6, "{worst}");
+        both.push(records);
+    }
+    // A BioTac has no E20; one session cannot hold both sensors.
+    let err = Dataset::from_records(&both[0], &["e20".into()], &axes, "memory").unwrap_err();
+    assert!(err.to_string().contains("missing column \"e20\""), "{err}");
+    let mixed = [both[0][0].clone(), both[1][0].clone()];
+    let err = write_csv(std::path::Path::new("/dev/null"), &mixed)
         .unwrap_err()
-        .to_string()
-        .contains("missing column \"pressure\""));
-    // The file keeps targets to the precision it writes them with.
-    let worst = (&mem.y - &read.y)
-        .mapv(f64::abs)
-        .fold(0.0f64, |a, &b| a.max(b));
-    assert!(worst < 1e-6, "{worst}");
+        .to_string();
+    assert_eq!(
+        err,
+        "/dev/null: readings of 19 electrodes and of 24 electrodes in one session"
+    );
 }
 
 #[test]

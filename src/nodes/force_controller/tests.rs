@@ -256,7 +256,7 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
     let reading = |t: f64| BioTacReading {
         seq: 0,
         stamp_s: t,
-        electrodes: [3000; crate::biotac::N_ELECTRODES],
+        electrodes: [3000; crate::biotac::N_ELECTRODES].into(),
         pdc: 2000,
         pac: [2000; crate::biotac::N_PAC],
         tdc: 1800,

@@ -32,7 +32,7 @@ fn reading_cdr(stamp_s: f64, e1: u16) -> Vec<u8> {
     let r = BioTacReading {
         seq: e1,
         stamp_s,
-        electrodes,
+        electrodes: electrodes.into(),
         pdc: 2100,
         pac: [2048; N_PAC],
         tdc: 1800,
@@ -126,7 +126,7 @@ fn a_written_session_reads_back_record_for_record() {
                 reading: BioTacReading {
                     seq: i as u16,
                     stamp_s: 0.0,
-                    electrodes,
+                    electrodes: electrodes.into(),
                     pdc: 2100,
                     pac: [2048; N_PAC],
                     tdc: 1800,

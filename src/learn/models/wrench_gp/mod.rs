@@ -241,7 +241,9 @@ impl WrenchGp {
             features: data.features.clone(),
             axes: data.axes.clone(),
             tare,
-            sensor: SensorSpec::Biotac,
+            // A BioTac's or a BioTac SP's, as the features say; `train`
+            // records the nail camera's with `with_sensor`.
+            sensor: SensorSpec::biotac(crate::learn::data::layout_of(&data.features)),
             scaling,
             input,
             n_train: data.len(),
