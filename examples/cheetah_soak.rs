@@ -138,7 +138,8 @@ fn main() -> std::process::ExitCode {
         stats.decoder.parity_errors
     );
     println!(
-        "  missing-sensor words: {} (44 per frame of sensor 1 while it was gone)",
+        "  invalid words beyond the injected parity faults: {} (sensor 1's 44 per frame while \
+         it was gone)",
         invalid.saturating_sub(injected)
     );
     println!(

@@ -8,11 +8,13 @@
 //! # Sources
 //!
 //! The facts below come from SynTouch's BioTac Product Manual (V21, August
-//! 2018: chapter 5 "Sensor Electronics", the SPI communication and the
-//! default sampling sequence) and from SynTouch's own C library for the
-//! Cheetah (`biotac.h` / `biotac.c`, (c) 2011-2012 SynTouch LLC, as
-//! redistributed in Penn's and KTH's `biotac_sensors` ROS driver; its
-//! BioTac SP edition in CNCR-NTU's `biotac_sp_ros`). Only numbers are taken
+//! 2018; its chapter 5 "Sensor Electronics" covers the SPI interface and
+//! the default sampling sequence: only its table of contents could be read
+//! here, so no table number is cited) and, for every byte and delay, from
+//! SynTouch's own C library for the Cheetah (`biotac.h` / `biotac.c`,
+//! (c) 2011-2012 SynTouch LLC, "SPI version 2 commands", as redistributed in
+//! Penn's `biotac_sensors` ROS driver, kth-ros-pkg/biotac_driver; its
+//! BioTac SP edition in CNCR-NTU/biotac_sp_ros). Only numbers are taken
 //! from them, no code.
 //!
 //! - **Sampling command** (one byte, then one padding byte): bit 7 set,
@@ -27,9 +29,11 @@
 //! - **Default sampling sequence**: every electrode followed by a PAC
 //!   sample, then PDC, PAC, TAC, PAC, TDC, PAC: 44 words on the BioTac,
 //!   54 on the BioTac SP (24 electrodes).
-//! - **Timing**: 4400 samples per second (44 words: 100 frames/s), SPI clock
-//!   4.4 MHz, at least 50 us between a sampling command and reading its
-//!   result, 10 us between words.
+//! - **Timing** (the library's defaults): 4400 samples per second (44 words:
+//!   100 frames/s), SPI clock 4.4 MHz, 50 us between a sampling command and
+//!   reading its result, 10 us after the words; the rest of the sample
+//!   period is a wait computed from the bits shifted, one byte time per
+//!   slave-select change and 3 us for the adapter.
 //! - **The board**: slave select k (bit k of the Cheetah's SS mask) reaches
 //!   the BioTac at board position k (0..=2); a sampling command is sent to
 //!   every selected BioTac at once (all SS lines asserted), then each
