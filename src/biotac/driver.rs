@@ -1,10 +1,13 @@
-//! The serial driver: reads a BioTac bridge's byte stream (wire format v1,
-//! [`super::wire`]), decodes it, applies the invalid-sample policy and
-//! reports what happens on the link.
+//! The BioTac driver: reads frames from a link (the serial bridge's byte
+//! stream, wire format v1, [`super::wire`]; or a Cheetah SPI adapter,
+//! [`super::cheetah`]), applies the invalid-sample policy and reports what
+//! happens on the link. The policies below are the driver's, whatever the
+//! link: a link is a [`FrameSource`] that only opens, reads frames and
+//! closes.
 //!
 //! - **Readings** are stamped with the host's monotonic clock (seconds since
 //!   the driver started).
-//! - **Invalid samples.** The decoder sets the channels whose words are
+//! - **Invalid samples.** The source sets the channels whose words are
 //!   invalid to 0 and lists them ([`super::wire`], "Invalid samples");
 //!   [`HoldLastGood`] then applies the policy before a reading reaches the
 //!   estimator: an invalid channel takes its value from the previous frame
@@ -12,31 +15,59 @@
 //!   for at most one frame. If a channel is invalid two frames in a row, or
 //!   the previous frame is missing, the reading is dropped, so the estimator
 //!   never uses an invalid value as if it were good; the controller's watchdog
-//!   stops the arm when readings stop.
-//! - **Port loss.** A read error (a pulled USB adapter, a closed
-//!   pseudo-terminal) closes the port at once; the driver logs it and tries
-//!   to reopen the same path with exponential back-off
-//!   (`retry_initial_s`, doubling up to `retry_max_s`), then resumes.
+//!   stops the arm when readings stop. Nothing is held across a reconnect.
+//! - **Link loss.** A read error (a pulled USB adapter, a closed
+//!   pseudo-terminal) closes the link at once; the driver logs it and tries
+//!   to reopen it with exponential back-off (`retry_initial_s`, doubling up
+//!   to `retry_max_s`), then resumes.
+//! - **Fatal errors** (a missing adapter library, a sensor the reading type
+//!   cannot hold): one [`DriverEvent::Failed`]; the driver then stops.
 //! - **Stale.** No frame for `stale_after_s` (3 sensor periods): one
 //!   [`DriverEvent::Stale`], again after each recovery.
-//! - **Statistics** every `stats_every_s`: frames/s and the decoder's counts.
+//! - **Statistics** every `stats_every_s`: frames/s and the source's counts.
 //! - **Tare** on request: the next `samples` readings, refused when PDC shows
 //!   contact ([`Tare::from_readings_out_of_contact`]).
 //!
-//! [`Driver::poll`] does one bounded step (it blocks at most ~`read_timeout_s`
-//! or until the next retry), so a thread or an executor can own the loop.
+//! [`Driver::poll`] does one bounded step (it blocks at most ~`read_timeout_s`,
+//! or one Cheetah batch, or until the next retry), so a thread or an
+//! executor can own the loop.
 
-use std::io::Read;
 use std::time::{Duration, Instant};
-
-use serialport::SerialPort;
 
 use super::tare::{Tare, TareError};
 use super::wire::{
-    slot, to_frame_order, ChannelMask, DecodedFrame, Decoder, DecoderStats, DEFAULT_BAUD,
-    N_SENSORS, N_WORDS,
+    slot, to_frame_order, ChannelMask, DecodedFrame, DecoderStats, DEFAULT_BAUD, N_SENSORS, N_WORDS,
 };
 use super::{BioTacReading, FRAME_PERIOD_S};
+
+mod serial;
+pub use serial::SerialSource;
+
+/// Why a link read or open failed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LinkError {
+    /// The link is gone or could not be opened: retried with back-off.
+    Lost(String),
+    /// Retrying cannot help (configuration, a missing library): the driver
+    /// stops.
+    Fatal(String),
+}
+
+/// A link that delivers decoded frames: it only moves bytes and decodes
+/// them; every policy is the [`Driver`]'s.
+pub trait FrameSource: Send {
+    /// What the link reads from, for logs ("/dev/ttyACM0", "Cheetah port 0").
+    fn name(&self) -> String;
+    /// Opens the link; says what was opened.
+    fn open(&mut self) -> Result<String, LinkError>;
+    /// Reads what arrives within about `timeout_s` (a Cheetah: one batch)
+    /// and appends the decoded frames. An error means the link is closed.
+    fn read(&mut self, timeout_s: f64, frames: &mut Vec<DecodedFrame>) -> Result<(), LinkError>;
+    /// Closes the link (nothing if it is not open).
+    fn close(&mut self);
+    /// What the link has seen since it was made.
+    fn stats(&self) -> DecoderStats;
+}
 
 /// Driver settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -81,23 +112,25 @@ impl DriverConfig {
 pub struct LinkStats {
     /// Frames per second over the last statistics period.
     pub frames_per_s: f64,
-    /// The decoder's counters.
+    /// The source's counters (the serial decoder's; a Cheetah's frames,
+    /// invalid words and lost batches).
     pub decoder: DecoderStats,
     /// Readings dropped by the invalid-sample policy.
     pub dropped: u64,
-    /// Times the port was lost.
+    /// Times the link was lost.
     pub disconnects: u64,
 }
 
 /// What the driver reports.
 #[derive(Debug, Clone, PartialEq)]
 pub enum DriverEvent {
-    /// The port is open.
+    /// The link is open.
     Connected {
-        /// Device path.
+        /// What was opened (the device path; the Cheetah adapter and its
+        /// BioTacs).
         port: String,
     },
-    /// The port was lost or could not be opened; the driver retries.
+    /// The link was lost or could not be opened; the driver retries.
     Disconnected {
         /// The error.
         reason: String,
@@ -123,6 +156,11 @@ pub enum DriverEvent {
     Tared(Tare),
     /// A requested tare was refused.
     TareRefused(TareError),
+    /// A fatal error: the driver stopped.
+    Failed {
+        /// The error.
+        reason: String,
+    },
 }
 
 /// A tare being collected.
@@ -132,11 +170,12 @@ struct TareRequest {
     readings: Vec<BioTacReading>,
 }
 
-/// The serial driver.
+/// The driver: a link's frames through the policies (module documentation).
 pub struct Driver {
     config: DriverConfig,
-    port: Option<Box<dyn SerialPort>>,
-    decoder: Decoder,
+    source: Box<dyn FrameSource>,
+    open: bool,
+    failed: bool,
     hold: HoldLastGood,
     start: Instant,
     last_frame: Option<Instant>,
@@ -149,20 +188,28 @@ pub struct Driver {
     disconnects: u64,
     tare: Option<TareRequest>,
     last_tare: Option<Tare>,
-    buf: Vec<u8>,
     frames: Vec<DecodedFrame>,
 }
 
 impl Driver {
-    /// A driver for `config`; the port opens on the first [`Driver::poll`].
+    /// A driver of the serial bridge at `config.port`; the port opens on the
+    /// first [`Driver::poll`].
     pub fn new(config: DriverConfig) -> Self {
+        let source = SerialSource::new(&config);
+        Driver::with_source(config, Box::new(source))
+    }
+
+    /// A driver of any link (`config.port` and `config.baud` unused); the
+    /// link opens on the first [`Driver::poll`].
+    pub fn with_source(config: DriverConfig, source: Box<dyn FrameSource>) -> Self {
         let now = Instant::now();
         Driver {
             backoff_s: config.retry_initial_s,
             stats_at: now + secs(config.stats_every_s),
             config,
-            port: None,
-            decoder: Decoder::new(),
+            source,
+            open: false,
+            failed: false,
             hold: HoldLastGood::new(),
             start: now,
             last_frame: None,
@@ -173,7 +220,6 @@ impl Driver {
             disconnects: 0,
             tare: None,
             last_tare: None,
-            buf: vec![0; 4096],
             frames: Vec::with_capacity(64),
         }
     }
@@ -183,11 +229,16 @@ impl Driver {
         self.start.elapsed().as_secs_f64()
     }
 
+    /// Whether a fatal error stopped the driver.
+    pub fn failed(&self) -> bool {
+        self.failed
+    }
+
     /// The link statistics so far (frames/s not measured: 0).
     pub fn stats(&self) -> LinkStats {
         LinkStats {
             frames_per_s: 0.0,
-            decoder: self.decoder.stats(),
+            decoder: self.source.stats(),
             dropped: self.dropped,
             disconnects: self.disconnects,
         }
@@ -202,14 +253,20 @@ impl Driver {
         });
     }
 
-    /// One step: open the port if due, read what arrives within the read
-    /// timeout, decode it, and report.
+    /// One step: open the link if due, read what arrives within the read
+    /// timeout, apply the policies, and report.
     pub fn poll(&mut self, on_event: &mut dyn FnMut(DriverEvent)) {
         let now = Instant::now();
-        match self.port.take() {
-            None if now >= self.retry_at => self.open(now, on_event),
-            None => std::thread::sleep((self.retry_at - now).min(secs(self.config.read_timeout_s))),
-            Some(port) => self.read(port, on_event),
+        if self.failed {
+            std::thread::sleep(secs(self.config.read_timeout_s));
+            return;
+        }
+        match self.open {
+            false if now >= self.retry_at => self.open(now, on_event),
+            false => {
+                std::thread::sleep((self.retry_at - now).min(secs(self.config.read_timeout_s)))
+            }
+            true => self.read(on_event),
         }
         let now = Instant::now();
         if let Some(last) = self.last_frame {
@@ -222,10 +279,10 @@ impl Driver {
             }
         }
         if now >= self.stats_at {
-            let frames = self.decoder.stats().frames;
+            let frames = self.source.stats().frames;
             let period = self.config.stats_every_s;
             on_event(DriverEvent::Stats(LinkStats {
-                frames_per_s: (frames - self.frames_at_stats) as f64 / period,
+                frames_per_s: frames.saturating_sub(self.frames_at_stats) as f64 / period,
                 ..self.stats()
             }));
             self.frames_at_stats = frames;
@@ -234,62 +291,41 @@ impl Driver {
     }
 
     fn open(&mut self, now: Instant, on_event: &mut dyn FnMut(DriverEvent)) {
-        let c = &self.config;
-        match serialport::new(c.port.as_str(), c.baud)
-            .timeout(secs(c.read_timeout_s))
-            .open()
-        {
+        let name = self.source.name();
+        match self.source.open() {
             Ok(port) => {
-                tracing::info!(port = %c.port, baud = c.baud, "BioTac port open");
-                self.port = Some(port);
-                self.backoff_s = c.retry_initial_s;
-                on_event(DriverEvent::Connected {
-                    port: c.port.clone(),
-                });
+                tracing::info!(link = %name, opened = %port, "BioTac link open");
+                self.open = true;
+                self.hold = HoldLastGood::new();
+                self.backoff_s = self.config.retry_initial_s;
+                on_event(DriverEvent::Connected { port });
             }
-            Err(e) => {
+            Err(LinkError::Lost(e)) => {
                 let retry_in_s = self.backoff_s;
-                tracing::warn!(port = %c.port, error = %e, retry_in_s, "cannot open the BioTac port");
+                tracing::warn!(link = %name, error = %e, retry_in_s, "cannot open the BioTac link");
                 self.retry_at = now + secs(retry_in_s);
-                self.backoff_s = (self.backoff_s * 2.0).min(c.retry_max_s);
+                self.backoff_s = (self.backoff_s * 2.0).min(self.config.retry_max_s);
                 on_event(DriverEvent::Disconnected {
-                    reason: format!("{}: {e}", c.port),
+                    reason: format!("{name}: {e}"),
                     retry_in_s,
                 });
             }
+            Err(LinkError::Fatal(e)) => self.fail(e, on_event),
         }
     }
 
-    fn read(&mut self, mut port: Box<dyn SerialPort>, on_event: &mut dyn FnMut(DriverEvent)) {
-        let n = match port.read(&mut self.buf) {
-            Ok(0) => Err(std::io::Error::new(
-                std::io::ErrorKind::UnexpectedEof,
-                "end of stream",
-            )),
-            Ok(n) => Ok(n),
-            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => Ok(0),
-            Err(e) => Err(e),
-        };
-        let n = match n {
-            Ok(n) => n,
-            Err(e) => {
-                self.disconnects += 1;
-                let retry_in_s = self.config.retry_initial_s;
-                tracing::warn!(port = %self.config.port, error = %e, "BioTac port lost");
-                self.retry_at = Instant::now() + secs(retry_in_s);
-                self.backoff_s = (retry_in_s * 2.0).min(self.config.retry_max_s);
-                on_event(DriverEvent::Disconnected {
-                    reason: format!("{}: {e}", self.config.port),
-                    retry_in_s,
-                });
-                return;
-            }
-        };
-        self.port = Some(port);
-        let stamp_s = self.start.elapsed().as_secs_f64();
-        let frames = &mut self.frames;
-        self.decoder.push(&self.buf[..n], |f| frames.push(f));
+    fn fail(&mut self, reason: String, on_event: &mut dyn FnMut(DriverEvent)) {
+        tracing::error!(link = %self.source.name(), error = %reason, "BioTac driver stopped");
+        self.source.close();
+        self.open = false;
+        self.failed = true;
+        on_event(DriverEvent::Failed { reason });
+    }
+
+    fn read(&mut self, on_event: &mut dyn FnMut(DriverEvent)) {
         let mut decoded = std::mem::take(&mut self.frames);
+        let result = self.source.read(self.config.read_timeout_s, &mut decoded);
+        let stamp_s = self.start.elapsed().as_secs_f64();
         for frame in decoded.drain(..) {
             self.last_frame = Some(Instant::now());
             self.stale = false;
@@ -304,6 +340,24 @@ impl Driver {
             on_event(DriverEvent::Frame { frame, reading });
         }
         self.frames = decoded;
+        match result {
+            Ok(()) => {}
+            Err(LinkError::Lost(e)) => {
+                self.source.close();
+                self.open = false;
+                self.disconnects += 1;
+                let retry_in_s = self.config.retry_initial_s;
+                let name = self.source.name();
+                tracing::warn!(link = %name, error = %e, "BioTac link lost");
+                self.retry_at = Instant::now() + secs(retry_in_s);
+                self.backoff_s = (retry_in_s * 2.0).min(self.config.retry_max_s);
+                on_event(DriverEvent::Disconnected {
+                    reason: format!("{name}: {e}"),
+                    retry_in_s,
+                });
+            }
+            Err(LinkError::Fatal(e)) => self.fail(e, on_event),
+        }
     }
 
     fn collect_tare(&mut self, r: &BioTacReading, on_event: &mut dyn FnMut(DriverEvent)) {
@@ -384,86 +438,4 @@ impl HoldLastGood {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::biotac::wire::tests::reading;
-
-    /// A decoded frame of `reading(offset)` with the given invalid channels
-    /// (zeroed, as the decoder leaves them).
-    fn frame_with_invalid(sensor: u8, seq: u16, offset: u16, invalid: &[usize]) -> DecodedFrame {
-        let mut frame = DecodedFrame {
-            sensor,
-            seq,
-            bridge_us: 0,
-            reading: BioTacReading {
-                seq,
-                ..reading(offset)
-            },
-            invalid: ChannelMask::default(),
-        };
-        for &position in invalid {
-            frame.invalid.insert(position);
-            if let Some(v) = slot(&mut frame.reading, position) {
-                *v = 0;
-            }
-        }
-        frame
-    }
-
-    #[test]
-    fn hold_passes_valid_readings_through() {
-        let mut hold = HoldLastGood::new();
-        let frame = frame_with_invalid(0, 1, 0, &[]);
-        assert_eq!(hold.apply(&frame), Some(frame.reading));
-    }
-
-    #[test]
-    fn hold_fills_one_invalid_frame_from_the_previous_one() {
-        let mut hold = HoldLastGood::new();
-        hold.apply(&frame_with_invalid(0, 1, 0, &[]));
-        let held = hold.apply(&frame_with_invalid(0, 2, 5, &[12, 38])).unwrap();
-        assert_eq!(held.electrodes[6], reading(0).electrodes[6]);
-        assert_eq!(held.pdc, reading(0).pdc);
-        assert_eq!(held.electrodes[5], reading(5).electrodes[5]);
-        assert_eq!(held.seq, 2);
-    }
-
-    #[test]
-    fn hold_drops_a_channel_invalid_twice_in_a_row() {
-        let mut hold = HoldLastGood::new();
-        hold.apply(&frame_with_invalid(0, 1, 0, &[]));
-        assert!(hold.apply(&frame_with_invalid(0, 2, 0, &[12])).is_some());
-        assert_eq!(hold.apply(&frame_with_invalid(0, 3, 0, &[12, 5])), None);
-        assert_eq!(hold.apply(&frame_with_invalid(0, 4, 0, &[5])), None);
-        assert!(hold.apply(&frame_with_invalid(0, 5, 0, &[12])).is_some());
-    }
-
-    #[test]
-    fn hold_drops_without_a_previous_frame() {
-        let mut hold = HoldLastGood::new();
-        assert_eq!(hold.apply(&frame_with_invalid(0, 1, 0, &[3])), None);
-        hold.apply(&frame_with_invalid(0, 2, 0, &[]));
-        assert_eq!(hold.apply(&frame_with_invalid(0, 4, 0, &[3])), None, "gap");
-        hold.apply(&frame_with_invalid(0, 5, 0, &[]));
-        assert_eq!(
-            hold.apply(&frame_with_invalid(1, 6, 0, &[3])),
-            None,
-            "other sensor"
-        );
-        assert_eq!(
-            hold.apply(&frame_with_invalid(3, 6, 0, &[])),
-            None,
-            "no sensor 3"
-        );
-    }
-
-    #[test]
-    fn hold_allows_different_channels_in_consecutive_frames() {
-        let mut hold = HoldLastGood::new();
-        hold.apply(&frame_with_invalid(2, 65535, 0, &[]));
-        let a = hold.apply(&frame_with_invalid(2, 0, 1, &[7])).unwrap();
-        let b = hold.apply(&frame_with_invalid(2, 1, 2, &[8])).unwrap();
-        assert_eq!(a.pac[3], reading(0).pac[3]);
-        assert_eq!(b.electrodes[4], reading(1).electrodes[4]);
-    }
-}
+mod tests;

@@ -1,12 +1,15 @@
 //! The BioTac fingertip: reading type, its ROS message, tare, serial wire
-//! codec and driver, a bridge emulator, and a simulator (forward model).
+//! codec and driver, the SPI protocol and the Cheetah adapter that reads it,
+//! a bridge emulator, and a simulator (forward model).
 
+pub mod cheetah;
 pub mod driver;
 pub mod emulator;
 pub mod geometry;
 pub mod msg;
 pub mod reading;
 pub mod sim;
+pub mod spi;
 pub mod tare;
 pub mod wire;
 

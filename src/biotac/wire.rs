@@ -232,7 +232,7 @@ fn has_odd_parity(byte: u8) -> bool {
 }
 
 /// `byte` with bit 0 set if that gives it odd parity.
-fn with_odd_parity(byte: u8) -> u8 {
+pub(super) fn with_odd_parity(byte: u8) -> u8 {
     byte | u8::from(!has_odd_parity(byte))
 }
 

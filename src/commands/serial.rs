@@ -1,5 +1,6 @@
 //! `biotac-emulator` and `biotac-monitor`: a bridge emulator that writes
-//! frames to a serial port, and a live view of what a port receives.
+//! frames to a serial port, and a live view of what a serial port or a
+//! Cheetah SPI adapter (`--cheetah`) receives.
 
 use std::io::Write;
 use std::sync::atomic::AtomicBool;
@@ -9,6 +10,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serialport::{SerialPort, TTYPort};
 
+use tactile_force::biotac::cheetah::{CheetahConfig, CheetahSource};
 use tactile_force::biotac::driver::{Driver, DriverConfig, DriverEvent, LinkStats};
 use tactile_force::biotac::emulator::{stream, Emulator, EmulatorConfig};
 use tactile_force::biotac::wire::{DecodedFrame, DEFAULT_BAUD};
@@ -51,8 +53,24 @@ pub struct EmulatorArgs {
 #[derive(Args)]
 pub struct MonitorArgs {
     /// Serial port of the BioTac bridge.
-    #[arg(long)]
-    port: String,
+    #[arg(long, required_unless_present = "cheetah", conflicts_with = "cheetah")]
+    port: Option<String>,
+    /// Read a multi-BioTac board through a Total Phase Cheetah adapter: its
+    /// port number (0, 1, ...) or serial number (1364-123456).
+    #[arg(long, value_name = "ADAPTER")]
+    cheetah: Option<String>,
+    /// Total Phase's Cheetah library (cheetah.so), or its directory
+    /// (default: searched in LD_LIBRARY_PATH, next to the executable, in
+    /// the current directory).
+    #[arg(long, value_name = "PATH", requires = "cheetah")]
+    cheetah_lib: Option<std::path::PathBuf>,
+    /// Board positions to sample, e.g. 0,2 (default: every BioTac that
+    /// answers).
+    #[arg(long, value_delimiter = ',', requires = "cheetah")]
+    sensors: Option<Vec<u8>>,
+    /// Electrodes of the BioTacs on the board: 19 (BioTac) or 24 (BioTac SP).
+    #[arg(long, default_value_t = 19, requires = "cheetah")]
+    electrodes: usize,
     /// Baud rate.
     #[arg(long, default_value_t = DEFAULT_BAUD)]
     baud: u32,
@@ -121,10 +139,32 @@ pub fn run_emulator(a: EmulatorArgs) -> Result<()> {
     Ok(())
 }
 
+/// The driver the arguments ask for, and what it reads.
+fn monitor_driver(a: &MonitorArgs) -> Result<(Driver, String)> {
+    let Some(adapter) = &a.cheetah else {
+        let port = a.port.clone().unwrap_or_default();
+        let mut config = DriverConfig::new(port.clone());
+        config.baud = a.baud;
+        return Ok((Driver::new(config), port));
+    };
+    let library = a.cheetah_lib.as_deref().unwrap_or(std::path::Path::new(""));
+    let config = CheetahConfig::from_settings(
+        adapter,
+        &library.to_string_lossy(),
+        a.sensors.as_deref().unwrap_or_default(),
+        a.electrodes,
+    )?;
+    let adapter = config.adapter;
+    let source = CheetahSource::new(config);
+    let name = format!("the Cheetah adapter at {adapter}");
+    Ok((
+        Driver::with_source(DriverConfig::new(""), Box::new(source)),
+        name,
+    ))
+}
+
 pub fn run_monitor(a: MonitorArgs) -> Result<()> {
-    let mut config = DriverConfig::new(a.port.clone());
-    config.baud = a.baud;
-    let mut driver = Driver::new(config);
+    let (mut driver, link) = monitor_driver(&a)?;
     let view = (!a.jsonl).then(live_view);
     let mut shown = 0u64;
     let mut last_frame = Instant::now();
@@ -133,6 +173,7 @@ pub fn run_monitor(a: MonitorArgs) -> Result<()> {
     let mut out = std::io::stdout().lock();
     while a.frames.is_none_or(|n| shown < n) {
         let mut error = None;
+        let mut fatal = None;
         driver.poll(&mut |e| match e {
             DriverEvent::Frame { frame, .. } => {
                 shown += 1;
@@ -151,15 +192,19 @@ pub fn run_monitor(a: MonitorArgs) -> Result<()> {
             DriverEvent::Stale { silent_s } => {
                 last_problem = format!("no frame for {silent_s:.3} s (stale)");
             }
+            DriverEvent::Failed { reason } => fatal = Some(reason),
             _ => {}
         });
         if let Some(e) = error {
             return Err(e.into());
         }
+        if let Some(reason) = fatal {
+            return Err(BadArgument(reason).into());
+        }
         if last_frame.elapsed().as_secs_f64() > a.timeout_s {
             return Err(Failure::failed(format!(
-                "no frame from {} for {} s: {last_problem}",
-                a.port, a.timeout_s
+                "no frame from {link} for {} s: {last_problem}",
+                a.timeout_s
             )));
         }
     }
@@ -169,6 +214,8 @@ pub fn run_monitor(a: MonitorArgs) -> Result<()> {
         "crc_errors": s.crc_errors,
         "parity_errors": s.parity_errors,
         "lost": s.lost.iter().sum::<u64>(),
+        "dropped": driver.stats().dropped,
+        "disconnects": driver.stats().disconnects,
     }});
     writeln!(out, "{json}")?;
     Ok(())

@@ -1,5 +1,7 @@
-//! `biotac_driver`: the serial bridge ([`Driver`], docs/serial-protocol.md)
-//! -> `biotac/readings` (tactile_force_msgs/BioTac, untyped, sensor-data
+//! `biotac_driver`: the serial bridge ([`Driver`], docs/serial-protocol.md),
+//! or with `interface: cheetah` a multi-BioTac board on a Total Phase
+//! Cheetah adapter ([`CheetahSource`], docs/demos.md "Connect your BioTac
+//! — Cheetah"), -> `biotac/readings` (tactile_force_msgs/BioTac, untyped, sensor-data
 //! QoS) and `/diagnostics` (diagnostic_msgs/DiagnosticArray, once per
 //! statistics period and on every link change). `~/tare`
 //! (std_srvs/Trigger) asks the driver for a tare; it is compiled only in a
@@ -13,8 +15,10 @@ use r2r::QosProfile;
 use super::convert::level::{ERROR, OK, WARN};
 use super::params::RuntimeParams;
 use super::{convert, RosError};
+use crate::biotac::cheetah::{CheetahConfig, CheetahSource};
 use crate::biotac::driver::{Driver, DriverConfig, DriverEvent};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
+use crate::params::ParamsError;
 
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
@@ -25,6 +29,60 @@ pub async fn run() -> Result<(), RosError> {
         "/dev/ttyACM0",
         "Serial device of the BioTac bridge.",
     )?;
+    let interface = super::own_string(
+        &node,
+        "interface",
+        "serial",
+        "serial (the bridge at `port`) or cheetah (a board on a Cheetah adapter).",
+    )?;
+    let cheetah = super::own_string(
+        &node,
+        "cheetah",
+        "0",
+        "Cheetah adapter: port number (0, 1, ...) or serial number (1364-123456).",
+    )?;
+    let library = super::own_string(
+        &node,
+        "cheetah_library",
+        "",
+        "Total Phase's cheetah.so (file or directory); empty: searched.",
+    )?;
+    let sensors = super::own_strings(
+        &node,
+        "sensors",
+        &[],
+        "Board positions (0, 1, 2) to sample; empty: every BioTac that answers.",
+    )?;
+    let electrodes = super::own_f64(
+        &node,
+        "electrodes",
+        19.0,
+        "Electrodes of the BioTacs: 19 (BioTac) or 24 (BioTac SP).",
+    )?;
+    let driver = match interface.as_str() {
+        "serial" => Driver::new(DriverConfig::new(port.clone())),
+        "cheetah" => {
+            let invalid = |key: &str, value: String, e: &dyn std::fmt::Display| {
+                let expected = e.to_string();
+                ParamsError::Invalid {
+                    key: key.into(),
+                    value,
+                    expected,
+                }
+            };
+            let slots = sensors
+                .iter()
+                .map(|s| s.parse::<u8>())
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| invalid("sensors", sensors.join(","), &e))?;
+            let config =
+                CheetahConfig::from_settings(&cheetah, &library, &slots, electrodes as usize)
+                    .map_err(|e| invalid("cheetah", cheetah.clone(), &e))?;
+            let source = Box::new(CheetahSource::new(config));
+            Driver::with_source(DriverConfig::new(""), source)
+        }
+        other => return Err(invalid_interface(other).into()),
+    };
     let frame_id = super::own_string(
         &node,
         "frame_id",
@@ -78,9 +136,15 @@ pub async fn run() -> Result<(), RosError> {
     drop(tare_tx);
 
     let samples = tare_samples.max(1.0) as usize;
+    let link = if interface == "cheetah" {
+        format!("cheetah {cheetah}")
+    } else {
+        port
+    };
     let blocking = tokio::task::spawn_blocking(move || {
-        let mut driver = Driver::new(DriverConfig::new(port.clone()));
-        loop {
+        let mut driver = driver;
+        let mut failed = None;
+        while failed.is_none() {
             if tare_rx.try_recv().is_ok() {
                 driver.request_tare(samples);
             }
@@ -135,16 +199,30 @@ pub async fn run() -> Result<(), RosError> {
                         // The error says "tare refused: ..." itself.
                         Some((WARN, e.to_string(), vec![]))
                     }
+                    DriverEvent::Failed { reason } => {
+                        failed = Some(reason.clone());
+                        Some((ERROR, format!("stopped: {reason}"), vec![]))
+                    }
                 };
                 if let Some((level, message, values)) = diag {
                     let name = "biotac_driver: link";
-                    let msg = convert::diagnostics_msg(now, level, name, message, &port, values);
+                    let msg = convert::diagnostics_msg(now, level, name, message, &link, values);
                     if let Err(e) = diagnostics.publish(&msg) {
                         tracing::warn!("diagnostics: {e}");
                     }
                 }
             });
         }
+        Err(RosError::Driver(failed.unwrap_or_default()))
     });
-    Ok(blocking.await?)
+    blocking.await?
+}
+
+/// An `interface` the node does not know.
+fn invalid_interface(value: &str) -> ParamsError {
+    ParamsError::Invalid {
+        key: "interface".into(),
+        value: value.into(),
+        expected: "serial or cheetah".into(),
+    }
 }

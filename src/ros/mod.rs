@@ -83,6 +83,10 @@ pub enum RosError {
     /// A task of the node ended abnormally.
     #[error("node task: {0}")]
     Join(#[from] tokio::task::JoinError),
+    /// The BioTac driver stopped on a fatal error (a missing Cheetah
+    /// library, a sensor the reading type cannot hold).
+    #[error("BioTac driver: {0}")]
+    Driver(String),
 }
 
 impl From<crate::nodes::force_controller::DescriptionError> for RosError {
@@ -113,6 +117,8 @@ impl Classify for RosError {
             RosError::DefaultModel(e) => e.class(),
             RosError::Estimator(e) => e.class(),
             RosError::R2r(_) | RosError::Runtime(_) | RosError::Join(_) => ExitClass::Failure,
+            // Only configuration stops the driver: refused input.
+            RosError::Driver(_) => ExitClass::Refused,
         }
     }
 }
