@@ -74,6 +74,7 @@ pub fn read_ros1_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
     let mut wrenches = Series::new(&p, &topics.ft);
     let mut connections: HashMap<u32, (Role, String, String)> = HashMap::new();
     let mut messages = 0;
+    let mut unknown = None;
     for record in bag.chunk_records() {
         let chunk = match record {
             Ok(ChunkRecord::Chunk(chunk)) => chunk,
@@ -84,7 +85,14 @@ pub fn read_ros1_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
             match record.map_err(|e| corrupt(messages, &holds, e.to_string()))? {
                 MessageRecord::Connection(c) => {
                     if !connections.contains_key(&c.id) {
-                        let role = role(&p, c.topic, c.tp, c.message_definition, topics)?;
+                        // An unknown type is told once the bag is counted.
+                        let role = match role(&p, c.topic, c.tp, c.message_definition, topics) {
+                            Err(e @ BagError::UnknownType { .. }) => {
+                                unknown.get_or_insert(e);
+                                Role::Other
+                            }
+                            role => role?,
+                        };
                         if let Role::Readings(_) = role {
                             readings.msg_type = c.tp.into();
                         }
@@ -119,6 +127,23 @@ pub fn read_ros1_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
         }
     }
 
+    if let Some(BagError::UnknownType {
+        path,
+        topic,
+        expected,
+        found,
+        ..
+    }) = unknown
+    {
+        let holds = holds.to_string();
+        return Err(BagError::UnknownType {
+            path,
+            topic,
+            expected,
+            found,
+            holds,
+        });
+    }
     let missing = if readings.items.is_empty() {
         Some(&topics.biotac)
     } else if wrenches.items.is_empty() {
@@ -164,6 +189,7 @@ fn role(
         topic: topic.into(),
         expected,
         found: tp.into(),
+        holds: String::new(),
     };
     if topic == topics.biotac {
         let kind = HandKind::of(tp)

@@ -167,7 +167,7 @@ pub enum BagError {
         reason: String,
     },
     /// A ROS 1 topic asked for carries a type this reader does not take.
-    #[error("{path}: topic {topic} carries {found}, expected {expected}")]
+    #[error("{path}: topic {topic} carries {found}, expected {expected} (the bag holds: {holds})")]
     UnknownType {
         /// File path.
         path: String,
@@ -177,6 +177,8 @@ pub enum BagError {
         expected: &'static str,
         /// The type found.
         found: String,
+        /// The bag's topics, types and message counts.
+        holds: String,
     },
 }
 
