@@ -159,7 +159,7 @@ fn a_bag_without_a_topic_names_it_and_lists_the_topics_found() {
     assert!(matches!(err, BagError::MissingTopic { .. }), "{text}");
     assert!(
         text.contains("no message on topic /ft_sensor/wrench")
-            && text.contains("/biotac/readings (tactile_force_msgs/msg/BioTac)"),
+            && text.contains("/biotac/readings (tactile_force_msgs/msg/BioTac, 5 messages)"),
         "{text}"
     );
 }
