@@ -118,7 +118,7 @@ pub(crate) fn read_data(
         let trials = split_bag(&mut bag, source);
         eprintln!(
             "{name}: {} readings of {} paired with a wrench; unpaired: {} readings, {} \
-             wrenches; {trials} trials",
+             wrenches; trials: {trials}",
             bag.records.len(),
             bag.reading_type,
             bag.unpaired_readings,
