@@ -1,7 +1,8 @@
 //! Hands' BioTac bags from an independent writer (Python's rosbags,
 //! serialising from the message definitions registered in its type
 //! system): `sr_robot_msgs/BiotacAll` and `biotac_sensors/BioTacHand` with
-//! `geometry_msgs/WrenchStamped`, as ROS 1 bags and as rosbag2 MCAP (CDR),
+//! `geometry_msgs/WrenchStamped`, as ROS 1 bags (uncompressed, bz2, lz4) and
+//! as rosbag2 MCAP (CDR),
 //! read back value for value by learn::data::ros1 and learn::data::bag.
 //! The bags and `expected.json` (what was written) come from
 //! `tests/bag/run.sh`, which runs these tests with `--ignored`.
@@ -61,8 +62,20 @@ fn read(name: &str, topic: &str, finger: usize) -> Result<Bag, BagError> {
 }
 
 /// (file, readings topic, message type, sensors per message)
-const BAGS: [(&str, &str, &str, usize); 4] = [
+const BAGS: [(&str, &str, &str, usize); 6] = [
     ("shadow.bag", "/rh/tactile", "sr_robot_msgs/BiotacAll", 5),
+    (
+        "shadow_bz2.bag",
+        "/rh/tactile",
+        "sr_robot_msgs/BiotacAll",
+        5,
+    ),
+    (
+        "shadow_lz4.bag",
+        "/rh/tactile",
+        "sr_robot_msgs/BiotacAll",
+        5,
+    ),
     (
         "shadow_mcap/shadow_mcap.mcap",
         "/rh/tactile",

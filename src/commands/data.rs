@@ -49,10 +49,10 @@ pub(crate) struct SourceArgs {
     #[arg(long, default_value = "auto", allow_hyphen_values = true)]
     pub(crate) trials: TrialsArg,
     /// At rest: the force within this of the first 50 readings' mean (N).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = positive)]
     pub(crate) rest_force_n: f64,
     /// The shortest rest between two presses (s).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = positive)]
     pub(crate) rest_min_s: f64,
     /// Where the F/T sensor sits in the BioTac frame, `roll,pitch,yaw,x,y,z`
     /// (deg, fixed-axis x-y-z; m): its wrenches are moved to the BioTac frame
@@ -153,6 +153,14 @@ pub(crate) fn read_data(
     ds.y = y;
     ds.axes = axes.clone();
     Ok(ds)
+}
+
+/// A positive, finite number.
+fn positive(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a positive number, got {s}")),
+    }
 }
 
 /// Cuts a bag's records into trials as `--trials` says; the number of trials.

@@ -8,7 +8,8 @@ One session of 3 presses, 900 messages at 100 Hz on each topic, the
 wrenches stamped up to 2 ms off the readings. Written to OUT_DIR:
 
 - shadow.bag, shadow_mcap/ (rosbag2, MCAP): sr_robot_msgs/BiotacAll
-  (Biotac[5] tactiles) on /rh/tactile, WrenchStamped on /ft;
+  (Biotac[5] tactiles) on /rh/tactile, WrenchStamped on /ft; shadow_bz2.bag
+  and shadow_lz4.bag: the ROS 1 bag with compressed chunks;
 - penn.bag, penn_mcap/: biotac_sensors/BioTacHand (3 sensors) on
   /biotac_pub, WrenchStamped on /ft;
 - unknown_type.bag: std_msgs/String on /rh/tactile;
@@ -178,11 +179,13 @@ def jitter_ns(i):
     return ((i * 7919) % 5 - 2) * 1_000_000
 
 
-def write(path, ros1, hand_type, topic, make):
+def write(path, ros1, hand_type, topic, make, compression=None):
     ts = typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     wrench_type = "geometry_msgs/msg/WrenchStamped"
     serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
     writer = Writer1(path) if ros1 else Writer2(path, version=8, storage_plugin=StoragePlugin.MCAP)
+    if compression is not None:
+        writer.set_compression(compression)
     with writer:
         hand = writer.add_connection(topic, hand_type, typestore=ts)
         ft = writer.add_connection("/ft", wrench_type, typestore=ts)
@@ -200,6 +203,9 @@ def main():
         penn = out / ("penn.bag" if ros1 else "penn_mcap")
         write(shadow, ros1, "sr_robot_msgs/msg/BiotacAll", "/rh/tactile", shadow_msg)
         write(penn, ros1, "biotac_sensors/msg/BioTacHand", "/biotac_pub", penn_msg)
+    for name, fmt in [("bz2", Writer1.CompressionFormat.BZ2), ("lz4", Writer1.CompressionFormat.LZ4)]:
+        path = out / f"shadow_{name}.bag"
+        write(path, True, "sr_robot_msgs/msg/BiotacAll", "/rh/tactile", shadow_msg, fmt)
 
     ts = typestore(Stores.ROS1_NOETIC)
     with Writer1(out / "unknown_type.bag") as w:
