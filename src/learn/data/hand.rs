@@ -47,13 +47,7 @@ impl HandKind {
 
     /// The fields of the message (name, type) up to the sensors, then
     /// the sensor type's name and its fields: what the definition must say.
-    fn fields(
-        self,
-    ) -> (
-        &'static [(&'static str, &'static str)],
-        &'static str,
-        &'static [(&'static str, &'static str)],
-    ) {
+    fn fields(self) -> (Fields, &'static str, Fields) {
         match self {
             HandKind::BiotacAll => (
                 &[("header", "Header"), ("tactiles", "Biotac[]")],
@@ -87,6 +81,9 @@ impl HandKind {
         }
     }
 }
+
+/// A message's fields as (name, type); `[]` stands for any array.
+type Fields = &'static [(&'static str, &'static str)];
 
 /// How a message is serialized.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -327,7 +324,7 @@ pub fn reading_from(c: &Channels, seq: u16, stamp_s: f64) -> Result<BioTacReadin
             c.electrodes.len()
         ));
     }
-    if c.pac.is_empty() || N_PAC % c.pac.len() != 0 {
+    if c.pac.is_empty() || !N_PAC.is_multiple_of(c.pac.len()) {
         return Err(format!(
             "{} PAC samples in the message; a reading takes {N_PAC} or a divisor of it",
             c.pac.len()

@@ -10,6 +10,7 @@
 //! reindex` mends it). A message whose header stamp is zero is stamped
 //! with its record time.
 
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -84,7 +85,7 @@ pub fn read_ros1_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
         for record in chunk.messages() {
             match record.map_err(|e| corrupt(messages, &holds, e.to_string()))? {
                 MessageRecord::Connection(c) => {
-                    if !connections.contains_key(&c.id) {
+                    if let Entry::Vacant(slot) = connections.entry(c.id) {
                         // An unknown type is told once the bag is counted.
                         let role = match role(&p, c.topic, c.tp, c.message_definition, topics) {
                             Err(e @ BagError::UnknownType { .. }) => {
@@ -96,7 +97,7 @@ pub fn read_ros1_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
                         if let Role::Readings(_) = role {
                             readings.msg_type = c.tp.into();
                         }
-                        connections.insert(c.id, (role, c.topic.into(), c.tp.into()));
+                        slot.insert((role, c.topic.into(), c.tp.into()));
                     }
                 }
                 MessageRecord::MessageData(m) => {

@@ -61,7 +61,7 @@ fn a_definition_that_differs_is_refused_naming_its_fields() {
 fn penn_cdr(sensors: u32, little: bool) -> Vec<u8> {
     let mut b = vec![0, u8::from(little), 0, 0];
     let put = |b: &mut Vec<u8>, bytes: &[u8], align: usize| {
-        while (b.len() - 4) % align != 0 {
+        while !(b.len() - 4).is_multiple_of(align) {
             b.push(0);
         }
         let mut bytes = bytes.to_vec();
