@@ -75,7 +75,7 @@ pub enum BagError {
         reason: String,
     },
     /// The header stamps of a topic step back by more than the tolerance,
-    /// or forward by more than [`MAX_GAP_S`].
+    /// or forward by more than [`super::MAX_GAP_S`].
     #[error(
         "{path}: topic {topic}, message {index}: header stamp {stamp_s:.6} s follows \
          {previous_s:.6} s ({:+.6} s): a clock jump or a gap",
