@@ -108,6 +108,7 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
         let message = message.map_err(|source| BagError::Corrupt {
             path: p.clone(),
             messages,
+            holds: found.to_string(),
             source,
         })?;
         let channel = &message.channel;
@@ -455,6 +456,7 @@ pub fn write_bag(
     let corrupt = |source| BagError::Corrupt {
         path: p.clone(),
         messages: 0,
+        holds: "none".into(),
         source,
     };
     let file = File::create(path).map_err(io)?;

@@ -25,12 +25,17 @@ pub enum BagError {
         path: String,
     },
     /// The MCAP structure is broken: the file is cut short or damaged.
-    #[error("{path}: truncated or corrupt MCAP file after {messages} messages: {source}")]
+    #[error(
+        "{path}: truncated or corrupt MCAP file after {messages} messages (topics read: \
+         {holds}): {source}"
+    )]
     Corrupt {
         /// File path.
         path: String,
         /// Messages read before the error.
         messages: usize,
+        /// The topics read so far, with types and counts.
+        holds: String,
         /// The `mcap` crate's error.
         source: McapError,
     },

@@ -269,6 +269,11 @@ fn a_file_that_is_not_mcap_or_cut_short_gives_an_error_not_a_panic() {
     let err = read(&good[..good.len() / 2]).unwrap_err();
     assert!(matches!(err, BagError::Corrupt { .. }), "{err}");
     assert!(err.to_string().contains("truncated or corrupt"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("(topics read: /biotac/readings (tactile_force_msgs/msg/BioTac, "),
+        "{err}"
+    );
     // Every cut fails; no flipped byte panics.
     for cut in (8..good.len()).step_by(13) {
         assert!(read(&good[..cut]).is_err(), "cut at {cut}");
