@@ -219,7 +219,7 @@ fn a_biotac_sp_is_refused_at_the_reading_function() {
     assert!(d.failed());
     assert_eq!(r.failed.len(), 1);
     assert!(
-        r.failed[0].contains("24-electrode readings need the layout change"),
+        r.failed[0].contains("27 PAC samples in a frame, a reading holds 22"),
         "{}",
         r.failed[0]
     );

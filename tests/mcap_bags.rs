@@ -115,7 +115,10 @@ fn the_cli_trains_on_a_bag_and_names_what_is_wrong_with_a_bad_one() {
     );
     assert!(o.status.success(), "{err}");
     assert!(
-        err.contains("8000 readings paired with a wrench; unpaired: 0 readings, 0 wrenches"),
+        err.contains(
+            "8000 readings of tactile_force_msgs/msg/BioTac paired with a wrench; unpaired: 0 \
+             readings, 0 wrenches; trials: 1"
+        ),
         "{err}"
     );
     let j: serde_json::Value = serde_json::from_str(out.lines().last().unwrap()).unwrap();

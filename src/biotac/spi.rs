@@ -41,7 +41,7 @@
 //! - **Identification**: the read command 0x61 followed by 0x15 makes the
 //!   BioTac answer its 16-character serial number, which starts with "BT".
 
-use super::reading::{BioTacReading, N_ELECTRODES, N_PAC};
+use super::reading::{BioTacReading, Electrodes, N_PAC};
 use super::wire::{decode_word, with_odd_parity, ChannelMask, DecodedFrame};
 
 /// BioTacs on one multi-BioTac board (board positions 0..BOARD_SLOTS).
@@ -185,17 +185,9 @@ pub enum SpiOp {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum LayoutError {
-    /// The reading type holds 19 electrodes; the BioTac SP samples 24.
-    #[error(
-        "24-electrode readings need the layout change: BioTacReading holds {holds} electrodes, \
-         the sensor sampled {sampled} (BioTac SP); use a 19-electrode BioTac until then"
-    )]
-    Electrodes {
-        /// Electrodes the reading type holds.
-        holds: usize,
-        /// Electrodes sampled.
-        sampled: usize,
-    },
+    /// An electrode count no BioTac has.
+    #[error(transparent)]
+    Electrodes(#[from] crate::biotac::reading::LayoutError),
     /// The frame's PAC samples are not 22.
     #[error("{0} PAC samples in a frame, a reading holds 22")]
     Pac(usize),
@@ -220,11 +212,7 @@ pub fn reading_from_samples(
     tdc: u16,
     tac: u16,
 ) -> Result<BioTacReading, LayoutError> {
-    let electrodes: [u16; N_ELECTRODES] =
-        electrodes.try_into().map_err(|_| LayoutError::Electrodes {
-            holds: N_ELECTRODES,
-            sampled: electrodes.len(),
-        })?;
+    let electrodes = Electrodes::from_slice(electrodes)?;
     let pac: [u16; N_PAC] = pac.try_into().map_err(|_| LayoutError::Pac(pac.len()))?;
     Ok(BioTacReading {
         seq,

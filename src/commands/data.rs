@@ -1,6 +1,7 @@
 //! Training data files for `train`, `eval`, `adapt` and `tradeoff`: BioTac
-//! CSV or rosbag2 MCAP files, each a session tared on its own, wrenches
-//! moved to the BioTac frame; or nail-camera directories.
+//! CSV files, rosbag2 MCAP or ROS 1 bags (cut into trials), each a session
+//! tared on its own, wrenches moved to the BioTac frame; or nail-camera
+//! directories.
 
 use std::path::{Path, PathBuf};
 
@@ -8,8 +9,11 @@ use clap::Args;
 use nalgebra::Vector3;
 
 use tactile_force::biotac::ElectrodeLayout;
-use tactile_force::learn::data::bag::{read_bag, BagTopics};
+use tactile_force::learn::data::bag::{read_bag, Bag, BagTopics};
+use tactile_force::learn::data::hand::HandKind;
 use tactile_force::learn::data::nail::read_nail_dirs;
+use tactile_force::learn::data::ros1::{is_ros1_bag, read_ros1_bag};
+use tactile_force::learn::data::trials::{split_trials, TrialSplit, TrialsArg};
 use tactile_force::learn::data::{channel_columns, Channel, Counts, Dataset, DatasetError};
 use tactile_force::learn::models::wrench_gp::TareSpec;
 use tactile_force::nail::collect::is_nail_dir;
@@ -20,19 +24,37 @@ use tactile_force::wrench::{AxisSet, FrameTransform, Wrench};
 use super::BadArgument;
 use super::{Context, Result};
 
-/// Where the data files' wrenches come from: topics of a ROS bag (MCAP)
-/// and the F/T sensor's frame.
+/// Where the data files' wrenches come from: topics of a ROS bag (rosbag2
+/// MCAP or ROS 1), the sensor of a hand message, how a bag is cut into
+/// trials, and the F/T sensor's frame.
 #[derive(Args)]
 pub(crate) struct SourceArgs {
-    /// BioTac readings topic (tactile_force_msgs/msg/BioTac) in MCAP files.
+    /// BioTac readings topic in bags: tactile_force_msgs/msg/BioTac, or a
+    /// hand's sr_robot_msgs/BiotacAll or biotac_sensors/BioTacHand (ROS 1
+    /// or ROS 2).
     #[arg(long, default_value = "/biotac/readings")]
     pub(crate) biotac_topic: String,
-    /// F/T sensor topic (geometry_msgs/msg/WrenchStamped) in MCAP files.
+    /// F/T sensor topic (geometry_msgs/WrenchStamped) in bags.
     #[arg(long, default_value = "/ft_sensor/wrench")]
     pub(crate) ft_topic: String,
-    /// Largest header-stamp difference between a reading and its wrench in MCAP files (s).
+    /// Largest header-stamp difference between a reading and its wrench in bags (s).
     #[arg(long, default_value_t = 0.005)]
     pub(crate) pair_tolerance_s: f64,
+    /// Which sensor of a hand message is read (index into tactiles[] or bt_data[]).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) finger: usize,
+    /// How a bag is cut into trials: `rests` (in the middle of each rest out
+    /// of contact), `whole` (one trial), times in s from the first paired
+    /// reading where trials 2, 3, ... start (`9.6,15.4`), or `auto`: rests
+    /// for hand messages, whole for tactile_force_msgs/msg/BioTac.
+    #[arg(long, default_value = "auto", allow_hyphen_values = true)]
+    pub(crate) trials: TrialsArg,
+    /// At rest: the force within this of the first 50 readings' mean (N).
+    #[arg(long, default_value_t = 0.1, value_parser = positive)]
+    pub(crate) rest_force_n: f64,
+    /// The shortest rest between two presses (s).
+    #[arg(long, default_value_t = 0.5, value_parser = positive)]
+    pub(crate) rest_min_s: f64,
     /// Where the F/T sensor sits in the BioTac frame, `roll,pitch,yaw,x,y,z`
     /// (deg, fixed-axis x-y-z; m): its wrenches are moved to the BioTac frame
     /// and origin. Default: the files are in the BioTac frame already.
@@ -66,8 +88,9 @@ pub(crate) fn load_session(
 }
 
 /// Reads a CSV (its BioTac channels holding `counts`) or, by its `.mcap`
-/// extension, a ROS bag (raw readings); wrenches moved to the BioTac frame
-/// when `--ft-to-biotac` says where the F/T sensor is.
+/// extension, a rosbag2 bag, or a ROS 1 bag (`.bag`, or a file that starts
+/// as one) (raw readings, cut into trials); wrenches moved to the BioTac
+/// frame when `--ft-to-biotac` says where the F/T sensor is.
 pub(crate) fn read_data(
     path: &Path,
     features: &[String],
@@ -77,19 +100,28 @@ pub(crate) fn read_data(
 ) -> Result<Dataset> {
     let name = path.display().to_string();
     let to_biotac = |w: Wrench| source.ft_to_biotac.map_or(w, |t| t.apply(&w));
-    if path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
-    {
+    let extension = |ext: &str| {
+        path.extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case(ext))
+    };
+    let (mcap, ros1) = (extension("mcap"), extension("bag") || is_ros1_bag(path));
+    if mcap || ros1 {
         let topics = BagTopics {
             biotac: source.biotac_topic.clone(),
             ft: source.ft_topic.clone(),
             tolerance_s: source.pair_tolerance_s,
+            finger: source.finger,
         };
-        let mut bag = read_bag(path, &topics)?;
+        let mut bag = match mcap {
+            true => read_bag(path, &topics)?,
+            false => read_ros1_bag(path, &topics)?,
+        };
+        let trials = split_bag(&mut bag, source);
         eprintln!(
-            "{name}: {} readings paired with a wrench; unpaired: {} readings, {} wrenches",
+            "{name}: {} readings of {} paired with a wrench; unpaired: {} readings, {} \
+             wrenches; trials: {trials}",
             bag.records.len(),
+            bag.reading_type,
             bag.unpaired_readings,
             bag.unpaired_wrenches
         );
@@ -122,6 +154,30 @@ pub(crate) fn read_data(
     ds.y = y;
     ds.axes = axes.clone();
     Ok(ds)
+}
+
+/// A positive, finite number.
+fn positive(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a positive number, got {s}")),
+    }
+}
+
+/// Cuts a bag's records into trials as `--trials` says; the number of trials.
+fn split_bag(bag: &mut Bag, source: &SourceArgs) -> usize {
+    let rests = TrialSplit::Rests {
+        force_n: source.rest_force_n,
+        min_rest_s: source.rest_min_s,
+        rest_samples: biotac::DEFAULT_TARE_SAMPLES,
+    };
+    let how = match &source.trials {
+        TrialsArg::Auto if HandKind::of(&bag.reading_type).is_some() => rests,
+        TrialsArg::Auto | TrialsArg::Whole => TrialSplit::Whole,
+        TrialsArg::Rests => rests,
+        TrialsArg::Starts(times) => TrialSplit::Starts(times.clone()),
+    };
+    split_trials(&mut bag.records, &how)
 }
 
 /// What training files hold: rows, the tare a model of them records, and

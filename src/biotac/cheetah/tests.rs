@@ -59,9 +59,6 @@ fn run_time_adapter_errors_are_retried() {
     let busy = CheetahError::Busy(AdapterId::Port(0));
     assert!(!busy.fatal());
     assert!(matches!(LinkError::from(busy), LinkError::Lost(_)));
-    let layout = CheetahError::from(LayoutError::Electrodes {
-        holds: 19,
-        sampled: 24,
-    });
+    let layout = CheetahError::from(LayoutError::Pac(27));
     assert!(layout.fatal());
 }

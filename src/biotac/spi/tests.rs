@@ -184,16 +184,15 @@ fn the_sp_schedule_reaches_the_one_reading_function_and_is_refused_there() {
     let bytes = returned(&plan, |_, _, p| p as u16);
     let mut seq = [0; 3];
     let err = plan.decode(&bytes, &mut seq).remove(0).unwrap_err();
-    assert_eq!(
-        err,
-        LayoutError::Electrodes {
-            holds: 19,
-            sampled: 24
-        }
-    );
-    assert!(err
-        .to_string()
-        .contains("24-electrode readings need the layout change"));
+    // 24 electrodes fit a reading; the SP frame's 27 PAC samples do not.
+    assert_eq!(err, LayoutError::Pac(27));
+    assert_eq!(err.to_string(), "27 PAC samples in a frame, a reading holds 22");
+    let sp = reading_from_samples(0, &[5; 24], 0, &[0; 22], 0, 0).unwrap();
+    assert_eq!(sp.electrodes.len(), 24);
+    assert!(matches!(
+        reading_from_samples(0, &[0; 20], 0, &[0; 22], 0, 0),
+        Err(LayoutError::Electrodes(_))
+    ));
     assert_eq!(
         reading_from_samples(0, &[0; 19], 0, &[0; 21], 0, 0),
         Err(LayoutError::Pac(21))

@@ -12,12 +12,12 @@ use std::io::{BufReader, Read, Seek};
 use std::path::Path;
 
 use mcap::sans_io::LinearReaderOptions;
-use mcap::{Channel, McapError};
+use mcap::Channel;
 use nalgebra::Vector3;
 
+use super::hand::{DecodeError, Encoding, HandKind, HandLayout};
 use crate::biotac::msg::{from_cdr, join_stamp, CdrLengths, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacReading;
-use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 use crate::wrench::Wrench;
 
@@ -40,6 +40,8 @@ pub struct BagTopics {
     pub ft: String,
     /// Largest stamp difference between a reading and its wrench (s).
     pub tolerance_s: f64,
+    /// Which sensor of a hand message (`tactiles[]`, `bt_data[]`) is read.
+    pub finger: usize,
 }
 
 impl Default for BagTopics {
@@ -49,6 +51,7 @@ impl Default for BagTopics {
             biotac: "/biotac/readings".into(),
             ft: "/ft_sensor/wrench".into(),
             tolerance_s: 0.005,
+            finger: 0,
         }
     }
 }
@@ -63,122 +66,8 @@ pub struct Bag {
     pub unpaired_readings: usize,
     /// Wrenches that are no reading's nearest within the tolerance.
     pub unpaired_wrenches: usize,
-}
-
-/// Why a bag could not be read into records.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum BagError {
-    /// The file could not be opened or read.
-    #[error("{path}: cannot read: {source}")]
-    Open {
-        /// File path.
-        path: String,
-        /// Underlying error.
-        source: std::io::Error,
-    },
-    /// The file does not start with the MCAP magic bytes.
-    #[error("{path}: not an MCAP file")]
-    NotMcap {
-        /// File path.
-        path: String,
-    },
-    /// The MCAP structure is broken: the file is cut short or damaged.
-    #[error("{path}: truncated or corrupt MCAP file after {messages} messages: {source}")]
-    Corrupt {
-        /// File path.
-        path: String,
-        /// Messages read before the error.
-        messages: usize,
-        /// The `mcap` crate's error.
-        source: McapError,
-    },
-    /// No message on a topic.
-    #[error("{path}: no message on topic {topic} (topics with messages: {found})")]
-    MissingTopic {
-        /// File path.
-        path: String,
-        /// The topic asked for.
-        topic: String,
-        /// The topics found, each with its type.
-        found: String,
-    },
-    /// A topic's channel carries another message type or encoding.
-    #[error("{path}: topic {topic} carries {found}, expected {expected} in {MESSAGE_ENCODING}")]
-    WrongType {
-        /// File path.
-        path: String,
-        /// The topic.
-        topic: String,
-        /// The type expected.
-        expected: &'static str,
-        /// The schema name and message encoding found.
-        found: String,
-    },
-    /// A message that does not decode as its type.
-    #[error(
-        "{path}: topic {topic}, message {index} (log time {}.{:09} s) does not decode: {reason}",
-        log_time_ns / 1_000_000_000,
-        log_time_ns % 1_000_000_000
-    )]
-    Decode {
-        /// File path.
-        path: String,
-        /// The topic.
-        topic: String,
-        /// 1-based number of the message on its topic.
-        index: usize,
-        /// The message's log time (ns).
-        log_time_ns: u64,
-        /// The decode error.
-        reason: String,
-    },
-    /// The header stamps of a topic step back by more than the tolerance,
-    /// or forward by more than [`MAX_GAP_S`].
-    #[error(
-        "{path}: topic {topic}, message {index}: header stamp {stamp_s:.6} s follows \
-         {previous_s:.6} s ({:+.6} s): a clock jump or a gap",
-        stamp_s - previous_s
-    )]
-    ClockJump {
-        /// File path.
-        path: String,
-        /// The topic.
-        topic: String,
-        /// 1-based number of the message on its topic.
-        index: usize,
-        /// The previous message's stamp (s).
-        previous_s: f64,
-        /// This message's stamp (s).
-        stamp_s: f64,
-    },
-    /// No reading has a wrench within the tolerance.
-    #[error(
-        "{path}: no reading on {biotac} has a wrench on {ft} within {tolerance_s} s (readings \
-         stamped {:.6}..{:.6} s, wrenches {:.6}..{:.6} s)",
-        readings_s.0, readings_s.1, wrenches_s.0, wrenches_s.1
-    )]
-    NoPairs {
-        /// File path.
-        path: String,
-        /// The readings topic.
-        biotac: String,
-        /// The wrench topic.
-        ft: String,
-        /// The tolerance (s).
-        tolerance_s: f64,
-        /// First and last reading stamp (s).
-        readings_s: (f64, f64),
-        /// First and last wrench stamp (s).
-        wrenches_s: (f64, f64),
-    },
-}
-
-/// A bag refused: refused input.
-impl Classify for BagError {
-    fn class(&self) -> ExitClass {
-        ExitClass::Refused
-    }
+    /// The readings' message type (as the bag names it).
+    pub reading_type: String,
 }
 
 /// Largest record the reader takes, decompressed (bytes): 32 times the
@@ -214,39 +103,44 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
     let mut wrenches = Series::new(&p, &topics.ft);
     // The role of each channel id, checked once; the topics found.
     let mut roles: HashMap<u16, Role> = HashMap::new();
-    let mut found: BTreeMap<String, String> = BTreeMap::new();
+    let mut found = Holds::new();
     for (messages, message) in stream.enumerate() {
         let message = message.map_err(|source| BagError::Corrupt {
             path: p.clone(),
             messages,
+            holds: found.to_string(),
             source,
         })?;
         let channel = &message.channel;
         let role = match roles.get(&channel.id) {
             Some(role) => *role,
             None => {
-                let role = Role::of(channel, topics).map_err(|(expected, found_type)| {
-                    BagError::WrongType {
-                        path: p.clone(),
-                        topic: channel.topic.clone(),
-                        expected,
-                        found: found_type,
-                    }
-                })?;
-                found.insert(channel.topic.clone(), type_name(channel));
+                let role = Role::of(channel, topics, &p)?;
+                if let Role::Readings(_) = role {
+                    readings.msg_type = type_name(channel);
+                }
                 roles.insert(channel.id, role);
                 role
             }
         };
+        found.count(&channel.topic, || type_name(channel));
         let (log_time_ns, tolerance_s) = (message.log_time, topics.tolerance_s);
         match role {
-            Role::Readings => readings.push(&message.data, log_time_ns, tolerance_s, |b| {
-                let reading = from_cdr(b).map_err(|e| e.to_string())?.0;
-                Ok((reading.stamp_s, reading))
-            })?,
-            Role::Wrenches => {
-                wrenches.push(&message.data, log_time_ns, tolerance_s, wrench_from_cdr)?
+            Role::Readings(None) => {
+                readings.push(&message.data, log_time_ns, tolerance_s, |b| {
+                    let reading = from_cdr(b).map_err(|e| e.to_string())?.0;
+                    Ok((reading.stamp_s, reading))
+                })?
             }
+            Role::Readings(Some(layout)) => {
+                readings.push(&message.data, log_time_ns, tolerance_s, |b| {
+                    let (stamp_s, reading) = layout.decode(b, Encoding::Cdr, topics.finger)?;
+                    Ok(stamp_or_log_time(stamp_s, reading, log_time_ns))
+                })?
+            }
+            Role::Wrenches => wrenches.push(&message.data, log_time_ns, tolerance_s, |b| {
+                Ok(wrench_from_cdr(b)?)
+            })?,
             Role::Other => {}
         }
     }
@@ -259,62 +153,139 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
         None
     };
     if let Some(topic) = missing {
-        let list: Vec<String> = found.iter().map(|(t, ty)| format!("{t} ({ty})")).collect();
         return Err(BagError::MissingTopic {
             path: p,
             topic: topic.clone(),
-            found: if list.is_empty() {
-                "none".into()
-            } else {
-                list.join(", ")
-            },
+            found: found.to_string(),
         });
     }
-    pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s).ok_or_else(|| {
-        BagError::NoPairs {
-            path: p.clone(),
-            biotac: topics.biotac.clone(),
-            ft: topics.ft.clone(),
-            tolerance_s: topics.tolerance_s,
-            readings_s: readings.span(),
-            wrenches_s: wrenches.span(),
-        }
+    let reading_type = readings.msg_type.clone();
+    let bag = pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s);
+    bag.map(|bag| Bag {
+        reading_type,
+        ..bag
+    })
+    .ok_or_else(|| BagError::NoPairs {
+        path: p.clone(),
+        biotac: topics.biotac.clone(),
+        ft: topics.ft.clone(),
+        tolerance_s: topics.tolerance_s,
+        readings_s: readings.span(),
+        wrenches_s: wrenches.span(),
     })
 }
 
-/// What a channel's messages are to the reader.
+/// The reading's stamp: its header's, or the record time when the header
+/// stamp is zero (a driver that does not stamp).
+pub(super) fn stamp_or_log_time(
+    stamp_s: f64,
+    mut reading: BioTacReading,
+    log_time_ns: u64,
+) -> (f64, BioTacReading) {
+    if stamp_s == 0.0 {
+        reading.stamp_s = log_time_ns as f64 * 1e-9;
+    }
+    (reading.stamp_s, reading)
+}
+
+/// The readings' types a bag may hold on the BioTac topic.
+const READING_TYPES: &str =
+    "tactile_force_msgs/msg/BioTac, sr_robot_msgs/msg/BiotacAll or biotac_sensors/msg/BioTacHand";
+
+/// What a channel's messages are to the reader: readings (a hand
+/// message's layout, or none for tactile_force_msgs/msg/BioTac), wrenches
+/// or another topic.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Role {
-    Readings,
+    Readings(Option<HandLayout>),
     Wrenches,
     Other,
 }
 
 impl Role {
-    /// The channel's role; (type expected, type and encoding found) when
-    /// a topic asked for carries another type or encoding.
-    fn of(channel: &Channel, topics: &BagTopics) -> Result<Role, (&'static str, String)> {
+    /// The channel's role; an error when a topic asked for carries
+    /// another type or encoding, or a hand message's schema differs.
+    fn of(channel: &Channel, topics: &BagTopics, path: &str) -> Result<Role, BagError> {
+        let name = type_name(channel);
+        let cdr = channel.message_encoding == MESSAGE_ENCODING;
         let (role, expected) = if channel.topic == topics.biotac {
-            (Role::Readings, BIOTAC_MSG_TYPE)
+            let role = match HandKind::of(&name) {
+                Some(kind) => {
+                    let schema = channel.schema.as_ref().map_or(&[][..], |s| &s.data[..]);
+                    let definition = String::from_utf8_lossy(schema);
+                    let layout =
+                        HandLayout::from_definition(kind, &definition).map_err(|reason| {
+                            BagError::Definition {
+                                path: path.into(),
+                                topic: channel.topic.clone(),
+                                msg_type: name.clone(),
+                                reason,
+                            }
+                        })?;
+                    Role::Readings(Some(layout))
+                }
+                None => Role::Readings(None),
+            };
+            let ok = matches!(role, Role::Readings(Some(_))) || name == BIOTAC_MSG_TYPE;
+            (ok.then_some(role), READING_TYPES)
         } else if channel.topic == topics.ft {
-            (Role::Wrenches, WRENCH_STAMPED_TYPE)
+            let ok = name == WRENCH_STAMPED_TYPE;
+            (ok.then_some(Role::Wrenches), WRENCH_STAMPED_TYPE)
         } else {
             return Ok(Role::Other);
         };
-        let name = channel.schema.as_ref().map(|s| s.name.as_str());
-        if name == Some(expected) && channel.message_encoding == MESSAGE_ENCODING {
-            return Ok(role);
+        match role {
+            Some(role) if cdr => Ok(role),
+            _ => {
+                let encoding = match channel.message_encoding.as_str() {
+                    "" => "no encoding",
+                    e => e,
+                };
+                Err(BagError::WrongType {
+                    path: path.into(),
+                    topic: channel.topic.clone(),
+                    expected,
+                    found: format!("{name} in {encoding}"),
+                })
+            }
         }
-        let encoding = match channel.message_encoding.as_str() {
-            "" => "no encoding",
-            e => e,
-        };
-        Err((expected, format!("{} in {encoding}", type_name(channel))))
+    }
+}
+
+/// The topics of a bag with their types and message counts, as errors
+/// say what a bag holds.
+pub(super) struct Holds(BTreeMap<String, (String, usize)>);
+
+impl Holds {
+    pub(super) fn new() -> Self {
+        Holds(BTreeMap::new())
+    }
+
+    /// One more message on `topic`.
+    pub(super) fn count(&mut self, topic: &str, type_name: impl FnOnce() -> String) {
+        match self.0.get_mut(topic) {
+            Some(entry) => entry.1 += 1,
+            None => {
+                self.0.insert(topic.into(), (type_name(), 1));
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for Holds {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_empty() {
+            return write!(f, "none");
+        }
+        let list: Vec<String> = (self.0.iter())
+            .map(|(t, (ty, n))| format!("{t} ({ty}, {n} messages)"))
+            .collect();
+        write!(f, "{}", list.join(", "))
     }
 }
 
 /// The schema name of a channel, or "no schema".
-fn type_name(channel: &Channel) -> String {
+pub(super) fn type_name(channel: &Channel) -> String {
     match &channel.schema {
         Some(s) if !s.name.is_empty() => s.name.clone(),
         _ => "no schema".into(),
@@ -323,36 +294,48 @@ fn type_name(channel: &Channel) -> String {
 
 /// The decoded messages of one topic, (header stamp in s, value), in the
 /// order read.
-struct Series<'a, T> {
+pub(super) struct Series<'a, T> {
     path: &'a str,
     topic: &'a str,
-    items: Vec<(f64, T)>,
+    /// The topic's message type, as errors name it.
+    pub(super) msg_type: String,
+    pub(super) items: Vec<(f64, T)>,
 }
 
 impl<'a, T> Series<'a, T> {
-    fn new(path: &'a str, topic: &'a str) -> Self {
+    pub(super) fn new(path: &'a str, topic: &'a str) -> Self {
         Series {
             path,
             topic,
+            msg_type: String::new(),
             items: Vec::new(),
         }
     }
 
     /// Decodes a message and checks its stamp against the previous one's.
-    fn push(
+    pub(super) fn push(
         &mut self,
         bytes: &[u8],
         log_time_ns: u64,
         tolerance_s: f64,
-        decode: impl FnOnce(&[u8]) -> Result<(f64, T), String>,
+        decode: impl FnOnce(&[u8]) -> Result<(f64, T), DecodeError>,
     ) -> Result<(), BagError> {
         let index = self.items.len() + 1;
-        let (stamp_s, value) = decode(bytes).map_err(|reason| BagError::Decode {
-            path: self.path.into(),
-            topic: self.topic.into(),
-            index,
-            log_time_ns,
-            reason,
+        let (stamp_s, value) = decode(bytes).map_err(|e| match e {
+            DecodeError::Bad(reason) => BagError::Decode {
+                path: self.path.into(),
+                topic: self.topic.into(),
+                index,
+                log_time_ns,
+                reason,
+            },
+            DecodeError::Finger { finger, sensors } => BagError::FingerOutOfRange {
+                path: self.path.into(),
+                topic: self.topic.into(),
+                msg_type: self.msg_type.clone(),
+                finger,
+                sensors,
+            },
         })?;
         if let Some(&(previous_s, _)) = self.items.last() {
             if previous_s - stamp_s > tolerance_s || stamp_s - previous_s > MAX_GAP_S {
@@ -370,13 +353,13 @@ impl<'a, T> Series<'a, T> {
     }
 
     /// The items in stamp order (steps back within the tolerance undone).
-    fn sorted(&mut self) -> &[(f64, T)] {
+    pub(super) fn sorted(&mut self) -> &[(f64, T)] {
         self.items.sort_by(|a, b| a.0.total_cmp(&b.0));
         &self.items
     }
 
     /// First and last stamp (s), once sorted.
-    fn span(&self) -> (f64, f64) {
+    pub(super) fn span(&self) -> (f64, f64) {
         let stamp = |item: Option<&(f64, T)>| item.map_or(f64::NAN, |i| i.0);
         (stamp(self.items.first()), stamp(self.items.last()))
     }
@@ -384,7 +367,7 @@ impl<'a, T> Series<'a, T> {
 
 /// Pairs each reading with the wrench of nearest stamp within
 /// `tolerance_s`; both in stamp order. None when no reading pairs.
-fn pair(
+pub(super) fn pair(
     readings: &[(f64, BioTacReading)],
     wrenches: &[(f64, Wrench)],
     tolerance_s: f64,
@@ -414,6 +397,7 @@ fn pair(
         unpaired_readings: readings.len() - records.len(),
         unpaired_wrenches: used.iter().filter(|u| !**u).count(),
         records,
+        reading_type: String::new(),
     })
 }
 
@@ -472,6 +456,7 @@ pub fn write_bag(
     let corrupt = |source| BagError::Corrupt {
         path: p.clone(),
         messages: 0,
+        holds: "none".into(),
         source,
     };
     let file = File::create(path).map_err(io)?;
@@ -544,5 +529,8 @@ fn wrench_from_cdr(bytes: &[u8]) -> Result<(f64, Wrench), String> {
     Ok((join_stamp(m.sec, m.nanosec), wrench))
 }
 
+mod error;
 #[cfg(test)]
 mod tests;
+
+pub use error::BagError;

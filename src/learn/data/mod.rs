@@ -1,12 +1,16 @@
 //! Data sets (samples x features, with their targets and trials) and their
 //! files: the training-data CSV format ([`csv`]), rosbag2 MCAP bags
-//! ([`bag`]) and the nail camera's directories ([`nail`]); which columns
-//! hold what ([`columns`]).
+//! ([`bag`]), ROS 1 bags ([`ros1`]) of hands' BioTac messages ([`hand`]),
+//! cut into trials ([`trials`]), and the nail camera's directories
+//! ([`nail`]); which columns hold what ([`columns`]).
 
 pub mod bag;
 pub mod columns;
 pub mod csv;
+pub mod hand;
 pub mod nail;
+pub mod ros1;
+pub mod trials;
 
 use std::collections::BTreeMap;
 

@@ -159,7 +159,7 @@ fn a_bag_without_a_topic_names_it_and_lists_the_topics_found() {
     assert!(matches!(err, BagError::MissingTopic { .. }), "{text}");
     assert!(
         text.contains("no message on topic /ft_sensor/wrench")
-            && text.contains("/biotac/readings (tactile_force_msgs/msg/BioTac)"),
+            && text.contains("/biotac/readings (tactile_force_msgs/msg/BioTac, 5 messages)"),
         "{text}"
     );
 }
@@ -269,6 +269,11 @@ fn a_file_that_is_not_mcap_or_cut_short_gives_an_error_not_a_panic() {
     let err = read(&good[..good.len() / 2]).unwrap_err();
     assert!(matches!(err, BagError::Corrupt { .. }), "{err}");
     assert!(err.to_string().contains("truncated or corrupt"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("(topics read: /biotac/readings (tactile_force_msgs/msg/BioTac, "),
+        "{err}"
+    );
     // Every cut fails; no flipped byte panics.
     for cut in (8..good.len()).step_by(13) {
         assert!(read(&good[..cut]).is_err(), "cut at {cut}");
