@@ -86,6 +86,9 @@ pub(crate) fn read_data(
             tolerance_s: source.pair_tolerance_s,
         };
         let mut bag = read_bag(path, &topics)?;
+        if let Some(warning) = bag.cut_warning(path) {
+            eprintln!("warning: {warning}");
+        }
         eprintln!(
             "{name}: {} readings paired with a wrench; unpaired: {} readings, {} wrenches",
             bag.records.len(),

@@ -63,6 +63,22 @@ pub struct Bag {
     pub unpaired_readings: usize,
     /// Wrenches that are no reading's nearest within the tolerance.
     pub unpaired_wrenches: usize,
+    /// The file ends without its summary and footer (a recording killed
+    /// part-way): the messages read, those of its whole chunks.
+    pub cut_after: Option<usize>,
+}
+
+impl Bag {
+    /// The warning for a cut file, or None.
+    pub fn cut_warning(&self, path: &Path) -> Option<String> {
+        self.cut_after.map(|n| {
+            format!(
+                "{}: the file was cut (no summary or footer: its recording was interrupted); \
+                 read up to its last whole chunk, {n} messages",
+                path.display()
+            )
+        })
+    }
 }
 
 /// Why a bag could not be read into records.
@@ -70,7 +86,7 @@ pub struct Bag {
 #[non_exhaustive]
 pub enum BagError {
     /// The file could not be opened or read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("bag {path}: cannot read: {source}")]
     Open {
         /// File path.
         path: String,
@@ -83,8 +99,9 @@ pub enum BagError {
         /// File path.
         path: String,
     },
-    /// The MCAP structure is broken: the file is cut short or damaged.
-    #[error("{path}: truncated or corrupt MCAP file after {messages} messages: {source}")]
+    /// The MCAP structure is broken: the file is damaged, or cut short
+    /// before its first whole chunk (a cut after one reads, [`Bag::cut_after`]).
+    #[error("bag {path}: truncated or corrupt MCAP file after {messages} messages: {source}")]
     Corrupt {
         /// File path.
         path: String,
@@ -172,12 +189,23 @@ pub enum BagError {
         /// First and last wrench stamp (s).
         wrenches_s: (f64, f64),
     },
+    /// A session could not be written ([`SessionWriter`]).
+    #[error("session {path}: cannot write: {reason}")]
+    Write {
+        /// File path.
+        path: String,
+        /// What failed.
+        reason: String,
+    },
 }
 
-/// A bag refused: refused input.
+/// A bag refused: refused input; a session not written: the work failed.
 impl Classify for BagError {
     fn class(&self) -> ExitClass {
-        ExitClass::Refused
+        match self {
+            BagError::Write { .. } => ExitClass::Failure,
+            _ => ExitClass::Refused,
+        }
     }
 }
 
@@ -215,12 +243,23 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
     // The role of each channel id, checked once; the topics found.
     let mut roles: HashMap<u16, Role> = HashMap::new();
     let mut found: BTreeMap<String, String> = BTreeMap::new();
+    let mut cut_after = None;
     for (messages, message) in stream.enumerate() {
-        let message = message.map_err(|source| BagError::Corrupt {
-            path: p.clone(),
-            messages,
-            source,
-        })?;
+        let message = match message {
+            Ok(m) => m,
+            // Cut at the end after whole chunks: what was flushed reads.
+            Err(McapError::UnexpectedEof) if messages > 0 => {
+                cut_after = Some(messages);
+                break;
+            }
+            Err(source) => {
+                return Err(BagError::Corrupt {
+                    path: p.clone(),
+                    messages,
+                    source,
+                })
+            }
+        };
         let channel = &message.channel;
         let role = match roles.get(&channel.id) {
             Some(role) => *role,
@@ -270,16 +309,16 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
             },
         });
     }
-    pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s).ok_or_else(|| {
-        BagError::NoPairs {
+    let bag = pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s);
+    bag.map(|b| Bag { cut_after, ..b })
+        .ok_or_else(|| BagError::NoPairs {
             path: p.clone(),
             biotac: topics.biotac.clone(),
             ft: topics.ft.clone(),
             tolerance_s: topics.tolerance_s,
             readings_s: readings.span(),
             wrenches_s: wrenches.span(),
-        }
-    })
+        })
 }
 
 /// What a channel's messages are to the reader.
@@ -411,6 +450,7 @@ fn pair(
         }
     }
     (!records.is_empty()).then(|| Bag {
+        cut_after: None,
         unpaired_readings: readings.len() - records.len(),
         unpaired_wrenches: used.iter().filter(|u| !**u).count(),
         records,
@@ -426,104 +466,6 @@ struct CdrWrenchStamped {
     _frame_id: String,
     force: [f64; 3],
     torque: [f64; 3],
-}
-
-/// The BioTac message's definition, as rosbag2 stores a schema (`ros2msg`:
-/// the message, then each type it uses after a line of `=`).
-const BIOTAC_SCHEMA: &str = concat!(
-    include_str!("../../../msg/msg/BioTac.msg"),
-    "\n================================================================================\n",
-    "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n",
-    "================================================================================\n",
-    "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n",
-);
-
-/// geometry_msgs/msg/WrenchStamped's definition (ROS 2 common_interfaces),
-/// as rosbag2 stores it.
-const WRENCH_STAMPED_SCHEMA: &str = concat!(
-    "std_msgs/Header header\nWrench wrench\n",
-    "================================================================================\n",
-    "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n",
-    "================================================================================\n",
-    "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n",
-    "================================================================================\n",
-    "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n",
-    "================================================================================\n",
-    "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n",
-);
-
-/// Writes `records` as a rosbag2 MCAP file that [`read_bag`] reads back:
-/// each reading on `topics.biotac` and its wrench (BioTac frame,
-/// `frame_id`) on `topics.ft`, both stamped `t0_s + t` (their header stamp
-/// and log time). What a ROS deployment records with `ros2 bag record`.
-pub fn write_bag(
-    path: &Path,
-    records: &[Record],
-    topics: &BagTopics,
-    frame_id: &str,
-    t0_s: f64,
-) -> Result<(), BagError> {
-    use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
-    let p = path.display().to_string();
-    let io = |source| BagError::Open {
-        path: p.clone(),
-        source,
-    };
-    let corrupt = |source| BagError::Corrupt {
-        path: p.clone(),
-        messages: 0,
-        source,
-    };
-    let file = File::create(path).map_err(io)?;
-    let mut w = mcap::Writer::new(std::io::BufWriter::new(file)).map_err(corrupt)?;
-    let none = BTreeMap::new();
-    let schema = w
-        .add_schema(BIOTAC_MSG_TYPE, "ros2msg", BIOTAC_SCHEMA.as_bytes())
-        .map_err(corrupt)?;
-    let readings = w
-        .add_channel(schema, &topics.biotac, MESSAGE_ENCODING, &none)
-        .map_err(corrupt)?;
-    let schema = w
-        .add_schema(
-            WRENCH_STAMPED_TYPE,
-            "ros2msg",
-            WRENCH_STAMPED_SCHEMA.as_bytes(),
-        )
-        .map_err(corrupt)?;
-    let wrenches = w
-        .add_channel(schema, &topics.ft, MESSAGE_ENCODING, &none)
-        .map_err(corrupt)?;
-    let meta = BioTacMeta {
-        frame_id: frame_id.into(),
-        ..BioTacMeta::default()
-    };
-    for (k, r) in records.iter().enumerate() {
-        let stamp_s = t0_s + r.t;
-        let (sec, nanosec) = split_stamp(stamp_s);
-        let log_time = u64::try_from(sec).unwrap_or(0) * 1_000_000_000 + u64::from(nanosec);
-        let mut reading = r.reading;
-        reading.stamp_s = stamp_s;
-        let wrench = CdrWrenchStamped {
-            sec,
-            nanosec,
-            _frame_id: frame_id.into(),
-            force: r.wrench.force.into(),
-            torque: r.wrench.torque.into(),
-        };
-        let wrench = cdr::serialize::<_, _, cdr::CdrLe>(&wrench, cdr::Infinite)
-            .map_err(|e| io(std::io::Error::other(e.to_string())))?;
-        for (channel, data) in [(readings, to_cdr(&reading, &meta)), (wrenches, wrench)] {
-            let header = mcap::records::MessageHeader {
-                channel_id: channel,
-                sequence: k as u32,
-                log_time,
-                publish_time: log_time,
-            };
-            w.write_to_known_channel(&header, &data).map_err(corrupt)?;
-        }
-    }
-    w.finish().map_err(corrupt)?;
-    Ok(())
 }
 
 /// (header stamp in s, wrench) of a serialized WrenchStamped (CDR with its
@@ -543,6 +485,9 @@ fn wrench_from_cdr(bytes: &[u8]) -> Result<(f64, Wrench), String> {
     let wrench = Wrench::new(Vector3::from(m.force), Vector3::from(m.torque));
     Ok((join_stamp(m.sec, m.nanosec), wrench))
 }
+
+mod write;
+pub use write::{write_bag, SessionWriter};
 
 #[cfg(test)]
 mod tests;
