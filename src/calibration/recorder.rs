@@ -227,6 +227,12 @@ impl CalibrationRecorder {
         }
     }
 
+    /// The session's records written and, of them, flushed to disk; None
+    /// without a session (or after a write error).
+    pub fn session_counts(&self) -> Option<(usize, usize)> {
+        self.session.as_ref().map(SessionWriter::counts)
+    }
+
     /// Ends the session file (its last push flushed, its summary and footer
     /// written); None when the recording has none.
     pub fn finish_session(&mut self) -> Option<SessionEnd> {
@@ -333,6 +339,38 @@ mod tests {
         let e = r.on_ft(0.04, force(f64::NAN), Some((1, 1)));
         assert!(!e.mean.is_finite());
         assert_eq!((r.records().len(), r.peak_force_n()), (2, 4.0));
+    }
+
+    #[test]
+    fn each_push_is_on_disk_once_the_next_begins_and_the_session_reads_back() {
+        use crate::learn::data::bag::{read_bag, BagTopics};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.mcap");
+        let w = SessionWriter::create(&path, &BagTopics::default(), "biotac", 0.0).unwrap();
+        let mut r = CalibrationRecorder::new(0.0).with_session(w);
+        let step = |r: &mut CalibrationRecorder, i: usize, push: usize| {
+            let t = i as f64 * 0.01;
+            r.on_reading(reading(t, 2000));
+            r.on_ft(t, force(0.1 * i as f64), Some((push, 3)));
+        };
+        for i in 0..10 {
+            step(&mut r, i, 0);
+        }
+        assert_eq!(r.session_counts(), Some((10, 0)), "push 1 runs");
+        for i in 10..15 {
+            step(&mut r, i, 1);
+        }
+        assert_eq!(r.session_counts(), Some((15, 10)), "push 1 on disk");
+        let end = r.finish_session().unwrap();
+        assert_eq!(
+            (end.path.as_path(), end.written.unwrap()),
+            (path.as_path(), 15)
+        );
+        assert!(r.finish_session().is_none());
+        let bag = read_bag(&path, &BagTopics::default()).unwrap();
+        assert_eq!((bag.records.len(), bag.cut_after), (15, None));
+        assert!((bag.records[14].wrench.force.z - 1.4).abs() < 1e-12);
+        assert_eq!(r.records().len(), 15, "the records stay in memory too");
     }
 
     #[test]
