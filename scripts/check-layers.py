@@ -18,7 +18,7 @@ import re
 import sys
 
 LAYERS = [
-    ["params", "wrench", "contact"],
+    ["params", "wrench", "contact", "outputs"],
     ["biotac", "record", "kinematics", "sim", "nail", "sensor"],
     ["learn"],
     ["control", "calibration"],

@@ -23,7 +23,8 @@
 //! - [`report`]: run traces, summaries and plots;
 //! - [`params`]: ROS 2 parameter files, shared with the embedded runtime,
 //!   and their checks;
-//! - [`exit`]: how an error ends a run (its exit code);
+//! - [`exit`]: how an error ends a run (its exit code); [`outputs`]: output
+//!   files checked before the work;
 //! - [`wrench`]: wrenches and the axes a scene needs;
 //! - `ros` (feature `ros2`): the ROS 2 adapters.
 //!
@@ -68,6 +69,7 @@ pub mod kinematics;
 pub mod learn;
 pub mod nail;
 pub mod nodes;
+pub mod outputs;
 pub mod params;
 pub mod record;
 pub mod report;

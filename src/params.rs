@@ -21,8 +21,10 @@ pub const CALIBRATE_YAML: &str = include_str!("../config/calibrate.yaml");
 #[non_exhaustive]
 pub enum ParamsError {
     /// The file could not be read.
-    #[error("{path}: {error}")]
+    #[error("{role} {path}: {error}")]
     Io {
+        /// What the file is ("parameter file", "scene file", "URDF file").
+        role: &'static str,
         /// File path.
         path: PathBuf,
         /// Underlying error (in the message, not a source: said once).
@@ -198,6 +200,7 @@ pub fn from_flat_params<T: DeserializeOwned>(
 /// Reads a parameter file and deserialises the `ros__parameters` of `node`.
 pub fn read_node_params<T: DeserializeOwned>(path: &Path, node: &str) -> Result<T, ParamsError> {
     let yaml = std::fs::read_to_string(path).map_err(|error| ParamsError::Io {
+        role: "parameter file",
         path: path.to_path_buf(),
         error,
     })?;

@@ -377,15 +377,15 @@ fn each_bad_bag_is_refused_with_exit_2_naming_what_it_holds() {
         ],
     );
 
-    // A BioTac SP's 24 electrodes: not yet a reading.
-    let sp = bag_bytes(&Spec {
-        n_electrodes: 24,
+    // 20 electrodes: no BioTac's (a BioTac SP has 24).
+    let odd = bag_bytes(&Spec {
+        n_electrodes: 20,
         ..Spec::default()
     });
-    let sp = write(dir.path(), "sp.bag", &sp);
+    let odd = write(dir.path(), "odd.bag", &odd);
     refused_saying(
-        &eval(&sp, &[]),
-        &["24 electrodes in the message; a reading holds 19"],
+        &eval(&odd, &[]),
+        &["the message has 20 electrodes: a BioTac has 19, a BioTac SP 24"],
     );
 
     // The definition says Biotac[5]: a message with 4 runs out of bytes.
@@ -474,7 +474,7 @@ fn the_real_bag_gives_the_rows_and_presses_of_its_csv() {
         rest_samples: 50,
     };
     assert_eq!(split_trials(&mut bag.records, &rests), 3);
-    let mut features = electrode_columns();
+    let mut features = electrode_columns(tactile_force::biotac::ElectrodeLayout::Biotac);
     features.extend(["pdc", "tdc", "tac"].map(String::from));
     let axes: AxisSet = "fx,fy,fz".parse().unwrap();
     let csv = Dataset::read_csv(&csv_path, &features, &axes, Counts::Raw).unwrap();

@@ -164,7 +164,7 @@ pub struct SavedTare {
 #[non_exhaustive]
 pub enum SavedTareError {
     /// The file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("saved tare {path}: {source}")]
     Io {
         /// The file.
         path: std::path::PathBuf,
@@ -172,7 +172,7 @@ pub enum SavedTareError {
         source: std::io::Error,
     },
     /// The file is not a saved tare.
-    #[error("{path}: not a saved tare: {source}")]
+    #[error("saved tare {path}: not a saved tare: {source}")]
     Format {
         /// The file.
         path: std::path::PathBuf,

@@ -1,15 +1,53 @@
 //! A calibration goal (the `force_controller/calibrate` action of the ROS 2
 //! node, `demo calibrate`): the start-up parameters with the calibration
 //! task on the surface to press, checked like any scene (its safety
-//! envelope) when the controller is built.
+//! envelope) when the controller is built. Its outputs are checked, and
+//! the session file opened, before the arm moves ([`open_outputs`]).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use super::pattern::CalibrateParams;
 use crate::control::{ControllerParams, Goal, TaskSection};
+use crate::learn::data::bag::{BagError, BagTopics, SessionWriter};
+use crate::outputs::{check_writable, OutputError};
 use crate::params::ParamsError;
 use crate::wrench::AxisSet;
+
+/// The BioTac frame the session's wrenches are framed in.
+pub const SESSION_FRAME: &str = "biotac";
+
+/// Checks that the model file and the session can be written: their
+/// folders exist and take a file, and they are not the same file.
+pub fn check_outputs(model: &Path, session: &Path) -> Result<(), OutputError> {
+    check_writable(model, "model file")?;
+    check_writable(session, "session")?;
+    let same = |a: &Path, b: &Path| std::path::absolute(a).ok() == std::path::absolute(b).ok();
+    if same(model, session) {
+        return Err(OutputError {
+            role: "session",
+            path: session.to_path_buf(),
+            reason: "is the model file too: give the session its own name".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Checks the outputs before the arm moves ([`check_outputs`]) and opens
+/// the session, to be written as it is recorded.
+pub fn open_outputs(model: &Path, session: &Path) -> Result<SessionWriter, OutputError> {
+    check_outputs(model, session)?;
+    SessionWriter::create(session, &BagTopics::default(), SESSION_FRAME, 0.0).map_err(|e| {
+        OutputError {
+            role: "session",
+            path: session.to_path_buf(),
+            reason: match e {
+                BagError::Write { reason, .. } => reason,
+                other => other.to_string(),
+            },
+        }
+    })
+}
 
 /// The surface pressed when a goal names none: the world's calibration block.
 pub const DEFAULT_SURFACE: &str = "calibration_block";
@@ -34,6 +72,8 @@ impl CalibrateGoal {
             "" => {
                 let dir = crate::learn::default_model::cache_dir()
                     .ok_or("no model cache folder ($HOME unset): give model_file")?;
+                std::fs::create_dir_all(&dir)
+                    .map_err(|e| format!("model cache folder {}: {e}", dir.display()))?;
                 let unix = SystemTime::now()
                     .duration_since(UNIX_EPOCH)
                     .map_or(0, |d| d.as_secs());

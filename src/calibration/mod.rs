@@ -12,7 +12,7 @@ pub mod pattern;
 pub mod recorder;
 pub mod task;
 
-pub use goal::{CalibrateGoal, DEFAULT_SURFACE};
+pub use goal::{check_outputs, open_outputs, CalibrateGoal, DEFAULT_SURFACE};
 pub use pattern::{pattern, CalibrateParams, Push, PushKind};
-pub use recorder::{CalibrationRecorder, Ended, FT_STALE_S, PAIR_TOLERANCE_S};
+pub use recorder::{CalibrationRecorder, Ended, SessionEnd, FT_STALE_S, PAIR_TOLERANCE_S};
 pub use task::CalibrateMove;

@@ -2,12 +2,17 @@
 //! runtime, the `force_controller/calibrate` action): the F/T wrench
 //! becomes the controller's force (no model is trusted yet); each wrench is
 //! paired with the BioTac reading of the same stamp and recorded, labelled
-//! with its push; the F/T sensor falling silent is noticed.
+//! with its push; the F/T sensor falling silent is noticed. Given a
+//! session file ([`CalibrationRecorder::with_session`]), each record is
+//! written as it is recorded and the file flushed to disk as each push
+//! ends, so that a kill part-way loses at most the push running.
 
 use std::collections::VecDeque;
+use std::path::PathBuf;
 
 use crate::biotac::BioTacReading;
 use crate::control::StopReason;
+use crate::learn::data::bag::{BagError, SessionWriter};
 use crate::record::Record;
 use crate::wrench::{Wrench, WrenchEstimate};
 
@@ -74,8 +79,19 @@ impl Ended {
 /// An F/T wrench waiting for its reading: stamp, wrench, push label.
 type Unpaired = (f64, Wrench, Option<(usize, u32)>);
 
+/// The session file, once ended: its path, and the records in it or why
+/// it is not whole.
+#[derive(Debug)]
+pub struct SessionEnd {
+    /// The file.
+    pub path: PathBuf,
+    /// The records written, or the first write error (the records before
+    /// its last flush are in the file).
+    pub written: Result<usize, BagError>,
+}
+
 /// The records of a calibration, as they come.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Default)]
 pub struct CalibrationRecorder {
     pdc: Vec<f64>,
     last_pdc: f64,
@@ -87,6 +103,10 @@ pub struct CalibrationRecorder {
     first_s: Option<f64>,
     last_ft_s: Option<f64>,
     last_force: Wrench,
+    session: Option<SessionWriter>,
+    /// The session's path and its first write error (writing stops there).
+    session_failed: Option<(PathBuf, BagError)>,
+    last_push: Option<usize>,
 }
 
 impl CalibrationRecorder {
@@ -96,6 +116,13 @@ impl CalibrationRecorder {
             start_s,
             ..Self::default()
         }
+    }
+
+    /// The same, writing each record to `session` as it is recorded and
+    /// flushing it to disk when a push ends.
+    pub fn with_session(mut self, session: SessionWriter) -> Self {
+        self.session = Some(session);
+        self
     }
 
     /// Takes a BioTac reading: the PDC tare's first readings; recorded with
@@ -169,15 +196,57 @@ impl CalibrationRecorder {
     ) {
         if let Some((push, set)) = label {
             if wrench.is_finite() {
-                self.records.push(Record {
+                let record = Record {
                     t,
                     set,
                     trial: push as u32 + 1,
                     reading,
                     wrench,
-                });
+                };
+                self.write(&record, push);
+                self.records.push(record);
             }
         }
+    }
+
+    /// Writes `record` of push `push` to the session, the pushes before it
+    /// flushed first; the first error stops the writing.
+    fn write(&mut self, record: &Record, push: usize) {
+        let Some(w) = self.session.as_mut() else {
+            return;
+        };
+        let ended = self.last_push.is_some_and(|p| p != push);
+        self.last_push = Some(push);
+        let written = if ended { w.flush() } else { Ok(()) }.and_then(|()| w.write(record));
+        if let Err(e) = written {
+            let path = w.path().to_path_buf();
+            tracing::warn!("calibration: {e}; the records stay in memory");
+            // Dropped, the writer ends the file after what it wrote.
+            self.session = None;
+            self.session_failed = Some((path, e));
+        }
+    }
+
+    /// The session's records written and, of them, flushed to disk; None
+    /// without a session (or after a write error).
+    pub fn session_counts(&self) -> Option<(usize, usize)> {
+        self.session.as_ref().map(SessionWriter::counts)
+    }
+
+    /// Ends the session file (its last push flushed, its summary and footer
+    /// written); None when the recording has none.
+    pub fn finish_session(&mut self) -> Option<SessionEnd> {
+        if let Some((path, e)) = self.session_failed.take() {
+            return Some(SessionEnd {
+                path,
+                written: Err(e),
+            });
+        }
+        let w = self.session.take()?;
+        Some(SessionEnd {
+            path: w.path().to_path_buf(),
+            written: w.finish(),
+        })
     }
 
     /// True when no F/T wrench has come for [`FT_STALE_S`] before `now_s`
@@ -270,6 +339,38 @@ mod tests {
         let e = r.on_ft(0.04, force(f64::NAN), Some((1, 1)));
         assert!(!e.mean.is_finite());
         assert_eq!((r.records().len(), r.peak_force_n()), (2, 4.0));
+    }
+
+    #[test]
+    fn each_push_is_on_disk_once_the_next_begins_and_the_session_reads_back() {
+        use crate::learn::data::bag::{read_bag, BagTopics};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.mcap");
+        let w = SessionWriter::create(&path, &BagTopics::default(), "biotac", 0.0).unwrap();
+        let mut r = CalibrationRecorder::new(0.0).with_session(w);
+        let step = |r: &mut CalibrationRecorder, i: usize, push: usize| {
+            let t = i as f64 * 0.01;
+            r.on_reading(reading(t, 2000));
+            r.on_ft(t, force(0.1 * i as f64), Some((push, 3)));
+        };
+        for i in 0..10 {
+            step(&mut r, i, 0);
+        }
+        assert_eq!(r.session_counts(), Some((10, 0)), "push 1 runs");
+        for i in 10..15 {
+            step(&mut r, i, 1);
+        }
+        assert_eq!(r.session_counts(), Some((15, 10)), "push 1 on disk");
+        let end = r.finish_session().unwrap();
+        assert_eq!(
+            (end.path.as_path(), end.written.unwrap()),
+            (path.as_path(), 15)
+        );
+        assert!(r.finish_session().is_none());
+        let bag = read_bag(&path, &BagTopics::default()).unwrap();
+        assert_eq!((bag.records.len(), bag.cut_after), (15, None));
+        assert!((bag.records[14].wrench.force.z - 1.4).abs() < 1e-12);
+        assert_eq!(r.records().len(), 15, "the records stay in memory too");
     }
 
     #[test]

@@ -21,7 +21,7 @@ pub(crate) struct AdaptArgs {
     /// base model's data were.
     #[arg(long, value_delimiter = ',', required = true)]
     data: Vec<PathBuf>,
-    /// The adapted model file to write (JSON).
+    /// The adapted model file to write (JSON); its folder is checked first.
     #[arg(long)]
     out: PathBuf,
     /// Largest number of rows the correction GP trains on (a random subset beyond it).
@@ -38,6 +38,8 @@ pub(crate) struct AdaptArgs {
 }
 
 pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
+    // Refused now, not after the fit.
+    tactile_force::outputs::check_writable(&a.out, "model file")?;
     let base = WrenchGp::load(&a.model)?;
     let sessions = load_sessions(
         &a.data,

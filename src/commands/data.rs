@@ -116,6 +116,9 @@ pub(crate) fn read_data(
             true => read_bag(path, &topics)?,
             false => read_ros1_bag(path, &topics)?,
         };
+        if let Some(warning) = bag.cut_warning(path) {
+            eprintln!("warning: {warning}");
+        }
         let trials = split_bag(&mut bag, source);
         eprintln!(
             "{name}: {} readings of {} paired with a wrench; unpaired: {} readings, {} \

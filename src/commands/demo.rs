@@ -19,7 +19,7 @@ use tactile_force::runtime::demo::{
 use tactile_force::runtime::scene::RobotChoice;
 use tactile_force::runtime::{Pacing, Scene};
 
-use super::calibrate::{run_calibrate, CalibrateRun};
+use super::calibrate::{check_outputs, run_calibrate, CalibrateRun};
 use super::output::progress_bar;
 use super::BadArgument;
 use super::{Context, Result};
@@ -78,10 +78,12 @@ pub struct DemoArgs {
     /// `train`, `eval`). Default: --out with the extension .mcap.
     #[arg(long)]
     session: Option<PathBuf>,
-    /// Pace the simulation by the wall clock.
+    /// Pace the simulation by the wall clock (a calibration: its motion, as
+    /// on the robot).
     #[arg(long)]
     realtime: bool,
-    /// Write a PNG plot (forces over time; with --sweep-speed, overshoot over speed).
+    /// Write a PNG plot (forces over time; with --sweep-speed, overshoot over
+    /// speed). Its format (.png) and folder are checked before the run.
     #[arg(long)]
     plot: Option<PathBuf>,
     /// Write the run, one row per control period, as CSV.
@@ -127,6 +129,18 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
             BadArgument("--speed and --sweep-speed are for the guarded move".into()).into(),
         );
     }
+    // Every output checked before any work: a run that could not write
+    // what it makes is refused now, not after it (a calibration: before
+    // the arm moves).
+    let session = match (task, a.out.as_deref()) {
+        (TaskKind::Calibrate, Some(out)) => {
+            let session = (a.session.clone()).unwrap_or_else(|| out.with_extension("mcap"));
+            Some((out, session))
+        }
+        _ => None,
+    };
+    let files = session.as_ref().map(|(o, s)| (*o, s.as_path()));
+    check_outputs(files, a.plot.as_deref(), a.csv.as_deref())?;
     let robot = RobotChoice::parse(&a.robot)?;
     let text = match &a.scene {
         Some(path) => Scene::read_scene(path)?,
@@ -147,15 +161,16 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     scene.check()?;
     let model = demo_model(a.model.as_deref(), &scene.estimator.default_model)?;
     if task == TaskKind::Calibrate {
-        let out =
-            (a.out.as_deref()).ok_or_else(|| BadArgument("demo calibrate needs --out".into()))?;
+        let (out, session) =
+            session.ok_or_else(|| BadArgument("demo calibrate needs --out".into()))?;
         let run = CalibrateRun {
             out,
-            session: (a.session.clone()).unwrap_or_else(|| out.with_extension("mcap")),
+            session,
             seed: a.seed,
             csv: a.csv.as_deref(),
             plot: a.plot.as_deref(),
             json: a.json,
+            realtime: a.realtime,
         };
         return run_calibrate(&run, &scene, model);
     }

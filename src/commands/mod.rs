@@ -68,10 +68,23 @@ impl<E: Classify + std::error::Error + Send + Sync + 'static> From<E> for Failur
     }
 }
 
-/// The message and every cause, on one line.
+/// The message and every cause, on one line, each said once: a cause
+/// whose text the messages above it already hold (an error that prints
+/// its source, as `"model file {path}: {source}"`) is not repeated.
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{:#}", self.error)
+        let mut said = String::new();
+        for cause in self.error.chain() {
+            let text = cause.to_string();
+            if said.contains(&text) {
+                continue;
+            }
+            if !said.is_empty() {
+                said.push_str(": ");
+            }
+            said.push_str(&text);
+        }
+        f.write_str(&said)
     }
 }
 

@@ -47,6 +47,7 @@ struct Report {
 
 pub fn run_robot(a: RobotArgs) -> Result<()> {
     let text = std::fs::read_to_string(&a.urdf).map_err(|error| ParamsError::Io {
+        role: "URDF file",
         path: a.urdf.clone(),
         error,
     })?;

@@ -96,7 +96,7 @@ pub(crate) struct TrainArgs {
     /// Training files, comma-separated: each a session, tared on its own.
     #[arg(long, value_delimiter = ',', required = true)]
     data: Vec<PathBuf>,
-    /// Model file to write (JSON).
+    /// Model file to write (JSON); its folder is checked before training.
     #[arg(long)]
     out: PathBuf,
     /// Choose the channels, the input scaling, exact or sparse and its size,
@@ -137,6 +137,8 @@ pub(crate) fn gp_params(fit: &FitArgs, sensor: &SensorSpec) -> Result<Checked<Gp
 }
 
 pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
+    // Refused now, not after the training.
+    tactile_force::outputs::check_writable(&a.out, "model file")?;
     if a.select {
         return run_select(&a);
     }

@@ -10,7 +10,6 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::choice::Choice;
-use super::data::bag::{write_bag, BagError, BagTopics};
 use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{score_model, training_fit, EvalError};
 use super::models::gp::GpParams;
@@ -56,9 +55,6 @@ pub enum CalibrationError {
     /// Scoring failed, or the model explains nothing of its data.
     #[error(transparent)]
     Eval(#[from] EvalError),
-    /// The session could not be written.
-    #[error(transparent)]
-    Bag(#[from] BagError),
 }
 
 /// A calibration that makes no model failed: the arm has moved, so nothing
@@ -225,23 +221,22 @@ pub fn gp_params() -> GpParams {
     }
 }
 
-/// What a calibration does once the arm has stopped: writes the recording
-/// to `session` (a rosbag2 MCAP file that `train` and `eval` read, written
-/// first, so that a refused fit loses nothing), fits ([`fit`], [`gp_params`])
-/// and saves the model to `out`.
+/// What a calibration does once the arm has stopped and its session file
+/// is written (as it was recorded: `calibration::recorder`): fits ([`fit`],
+/// [`gp_params`]) and saves the model to `out`; the model names `session`,
+/// the file it was fitted from, when there is one.
 pub fn fit_and_save(
     records: &[Record],
     current: &WrenchGp,
     motion_s: f64,
     peak_force_n: f64,
-    session: &Path,
+    session: Option<&Path>,
     out: &Path,
 ) -> Result<CalibrationRecord, CalibrationError> {
-    write_bag(session, records, &BagTopics::default(), "biotac", 0.0)?;
     let recorded = Recorded {
         motion_s,
         peak_force_n,
-        session: Some(session.display().to_string()),
+        session: session.map(|p| p.display().to_string()),
     };
     let (model, record) = fit(records, current, recorded, &gp_params())?;
     model.save(out)?;

@@ -58,6 +58,9 @@ const SERIES_COLORS: [RGBColor; 8] = [
     RGBColor(127, 127, 127),
 ];
 
+/// The file formats a plot is written in, by extension.
+pub const FORMATS: &[&str] = &["png"];
+
 /// Why a plot was not written.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -86,6 +86,7 @@ impl RobotChoice {
             return Err(name_or_path.parse::<ShippedRobot>().unwrap_err());
         }
         let text = std::fs::read_to_string(&path).map_err(|error| ParamsError::Io {
+            role: "URDF file",
             path: path.clone(),
             error,
         })?;
@@ -176,6 +177,7 @@ impl Scene {
     /// Reads a user's scene file (to layer with [`Scene::with_robot`]).
     pub fn read_scene(path: &Path) -> Result<String, ParamsError> {
         std::fs::read_to_string(path).map_err(|error| ParamsError::Io {
+            role: "scene file",
             path: path.to_path_buf(),
             error,
         })

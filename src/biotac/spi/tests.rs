@@ -186,7 +186,10 @@ fn the_sp_schedule_reaches_the_one_reading_function_and_is_refused_there() {
     let err = plan.decode(&bytes, &mut seq).remove(0).unwrap_err();
     // 24 electrodes fit a reading; the SP frame's 27 PAC samples do not.
     assert_eq!(err, LayoutError::Pac(27));
-    assert_eq!(err.to_string(), "27 PAC samples in a frame, a reading holds 22");
+    assert_eq!(
+        err.to_string(),
+        "27 PAC samples in a frame, a reading holds 22"
+    );
     let sp = reading_from_samples(0, &[5; 24], 0, &[0; 22], 0, 0).unwrap();
     assert_eq!(sp.electrodes.len(), 24);
     assert!(matches!(

@@ -12,11 +12,11 @@ use std::io::{BufReader, Read, Seek};
 use std::path::Path;
 
 use mcap::sans_io::LinearReaderOptions;
-use mcap::Channel;
+use mcap::{Channel, McapError};
 use nalgebra::Vector3;
 
 use super::hand::{DecodeError, Encoding, HandKind, HandLayout};
-use crate::biotac::msg::{from_cdr, join_stamp, CdrLengths, BIOTAC_MSG_TYPE};
+use crate::biotac::msg::{from_cdr_as, join_stamp, CdrLengths, ElectrodeField, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacReading;
 use crate::record::Record;
 use crate::wrench::Wrench;
@@ -68,6 +68,22 @@ pub struct Bag {
     pub unpaired_wrenches: usize,
     /// The readings' message type (as the bag names it).
     pub reading_type: String,
+    /// The file ends without its summary and footer (a recording killed
+    /// part-way): the messages read, those of its whole chunks.
+    pub cut_after: Option<usize>,
+}
+
+impl Bag {
+    /// The warning for a cut file, or None.
+    pub fn cut_warning(&self, path: &Path) -> Option<String> {
+        self.cut_after.map(|n| {
+            format!(
+                "{}: the file was cut (no summary or footer: its recording was interrupted); \
+                 read up to its last whole chunk, {n} messages",
+                path.display()
+            )
+        })
+    }
 }
 
 /// Largest record the reader takes, decompressed (bytes): 32 times the
@@ -104,19 +120,30 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
     // The role of each channel id, checked once; the topics found.
     let mut roles: HashMap<u16, Role> = HashMap::new();
     let mut found = Holds::new();
+    let mut cut_after = None;
     for (messages, message) in stream.enumerate() {
-        let message = message.map_err(|source| BagError::Corrupt {
-            path: p.clone(),
-            messages,
-            holds: found.to_string(),
-            source,
-        })?;
+        let message = match message {
+            Ok(m) => m,
+            // Cut at the end after whole chunks: what was flushed reads.
+            Err(McapError::UnexpectedEof) if messages > 0 => {
+                cut_after = Some(messages);
+                break;
+            }
+            Err(source) => {
+                return Err(BagError::Corrupt {
+                    path: p.clone(),
+                    messages,
+                    holds: found.to_string(),
+                    source,
+                })
+            }
+        };
         let channel = &message.channel;
         let role = match roles.get(&channel.id) {
             Some(role) => *role,
             None => {
                 let role = Role::of(channel, topics, &p)?;
-                if let Role::Readings(_) = role {
+                if let Role::Readings(_) | Role::BioTac(_) = role {
                     readings.msg_type = type_name(channel);
                 }
                 roles.insert(channel.id, role);
@@ -126,13 +153,13 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
         found.count(&channel.topic, || type_name(channel));
         let (log_time_ns, tolerance_s) = (message.log_time, topics.tolerance_s);
         match role {
-            Role::Readings(None) => {
+            Role::BioTac(field) => {
                 readings.push(&message.data, log_time_ns, tolerance_s, |b| {
-                    let reading = from_cdr(b).map_err(|e| e.to_string())?.0;
+                    let reading = from_cdr_as(b, field).map_err(|e| e.to_string())?.0;
                     Ok((reading.stamp_s, reading))
                 })?
             }
-            Role::Readings(Some(layout)) => {
+            Role::Readings(layout) => {
                 readings.push(&message.data, log_time_ns, tolerance_s, |b| {
                     let (stamp_s, reading) = layout.decode(b, Encoding::Cdr, topics.finger)?;
                     Ok(stamp_or_log_time(stamp_s, reading, log_time_ns))
@@ -163,6 +190,7 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
     let bag = pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s);
     bag.map(|bag| Bag {
         reading_type,
+        cut_after,
         ..bag
     })
     .ok_or_else(|| BagError::NoPairs {
@@ -192,12 +220,14 @@ pub(super) fn stamp_or_log_time(
 const READING_TYPES: &str =
     "tactile_force_msgs/msg/BioTac, sr_robot_msgs/msg/BiotacAll or biotac_sensors/msg/BioTacHand";
 
-/// What a channel's messages are to the reader: readings (a hand
-/// message's layout, or none for tactile_force_msgs/msg/BioTac), wrenches
-/// or another topic.
+/// What a channel's messages are to the reader: a hand message's readings
+/// (its layout), our own BioTac message's, wrenches or another topic.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Role {
-    Readings(Option<HandLayout>),
+    /// A hand message, laid out as its schema says.
+    Readings(HandLayout),
+    /// Our own BioTac message, its electrodes as its schema lays them out.
+    BioTac(ElectrodeField),
     Wrenches,
     Other,
 }
@@ -222,11 +252,14 @@ impl Role {
                                 reason,
                             }
                         })?;
-                    Role::Readings(Some(layout))
+                    Role::Readings(layout)
                 }
-                None => Role::Readings(None),
+                None => {
+                    let schema = channel.schema.as_ref().map_or(&[][..], |s| &s.data[..]);
+                    Role::BioTac(ElectrodeField::of_definition(&String::from_utf8_lossy(schema)))
+                }
             };
-            let ok = matches!(role, Role::Readings(Some(_))) || name == BIOTAC_MSG_TYPE;
+            let ok = matches!(role, Role::Readings(_)) || name == BIOTAC_MSG_TYPE;
             (ok.then_some(role), READING_TYPES)
         } else if channel.topic == topics.ft {
             let ok = name == WRENCH_STAMPED_TYPE;
@@ -394,6 +427,7 @@ pub(super) fn pair(
         }
     }
     (!records.is_empty()).then(|| Bag {
+        cut_after: None,
         unpaired_readings: readings.len() - records.len(),
         unpaired_wrenches: used.iter().filter(|u| !**u).count(),
         records,
@@ -410,105 +444,6 @@ struct CdrWrenchStamped {
     _frame_id: String,
     force: [f64; 3],
     torque: [f64; 3],
-}
-
-/// The BioTac message's definition, as rosbag2 stores a schema (`ros2msg`:
-/// the message, then each type it uses after a line of `=`).
-const BIOTAC_SCHEMA: &str = concat!(
-    include_str!("../../../msg/msg/BioTac.msg"),
-    "\n================================================================================\n",
-    "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n",
-    "================================================================================\n",
-    "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n",
-);
-
-/// geometry_msgs/msg/WrenchStamped's definition (ROS 2 common_interfaces),
-/// as rosbag2 stores it.
-const WRENCH_STAMPED_SCHEMA: &str = concat!(
-    "std_msgs/Header header\nWrench wrench\n",
-    "================================================================================\n",
-    "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n",
-    "================================================================================\n",
-    "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n",
-    "================================================================================\n",
-    "MSG: geometry_msgs/Wrench\nVector3 force\nVector3 torque\n",
-    "================================================================================\n",
-    "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n",
-);
-
-/// Writes `records` as a rosbag2 MCAP file that [`read_bag`] reads back:
-/// each reading on `topics.biotac` and its wrench (BioTac frame,
-/// `frame_id`) on `topics.ft`, both stamped `t0_s + t` (their header stamp
-/// and log time). What a ROS deployment records with `ros2 bag record`.
-pub fn write_bag(
-    path: &Path,
-    records: &[Record],
-    topics: &BagTopics,
-    frame_id: &str,
-    t0_s: f64,
-) -> Result<(), BagError> {
-    use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
-    let p = path.display().to_string();
-    let io = |source| BagError::Open {
-        path: p.clone(),
-        source,
-    };
-    let corrupt = |source| BagError::Corrupt {
-        path: p.clone(),
-        messages: 0,
-        holds: "none".into(),
-        source,
-    };
-    let file = File::create(path).map_err(io)?;
-    let mut w = mcap::Writer::new(std::io::BufWriter::new(file)).map_err(corrupt)?;
-    let none = BTreeMap::new();
-    let schema = w
-        .add_schema(BIOTAC_MSG_TYPE, "ros2msg", BIOTAC_SCHEMA.as_bytes())
-        .map_err(corrupt)?;
-    let readings = w
-        .add_channel(schema, &topics.biotac, MESSAGE_ENCODING, &none)
-        .map_err(corrupt)?;
-    let schema = w
-        .add_schema(
-            WRENCH_STAMPED_TYPE,
-            "ros2msg",
-            WRENCH_STAMPED_SCHEMA.as_bytes(),
-        )
-        .map_err(corrupt)?;
-    let wrenches = w
-        .add_channel(schema, &topics.ft, MESSAGE_ENCODING, &none)
-        .map_err(corrupt)?;
-    let meta = BioTacMeta {
-        frame_id: frame_id.into(),
-        ..BioTacMeta::default()
-    };
-    for (k, r) in records.iter().enumerate() {
-        let stamp_s = t0_s + r.t;
-        let (sec, nanosec) = split_stamp(stamp_s);
-        let log_time = u64::try_from(sec).unwrap_or(0) * 1_000_000_000 + u64::from(nanosec);
-        let mut reading = r.reading;
-        reading.stamp_s = stamp_s;
-        let wrench = CdrWrenchStamped {
-            sec,
-            nanosec,
-            _frame_id: frame_id.into(),
-            force: r.wrench.force.into(),
-            torque: r.wrench.torque.into(),
-        };
-        let wrench = cdr::serialize::<_, _, cdr::CdrLe>(&wrench, cdr::Infinite)
-            .map_err(|e| io(std::io::Error::other(e.to_string())))?;
-        for (channel, data) in [(readings, to_cdr(&reading, &meta)), (wrenches, wrench)] {
-            let header = mcap::records::MessageHeader {
-                channel_id: channel,
-                sequence: k as u32,
-                log_time,
-                publish_time: log_time,
-            };
-            w.write_to_known_channel(&header, &data).map_err(corrupt)?;
-        }
-    }
-    w.finish().map_err(corrupt)?;
-    Ok(())
 }
 
 /// (header stamp in s, wrench) of a serialized WrenchStamped (CDR with its
@@ -530,6 +465,9 @@ fn wrench_from_cdr(bytes: &[u8]) -> Result<(f64, Wrench), String> {
 }
 
 mod error;
+mod write;
+pub use write::{write_bag, SessionWriter};
+
 #[cfg(test)]
 mod tests;
 

@@ -33,7 +33,7 @@ pub use csv::{csv_header, write_csv};
 #[non_exhaustive]
 pub enum DatasetError {
     /// The file could not be written.
-    #[error("{path}: cannot write: {source}")]
+    #[error("data file {path}: cannot write: {source}")]
     Write {
         /// File path.
         path: String,
@@ -41,7 +41,7 @@ pub enum DatasetError {
         source: ::csv::Error,
     },
     /// The file could not be opened or read.
-    #[error("{path}: {source}")]
+    #[error("data file {path}: {source}")]
     Io {
         /// File path.
         path: String,
@@ -49,7 +49,7 @@ pub enum DatasetError {
         source: std::io::Error,
     },
     /// The CSV structure is broken (e.g. a row with a different number of fields).
-    #[error("{path}: malformed CSV: {source}")]
+    #[error("data file {path}: malformed CSV: {source}")]
     Csv {
         /// File path.
         path: String,

@@ -9,6 +9,7 @@
 use super::ForceControllerNode;
 use crate::calibration::{CalibrateGoal, CalibrateMove, CalibrationRecorder, Ended};
 use crate::control::{Phase, TaskKind};
+use crate::learn::data::bag::SessionWriter;
 use crate::nodes::guarded_goal::{guarded_outcome, GuardedGoal};
 use crate::nodes::ForceController;
 
@@ -89,13 +90,23 @@ impl ForceControllerNode {
     }
 
     /// Starts a calibration at `now` (the F/T sensor's silence is counted
-    /// from then), or says why not.
-    pub fn start_calibration(&mut self, goal: &CalibrateGoal, now: f64) -> Result<(), String> {
+    /// from then), its records written to `session` as they come (opened
+    /// by [`crate::calibration::open_outputs`]), or says why not.
+    pub fn start_calibration(
+        &mut self,
+        goal: &CalibrateGoal,
+        now: f64,
+        session: Option<SessionWriter>,
+    ) -> Result<(), String> {
         let c = self.goal_controller(|n, robot| {
             ForceController::for_goal(goal, &n.base, robot).map_err(|e| e.to_string())
         })?;
         self.begin(c, Running::Calibrate, TaskKind::Calibrate);
-        self.calibration = Some(CalibrationRecorder::new(now));
+        let recorder = CalibrationRecorder::new(now);
+        self.calibration = Some(match session {
+            Some(w) => recorder.with_session(w),
+            None => recorder,
+        });
         tracing::info!("calibrating: pressing the {}", self.base.object);
         Ok(())
     }

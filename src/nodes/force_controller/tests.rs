@@ -246,7 +246,8 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
     let flipped: FrameTransform = "180,0,0,0,0,0".parse().unwrap();
     let mut n = node(Some(flipped));
     n.take_description(pa10()).unwrap();
-    n.start_calibration(&CalibrateGoal::default(), 0.0).unwrap();
+    n.start_calibration(&CalibrateGoal::default(), 0.0, None)
+        .unwrap();
     assert!(n.wants_readings());
     assert_eq!(n.calibration_progress(0.0), CalibrationProgress::Starting);
     // Estimates wait; the F/T wrench steps, moved to the BioTac frame.
@@ -298,7 +299,8 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
 fn a_silent_ft_sensor_halts_the_calibration() {
     let mut n = node(None);
     n.take_description(pa10()).unwrap();
-    n.start_calibration(&CalibrateGoal::default(), 1.0).unwrap();
+    n.start_calibration(&CalibrateGoal::default(), 1.0, None)
+        .unwrap();
     assert_eq!(n.calibration_progress(1.2), CalibrationProgress::Starting);
     assert_eq!(
         n.calibration_progress(1.5),

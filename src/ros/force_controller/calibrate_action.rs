@@ -1,11 +1,14 @@
 //! The `~/calibrate` action server of `force_controller` (needs r2r's
 //! generated types for tactile_force_msgs, so a real ROS build only).
 //!
-//! A goal starts the calibration task on its surface
-//! ([`CalibrateGoal`]); while it runs the node steps on the F/T wrench and
-//! records it with the BioTac's readings ([`CalibrationRecorder`]; the life
-//! cycle is [`ForceControllerNode`]'s). When the
-//! arm has stopped: the recording is written (MCAP), the estimator's model
+//! A goal's outputs are checked and its session file opened before the
+//! arm moves ([`open_outputs`]: a model file or session that cannot be
+//! written refuses the goal); it then starts the calibration task on its
+//! surface ([`CalibrateGoal`]); while it runs the node steps on the F/T
+//! wrench and records it with the BioTac's readings, written to the
+//! session as they come and flushed at each push's end
+//! ([`CalibrationRecorder`]; the life cycle is [`ForceControllerNode`]'s).
+//! When the arm has stopped: the session file is ended, the estimator's model
 //! (its `model_file` parameter, asked through its parameter service) is
 //! adapted or a model trained from scratch, whichever validates better
 //! ([`fit_and_save`], on a blocking thread: the loop keeps commanding zero
@@ -21,7 +24,7 @@ use futures::StreamExt;
 
 use super::estimator_link::EstimatorLink;
 use super::*;
-use crate::calibration::{CalibrateGoal, CalibrationRecorder, Ended};
+use crate::calibration::{open_outputs, CalibrateGoal, CalibrationRecorder, Ended, SessionEnd};
 use crate::learn::calibration::{fit_and_save, CalibrationRecord};
 use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::force_controller::goals::CalibrationProgress;
@@ -60,15 +63,21 @@ pub(super) async fn serve(
             model_file: req.goal.model_file.clone(),
             session_file: req.goal.session_file.clone(),
         };
-        let started = goal.outputs().and_then(|paths| {
-            lock(&shared).start_calibration(&goal, clock.now_s())?;
-            Ok(paths)
+        let started = goal.outputs().and_then(|(model, session)| {
+            let writer = open_outputs(&model, &session).map_err(|e| e.to_string())?;
+            let now = clock.now_s();
+            if let Err(e) = lock(&shared).start_calibration(&goal, now, Some(writer)) {
+                // Refused with the arm still: no session to keep.
+                let _ = std::fs::remove_file(&session);
+                return Err(e);
+            }
+            Ok((model, session))
         });
         let Ok((mut handle, mut cancel)) = req.accept() else {
             lock(&shared).end_goal();
             continue;
         };
-        let (model_path, session_path) = match started {
+        let (model_path, _) = match started {
             Ok(paths) => paths,
             Err(e) => {
                 tracing::warn!("calibrate goal refused: {e}");
@@ -103,12 +112,14 @@ pub(super) async fn serve(
                 }
             }
         };
-        let Some(rec) = lock(&shared).take_recording() else {
+        let Some(mut rec) = lock(&shared).take_recording() else {
             lock(&shared).end_goal();
             continue;
         };
+        let session = session_kept(rec.finish_session());
         if let Some(why) = ended.failure() {
-            tracing::warn!("calibration: {why}; no model written");
+            let why = format!("{why}; no model written; {}", session.0);
+            tracing::warn!("calibration: {why}");
             let result = failed(why, Some(&rec));
             let _ = if ended == Ended::Canceled {
                 handle.cancel(result)
@@ -116,7 +127,7 @@ pub(super) async fn serve(
                 handle.abort(result)
             };
         } else {
-            let _ = match fit(&rec, &estimator, model_path, session_path).await {
+            let _ = match fit(&rec, &estimator, model_path, session).await {
                 Ok(r) => handle.succeed(r),
                 Err(r) => handle.abort(r),
             };
@@ -125,14 +136,39 @@ pub(super) async fn serve(
     }
 }
 
+/// What to say of the session file once ended, and its path when whole.
+fn session_kept(end: Option<SessionEnd>) -> (String, Option<PathBuf>) {
+    match end {
+        Some(SessionEnd {
+            path,
+            written: Ok(n),
+        }) => (
+            format!("the session ({n} records) is kept at {}", path.display()),
+            Some(path),
+        ),
+        Some(SessionEnd {
+            path,
+            written: Err(e),
+        }) => (
+            format!(
+                "{e}; {} holds only the pushes flushed before that",
+                path.display()
+            ),
+            None,
+        ),
+        None => ("no session was written".into(), None),
+    }
+}
+
 /// The fit once the arm has stopped, and the estimator given the model.
 async fn fit(
     rec: &CalibrationRecorder,
     estimator: &EstimatorLink,
     model_path: PathBuf,
-    session_path: PathBuf,
+    (kept, session_path): (String, Option<PathBuf>),
 ) -> Result<Calibrate::Result, Calibrate::Result> {
     let refuse = |why: String| {
+        let why = format!("{why}; {kept}");
         tracing::warn!("calibration: {why}");
         failed(why, Some(rec))
     };
@@ -153,8 +189,15 @@ async fn fit(
     let fitted = tokio::task::spawn_blocking(move || {
         let current =
             WrenchGp::load(std::path::Path::new(&current_file)).map_err(|e| e.to_string())?;
-        fit_and_save(&records, &current, motion_s, peak, &session, &model)
-            .map_err(|e| e.to_string())
+        fit_and_save(
+            &records,
+            &current,
+            motion_s,
+            peak,
+            session.as_deref(),
+            &model,
+        )
+        .map_err(|e| e.to_string())
     })
     .await
     .map_err(|e| e.to_string())
@@ -178,7 +221,7 @@ async fn fit(
     Ok(Calibrate::Result {
         reason: "calibrated".into(),
         model_file: path,
-        session_file: session_path.display().to_string(),
+        session_file: session_path.map_or(String::new(), |p| p.display().to_string()),
         current_rmse_n: rmse(&fitted, "current"),
         chosen_rmse_n: rmse(&fitted, &fitted.chosen),
         chosen: fitted.chosen,

@@ -185,11 +185,22 @@ pub enum BagError {
         /// The bag's topics, types and message counts.
         holds: String,
     },
+    /// A session could not be written ([`super::SessionWriter`]).
+    #[error("session {path}: cannot write: {reason}")]
+    Write {
+        /// File path.
+        path: String,
+        /// What failed.
+        reason: String,
+    },
 }
 
-/// A bag refused: refused input.
+/// A bag refused: refused input; a session not written: the work failed.
 impl Classify for BagError {
     fn class(&self) -> ExitClass {
-        ExitClass::Refused
+        match self {
+            BagError::Write { .. } => ExitClass::Failure,
+            _ => ExitClass::Refused,
+        }
     }
 }

@@ -3,6 +3,7 @@
 use super::*;
 use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
 use crate::biotac::{N_ELECTRODES, N_PAC};
+use crate::exit::{Classify, ExitClass};
 use std::io::{Cursor, Write};
 
 #[derive(serde::Serialize)]
@@ -265,22 +266,119 @@ fn a_file_that_is_not_mcap_or_cut_short_gives_an_error_not_a_panic() {
     assert!(matches!(missing, Err(BagError::Open { .. })));
 
     let good = bag(&[BIOTAC, FT], &session(40));
-    assert_eq!(read(&good).unwrap().records.len(), 40);
-    let err = read(&good[..good.len() / 2]).unwrap_err();
-    assert!(matches!(err, BagError::Corrupt { .. }), "{err}");
-    assert!(err.to_string().contains("truncated or corrupt"), "{err}");
-    assert!(
-        err.to_string()
-            .contains("(topics read: /biotac/readings (tactile_force_msgs/msg/BioTac, "),
-        "{err}"
-    );
-    // Every cut fails; no flipped byte panics.
+    let whole = read(&good).unwrap();
+    assert_eq!((whole.records.len(), whole.cut_after), (40, None));
+    // A cut inside the one chunk fails; one after it reads every message,
+    // said to be cut; none panics.
+    let (mut failed, mut cut_read) = (0, 0);
     for cut in (8..good.len()).step_by(13) {
-        assert!(read(&good[..cut]).is_err(), "cut at {cut}");
+        match read(&good[..cut]) {
+            Ok(b) => {
+                assert_eq!(
+                    (b.records.len(), b.cut_after),
+                    (40, Some(80)),
+                    "cut at {cut}"
+                );
+                cut_read += 1;
+            }
+            Err(e) => {
+                assert!(matches!(e, BagError::Corrupt { messages: 0, .. }), "{e}");
+                assert!(e.to_string().contains("truncated or corrupt"), "{e}");
+                failed += 1;
+            }
+        }
     }
+    assert!(
+        failed > 0 && cut_read > 0,
+        "{failed} failed, {cut_read} read"
+    );
     for at in (0..good.len()).step_by(7) {
         let mut bad = good.clone();
         bad[at] ^= 0xA5;
         let _ = read(&bad);
     }
+}
+
+/// `n` records of push `trial`, from `t0` at 100 Hz; e1 = 2000 + row.
+fn records(t0: f64, n: usize, trial: u32) -> Vec<Record> {
+    (0..n)
+        .map(|i| {
+            let mut electrodes = [3000; N_ELECTRODES];
+            electrodes[0] = 2000 + i as u16;
+            Record {
+                t: t0 + 0.01 * i as f64,
+                set: 1,
+                trial,
+                reading: BioTacReading {
+                    seq: i as u16,
+                    stamp_s: 0.0,
+                    electrodes: electrodes.into(),
+                    pdc: 2100,
+                    pac: [2048; N_PAC],
+                    tdc: 1800,
+                    tac: 2000,
+                },
+                wrench: Wrench::new(Vector3::new(0.0, 0.0, 0.01 * i as f64), Vector3::zeros()),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn a_session_abandoned_part_way_reads_up_to_its_last_flush_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.mcap");
+    let mut w = SessionWriter::create(&path, &BagTopics::default(), "biotac", 0.0).unwrap();
+    // Three pushes of 120 rows, each flushed; a fourth half written, not.
+    for push in 0..3u32 {
+        for r in records(f64::from(push) * 1.2, 120, push + 1) {
+            w.write(&r).unwrap();
+        }
+        w.flush().unwrap();
+    }
+    for r in records(3.6, 60, 4) {
+        w.write(&r).unwrap();
+    }
+    assert_eq!(w.counts(), (420, 360));
+    // As a kill leaves it: neither the last chunk nor the footer written.
+    std::mem::forget(w);
+    let b = read_bag(&path, &BagTopics::default()).unwrap();
+    assert_eq!((b.records.len(), b.cut_after), (360, Some(720)));
+    assert!(
+        (b.records[359].t - 3.59).abs() < 1e-6,
+        "{}",
+        b.records[359].t
+    );
+    assert_eq!(b.records[359].reading.electrodes[0], 2119);
+    let warning = b.cut_warning(&path).unwrap();
+    assert!(
+        warning.contains("the file was cut") && warning.contains("720 messages"),
+        "{warning}"
+    );
+
+    // Finished, the same session reads whole and uncut.
+    let mut w = SessionWriter::create(&path, &BagTopics::default(), "biotac", 0.0).unwrap();
+    for r in records(0.0, 50, 1) {
+        w.write(&r).unwrap();
+    }
+    assert_eq!(w.finish().unwrap(), 50);
+    let b = read_bag(&path, &BagTopics::default()).unwrap();
+    assert_eq!(
+        (b.records.len(), b.cut_after, b.cut_warning(&path)),
+        (50, None, None)
+    );
+    // A folder that does not exist: a write error, a failure, naming the session.
+    let e = SessionWriter::create(
+        Path::new("/nonexistent-dir/s.mcap"),
+        &BagTopics::default(),
+        "biotac",
+        0.0,
+    )
+    .unwrap_err();
+    assert_eq!(e.class(), ExitClass::Failure);
+    assert!(
+        e.to_string()
+            .starts_with("session /nonexistent-dir/s.mcap: cannot write"),
+        "{e}"
+    );
 }

@@ -102,7 +102,10 @@ fn cdr_messages_of_either_byte_order_give_the_finger_asked_for() {
         let bytes = penn_cdr(3, little);
         let (stamp_s, r) = penn.decode(&bytes, Encoding::Cdr, 2).unwrap();
         assert_eq!(stamp_s, 7.5);
-        assert_eq!(r.electrodes, std::array::from_fn(|e| 1020 + e as u16));
+        assert_eq!(
+            r.electrodes,
+            std::array::from_fn::<u16, 19, _>(|e| 1020 + e as u16).into()
+        );
         assert_eq!((r.tdc, r.tac, r.pdc), (2302, 2001, 1902));
         assert_eq!(r.pac, std::array::from_fn(|j| 2000 + j as u16));
         let err = penn.decode(&bytes, Encoding::Cdr, 3).unwrap_err();
@@ -152,16 +155,13 @@ fn a_reading_takes_19_electrodes_and_spreads_fewer_pac_samples() {
     );
 
     let sp: Vec<i32> = vec![3000; 24];
-    let err = reading_from(
-        &Channels {
-            electrodes: &sp,
-            ..c
-        },
-        0,
-        0.0,
-    )
-    .unwrap_err();
-    assert_eq!(err, "24 electrodes in the message; a reading holds 19");
+    let with = |electrodes: &[i32]| reading_from(&Channels { electrodes, ..c }, 0, 0.0);
+    assert_eq!(with(&sp).unwrap().electrodes.len(), 24, "a BioTac SP's");
+    let err = with(&sp[..20]).unwrap_err();
+    assert_eq!(
+        err,
+        "the message has 20 electrodes: a BioTac has 19, a BioTac SP 24"
+    );
     let err = reading_from(
         &Channels {
             pac: &[1, 2, 3],

@@ -17,7 +17,7 @@ fn records(n: usize, force: impl Fn(f64) -> f64) -> Vec<Record> {
                 reading: BioTacReading {
                     seq: 0,
                     stamp_s: t,
-                    electrodes: [3000; 19],
+                    electrodes: [3000; 19].into(),
                     pdc: 2000,
                     pac: [2000; 22],
                     tdc: 2300,

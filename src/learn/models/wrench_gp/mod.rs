@@ -33,7 +33,7 @@ pub use provenance::{
 #[non_exhaustive]
 pub enum ModelError {
     /// The file could not be read.
-    #[error("{path}: {source}")]
+    #[error("model file {path}: {source}")]
     Io {
         /// File path.
         path: String,
@@ -41,7 +41,7 @@ pub enum ModelError {
         source: std::io::Error,
     },
     /// The file could not be written.
-    #[error("{path}: cannot write: {source}")]
+    #[error("model file {path}: cannot write: {source}")]
     Write {
         /// File path.
         path: String,
@@ -49,7 +49,7 @@ pub enum ModelError {
         source: std::io::Error,
     },
     /// Not JSON: truncated or corrupt.
-    #[error("{path}: not a model file (truncated or corrupt JSON: {source})")]
+    #[error("model file {path}: not a model file (truncated or corrupt JSON: {source})")]
     Corrupt {
         /// File path.
         path: String,
@@ -57,7 +57,7 @@ pub enum ModelError {
         source: serde_json::Error,
     },
     /// JSON, but not a tactile_force wrench model.
-    #[error("{path}: format is {found:?}, expected {MODEL_FORMAT:?}")]
+    #[error("model file {path}: format is {found:?}, expected {MODEL_FORMAT:?}")]
     WrongFormat {
         /// File path.
         path: String,
@@ -65,7 +65,7 @@ pub enum ModelError {
         found: String,
     },
     /// A model-file version this build cannot read.
-    #[error("{path}: model file version {found}, this build reads versions 2 to {MODEL_VERSION}")]
+    #[error("model file {path}: version {found}, this build reads versions 2 to {MODEL_VERSION}")]
     UnsupportedVersion {
         /// File path.
         path: String,
@@ -73,7 +73,7 @@ pub enum ModelError {
         found: u64,
     },
     /// The right format and version, but fields missing or of the wrong type.
-    #[error("{path}: invalid model file: {source}")]
+    #[error("model file {path}: invalid: {source}")]
     Schema {
         /// File path.
         path: String,
@@ -81,7 +81,7 @@ pub enum ModelError {
         source: serde_json::Error,
     },
     /// Parts of the file disagree (feature counts, axes, sizes).
-    #[error("{path}: inconsistent model file: {what}")]
+    #[error("model file {path}: inconsistent: {what}")]
     Inconsistent {
         /// File path.
         path: String,
