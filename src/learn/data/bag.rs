@@ -153,12 +153,10 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
         found.count(&channel.topic, || type_name(channel));
         let (log_time_ns, tolerance_s) = (message.log_time, topics.tolerance_s);
         match role {
-            Role::BioTac(field) => {
-                readings.push(&message.data, log_time_ns, tolerance_s, |b| {
-                    let reading = from_cdr_as(b, field).map_err(|e| e.to_string())?.0;
-                    Ok((reading.stamp_s, reading))
-                })?
-            }
+            Role::BioTac(field) => readings.push(&message.data, log_time_ns, tolerance_s, |b| {
+                let reading = from_cdr_as(b, field).map_err(|e| e.to_string())?.0;
+                Ok((reading.stamp_s, reading))
+            })?,
             Role::Readings(layout) => {
                 readings.push(&message.data, log_time_ns, tolerance_s, |b| {
                     let (stamp_s, reading) = layout.decode(b, Encoding::Cdr, topics.finger)?;
@@ -256,7 +254,9 @@ impl Role {
                 }
                 None => {
                     let schema = channel.schema.as_ref().map_or(&[][..], |s| &s.data[..]);
-                    Role::BioTac(ElectrodeField::of_definition(&String::from_utf8_lossy(schema)))
+                    Role::BioTac(ElectrodeField::of_definition(&String::from_utf8_lossy(
+                        schema,
+                    )))
                 }
             };
             let ok = matches!(role, Role::Readings(_)) || name == BIOTAC_MSG_TYPE;
