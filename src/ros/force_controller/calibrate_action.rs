@@ -28,6 +28,7 @@ use crate::calibration::{open_outputs, CalibrateGoal, CalibrationRecorder, Ended
 use crate::learn::calibration::{fit_and_save, CalibrationRecord};
 use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::force_controller::goals::CalibrationProgress;
+use crate::record::Record;
 use crate::ros::RosClock;
 
 /// The result of a calibration that made no model.
@@ -127,7 +128,11 @@ pub(super) async fn serve(
                 handle.abort(result)
             };
         } else {
-            let _ = match fit(&rec, &estimator, model_path, session).await {
+            // What the fit needs, taken out: the session writer the
+            // recording holds may not be borrowed across an await.
+            let recorded = failed(String::new(), Some(&rec));
+            let records = rec.records().to_vec();
+            let _ = match fit(recorded, records, &estimator, model_path, session).await {
                 Ok(r) => handle.succeed(r),
                 Err(r) => handle.abort(r),
             };
@@ -161,8 +166,10 @@ fn session_kept(end: Option<SessionEnd>) -> (String, Option<PathBuf>) {
 }
 
 /// The fit once the arm has stopped, and the estimator given the model.
+/// `recorded`: the result's figures of the recording.
 async fn fit(
-    rec: &CalibrationRecorder,
+    recorded: Calibrate::Result,
+    records: Vec<Record>,
     estimator: &EstimatorLink,
     model_path: PathBuf,
     (kept, session_path): (String, Option<PathBuf>),
@@ -170,7 +177,10 @@ async fn fit(
     let refuse = |why: String| {
         let why = format!("{why}; {kept}");
         tracing::warn!("calibration: {why}");
-        failed(why, Some(rec))
+        Calibrate::Result {
+            reason: why,
+            ..recorded.clone()
+        }
     };
     let current_file = estimator.model_file().await.map_err(refuse)?;
     if current_file.is_empty() {
@@ -181,10 +191,9 @@ async fn fit(
     }
     tracing::info!(
         "calibration: {} pushes recorded; fitting (the estimator's model {current_file}, adapted, or a new one)",
-        rec.records().last().map_or(0, |r| r.trial)
+        recorded.pushes
     );
-    let records = rec.records().to_vec();
-    let (motion_s, peak) = (rec.motion_s(), rec.peak_force_n());
+    let (motion_s, peak) = (recorded.motion_s, recorded.peak_force_n);
     let (model, session) = (model_path.clone(), session_path.clone());
     let fitted = tokio::task::spawn_blocking(move || {
         let current =
