@@ -169,7 +169,19 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
             Role::Other => {}
         }
     }
+    let bag = paired(&p, topics, &mut readings, &mut wrenches, &found)?;
+    Ok(Bag { cut_after, ..bag })
+}
 
+/// The readings paired with the wrenches ([`pair`]); an error naming what
+/// the bag holds when a topic has no message, or when no reading pairs.
+pub(super) fn paired(
+    path: &str,
+    topics: &BagTopics,
+    readings: &mut Series<BioTacReading>,
+    wrenches: &mut Series<Wrench>,
+    holds: &Holds,
+) -> Result<Bag, BagError> {
     let missing = if readings.items.is_empty() {
         Some(&topics.biotac)
     } else if wrenches.items.is_empty() {
@@ -179,20 +191,19 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
     };
     if let Some(topic) = missing {
         return Err(BagError::MissingTopic {
-            path: p,
+            path: path.into(),
             topic: topic.clone(),
-            found: found.to_string(),
+            found: holds.to_string(),
         });
     }
     let reading_type = readings.msg_type.clone();
     let bag = pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s);
     bag.map(|bag| Bag {
         reading_type,
-        cut_after,
         ..bag
     })
     .ok_or_else(|| BagError::NoPairs {
-        path: p.clone(),
+        path: path.into(),
         biotac: topics.biotac.clone(),
         ft: topics.ft.clone(),
         tolerance_s: topics.tolerance_s,

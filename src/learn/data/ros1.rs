@@ -16,7 +16,7 @@ use std::path::Path;
 
 use rosbag::{ChunkRecord, MessageRecord, RosBag};
 
-use super::bag::{pair, stamp_or_log_time, Bag, BagError, BagTopics, Holds, Series};
+use super::bag::{paired, stamp_or_log_time, Bag, BagError, BagTopics, Holds, Series};
 use super::hand::{ros1_wrench, Encoding, HandKind, HandLayout, ROS1_WRENCH_TYPE};
 
 /// The first bytes of a ROS 1 bag of format 2.0.
@@ -145,35 +145,7 @@ pub fn read_ros1_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
             holds,
         });
     }
-    let missing = if readings.items.is_empty() {
-        Some(&topics.biotac)
-    } else if wrenches.items.is_empty() {
-        Some(&topics.ft)
-    } else {
-        None
-    };
-    if let Some(topic) = missing {
-        return Err(BagError::MissingTopic {
-            path: p,
-            topic: topic.clone(),
-            found: holds.to_string(),
-        });
-    }
-    let reading_type = readings.msg_type.clone();
-    let paired = pair(readings.sorted(), wrenches.sorted(), topics.tolerance_s);
-    paired
-        .map(|bag| Bag {
-            reading_type,
-            ..bag
-        })
-        .ok_or_else(|| BagError::NoPairs {
-            path: p.clone(),
-            biotac: topics.biotac.clone(),
-            ft: topics.ft.clone(),
-            tolerance_s: topics.tolerance_s,
-            readings_s: readings.span(),
-            wrenches_s: wrenches.span(),
-        })
+    paired(&p, topics, &mut readings, &mut wrenches, &holds)
 }
 
 /// The role of a connection on `topic` of type `tp`; an error when a topic

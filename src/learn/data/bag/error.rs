@@ -11,7 +11,7 @@ use crate::exit::{Classify, ExitClass};
 #[non_exhaustive]
 pub enum BagError {
     /// The file could not be opened or read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("bag {path}: cannot read: {source}")]
     Open {
         /// File path.
         path: String,
@@ -26,7 +26,7 @@ pub enum BagError {
     },
     /// The MCAP structure is broken: the file is cut short or damaged.
     #[error(
-        "{path}: truncated or corrupt MCAP file after {messages} messages (topics read: \
+        "bag {path}: truncated or corrupt MCAP file after {messages} messages (topics read: \
          {holds}): {source}"
     )]
     Corrupt {
