@@ -117,27 +117,15 @@ fn readings_pair_with_the_nearest_wrench_within_the_tolerance() {
 #[test]
 fn a_written_session_reads_back_record_for_record() {
     let records: Vec<Record> = (0..50)
-        .map(|i| {
-            let mut electrodes = [3000; N_ELECTRODES];
-            electrodes[3] = 2000 + i as u16;
-            Record {
-                t: 0.01 * f64::from(i),
-                set: 3,
-                trial: 1 + i / 20,
-                reading: BioTacReading {
-                    seq: i as u16,
-                    stamp_s: 0.0,
-                    electrodes: electrodes.into(),
-                    pdc: 2100,
-                    pac: [2048; N_PAC],
-                    tdc: 1800,
-                    tac: 2000,
-                },
-                wrench: Wrench::new(
-                    Vector3::new(0.1, -0.2, 0.05 * f64::from(i)),
-                    Vector3::new(0.0, 0.001, 0.0),
-                ),
-            }
+        .map(|i| Record {
+            t: 0.01 * f64::from(i),
+            set: 3,
+            trial: 1 + i / 20,
+            reading: reading_with(i as u16, 3),
+            wrench: Wrench::new(
+                Vector3::new(0.1, -0.2, 0.05 * f64::from(i)),
+                Vector3::new(0.0, 0.001, 0.0),
+            ),
         })
         .collect();
     let f = tempfile::NamedTempFile::new().unwrap();
@@ -302,26 +290,29 @@ fn a_file_that_is_not_mcap_or_cut_short_gives_an_error_not_a_panic() {
 /// `n` records of push `trial`, from `t0` at 100 Hz; e1 = 2000 + row.
 fn records(t0: f64, n: usize, trial: u32) -> Vec<Record> {
     (0..n)
-        .map(|i| {
-            let mut electrodes = [3000; N_ELECTRODES];
-            electrodes[0] = 2000 + i as u16;
-            Record {
-                t: t0 + 0.01 * i as f64,
-                set: 1,
-                trial,
-                reading: BioTacReading {
-                    seq: i as u16,
-                    stamp_s: 0.0,
-                    electrodes: electrodes.into(),
-                    pdc: 2100,
-                    pac: [2048; N_PAC],
-                    tdc: 1800,
-                    tac: 2000,
-                },
-                wrench: Wrench::new(Vector3::new(0.0, 0.0, 0.01 * i as f64), Vector3::zeros()),
-            }
+        .map(|i| Record {
+            t: t0 + 0.01 * i as f64,
+            set: 1,
+            trial,
+            reading: reading_with(i as u16, 0),
+            wrench: Wrench::new(Vector3::new(0.0, 0.0, 0.01 * i as f64), Vector3::zeros()),
         })
         .collect()
+}
+
+/// Reading `seq`: electrode `e` (0-based) at 2000 + seq, the others 3000.
+fn reading_with(seq: u16, e: usize) -> BioTacReading {
+    let mut electrodes = [3000; N_ELECTRODES];
+    electrodes[e] = 2000 + seq;
+    BioTacReading {
+        seq,
+        stamp_s: 0.0,
+        electrodes: electrodes.into(),
+        pdc: 2100,
+        pac: [2048; N_PAC],
+        tdc: 1800,
+        tac: 2000,
+    }
 }
 
 #[test]
