@@ -25,6 +25,9 @@ V=$R/venv                     # the ROS 2 prefix (a Python venv of the wheels)
 MSG_BUILD=$R/msg/build
 MSG_INSTALL=$R/msg/install    # colcon install base; the prefix is $MSG_INSTALL/tactile_force_msgs
 MSG_PREFIX=$MSG_INSTALL/tactile_force_msgs
+# The tests' Shadow hand: sr_robot_msgs' Biotac and BiotacAll, built beside msg/.
+HAND_MSGS=$REPO/tests/ros/sr_robot_msgs
+HAND_PREFIX=$MSG_INSTALL/sr_robot_msgs
 LINK_DIR=$R/link              # link-time alias librmw_implementation.so
 LOGS=$R/logs
 STAMPS=$R/stamps
@@ -241,7 +244,7 @@ ln -sfn "$V/lib/librmw_fastrtps_cpp.so" "$LINK_DIR/librmw_implementation.so"
 # ---------------------------------------------------------------- 4. env file
 t=$(now)
 SITE=lib/python3.11/site-packages
-LD_DIRS=("$MSG_PREFIX/lib" "$V/lib")
+LD_DIRS=("$MSG_PREFIX/lib" "$HAND_PREFIX/lib" "$V/lib")
 for d in "$V/$SITE"/ros_*.libs; do if [[ -d $d ]]; then LD_DIRS+=("$d"); fi; done
 ENV_NEW=$(
   cat <<EOF
@@ -273,14 +276,15 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 export _ROS_WHEELS_BOOTSTRAP_COMPLETE=1
 EOF
   echo "# r2r's build scripts hash these two and ROS_DISTRO: keep them exactly so."
-  echo "export AMENT_PREFIX_PATH='$MSG_PREFIX:$V'"
-  echo "export CMAKE_PREFIX_PATH='$MSG_PREFIX:$V'"
+  echo "export AMENT_PREFIX_PATH='$MSG_PREFIX:$HAND_PREFIX:$V'"
+  echo "export CMAKE_PREFIX_PATH='$MSG_PREFIX:$HAND_PREFIX:$V'"
   echo "export VIRTUAL_ENV='$V'"
   echo "export TACTILE_FORCE_ROS2_ENV='$ENV_FILE'"
   echo "export TACTILE_FORCE_ROS2_BIN='$BIN_DIR'"
   echo "_tf_prepend PATH '$V/bin'"
   echo "_tf_prepend PATH '$BIN_DIR'"
   echo "_tf_prepend PYTHONPATH '$MSG_PREFIX/$SITE'"
+  echo "_tf_prepend PYTHONPATH '$HAND_PREFIX/$SITE'"
   for ((i = ${#LD_DIRS[@]} - 1; i >= 0; i--)); do echo "_tf_prepend LD_LIBRARY_PATH '${LD_DIRS[i]}'"; done
   echo "# The linker (cc) reads LIBRARY_PATH: the librmw_implementation.so alias for r2r."
   echo "_tf_prepend LIBRARY_PATH '$LINK_DIR'"
@@ -298,13 +302,13 @@ fi
 
 # ---------------------------------------------------------------- 5. msg/ with colcon
 t=$(now)
-MSG_KEY=$( (cat "$STAMPS/venv"; cd "$REPO/msg" && find . -type f -not -name '*.pyc' -print0 | sort -z | xargs -0 sha256sum) | hash_of)
-if stamp_ok msg "$MSG_KEY" && [[ -f $MSG_PREFIX/share/tactile_force_msgs/package.xml ]]; then
+MSG_KEY=$( (cat "$STAMPS/venv"; cd "$REPO" && find msg "${HAND_MSGS#"$REPO"/}" -type f -not -name '*.pyc' -print0 | sort -z | xargs -0 sha256sum) | hash_of)
+if stamp_ok msg "$MSG_KEY" && [[ -f $MSG_PREFIX/share/tactile_force_msgs/package.xml && -f $HAND_PREFIX/share/sr_robot_msgs/package.xml ]]; then
   say "5/6 tactile_force_msgs up to date ($(since "$t"))"
 else
   say "5/6 tactile_force_msgs: colcon build ..."
   logged colcon colcon --log-base "$R/msg/log" build \
-    --base-paths "$REPO/msg" --build-base "$MSG_BUILD" --install-base "$MSG_INSTALL" \
+    --base-paths "$REPO/msg" "$HAND_MSGS" --build-base "$MSG_BUILD" --install-base "$MSG_INSTALL" \
     --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$V/bin/python"
   stamp_set msg "$MSG_KEY"
   say "    done ($(since "$t"))"

@@ -1,11 +1,12 @@
-//! The BioTac fingertip: reading type, its ROS message, tare, serial wire
-//! codec and driver, the SPI protocol and the Cheetah adapter that reads it,
+//! The BioTac fingertip: reading type, its ROS message and the hands'
+//! messages, tare, serial wire codec and driver, the SPI protocol and the Cheetah adapter that reads it,
 //! a bridge emulator, and a simulator (forward model).
 
 pub mod cheetah;
 pub mod driver;
 pub mod emulator;
 pub mod geometry;
+pub mod hand;
 pub mod msg;
 pub mod reading;
 pub mod sim;

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use nalgebra::Vector3;
 
+use tactile_force::biotac::hand::HandKind;
 use tactile_force::biotac::ElectrodeLayout;
 use tactile_force::learn::data::bag::{read_bag, Bag, BagTopics};
-use tactile_force::learn::data::hand::HandKind;
 use tactile_force::learn::data::nail::read_nail_dirs;
 use tactile_force::learn::data::ros1::{is_ros1_bag, read_ros1_bag};
 use tactile_force::learn::data::trials::{split_trials, TrialSplit, TrialsArg};

@@ -6,6 +6,7 @@
 
 use serde::Deserialize;
 
+use super::status::{Level, Status};
 use crate::biotac::Tare;
 use crate::exit::{Classify, ExitClass};
 use crate::learn::default_model::Recipe;
@@ -37,6 +38,9 @@ pub struct Dropped {
     pub invalid: u64,
     /// Readings older than the stale timeout on arrival.
     pub stale: u64,
+    /// Readings of another electrode layout than the model's
+    /// ([`EstimatorNode::refusal`] says which).
+    pub layout: u64,
     /// Readings the model refused or turned into NaN or infinity.
     pub non_finite: u64,
 }
@@ -44,7 +48,23 @@ pub struct Dropped {
 impl Dropped {
     /// All of them.
     pub fn total(&self) -> u64 {
-        self.refused + self.invalid + self.stale + self.non_finite
+        self.refused + self.invalid + self.stale + self.layout + self.non_finite
+    }
+
+    /// What was dropped since `before`, in words; None if nothing was.
+    pub fn since(&self, before: &Dropped) -> Option<String> {
+        let n = self.total() - before.total();
+        (n > 0).then(|| {
+            format!(
+                "dropped {n} readings: {} undecodable, {} with invalid channels, {} stale, \
+                 {} of another electrode layout, {} non-finite",
+                self.refused - before.refused,
+                self.invalid - before.invalid,
+                self.stale - before.stale,
+                self.layout - before.layout,
+                self.non_finite - before.non_finite,
+            )
+        })
     }
 }
 
@@ -95,6 +115,8 @@ pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     out: Vec<Estimate>,
     stale_timeout_s: Option<f64>,
     dropped: Dropped,
+    /// Why readings of another layout are refused, once one was.
+    refusal: Option<String>,
     estimates: u64,
     /// The last estimate's force magnitude (N).
     force_n: f64,
@@ -113,6 +135,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             with_std,
             stale_timeout_s: None,
             dropped: Dropped::default(),
+            refusal: None,
             estimates: 0,
             force_n: 0.0,
         })
@@ -138,6 +161,13 @@ impl<S: SensorInput> EstimatorNode<S> {
         self.dropped
     }
 
+    /// Why readings were refused by the model's sensor, naming both
+    /// layouts ("model trained on 19 electrodes, readings have 24
+    /// electrodes"), once one was.
+    pub fn refusal(&self) -> Option<&str> {
+        self.refusal.as_deref()
+    }
+
     /// Counts a message that never became a reading: undecodable (`invalid`
     /// false) or with channels the driver flagged invalid (`invalid` true).
     pub fn count_unusable(&mut self, invalid: bool) {
@@ -153,10 +183,37 @@ impl<S: SensorInput> EstimatorNode<S> {
         self.estimates
     }
 
+    /// The node's status: taring, estimating, with readings dropped so far
+    /// (a warning), refusing readings of another layout than the model's
+    /// (an error, saying both); the counts as figures.
+    pub fn status(&self) -> Status {
+        let (d, tared) = (self.dropped, self.is_tared());
+        let mut status = Status::ok(if tared { "estimating" } else { "taring" });
+        if !tared {
+            status.raise(Level::Warn, "");
+        }
+        if let Some(why) = &self.refusal {
+            status.raise(Level::Error, &format!("; refusing readings: {why}"));
+        } else if tared && d.total() > 0 {
+            status.raise(
+                Level::Warn,
+                &format!("; {} readings dropped so far", d.total()),
+            );
+        }
+        status.value("estimates", self.estimates);
+        status.value("dropped_refused", d.refused);
+        status.value("dropped_invalid_channels", d.invalid);
+        status.value("dropped_stale", d.stale);
+        status.value("dropped_layout", d.layout);
+        status.value("dropped_non_finite", d.non_finite);
+        status
+    }
+
     /// Takes a reading that arrived at `now_s` (s, the clock of its stamp):
     /// None while taking the baseline, and for a reading older than the
-    /// stale timeout (or with `now_s` unknown, NaN) or whose estimate is not
-    /// finite; those are counted ([`EstimatorNode::dropped`]).
+    /// stale timeout (or with `now_s` unknown, NaN), of another electrode
+    /// layout than the model's, or whose estimate is not finite; those are
+    /// counted ([`EstimatorNode::dropped`]).
     pub fn on_received(&mut self, r: &S::Reading, now_s: f64) -> Option<WrenchEstimate> {
         if let Some(limit) = self.stale_timeout_s {
             let fresh = now_s - S::stamp(r).0 <= limit; // false for a NaN age
@@ -171,6 +228,13 @@ impl<S: SensorInput> EstimatorNode<S> {
                 Some(e)
             }
             Ok(None) => None,
+            Err(EstimatorError::Sensor(e @ SensorError::Layout { .. })) => {
+                self.dropped.layout += 1;
+                if self.refusal.is_none() {
+                    self.refusal = Some(e.to_string());
+                }
+                None
+            }
             Ok(Some(_)) | Err(_) => {
                 self.dropped.non_finite += 1;
                 None
@@ -316,6 +380,67 @@ mod tests {
         let d = node.dropped();
         assert_eq!((d.stale, d.invalid, d.refused, d.non_finite), (2, 1, 1, 0));
         assert_eq!((d.total(), node.estimates()), (4, 1));
+    }
+
+    #[test]
+    fn readings_of_another_layout_are_refused_by_name_and_counted() {
+        let mut node = EstimatorNode::<BioTacInput>::new(electrode_model(), true).unwrap();
+        assert_eq!(node.refusal(), None);
+        let mut sp = reading(0.0, 0);
+        sp.electrodes =
+            crate::biotac::Electrodes::filled(crate::biotac::ElectrodeLayout::BiotacSp, 2000);
+        for _ in 0..4 {
+            assert_eq!(node.on_received(&sp, 0.0), None);
+        }
+        // Refused before the tare: none of them was taken into it.
+        assert!(!node.is_tared());
+        let d = node.dropped();
+        assert_eq!((d.layout, d.non_finite, d.total()), (4, 0, 4));
+        assert_eq!(
+            node.refusal(),
+            Some("model trained on 19 electrodes, readings have 24 electrodes")
+        );
+        let status = node.status();
+        assert_eq!(status.level, Level::Error);
+        assert_eq!(
+            status.message,
+            "taring; refusing readings: model trained on 19 electrodes, readings have 24 electrodes"
+        );
+        assert!(status
+            .values
+            .contains(&("dropped_layout".into(), "4".into())));
+        let said = d.since(&Dropped::default()).unwrap();
+        assert!(
+            said.starts_with("dropped 4 readings: 0 undecodable"),
+            "{said}"
+        );
+        assert!(said.contains("4 of another electrode layout"), "{said}");
+        assert_eq!(d.since(&d), None);
+    }
+
+    #[test]
+    fn the_status_says_taring_then_estimating_then_what_was_dropped() {
+        let mut node = EstimatorNode::<BioTacInput>::new(electrode_model(), true).unwrap();
+        let status = node.status();
+        assert_eq!(
+            (status.level, status.message.as_str()),
+            (Level::Warn, "taring")
+        );
+        for i in 0..4 {
+            node.on_received(&reading(i as f64, 0), i as f64);
+        }
+        let status = node.status();
+        assert_eq!(
+            (status.level, status.message.as_str()),
+            (Level::Ok, "estimating")
+        );
+        assert!(status.values.contains(&("estimates".into(), "1".into())));
+        node.count_unusable(false);
+        let status = node.status();
+        assert_eq!(
+            (status.level, status.message.as_str()),
+            (Level::Warn, "estimating; 1 readings dropped so far")
+        );
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub mod estimator;
 pub mod force_controller;
 pub mod guarded_goal;
 pub mod loop_delay;
+pub mod reading_source;
 pub mod sim_robot;
 pub mod status;
 pub mod tasks;

@@ -77,6 +77,9 @@ pub enum RosError {
     /// The model cannot serve the estimator.
     #[error(transparent)]
     Estimator(#[from] EstimatorError),
+    /// The estimator's `input` names no source it can read.
+    #[error(transparent)]
+    Source(#[from] crate::nodes::reading_source::SourceError),
     /// The tokio runtime could not start.
     #[error("tokio runtime: {0}")]
     Runtime(std::io::Error),
@@ -116,6 +119,7 @@ impl Classify for RosError {
             RosError::Model(e) => e.class(),
             RosError::DefaultModel(e) => e.class(),
             RosError::Estimator(e) => e.class(),
+            RosError::Source(e) => e.class(),
             RosError::R2r(_) | RosError::Runtime(_) | RosError::Join(_) => ExitClass::Failure,
             // Only configuration stops the driver: refused input.
             RosError::Driver(_) => ExitClass::Refused,

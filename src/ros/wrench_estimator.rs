@@ -4,8 +4,10 @@
 //! (sensor_msgs/FluidPressure, counts; 0 for a sensor without PDC). The
 //! model file says which sensor ([`crate::sensor::SensorSpec`]):
 //!
-//! - a BioTac model reads `biotac/readings` (tactile_force_msgs/BioTac, taken
-//!   as CDR bytes and decoded here): `wrench_estimator/biotac.rs`;
+//! - a BioTac model reads `biotac/readings` (tactile_force_msgs/BioTac), or
+//!   with `input: biotac_all` one `finger` of a Shadow hand's `/rh/tactile`
+//!   (sr_robot_msgs/BiotacAll), taken as CDR bytes:
+//!   `wrench_estimator/biotac.rs`;
 //! - a nail-camera model reads `camera/image` (sensor_msgs/Image, mono8,
 //!   rgb8 or bgr8): `wrench_estimator/nail.rs`.
 //!
@@ -29,7 +31,6 @@ use r2r::geometry_msgs::msg::WrenchStamped;
 use r2r::sensor_msgs::msg::FluidPressure;
 use r2r::QosProfile;
 
-use super::convert::level::{OK, WARN};
 use super::{convert, RosClock, RosError};
 use crate::control::TaskKind;
 use crate::learn::default_model::{Origin, Recipe};
@@ -79,6 +80,8 @@ pub async fn run() -> Result<(), RosError> {
         "stale_timeout_s",
         "tare_file",
         "tare_max_age_s",
+        "input",
+        "finger",
     ];
     let params: EstimatorParams = super::node_params(
         &node,
@@ -210,35 +213,18 @@ impl Outputs {
     }
 
     /// The once-a-second report: what was dropped (logged when it grew) and
-    /// the node's state, on `/diagnostics`.
+    /// the node's status, on `/diagnostics`.
     fn report<S: SensorInput>(&mut self, estimator: &EstimatorNode<S>, clock: &RosClock) {
-        let (d, before) = (estimator.dropped(), self.reported);
-        if d.total() > before.total() {
-            tracing::warn!(
-                "dropped {} readings in the last second: {} undecodable, {} with invalid \
-                 channels, {} stale, {} non-finite",
-                d.total() - before.total(),
-                d.refused - before.refused,
-                d.invalid - before.invalid,
-                d.stale - before.stale,
-                d.non_finite - before.non_finite,
-            );
+        let d = estimator.dropped();
+        if let Some(said) = d.since(&self.reported) {
+            match estimator.refusal() {
+                Some(why) => tracing::error!("{said} in the last second; {why}"),
+                None => tracing::warn!("{said} in the last second"),
+            }
         }
         self.reported = d;
-        let (level, message) = match (estimator.is_tared(), d.total()) {
-            (false, _) => (WARN, "taring".to_string()),
-            (true, 0) => (OK, "estimating".to_string()),
-            (true, n) => (WARN, format!("estimating; {n} readings dropped so far")),
-        };
-        let values = vec![
-            ("estimates", estimator.estimates().to_string()),
-            ("dropped_refused", d.refused.to_string()),
-            ("dropped_invalid_channels", d.invalid.to_string()),
-            ("dropped_stale", d.stale.to_string()),
-            ("dropped_non_finite", d.non_finite.to_string()),
-        ];
-        let name = "wrench_estimator";
-        let msg = convert::diagnostics_msg(clock.now_s(), level, name, message, "", values);
+        let status = estimator.status();
+        let msg = convert::status_msg(clock.now_s(), "wrench_estimator", "", status);
         if let Err(e) = self.diagnostics.publish(&msg) {
             tracing::warn!("diagnostics: {e}");
         }

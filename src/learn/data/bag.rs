@@ -15,7 +15,7 @@ use mcap::sans_io::LinearReaderOptions;
 use mcap::{Channel, McapError};
 use nalgebra::Vector3;
 
-use super::hand::{DecodeError, Encoding, HandKind, HandLayout};
+use crate::biotac::hand::{DecodeError, Encoding, HandKind, HandLayout};
 use crate::biotac::msg::{from_cdr_as, join_stamp, CdrLengths, ElectrodeField, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacReading;
 use crate::record::Record;

@@ -1,13 +1,13 @@
 //! Data sets (samples x features, with their targets and trials) and their
 //! files: the training-data CSV format ([`csv`]), rosbag2 MCAP bags
-//! ([`bag`]), ROS 1 bags ([`ros1`]) of hands' BioTac messages ([`hand`]),
+//! ([`bag`]), ROS 1 bags ([`ros1`]) of hands' BioTac messages
+//! ([`crate::biotac::hand`]),
 //! cut into trials ([`trials`]), and the nail camera's directories
 //! ([`nail`]); which columns hold what ([`columns`]).
 
 pub mod bag;
 pub mod columns;
 pub mod csv;
-pub mod hand;
 pub mod nail;
 pub mod ros1;
 pub mod trials;

@@ -1,6 +1,6 @@
 //! A ROS 1 bag (format 2.0, read with the `rosbag` crate) as one session
 //! of training data: a hand's BioTac messages (`sr_robot_msgs/BiotacAll`,
-//! `biotac_sensors/BioTacHand`, [`super::hand`]), one sensor of which is
+//! `biotac_sensors/BioTacHand`, [`crate::biotac::hand`]), one sensor of which is
 //! read, paired by header stamp with the F/T sensor's
 //! `geometry_msgs/WrenchStamped`, as [`super::bag::read_bag`] pairs a
 //! rosbag2 bag's.
@@ -17,7 +17,7 @@ use std::path::Path;
 use rosbag::{ChunkRecord, MessageRecord, RosBag};
 
 use super::bag::{paired, stamp_or_log_time, Bag, BagError, BagTopics, Holds, Series};
-use super::hand::{ros1_wrench, Encoding, HandKind, HandLayout, ROS1_WRENCH_TYPE};
+use crate::biotac::hand::{ros1_wrench, Encoding, HandKind, HandLayout, ROS1_WRENCH_TYPE};
 
 /// The first bytes of a ROS 1 bag of format 2.0.
 pub const ROS1_MAGIC: &[u8] = b"#ROSBAG V2.0\n";

@@ -1,4 +1,6 @@
-//! The BioTac's loop: `biotac/readings` (CDR bytes) -> estimates; the tare
+//! The BioTac's loop: the readings of the `input` parameter (CDR bytes:
+//! `biotac` reads `biotac/readings`, `biotac_all` sensor `finger` of a
+//! Shadow hand's `/rh/tactile`, [`ReadingSource`]) -> estimates; the tare
 //! is saved (`tare_file`): restarted within `tare_max_age_s`, for the same
 //! sensor serial, the node takes it up rather than taring again, since the
 //! finger may be pressed (a hold) when it comes back.
@@ -17,9 +19,9 @@ use futures::StreamExt;
 use r2r::QosProfile;
 
 use super::{describe_model, load_model, Outputs, Settings, REPORT};
-use crate::biotac::msg::{self as biotac_msg, BIOTAC_MSG_TYPE};
 use crate::biotac::tare::SavedTare;
 use crate::learn::models::wrench_gp::WrenchGp;
+use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable, INPUTS};
 use crate::nodes::EstimatorNode;
 use crate::ros::params::RuntimeParams;
 use crate::ros::RosError;
@@ -63,6 +65,19 @@ fn take_model(
 
 /// Runs the BioTac estimator until the process ends.
 pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Result<(), RosError> {
+    let input = crate::ros::own_string(
+        &node,
+        "input",
+        INPUTS[0],
+        "The readings: biotac (tactile_force_msgs/BioTac on biotac/readings) or biotac_all (a Shadow hand's sr_robot_msgs/BiotacAll on /rh/tactile, one finger).",
+    )?;
+    let finger = crate::ros::own_f64(
+        &node,
+        "finger",
+        0.0,
+        "With input biotac_all: the hand's BioTac, 0 first finger, 1 middle, 2 ring, 3 little, 4 thumb.",
+    )?;
+    let source = ReadingSource::from_params(&input, finger)?;
     let estimator = EstimatorNode::<BioTacInput>::new(model, s.with_std)
         .and_then(|e| e.with_stale_timeout(s.stale_s))?;
     let tare_path = match s.tare_file.as_str() {
@@ -84,11 +99,14 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
         None => None,
     };
 
-    let mut readings = node.subscribe_raw(
-        "biotac/readings",
-        BIOTAC_MSG_TYPE,
-        QosProfile::sensor_data(),
-    )?;
+    let qos = QosProfile::sensor_data();
+    let mut readings = match node.subscribe_raw(source.topic(), source.type_name(), qos) {
+        Err(r2r::Error::InvalidMessageType { .. }) => {
+            return Err(SourceError::NotBuilt(source.type_name()).into())
+        }
+        subscribed => subscribed?,
+    };
+    tracing::info!("reading {} on {}", source.type_name(), source.topic());
     let mut out = Outputs::new(&mut node, s.frame_id)?;
     let estimator = Arc::new(Mutex::new(estimator));
     let shared = estimator.clone();
@@ -116,20 +134,16 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
             }
         };
         let mut estimator = lock(&estimator);
-        let (reading, meta) = match biotac_msg::from_cdr(&msg) {
-            Ok((r, meta)) if meta.invalid_channels.is_empty() => (r, meta),
-            Ok(_) => {
-                estimator.count_unusable(true);
-                continue;
-            }
+        let (reading, serial) = match source.decode(&msg) {
+            Ok(decoded) => decoded,
             Err(e) => {
-                estimator.count_unusable(false);
-                tracing::debug!("biotac/readings: {e}");
+                estimator.count_unusable(e == Unusable::InvalidChannels);
+                tracing::debug!("{}: {e:?}", source.topic());
                 continue;
             }
         };
         if let Some(saved) = saved.take() {
-            if saved.serial == meta.serial && !estimator.is_tared() {
+            if saved.serial == serial && !estimator.is_tared() {
                 tracing::info!(
                     "taking up the tare saved {:.0} s ago (same sensor, \"{}\"): \
                      the skin may be pressed now; tare_max_age_s:=0 tares anew",
@@ -145,7 +159,7 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
             tracing::info!("tared on {} readings", estimator.tare_samples());
             if let (Some(tare), Some(path)) = (estimator.tare(), &tare_path) {
                 let saved = SavedTare {
-                    serial: meta.serial.clone(),
+                    serial: serial.clone(),
                     taken_unix_s: unix_s(),
                     tare: tare.clone(),
                 };

@@ -185,7 +185,25 @@ fn matches(found: &str, expected: &str) -> Option<Option<Len>> {
     suffix.parse().ok().map(|n| Some(Len::Fixed(n)))
 }
 
+/// A Shadow hand's `sr_robot_msgs/BiotacAll` as its driver publishes it
+/// (shadow-robot/sr_common: `Biotac[5] tactiles`, each `int16[]
+/// electrodes`): the layout of live messages, which carry no definition.
+pub const SHADOW_HAND: HandLayout = HandLayout {
+    kind: HandKind::BiotacAll,
+    sensors: Len::Fixed(5),
+    pac: Len::Fixed(2),
+    electrodes: Len::Stated,
+};
+
 impl HandLayout {
+    /// The sensors every message holds, when the definition fixes them.
+    pub fn fixed_sensors(&self) -> Option<usize> {
+        match self.sensors {
+            Len::Fixed(n) => Some(n),
+            Len::Stated => None,
+        }
+    }
+
     /// The layout of `kind` from the bag's message definition (ROS 1's
     /// `message_definition`, rosbag2's `ros2msg` schema).
     pub fn from_definition(kind: HandKind, definition: &str) -> Result<HandLayout, String> {

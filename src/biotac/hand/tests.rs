@@ -29,6 +29,18 @@ fn definitions_give_fixed_and_stated_arrays() {
     let bounded = SHADOW.replace("Biotac[5]", "Biotac[<=8]");
     let bounded = HandLayout::from_definition(HandKind::BiotacAll, &bounded).unwrap();
     assert_eq!(bounded.sensors, Len::Stated);
+    assert_eq!(
+        (shadow.fixed_sensors(), bounded.fixed_sensors()),
+        (Some(5), None)
+    );
+}
+
+#[test]
+fn live_hand_messages_have_the_layout_of_the_ros2_definition() {
+    // What a ROS 2 bag of a Shadow hand stores: live messages carry none.
+    let ros2 = SHADOW.replace("Header header", "std_msgs/Header header");
+    let from_bag = HandLayout::from_definition(HandKind::BiotacAll, &ros2).unwrap();
+    assert_eq!(from_bag, SHADOW_HAND);
 }
 
 #[test]
