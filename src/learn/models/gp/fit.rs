@@ -61,6 +61,19 @@ pub struct FitProgress {
     pub neg_lml_per_sample: f64,
 }
 
+/// Where a fit's hyperparameter search starts.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub enum Start {
+    /// `restarts` starts, the first at s2 = 1, l = sqrt(d), sn2 = 0.01, the
+    /// others drawn around it.
+    #[default]
+    Multistart,
+    /// One start at these hyperparameters: a warm start from a fit on
+    /// similar data (another fold of a cross-validation, or another size of
+    /// the same GP), which converges in a few evaluations.
+    Warm(SeHyper),
+}
+
 /// Bounds of the log-parameters in standardised units.
 struct Bounds {
     lo: Vec<f64>,
@@ -240,8 +253,17 @@ impl<'a> Fitter<'a> {
     /// Maximum-likelihood hyperparameters of the exact GP: every start
     /// optimised on one random subset of at most `restart_subset` rows.
     /// Returns the best clamped log-parameters and their cost.
-    fn multistart(&mut self, x: &[f64], y: &[f64]) -> Result<(Vec<f64>, f64), GpError> {
+    fn multistart(
+        &mut self,
+        x: &[f64],
+        y: &[f64],
+        start: &Start,
+    ) -> Result<(Vec<f64>, f64), GpError> {
         let (p, d) = (self.p, self.d);
+        let warm = match start {
+            Start::Warm(h) if h.kind == p.kernel && h.is_valid(d) => Some(h.to_log()),
+            _ => None,
+        };
         let first = SeHyper {
             kind: p.kernel,
             signal_var: 1.0,
@@ -249,8 +271,12 @@ impl<'a> Fitter<'a> {
             noise_var: 0.01f64.max(p.min_noise_var),
         }
         .to_log();
-        let starts: Vec<Vec<f64>> = (0..p.restarts)
+        let restarts = if warm.is_some() { 1 } else { p.restarts };
+        let starts: Vec<Vec<f64>> = (0..restarts)
             .map(|s| {
+                if let Some(w) = &warm {
+                    return w.clone();
+                }
                 if s == 0 {
                     first.clone()
                 } else {
@@ -325,19 +351,21 @@ fn gather(x: &[f64], d: usize, y: &[f64], idx: &[usize]) -> (Vec<f64>, Vec<f64>)
 /// conditions an exact GP on `x` (row-major n x d) and `y`, both
 /// standardised: on all rows, or when n > `max_train` on `max_train` rows
 /// chosen by `subset` (random, or [`farthest_point`] with the fitted
-/// length-scales). `progress` is called after every likelihood evaluation.
+/// length-scales). The search starts as `start` says. `progress` is called
+/// after every likelihood evaluation.
 pub fn fit_gp(
     x: &[f64],
     d: usize,
     y: &[f64],
     params: &Checked<GpParams>,
+    start: &Start,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(ExactGp, FitInfo), GpError> {
     check_data(x, d, y)?;
     let mut fit = Fitter::new(params, d, progress);
     let p = fit.p;
     let n = y.len();
-    let (mut theta, mut cost) = fit.multistart(x, y)?;
+    let (mut theta, mut cost) = fit.multistart(x, y, start)?;
     let before_full = fit.tracker.evaluations.get();
     if n > p.restart_subset && p.polish_iters > 0 {
         fit.tracker.start.set(p.restarts);
@@ -368,7 +396,8 @@ pub fn fit_gp(
 
 /// Fits a sparse VFE GP (Titsias 2009) with `inducing` = m inducing points
 /// to `x` (row-major n x d) and `y`, both standardised:
-/// 1. start hyperparameters from the exact-GP multistart on `restart_subset` rows;
+/// 1. start hyperparameters from the exact-GP multistart on `restart_subset`
+///    rows (from `start`);
 /// 2. inducing inputs by [`greedy_variance`] with them, among at most
 ///    `sparse_candidates` random rows;
 /// 3. L-BFGS on the VFE bound ([`neg_vfe_and_grad`]) over the
@@ -383,6 +412,7 @@ pub fn fit_sparse(
     d: usize,
     y: &[f64],
     params: &Checked<GpParams>,
+    start: &Start,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(SparseGp, FitInfo), GpError> {
     check_data(x, d, y)?;
@@ -393,7 +423,7 @@ pub fn fit_sparse(
         value: "none".into(),
         expected: "a number of inducing points for a sparse fit",
     })?;
-    let (theta0, _) = fit.multistart(x, y)?;
+    let (theta0, _) = fit.multistart(x, y, start)?;
     let hyper0 = SeHyper::from_log(p.kernel, d, &theta0);
 
     let n = y.len();
@@ -451,7 +481,8 @@ mod tests {
             .validate()
             .unwrap();
             let mut calls = 0;
-            let (gp, info) = fit_gp(&x, d, &y, &params, &mut |_| calls += 1).unwrap();
+            let (gp, info) =
+                fit_gp(&x, d, &y, &params, &Start::Multistart, &mut |_| calls += 1).unwrap();
             assert_eq!(calls, info.evaluations);
             let mut ws = GpWorkspace::new(n, d);
             let test: Vec<f64> = (0..200 * d).map(|_| rng.random_range(-1.4..1.4)).collect();
@@ -502,7 +533,8 @@ mod tests {
         .validate()
         .unwrap();
         let mut calls = 0;
-        let (gp, info) = fit_sparse(&x, d, &y, &params, &mut |_| calls += 1).unwrap();
+        let (gp, info) =
+            fit_sparse(&x, d, &y, &params, &Start::Multistart, &mut |_| calls += 1).unwrap();
         assert_eq!(calls, info.evaluations);
         assert!(info.full_evaluations > 0);
         assert_eq!((gp.n_inducing(), gp.n_fit()), (50, n));
@@ -521,6 +553,30 @@ mod tests {
     }
 
     #[test]
+    fn a_warm_start_at_the_optimum_stays_there_in_fewer_evaluations() {
+        let (x, y) = smooth_data(400, 3, 0.05, 17);
+        let params = GpParams::default().validate().unwrap();
+        let (cold, cold_info) =
+            fit_gp(&x, 3, &y, &params, &Start::Multistart, &mut |_| {}).unwrap();
+        let warm_start = Start::Warm(cold.hyper().clone());
+        let (warm, warm_info) = fit_gp(&x, 3, &y, &params, &warm_start, &mut |_| {}).unwrap();
+        assert!(
+            3 * warm_info.evaluations < cold_info.evaluations,
+            "{warm_info:?} against {cold_info:?}"
+        );
+        let (a, b) = (cold.hyper().to_log(), warm.hyper().to_log());
+        for (a, b) in a.iter().zip(&b) {
+            assert!(
+                (a - b).abs() < 1e-3,
+                "{:?} against {:?}",
+                cold.hyper(),
+                warm.hyper()
+            );
+        }
+        assert!(warm_info.neg_lml_per_sample <= cold_info.neg_lml_per_sample + 1e-9);
+    }
+
+    #[test]
     fn exact_fit_keeps_max_train_rows_by_either_rule() {
         let (n, d) = (3000, 2);
         let (x, y) = smooth_data(n, d, 0.05, 13);
@@ -534,7 +590,7 @@ mod tests {
             }
             .validate()
             .unwrap();
-            let (gp, _) = fit_gp(&x, d, &y, &params, &mut |_| {}).unwrap();
+            let (gp, _) = fit_gp(&x, d, &y, &params, &Start::Multistart, &mut |_| {}).unwrap();
             assert_eq!(gp.n_train(), 300, "{subset:?}");
             let (test, _) = smooth_data(100, d, 0.0, 14);
             let (mean, _) = gp.predict(&test, false);
