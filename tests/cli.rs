@@ -491,7 +491,7 @@ fn train_select_on_electrode_only_data_varies_the_rest_and_keeps_what_is_given()
             && out.contains("not varied: input: fixed by --input"),
         "{out}"
     );
-    let rows: Vec<&str> = out.lines().filter(|l| l.contains(" mean")).collect();
+    let rows: Vec<&str> = out.lines().filter(|l| l.ends_with(" mean")).collect();
     assert!(!rows.is_empty(), "{out}");
     for row in rows {
         assert!(
