@@ -14,10 +14,15 @@ scikit-learn runs the same kernel family, ConstantKernel * RBF + WhiteKernel
   per-axis: one regressor per output (the model tactile_force fits).
 Prints fit times, RMSE per axis, the speed-up, sklearn's time per
 log-likelihood+gradient evaluation and its single-sample predict latency.
+Then, with --whole, each tool's whole process, --repeats times (medians):
+our `eval` run (start, read, fit, predict, exit) against a fresh Python
+process that imports scikit-learn, reads the same files, fits and predicts.
 """
 import argparse
 import json
+import statistics
 import subprocess
+import sys
 import time
 
 import numpy as np
@@ -57,10 +62,7 @@ def split(data_path, out_dir, axes, n_train, tare_samples=50, seed=0):
 
 
 def ours(binary, paths, kernel):
-    out = subprocess.run(
-        [binary, "eval", "--train", paths["train"], "--test", paths["test"], "--tare-samples", "0",
-         "--max-train", "1000000", "--kernel", kernel, "--no-nn", "--json"],
-        check=True, capture_output=True, text=True).stdout
+    out = subprocess.run(ours_cmd(binary, paths, kernel), check=True, capture_output=True, text=True).stdout
     gp = json.loads(out.strip().splitlines()[-1])["gp"]
     return gp["fit_s"], gp["rmse"]
 
@@ -106,11 +108,64 @@ def sklearn_fit(paths, axes, kernel_name, per_axis, latency_samples):
     return fit_s, rmse, float(np.median(evals)), float(np.median(lat)), float(np.percentile(lat, 99))
 
 
+def ours_cmd(binary, paths, kernel):
+    return [binary, "eval", "--train", paths["train"], "--test", paths["test"], "--tare-samples", "0",
+            "--max-train", "1000000", "--kernel", kernel, "--channels", "electrodes", "--no-nn", "--json"]
+
+
+def sklearn_whole_process(train, test, kernel_name, per_axis):
+    """One whole scikit-learn run (the body of a fresh process)."""
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+    from sklearn.preprocessing import StandardScaler
+
+    _, tr = read(train)
+    _, te = read(test)
+    d = len(ELECTRODES)
+    scaler = StandardScaler().fit(tr[:, :d])
+    k = tr.shape[1] - d
+    targets = [[j] for j in range(k)] if per_axis else [list(range(k))]
+    preds = []
+    for cols in targets:
+        ls = np.ones(d) if kernel_name == "ard" else 1.0
+        kern = ConstantKernel(1.0) * RBF(length_scale=ls) + WhiteKernel(1e-2)
+        m = GaussianProcessRegressor(kernel=kern, normalize_y=True, random_state=0)
+        y = tr[:, d:][:, cols]
+        m.fit(scaler.transform(tr[:, :d]), y if len(cols) > 1 else y[:, 0])
+        preds.append(m.predict(scaler.transform(te[:, :d])))
+    pred = np.column_stack(preds)
+    print(json.dumps([float(np.sqrt(np.mean((pred[:, j] - te[:, d + j]) ** 2))) for j in range(k)]))
+
+
+def whole(binary, paths, kernel, modes, repeats):
+    """Whole process against whole process, alternated, medians."""
+    times = {"ours": []}
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        subprocess.run(ours_cmd(binary, paths, kernel), check=True, capture_output=True)
+        times["ours"].append(time.perf_counter() - t0)
+        for mode in modes:
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, __file__, "--whole-sklearn", paths["train"], paths["test"],
+                            kernel, mode], check=True, capture_output=True)
+            times.setdefault(mode, []).append(time.perf_counter() - t0)
+    ours_s = statistics.median(times["ours"])
+    print(f"whole process, {repeats} runs each, medians: tactile_force {ours_s:.2f} s "
+          f"(runs {', '.join(f'{t:.2f}' for t in times['ours'])})")
+    for mode in modes:
+        s = statistics.median(times[mode])
+        print(f"  scikit-learn ({mode}) {s:.2f} s (runs {', '.join(f'{t:.2f}' for t in times[mode])})"
+              f" -> tactile_force is {s / ours_s:.1f}x faster")
+
+
 def fmt(rmse):
     return " ".join(f"{a} {v:.4f}" for a, v in rmse.items())
 
 
 def main():
+    if len(sys.argv) == 6 and sys.argv[1] == "--whole-sklearn":
+        sklearn_whole_process(sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5] == "per-axis")
+        return
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--bin", required=True, help="the tactile_force binary")
     p.add_argument("--data", required=True, help="a collect CSV")
@@ -120,6 +175,8 @@ def main():
     p.add_argument("--kernels", default="iso,ard")
     p.add_argument("--sklearn", default="shared,per-axis", help="shared, per-axis or both")
     p.add_argument("--latency-samples", type=int, default=300)
+    p.add_argument("--whole", action="store_true", help="time whole processes (medians of --repeats)")
+    p.add_argument("--repeats", type=int, default=5)
     args = p.parse_args()
     axes = args.axes.split(",")
     paths = split(args.data, args.out_dir, axes, args.n_train)
@@ -134,6 +191,8 @@ def main():
                   f"-> tactile_force is {s_fit / fit_s:.1f}x faster")
             print(f"{'':<26} {s_eval * 1e3:.0f} ms per likelihood+gradient evaluation; "
                   f"predict one sample, mean+std, all axes: median {s_med:.0f} us, p99 {s_p99:.0f} us")
+        if args.whole:
+            whole(args.bin, paths, kernel, args.sklearn.split(","), args.repeats)
 
 
 if __name__ == "__main__":

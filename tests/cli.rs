@@ -424,18 +424,84 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
         out.contains("chosen by `train --select`") && out.contains("--select: 2-fold"),
         "{out}"
     );
-    // What it chooses cannot be given too; a budget must be a time; one
-    // trial per set cannot be cross-validated by trials.
-    for (args, says) in [
-        (vec!["--channels", "pdc"], "cannot be used with"),
-        (vec!["--budget-s", "0"], "--budget-s 0"),
-    ] {
-        let o = run(&[&["train", "--select", "--data", d, "--out", m][..], &args].concat());
-        refused_saying(&o, says);
-    }
+    // A budget must be a time; one trial per set cannot be cross-validated
+    // by trials.
+    let o = run(&[
+        "train",
+        "--select",
+        "--data",
+        d,
+        "--out",
+        m,
+        "--budget-s",
+        "0",
+    ]);
+    refused_saying(&o, "--budget-s 0");
     let one = collect_short(dir.path(), "1", "3");
     let o = run(&["train", "--select", "--data", &one, "--out", m]);
     refused_saying(&o, "at least 2 needed");
+}
+
+#[test]
+fn train_select_on_electrode_only_data_varies_the_rest_and_keeps_what_is_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = dir.path().join("two.csv");
+    let o = run(&["collect", "--trials", "2", "--out", full.to_str().unwrap()]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    // The electrodes and the forces only, as public BioTac data sets hold.
+    let text_in = std::fs::read_to_string(&full).unwrap();
+    let header: Vec<&str> = text_in.lines().next().unwrap().split(',').collect();
+    let keep: Vec<usize> = header
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| !matches!(**h, "pdc" | "pac_mean" | "tdc" | "tac"))
+        .map(|(i, _)| i)
+        .collect();
+    let cut: String = text_in
+        .lines()
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            let kept: Vec<&str> = keep.iter().map(|&i| cells[i]).collect();
+            kept.join(",") + "\n"
+        })
+        .collect();
+    let data = dir.path().join("electrodes.csv");
+    std::fs::write(&data, cut).unwrap();
+    let d = data.to_str().unwrap();
+    let model = dir.path().join("e.json");
+    let m = model.to_str().unwrap();
+    let o = run(&[
+        "train",
+        "--select",
+        "--budget-s",
+        "4",
+        "--axes",
+        "fz",
+        "--input",
+        "pattern",
+        "--data",
+        d,
+        "--out",
+        m,
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("not varied: channels: the data hold electrodes only")
+            && out.contains("not varied: input: fixed by --input"),
+        "{out}"
+    );
+    let rows: Vec<&str> = out.lines().filter(|l| l.ends_with(" mean")).collect();
+    assert!(!rows.is_empty(), "{out}");
+    for row in rows {
+        assert!(
+            row.contains("electrodes, pattern,") && !row.contains("pdc"),
+            "{row}"
+        );
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(json["features"].as_array().unwrap().len(), 19, "{json}");
 }
 
 #[test]

@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use tactile_force::biotac::ElectrodeLayout;
-use tactile_force::learn::choice::{select, Choice};
+use tactile_force::learn::choice::{select, Choice, Space};
 use tactile_force::learn::data::{channel_columns, Channel, Counts, Dataset};
 use tactile_force::learn::evaluate::{cross_validate, EvalOptions};
 use tactile_force::learn::models::gp::GpParams;
@@ -112,7 +112,17 @@ fn select_picks_what_leaving_one_press_out_favours() {
         Channel::Tac,
     ];
     let (ds, tare) = recording_fz(&channel_columns(&every, ElectrodeLayout::Biotac));
-    let s = select(&ds, &tare, 5, 600.0, &GpParams::default(), &mut |_, _| {}).unwrap();
+    let space = Space::free(every.to_vec());
+    let s = select(
+        &ds,
+        &tare,
+        &space,
+        5,
+        600.0,
+        &GpParams::default(),
+        &mut |_, _| {},
+    )
+    .unwrap();
     assert_eq!(s.folds, 3, "three presses: leave one press out");
     assert!(s.untried.is_empty(), "{:?}", s.untried);
     let best = s

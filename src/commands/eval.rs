@@ -68,7 +68,7 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
         return run_score(model, &a.test, &a.fit.source, a.peak_min_n, a.json);
     }
     let (features, axes, n, source) = (
-        Features::Channels(&a.fit.channels),
+        Features::Channels(&a.fit.channels()),
         &a.fit.axes,
         a.fit.tare_samples,
         &a.fit.source,
@@ -141,7 +141,7 @@ fn nn_params(sensor: &SensorSpec) -> NnParams {
 fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
     Ok(EvalOptions {
         scaling: a.fit.scaling(sensor)?,
-        max_train: a.fit.max_train,
+        max_train: a.fit.max_train(),
         gp: gp_params(&a.fit, sensor)?,
         nn: if a.no_nn {
             None

@@ -79,6 +79,9 @@ pub(crate) fn print_selection(s: &Selection) {
     for (c, why) in &s.untried {
         println!("    not tried: {c} ({why})");
     }
+    for what in &s.not_varied {
+        println!("    not varied: {what}");
+    }
 }
 
 /// The "RMSE R2" column headers of a score table, one pair per axis.

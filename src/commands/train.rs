@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use tactile_force::learn::choice::select;
+use tactile_force::learn::choice::{select, Choice, GpChoice, Space};
 use tactile_force::learn::data::{Channel, DatasetError};
 use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
@@ -26,19 +26,22 @@ pub(crate) struct FitArgs {
     pub(crate) axes: AxisSet,
     /// BioTac channels the model takes as features, comma-separated: any of
     /// electrodes (e1..e19), pdc, tdc, tac; each tared per trial. The
-    /// default was chosen by leave-one-out results on simulated and real
-    /// data (docs/results.md, "Sensor units and sessions").
-    #[arg(long, value_delimiter = ',', default_value = "electrodes,pdc")]
-    pub(crate) channels: Vec<Channel>,
+    /// default, electrodes,pdc, was chosen by leave-one-out results on
+    /// simulated and real data (docs/results.md, "Sensor units and
+    /// sessions"). With --select: fixes the channels.
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) channels: Option<Vec<Channel>>,
     /// How the tared features reach the GP: standard (each standardised),
     /// raw (counts as they are) or pattern (the electrodes over their norm,
     /// plus the norm; then standardised). Default: standard for the BioTac;
     /// nail-camera models take raw inputs only (their projected pixels).
     #[arg(long)]
     pub(crate) input: Option<InputScaling>,
-    /// Largest training set of the exact GP (a subset beyond it, see --subset): time grows as n^3.
-    #[arg(long, default_value_t = 2000)]
-    pub(crate) max_train: usize,
+    /// Largest training set of the exact GP (a subset beyond it, see
+    /// --subset): time grows as n^3. Default 2000. With --select: fixes the
+    /// exact GP and its size.
+    #[arg(long)]
+    pub(crate) max_train: Option<usize>,
     /// How the exact GP's subset is chosen: random, or farthest (spread over the inputs).
     #[arg(long, default_value = "random")]
     pub(crate) subset: Subset,
@@ -77,6 +80,27 @@ pub(crate) struct FitArgs {
 }
 
 impl FitArgs {
+    /// The channels given, or the default's.
+    pub(crate) fn channels(&self) -> Vec<Channel> {
+        self.channels
+            .clone()
+            .unwrap_or_else(|| Choice::default_options().channels)
+    }
+
+    /// The exact GP's largest training set.
+    pub(crate) fn max_train(&self) -> usize {
+        self.max_train.unwrap_or(DEFAULT_MAX_TRAIN)
+    }
+
+    /// The GP fixed by `--inducing` or `--max-train`, if either is given.
+    fn fixed_gp(&self) -> Option<GpChoice> {
+        match (self.inducing, self.max_train) {
+            (Some(m), _) => Some(GpChoice::Sparse(m)),
+            (None, Some(n)) => Some(GpChoice::Exact(n)),
+            (None, None) => None,
+        }
+    }
+
     /// How the features of `sensor` reach the GP.
     pub(crate) fn scaling(&self, sensor: &SensorSpec) -> Result<InputScaling> {
         match (sensor, self.input) {
@@ -102,8 +126,9 @@ pub(crate) struct TrainArgs {
     /// Choose the channels, the input scaling, exact or sparse and its size,
     /// and the prior mean by trial-wise cross-validation on this data (the
     /// model file records the choice and the table; `eval --model` prints
-    /// it). BioTac data only.
-    #[arg(long, conflicts_with_all = ["channels", "input", "inducing", "mean", "max_train"])]
+    /// it). Among the channels the data hold; --channels, --input, --mean,
+    /// --inducing or --max-train given with it fix those. BioTac data only.
+    #[arg(long)]
     select: bool,
     /// Time budget of --select (s): the search stops when it is spent.
     #[arg(long, default_value_t = 60.0, requires = "select")]
@@ -114,6 +139,9 @@ pub(crate) struct TrainArgs {
     #[command(flatten)]
     fit: FitArgs,
 }
+
+/// The exact GP's largest training set unless --max-train says.
+const DEFAULT_MAX_TRAIN: usize = 2000;
 
 /// The GP options of `fit` for data of `sensor`.
 pub(crate) fn gp_params(fit: &FitArgs, sensor: &SensorSpec) -> Result<Checked<GpParams>> {
@@ -127,7 +155,7 @@ pub(crate) fn gp_params(fit: &FitArgs, sensor: &SensorSpec) -> Result<Checked<Gp
         restarts: fit.restarts,
         restart_subset: fit.restart_subset,
         polish_iters: fit.polish_iters,
-        max_train: fit.max_train,
+        max_train: fit.max_train(),
         subset: fit.subset,
         inducing: fit.inducing,
         seed: fit.seed,
@@ -144,7 +172,7 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     }
     let sessions = load_sessions(
         &a.data,
-        Features::Channels(&a.fit.channels),
+        Features::Channels(&a.fit.channels()),
         &a.fit.axes,
         a.fit.tare_samples,
         &a.fit.source,
@@ -169,43 +197,56 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     if !(a.budget_s > 0.0 && a.budget_s.is_finite()) {
         return Err(BadArgument(format!("--budget-s {}: a positive time (s)", a.budget_s)).into());
     }
-    // Every channel the search may take, or electrodes and PDC when the
-    // data have no more (the others' candidates are then left untried).
-    let every = [
-        Channel::Electrodes,
-        Channel::Pdc,
-        Channel::Tdc,
-        Channel::Tac,
-    ];
-    let load = |channels: &[Channel]| {
-        load_sessions(
+    // Every channel the data hold (the electrodes always): a channel whose
+    // column is missing is dropped and the files read again.
+    let mut held = a.fit.channels.clone().unwrap_or_else(|| {
+        vec![
+            Channel::Electrodes,
+            Channel::Pdc,
+            Channel::Tdc,
+            Channel::Tac,
+        ]
+    });
+    let sessions = loop {
+        let loaded = load_sessions(
             &a.data,
-            Features::Channels(channels),
+            Features::Channels(&held),
             &a.fit.axes,
             a.fit.tare_samples,
             &a.fit.source,
             None,
-        )
-    };
-    let sessions = load(&every).or_else(|e| {
-        let missing = matches!(e.cause(), Some(DatasetError::MissingColumn { .. }));
-        if missing {
-            load(&every[..2])
-        } else {
-            Err(e)
+        );
+        let missing = match &loaded {
+            Err(e) if a.fit.channels.is_none() => match e.cause() {
+                Some(DatasetError::MissingColumn { column, .. }) => held
+                    .iter()
+                    .position(|c| c.name() == column && *c != Channel::Electrodes),
+                _ => None,
+            },
+            _ => None,
+        };
+        match missing {
+            Some(i) => {
+                held.remove(i);
+            }
+            None => break loaded?,
         }
-    })?;
-    if !matches!(sessions.sensor, SensorSpec::Biotac { .. }) {
-        let msg = "--select chooses among BioTac channels; nail-camera data take their own options";
-        return Err(BadArgument(msg.into()).into());
-    }
+    };
     let ds = sessions.pooled()?;
     let base = GpParams::clone(&*gp_params(&a.fit, &sessions.sensor)?);
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
+    let space = Space {
+        held,
+        channels: a.fit.channels.clone(),
+        input: a.fit.input,
+        gp: a.fit.fixed_gp(),
+        mean: a.fit.mean,
+    };
     let selection = select(
         &ds,
         &sessions.tare,
+        &space,
         a.folds,
         a.budget_s,
         &base,

@@ -2,11 +2,14 @@
 //! channels, how they reach the GP, exact or sparse and its size, and the
 //! prior mean, by trial-wise cross-validation within a time budget.
 //!
-//! The search starts from the defaults and changes one option at a time,
-//! keeping what scores better: the channels, then the input scaling, the
-//! prior mean, and last the GP's kind and size (the costliest fits). Each
-//! candidate is trained as `train` trains it (every training row of a fold;
-//! the exact GP on its own subset) and scored on the held-out trials. The
+//! The search starts from the defaults within what the data hold
+//! ([`Space`]: the channels the data have, the options the user fixed) and
+//! changes one option at a time, keeping what scores better: the options
+//! that change the model's form first (input scaling, prior mean, the GP's
+//! kind and size), the channels last. Each candidate is trained as `train`
+//! trains it (every training row of a fold; the exact GP on its own
+//! subset), its search started warm where the same form was fitted before
+//! ([`WarmStarts`]), and scored on the held-out trials. The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. When the
 //! budget runs out the search stops, at the latest after the fold that
@@ -20,7 +23,7 @@ use ndarray::{Array2, Axis as NdAxis};
 
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::gp::fit::FitProgress;
-use super::models::gp::{GpParams, MeanKind};
+use super::models::gp::{GpParams, MeanKind, SeHyper};
 use super::models::metrics::rmse_columns;
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
@@ -104,49 +107,151 @@ impl Classify for SelectError {
 /// Why a candidate was not tried when the budget stopped the search.
 const BUDGET_RAN_OUT: &str = "the time budget ran out";
 
-/// The options tried after the defaults, one stage at a time (each from the
-/// best so far): channels, input scaling, prior mean, GP.
-fn stages(best: &Choice, rows: usize) -> Vec<Vec<Choice>> {
+/// What the search may vary: the channels the data hold, and the options
+/// the user fixed (`train --select --channels ...`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Space {
+    /// The BioTac channels the data hold.
+    pub held: Vec<Channel>,
+    /// Channels fixed by the user.
+    pub channels: Option<Vec<Channel>>,
+    /// Input scaling fixed by the user.
+    pub input: Option<InputScaling>,
+    /// GP kind and size fixed by the user.
+    pub gp: Option<GpChoice>,
+    /// Prior mean fixed by the user.
+    pub mean: Option<MeanKind>,
+}
+
+/// The channel sets the search tries, each where the data hold it.
+const CHANNEL_SETS: [&[Channel]; 4] = {
     use Channel::{Electrodes, Pdc, Tac, Tdc};
-    let with = |f: &dyn Fn(&mut Choice)| {
-        let mut c = best.clone();
-        f(&mut c);
-        c
-    };
-    let channels = [vec![Electrodes], vec![Electrodes, Pdc, Tdc, Tac], vec![Pdc]];
-    let inputs = [InputScaling::Pattern, InputScaling::Raw];
-    let means = [MeanKind::Linear, MeanKind::Cubic];
-    // Smaller exact subsets and sparse sizes, then more rows when there are.
-    let gps = [
-        GpChoice::Sparse(200),
-        GpChoice::Sparse(500),
-        GpChoice::Exact(1000),
-        GpChoice::Exact(4000),
-    ];
-    vec![
-        channels
-            .iter()
-            .map(|ch| with(&|c| c.channels = ch.clone()))
-            .collect(),
-        inputs.iter().map(|&i| with(&|c| c.input = i)).collect(),
-        means.iter().map(|&m| with(&|c| c.mean = m)).collect(),
-        gps.iter()
-            .filter(|g| match g {
-                GpChoice::Exact(n) | GpChoice::Sparse(n) => *n < rows,
-            })
-            .map(|&g| with(&|c| c.gp = g))
-            .collect(),
+    [
+        &[Electrodes, Pdc],
+        &[Electrodes],
+        &[Electrodes, Pdc, Tdc, Tac],
+        &[Pdc],
     ]
+};
+
+impl Space {
+    /// Everything free on data holding `held`.
+    pub fn free(held: Vec<Channel>) -> Self {
+        Space {
+            held,
+            channels: None,
+            input: None,
+            gp: None,
+            mean: None,
+        }
+    }
+
+    /// The channel sets of [`CHANNEL_SETS`] the data hold, or the fixed one.
+    fn channel_sets(&self) -> Vec<Vec<Channel>> {
+        match &self.channels {
+            Some(c) => vec![c.clone()],
+            None => CHANNEL_SETS
+                .iter()
+                .filter(|set| set.iter().all(|c| self.held.contains(c)))
+                .map(|set| set.to_vec())
+                .collect(),
+        }
+    }
+
+    /// The first candidate: the defaults of `train` within what the data
+    /// hold, with the fixed options.
+    pub fn start(&self) -> Choice {
+        let d = Choice::default_options();
+        Choice {
+            channels: self.channel_sets().into_iter().next().unwrap_or(d.channels),
+            input: self.input.unwrap_or(d.input),
+            gp: self.gp.unwrap_or(d.gp),
+            mean: self.mean.unwrap_or(d.mean),
+        }
+    }
+
+    /// What the search cannot vary, and why, for the record.
+    pub fn not_varied(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let sets = self.channel_sets();
+        if self.channels.is_some() {
+            out.push("channels: fixed by --channels".to_string());
+        } else if sets.len() < 2 {
+            let held: Vec<&str> = self.held.iter().map(|c| c.name()).collect();
+            out.push(format!("channels: the data hold {} only", held.join(", ")));
+        }
+        let fixed = [
+            (self.input.is_some(), "input: fixed by --input"),
+            (self.mean.is_some(), "mean: fixed by --mean"),
+            (self.gp.is_some(), "GP: fixed by --inducing or --max-train"),
+        ];
+        out.extend(fixed.iter().filter(|f| f.0).map(|f| f.1.to_string()));
+        out
+    }
+
+    /// The options tried after the first, one stage at a time (each from
+    /// the best so far). The options that change the model's form come
+    /// first, the channels last: input scaling, prior mean, the GP (its
+    /// kind and size), channels. Fixed options and channel sets the data do
+    /// not hold have no stage.
+    fn stages(&self, best: &Choice, rows: usize) -> Vec<Vec<Choice>> {
+        let with = |f: &dyn Fn(&mut Choice)| {
+            let mut c = best.clone();
+            f(&mut c);
+            c
+        };
+        let inputs = [
+            InputScaling::Standard,
+            InputScaling::Pattern,
+            InputScaling::Raw,
+        ];
+        let means = [MeanKind::Zero, MeanKind::Linear, MeanKind::Cubic];
+        // Smaller exact subsets and sparse sizes, then more rows when there are.
+        let gps = [
+            GpChoice::Exact(2000),
+            GpChoice::Sparse(200),
+            GpChoice::Exact(1000),
+            GpChoice::Sparse(500),
+            GpChoice::Exact(4000),
+        ];
+        let mut out = Vec::new();
+        if self.input.is_none() {
+            out.push(inputs.iter().map(|&i| with(&|c| c.input = i)).collect());
+        }
+        if self.mean.is_none() {
+            out.push(means.iter().map(|&m| with(&|c| c.mean = m)).collect());
+        }
+        if self.gp.is_none() {
+            out.push(
+                gps.iter()
+                    .filter(|g| match g {
+                        GpChoice::Exact(n) | GpChoice::Sparse(n) => *n < rows,
+                    })
+                    .map(|&g| with(&|c| c.gp = g))
+                    .collect(),
+            );
+        }
+        out.push(
+            self.channel_sets()
+                .into_iter()
+                .map(|ch| with(&|c| c.channels = ch.clone()))
+                .collect(),
+        );
+        out
+    }
 }
 
 /// Chooses the training options on `data` (tared; its features the union
-/// of every channel it has, tared as `tare` says) by trial-wise
-/// cross-validation with `folds` folds (fewer when a set has fewer trials),
-/// within `budget_s` seconds. `base` holds the other GP options (restarts,
-/// seed). `progress` hears of each candidate as it starts.
+/// of the channels `space` says it holds, tared as `tare` says) by
+/// trial-wise cross-validation with `folds` folds (fewer when a set has
+/// fewer trials), within `budget_s` seconds, among what `space` leaves free.
+/// `base` holds the other GP options (restarts, seed). `progress` hears of
+/// each candidate as it starts.
+#[allow(clippy::too_many_arguments)]
 pub fn select(
     data: &Dataset,
     tare: &TareSpec,
+    space: &Space,
     folds: usize,
     budget_s: f64,
     base: &GpParams,
@@ -173,6 +278,7 @@ pub fn select(
     let over = || start.elapsed().as_secs_f64() > budget_s;
     let mut table: Vec<CvRow> = Vec::new();
     let mut untried = Vec::new();
+    let mut warm = WarmStarts::default();
     // A candidate's cross-validation; `budgeted`: stopped by the budget.
     let mut run = |choice: &Choice,
                    budgeted: bool,
@@ -186,20 +292,28 @@ pub fn select(
             untried.push((choice.clone(), BUDGET_RAN_OUT.into()));
             return;
         }
-        match cross_validate(data, tare, choice, &splits, base, &sd, &stop, progress) {
+        let cv = Cv {
+            data,
+            tare,
+            splits: &splits,
+            base,
+            sd: &sd,
+        };
+        match cv.run(choice, &mut warm, &stop, progress) {
             Ok(Some(row)) => table.push(row),
             Ok(None) => untried.push((choice.clone(), BUDGET_RAN_OUT.into())),
             Err(why) => untried.push((choice.clone(), why)),
         }
     };
-    let defaults = Choice::default_options();
+    let defaults = space.start();
     run(&defaults, false, &mut table, &mut untried);
     if let (true, Some((_, why))) = (table.is_empty(), untried.first()) {
         return Err(SelectError::NoBaseline(format!("{defaults}: {why}")));
     }
-    for stage in 0..4 {
+    let n_stages = space.stages(&defaults, data.len()).len();
+    for stage in 0..n_stages {
         let best = best_of(&table).choice.clone();
-        let candidates = stages(&best, data.len()).swap_remove(stage);
+        let candidates = space.stages(&best, data.len()).swap_remove(stage);
         for c in &candidates {
             run(c, true, &mut table, &mut untried);
         }
@@ -216,6 +330,7 @@ pub fn select(
         table,
         chosen,
         untried,
+        not_varied: space.not_varied(),
     })
 }
 
@@ -226,54 +341,94 @@ fn best_of(table: &[CvRow]) -> &CvRow {
         .expect("the defaults were scored")
 }
 
-/// One candidate's folds; None when the budget ran out in them; Err when
-/// the data cannot serve it (the reason).
-#[allow(clippy::too_many_arguments)]
-fn cross_validate(
-    data: &Dataset,
-    tare: &TareSpec,
-    choice: &Choice,
-    splits: &[(Vec<usize>, Vec<usize>)],
-    base: &GpParams,
-    sd: &[f64],
-    over: &dyn Fn() -> bool,
-    progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
-) -> Result<Option<CvRow>, String> {
-    let (sub, sub_tare) = choice.cut(data, tare)?;
-    let params = choice
-        .gp_params(base)
-        .validate()
-        .map_err(|e| e.to_string())?;
-    let t0 = Instant::now();
-    let mut pred = Array2::zeros(data.y.raw_dim());
-    for (train, test) in splits {
-        let model = WrenchGp::train_scaled(
-            &sub.select(train),
-            sub_tare.clone(),
-            choice.input,
-            &params,
-            &mut |_, p| progress(choice, p),
+/// Hyperparameters fitted so far, per axis, by the model's form (channels,
+/// input scaling, prior mean: what the hyperparameters depend on) and fold.
+///
+/// A candidate's fold starts its search warm from the same form's fit on
+/// the same fold (another GP size) or on the fold before; only a form's
+/// first fold runs the full multistart. Measured in docs/results.md ("`train
+/// --select` within its budget").
+#[derive(Default)]
+struct WarmStarts(BTreeMap<(String, usize), Vec<SeHyper>>);
+
+impl WarmStarts {
+    fn key(choice: &Choice) -> String {
+        format!(
+            "{:?} {} {}",
+            choice.channels,
+            choice.input.name(),
+            choice.mean.name()
         )
-        .map_err(|e| e.to_string())?;
-        let (p, _) = model
-            .predict(sub.select(test).x.view(), false)
-            .map_err(|e| e.to_string())?;
-        for (row, &i) in p.rows().into_iter().zip(test) {
-            pred.row_mut(i).assign(&row);
-        }
-        if over() {
-            return Ok(None);
-        }
     }
-    let rmse = rmse_columns(data.y.view(), pred.view());
-    let axes = data.axes.axes();
-    let score = rmse.iter().zip(sd).map(|(e, s)| e / s).sum::<f64>() / axes.len() as f64;
-    Ok(Some(CvRow {
-        choice: choice.clone(),
-        rmse: axes.iter().copied().zip(rmse.iter().copied()).collect(),
-        score,
-        seconds: t0.elapsed().as_secs_f64(),
-    }))
+
+    /// The warm start of `choice`'s fold `fold`, if any.
+    fn get(&self, choice: &Choice, fold: usize) -> Option<&[SeHyper]> {
+        let key = Self::key(choice);
+        let same = self.0.get(&(key.clone(), fold));
+        let before = (0..fold).rev().find_map(|f| self.0.get(&(key.clone(), f)));
+        same.or(before).map(Vec::as_slice)
+    }
+}
+
+/// What every candidate's cross-validation shares.
+struct Cv<'a> {
+    data: &'a Dataset,
+    tare: &'a TareSpec,
+    splits: &'a [(Vec<usize>, Vec<usize>)],
+    base: &'a GpParams,
+    /// The targets' standard deviations, per axis.
+    sd: &'a [f64],
+}
+
+impl Cv<'_> {
+    /// One candidate's folds; None when the budget ran out in them; Err
+    /// when the data cannot serve it (the reason).
+    fn run(
+        &self,
+        choice: &Choice,
+        warm: &mut WarmStarts,
+        over: &dyn Fn() -> bool,
+        progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
+    ) -> Result<Option<CvRow>, String> {
+        let (sub, sub_tare) = choice.cut(self.data, self.tare)?;
+        let params = choice
+            .gp_params(self.base)
+            .validate()
+            .map_err(|e| e.to_string())?;
+        let t0 = Instant::now();
+        let mut pred = Array2::zeros(self.data.y.raw_dim());
+        for (fold, (train, test)) in self.splits.iter().enumerate() {
+            let model = WrenchGp::train_from(
+                &sub.select(train),
+                sub_tare.clone(),
+                choice.input,
+                &params,
+                warm.get(choice, fold),
+                &mut |_, p| progress(choice, p),
+            )
+            .map_err(|e| e.to_string())?;
+            warm.0
+                .insert((WarmStarts::key(choice), fold), model.hypers());
+            let (p, _) = model
+                .predict(sub.select(test).x.view(), false)
+                .map_err(|e| e.to_string())?;
+            for (row, &i) in p.rows().into_iter().zip(test) {
+                pred.row_mut(i).assign(&row);
+            }
+            if over() {
+                return Ok(None);
+            }
+        }
+        let rmse = rmse_columns(self.data.y.view(), pred.view());
+        let axes = self.data.axes.axes();
+        let score = rmse.iter().zip(self.sd).map(|(e, s)| e / s).sum::<f64>() / axes.len() as f64;
+        Ok(Some(CvRow {
+            choice: choice.clone(),
+            rmse: axes.iter().copied().zip(rmse.iter().copied()).collect(),
+            score,
+            seconds: t0.elapsed().as_secs_f64(),
+        }))
+    }
 }
 
 /// `data` and `tare` cut to the columns `features`; the name of one that is
@@ -305,107 +460,4 @@ pub(crate) fn columns(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::biotac::sim::BioTacSimConfig;
-    use crate::sim::collect::{collect, CollectConfig};
-    use crate::wrench::Axis;
-
-    /// A short simulated session with every channel, tared per trial.
-    fn session() -> (Dataset, TareSpec) {
-        let cfg = CollectConfig::default().with_trials(3).unwrap();
-        let records = collect(&cfg, &BioTacSimConfig::default(), 1, 1);
-        let all = channel_columns(
-            &[
-                Channel::Electrodes,
-                Channel::Pdc,
-                Channel::Tdc,
-                Channel::Tac,
-            ],
-            ElectrodeLayout::Biotac,
-        );
-        let mut ds =
-            Dataset::from_records(&records, &all, &"fz".parse().unwrap(), "session").unwrap();
-        // Every 4th row keeps it quick.
-        let rows: Vec<usize> = (0..ds.len()).step_by(4).collect();
-        ds = ds.select(&rows);
-        let baseline = ds.tare_per_trial(10).unwrap();
-        let tare = TareSpec {
-            samples: 10,
-            mean_baseline: baseline,
-        };
-        (ds, tare)
-    }
-
-    fn quick() -> GpParams {
-        GpParams {
-            restarts: 1,
-            restart_subset: 200,
-            ..GpParams::default()
-        }
-    }
-
-    #[test]
-    fn the_search_keeps_the_best_score_and_records_every_candidate() {
-        let (ds, tare) = session();
-        let s = select(&ds, &tare, 5, 600.0, &quick(), &mut |_, _| {}).unwrap();
-        assert_eq!(s.folds, 3, "3 trials per set: 3 folds");
-        assert_eq!(s.table[0].choice, Choice::default_options());
-        let best = s
-            .table
-            .iter()
-            .map(|r| r.score)
-            .fold(f64::INFINITY, f64::min);
-        assert_eq!(s.table[s.chosen].score, best);
-        // Every stage ran: channels, input, mean, GP (rows permit sparse 200).
-        let tried = |f: &dyn Fn(&Choice) -> bool| s.table.iter().any(|r| f(&r.choice));
-        assert!(tried(&|c| c.channels == [Channel::Pdc]));
-        assert!(tried(&|c| c.input == InputScaling::Raw));
-        assert!(tried(&|c| c.mean == MeanKind::Cubic));
-        assert!(tried(&|c| c.gp == GpChoice::Sparse(200)));
-        assert!(s.untried.is_empty(), "{:?}", s.untried);
-        for r in &s.table {
-            assert!(
-                r.score.is_finite() && r.score > 0.0 && r.rmse[&Axis::Fz] > 0.0,
-                "{r:?}"
-            );
-        }
-        // The record survives JSON.
-        let back: Selection = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
-        assert_eq!(back, s);
-    }
-
-    #[test]
-    fn the_budget_stops_the_search_and_says_what_it_left() {
-        let (ds, tare) = session();
-        let s = select(&ds, &tare, 5, 0.0, &quick(), &mut |_, _| {});
-        // Nothing fits in no time but the defaults, which are always scored.
-        let s = s.unwrap();
-        assert_eq!(s.table.len(), 1);
-        assert_eq!(s.choice(), &Choice::default_options());
-        assert!(!s.untried.is_empty());
-        assert!(
-            s.untried.iter().all(|(_, why)| why == BUDGET_RAN_OUT),
-            "{s:?}"
-        );
-        let without_tdc = Dataset {
-            features: ds.features[..20].to_vec(),
-            x: ds.x.slice(ndarray::s![.., ..20]).to_owned(),
-            ..ds.clone()
-        };
-        let tare20 = TareSpec {
-            samples: 10,
-            mean_baseline: tare.mean_baseline[..20].to_vec(),
-        };
-        let s = select(&without_tdc, &tare20, 5, 600.0, &quick(), &mut |_, _| {}).unwrap();
-        let missing = s
-            .untried
-            .iter()
-            .find(|(c, _)| c.channels.contains(&Channel::Tdc))
-            .expect("a candidate with tdc");
-        assert!(missing.1.contains("no column \"tdc\""), "{missing:?}");
-        let one_trial = ds.select(&(0..50).collect::<Vec<_>>());
-        let e = select(&one_trial, &tare, 5, 60.0, &quick(), &mut |_, _| {}).unwrap_err();
-        assert!(e.to_string().contains("at least 2"), "{e}");
-    }
-}
+mod tests;

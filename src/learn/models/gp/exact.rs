@@ -12,7 +12,7 @@ use faer::{Mat, MatRef, Par, Side};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::kernel::{scale_rows, se_cross, se_gram, SeHyper};
+use super::kernel::{exp_kernel, scale_rows, se_cross, se_gram, SeHyper};
 use super::GpError;
 
 /// First jitter tried, relative to the mean diagonal of K.
@@ -283,7 +283,7 @@ pub(super) fn cross_one<'w>(
             .zip(&ws.scaled)
             .map(|(a, b)| (a - b) * (a - b))
             .sum();
-        *k = hyper.signal_var * (-0.5 * d2).exp();
+        *k = hyper.signal_var * exp_kernel(-0.5 * d2);
     }
     k
 }

@@ -61,6 +61,19 @@ pub struct FitProgress {
     pub neg_lml_per_sample: f64,
 }
 
+/// Where a fit's hyperparameter search starts.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub enum Start {
+    /// `restarts` starts, the first at s2 = 1, l = sqrt(d), sn2 = 0.01, the
+    /// others drawn around it.
+    #[default]
+    Multistart,
+    /// One start at these hyperparameters: a warm start from a fit on
+    /// similar data (another fold of a cross-validation, or another size of
+    /// the same GP), which converges in a few evaluations.
+    Warm(SeHyper),
+}
+
 /// Bounds of the log-parameters in standardised units.
 struct Bounds {
     lo: Vec<f64>,
@@ -240,8 +253,17 @@ impl<'a> Fitter<'a> {
     /// Maximum-likelihood hyperparameters of the exact GP: every start
     /// optimised on one random subset of at most `restart_subset` rows.
     /// Returns the best clamped log-parameters and their cost.
-    fn multistart(&mut self, x: &[f64], y: &[f64]) -> Result<(Vec<f64>, f64), GpError> {
+    fn multistart(
+        &mut self,
+        x: &[f64],
+        y: &[f64],
+        start: &Start,
+    ) -> Result<(Vec<f64>, f64), GpError> {
         let (p, d) = (self.p, self.d);
+        let warm = match start {
+            Start::Warm(h) if h.kind == p.kernel && h.is_valid(d) => Some(h.to_log()),
+            _ => None,
+        };
         let first = SeHyper {
             kind: p.kernel,
             signal_var: 1.0,
@@ -249,8 +271,12 @@ impl<'a> Fitter<'a> {
             noise_var: 0.01f64.max(p.min_noise_var),
         }
         .to_log();
-        let starts: Vec<Vec<f64>> = (0..p.restarts)
+        let restarts = if warm.is_some() { 1 } else { p.restarts };
+        let starts: Vec<Vec<f64>> = (0..restarts)
             .map(|s| {
+                if let Some(w) = &warm {
+                    return w.clone();
+                }
                 if s == 0 {
                     first.clone()
                 } else {
@@ -325,19 +351,21 @@ fn gather(x: &[f64], d: usize, y: &[f64], idx: &[usize]) -> (Vec<f64>, Vec<f64>)
 /// conditions an exact GP on `x` (row-major n x d) and `y`, both
 /// standardised: on all rows, or when n > `max_train` on `max_train` rows
 /// chosen by `subset` (random, or [`farthest_point`] with the fitted
-/// length-scales). `progress` is called after every likelihood evaluation.
+/// length-scales). The search starts as `start` says. `progress` is called
+/// after every likelihood evaluation.
 pub fn fit_gp(
     x: &[f64],
     d: usize,
     y: &[f64],
     params: &Checked<GpParams>,
+    start: &Start,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(ExactGp, FitInfo), GpError> {
     check_data(x, d, y)?;
     let mut fit = Fitter::new(params, d, progress);
     let p = fit.p;
     let n = y.len();
-    let (mut theta, mut cost) = fit.multistart(x, y)?;
+    let (mut theta, mut cost) = fit.multistart(x, y, start)?;
     let before_full = fit.tracker.evaluations.get();
     if n > p.restart_subset && p.polish_iters > 0 {
         fit.tracker.start.set(p.restarts);
@@ -368,7 +396,8 @@ pub fn fit_gp(
 
 /// Fits a sparse VFE GP (Titsias 2009) with `inducing` = m inducing points
 /// to `x` (row-major n x d) and `y`, both standardised:
-/// 1. start hyperparameters from the exact-GP multistart on `restart_subset` rows;
+/// 1. start hyperparameters from the exact-GP multistart on `restart_subset`
+///    rows (from `start`);
 /// 2. inducing inputs by [`greedy_variance`] with them, among at most
 ///    `sparse_candidates` random rows;
 /// 3. L-BFGS on the VFE bound ([`neg_vfe_and_grad`]) over the
@@ -383,6 +412,7 @@ pub fn fit_sparse(
     d: usize,
     y: &[f64],
     params: &Checked<GpParams>,
+    start: &Start,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(SparseGp, FitInfo), GpError> {
     check_data(x, d, y)?;
@@ -393,7 +423,7 @@ pub fn fit_sparse(
         value: "none".into(),
         expected: "a number of inducing points for a sparse fit",
     })?;
-    let (theta0, _) = fit.multistart(x, y)?;
+    let (theta0, _) = fit.multistart(x, y, start)?;
     let hyper0 = SeHyper::from_log(p.kernel, d, &theta0);
 
     let n = y.len();
@@ -428,157 +458,4 @@ pub fn fit_sparse(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::learn::models::gp::{Gp, GpWorkspace};
-    use rand::Rng;
-
-    #[test]
-    fn fit_recovers_a_smooth_function_to_within_the_noise() {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let (n, d, noise) = (300, 3, 0.05);
-        let f = |r: &[f64]| (1.5 * r[0]).sin() + 0.5 * r[1] * r[1] - 0.5;
-        let x: Vec<f64> = (0..n * d).map(|_| rng.random_range(-1.5..1.5)).collect();
-        let y: Vec<f64> = x
-            .chunks_exact(d)
-            .map(|r| f(r) + noise * rng.sample::<f64, _>(rand_distr::StandardNormal))
-            .collect();
-        for kernel in [KernelKind::Isotropic, KernelKind::Ard] {
-            let params = GpParams {
-                kernel,
-                ..GpParams::default()
-            }
-            .validate()
-            .unwrap();
-            let mut calls = 0;
-            let (gp, info) = fit_gp(&x, d, &y, &params, &mut |_| calls += 1).unwrap();
-            assert_eq!(calls, info.evaluations);
-            let mut ws = GpWorkspace::new(n, d);
-            let test: Vec<f64> = (0..200 * d).map(|_| rng.random_range(-1.4..1.4)).collect();
-            let mse = test
-                .chunks_exact(d)
-                .map(|r| (gp.predict_one(r, &mut ws, false).0 - f(r)).powi(2))
-                .sum::<f64>()
-                / 200.0;
-            assert!(
-                mse.sqrt() < noise,
-                "{kernel:?}: RMSE {} vs noise {noise}",
-                mse.sqrt()
-            );
-            // The learned noise is close to the true one.
-            let sn = gp.hyper().noise_var.sqrt();
-            assert!((sn - noise).abs() < 0.3 * noise, "{kernel:?}: noise {sn}");
-            if kernel == KernelKind::Ard {
-                // The unused third input gets a longer length-scale than the used ones.
-                let l = &gp.hyper().lengthscales;
-                assert!(l[2] > 3.0 * l[0] && l[2] > 3.0 * l[1], "{l:?}");
-            }
-        }
-    }
-
-    fn smooth_data(n: usize, d: usize, noise: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let x: Vec<f64> = (0..n * d).map(|_| rng.random_range(-1.5..1.5)).collect();
-        let y = x
-            .chunks_exact(d)
-            .map(|r| smooth(r) + noise * rng.sample::<f64, _>(rand_distr::StandardNormal))
-            .collect();
-        (x, y)
-    }
-
-    fn smooth(r: &[f64]) -> f64 {
-        (1.5 * r[0]).sin() + 0.5 * r[1] * r[1] - 0.5
-    }
-
-    #[test]
-    fn sparse_fit_recovers_a_smooth_function_to_within_the_noise() {
-        let (n, d, noise) = (2000, 3, 0.05);
-        let (x, y) = smooth_data(n, d, noise, 11);
-        let params = GpParams {
-            kernel: KernelKind::Ard,
-            inducing: Some(50),
-            ..GpParams::default()
-        }
-        .validate()
-        .unwrap();
-        let mut calls = 0;
-        let (gp, info) = fit_sparse(&x, d, &y, &params, &mut |_| calls += 1).unwrap();
-        assert_eq!(calls, info.evaluations);
-        assert!(info.full_evaluations > 0);
-        assert_eq!((gp.n_inducing(), gp.n_fit()), (50, n));
-        let (test, _) = smooth_data(300, d, 0.0, 12);
-        let (mean, var) = gp.predict(&test, true);
-        let mse = test
-            .chunks_exact(d)
-            .zip(&mean)
-            .map(|(r, m)| (m - smooth(r)).powi(2))
-            .sum::<f64>()
-            / 300.0;
-        assert!(mse.sqrt() < noise, "RMSE {} vs noise {noise}", mse.sqrt());
-        assert!(var.iter().all(|v| (0.0..0.1).contains(v)));
-        let sn = gp.hyper().noise_var.sqrt();
-        assert!((sn - noise).abs() < 0.3 * noise, "noise {sn}");
-    }
-
-    #[test]
-    fn exact_fit_keeps_max_train_rows_by_either_rule() {
-        let (n, d) = (3000, 2);
-        let (x, y) = smooth_data(n, d, 0.05, 13);
-        for subset in [Subset::Random, Subset::FarthestPoint] {
-            let params = GpParams {
-                restarts: 1,
-                restart_subset: 200,
-                max_train: 300,
-                subset,
-                ..GpParams::default()
-            }
-            .validate()
-            .unwrap();
-            let (gp, _) = fit_gp(&x, d, &y, &params, &mut |_| {}).unwrap();
-            assert_eq!(gp.n_train(), 300, "{subset:?}");
-            let (test, _) = smooth_data(100, d, 0.0, 14);
-            let (mean, _) = gp.predict(&test, false);
-            let rmse = (test
-                .chunks_exact(d)
-                .zip(&mean)
-                .map(|(r, m)| (m - smooth(r)).powi(2))
-                .sum::<f64>()
-                / 100.0)
-                .sqrt();
-            assert!(rmse < 0.05, "{subset:?}: RMSE {rmse}");
-        }
-        let json = serde_json::to_string(&Subset::FarthestPoint).unwrap();
-        assert_eq!(json, "\"farthest\"");
-    }
-
-    #[test]
-    fn gp_dispatches_on_inducing_and_round_trips_tagged() {
-        let (x, y) = smooth_data(400, 2, 0.05, 15);
-        for inducing in [None, Some(30)] {
-            let params = GpParams {
-                restarts: 1,
-                inducing,
-                ..GpParams::default()
-            }
-            .validate()
-            .unwrap();
-            let (gp, _) = Gp::fit(&x, 2, &y, &params, &mut |_| {}).unwrap();
-            assert_eq!(gp.size(), inducing.unwrap_or(400));
-            let json = serde_json::to_string(&gp).unwrap();
-            let tag = if inducing.is_some() {
-                "{\"sparse\":"
-            } else {
-                "{\"exact\":"
-            };
-            assert!(json.starts_with(tag), "{}", &json[..20]);
-            let back: Gp = serde_json::from_str(&json).unwrap();
-            let mut ws = gp.workspace();
-            let (z, _) = smooth_data(20, 2, 0.0, 16);
-            let (means, vars) = back.predict(&z, true);
-            for (i, r) in z.chunks_exact(2).enumerate() {
-                let (m, v) = gp.predict_one(r, &mut ws, true);
-                assert!((m - means[i]).abs() < 1e-10 && (v - vars[i]).abs() < 1e-10);
-            }
-        }
-    }
-}
+mod tests;

@@ -92,6 +92,49 @@ impl SeHyper {
     }
 }
 
+/// `e^x` for the kernel's arguments (x <= 0; 0 below -708), to within 2
+/// ulp of the true value: Cody-Waite reduction x = k ln 2 + r, |r| <= ln 2 / 2,
+/// a degree-12 Taylor polynomial of e^r (truncation below 2e-16), then 2^k
+/// from the exponent bits. Branch-free, so the kernels' loops vectorise.
+///
+/// Why not `f64::exp`: after faer's AVX-512 matrix products, glibc's `exp`
+/// took 150 ns a call on the development machine's CPU instead of 13 ns
+/// (`perf`: 70 % of a `train` was `exp`); this one took 6-10 ns either way,
+/// and a 2000 x 4000 cross-covariance 0.19 s instead of 1.3-2.1 s.
+#[inline(always)]
+pub fn exp_kernel(x: f64) -> f64 {
+    const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52: rounds to an integer
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+    const INV_FACT: [f64; 13] = [
+        1.0,
+        1.0,
+        0.5,
+        1.0 / 6.0,
+        1.0 / 24.0,
+        1.0 / 120.0,
+        1.0 / 720.0,
+        1.0 / 5040.0,
+        1.0 / 40_320.0,
+        1.0 / 362_880.0,
+        1.0 / 3_628_800.0,
+        1.0 / 39_916_800.0,
+        1.0 / 479_001_600.0,
+    ];
+    let xc = x.clamp(-708.0, 709.0);
+    let shifted = xc * std::f64::consts::LOG2_E + SHIFT;
+    let k = shifted - SHIFT;
+    let k_int = (shifted.to_bits() as i64).wrapping_sub(SHIFT.to_bits() as i64);
+    let r = (xc - k * LN2_HI) - k * LN2_LO;
+    let p = INV_FACT.iter().rev().fold(0.0, |p, c| p * r + c);
+    let scaled = p * f64::from_bits(((k_int + 1023) as u64) << 52);
+    if x < -708.0 {
+        0.0
+    } else {
+        scaled
+    }
+}
+
 /// Rows of `x` (n x d, row-major slice) divided by the length-scales:
 /// the SE kernel is then `s2 exp(-|a - b|^2 / 2)` on these scaled rows.
 pub fn scale_rows(x: &[f64], lengthscales: &[f64]) -> Vec<f64> {
@@ -137,7 +180,7 @@ pub fn se_cross(a: &[f64], b: &[f64], d: usize, signal_var: f64) -> Mat<f64> {
     let mut k = inner_products(a, b, d);
     k.par_col_iter_mut().enumerate().for_each(|(j, col)| {
         for (v, q) in col.iter_mut().zip(&qa) {
-            *v = signal_var * (-0.5 * (q + qb[j] - 2.0 * *v).max(0.0)).exp();
+            *v = signal_var * exp_kernel(-0.5 * (q + qb[j] - 2.0 * *v).max(0.0));
         }
     });
     k
@@ -152,7 +195,7 @@ pub fn se_gram(xs: &[f64], d: usize, signal_var: f64) -> Mat<f64> {
     let n = k.nrows();
     k.par_col_iter_mut().enumerate().for_each(|(j, col)| {
         for (i, v) in col.iter_mut().enumerate().skip(j) {
-            *v = signal_var * (-0.5 * (q[i] + q[j] - 2.0 * *v).max(0.0)).exp();
+            *v = signal_var * exp_kernel(-0.5 * (q[i] + q[j] - 2.0 * *v).max(0.0));
         }
     });
     for j in 0..n {
@@ -184,6 +227,21 @@ mod tests {
         assert_eq!(iso.lengthscales, vec![1f64.exp(); 4]);
         assert_eq!(iso.to_log().len(), 3);
         assert!(iso.is_valid(4) && !iso.is_valid(3));
+    }
+
+    #[test]
+    fn the_kernel_exponential_is_within_two_ulp_of_libm() {
+        let mut worst: f64 = 0.0;
+        for i in 0..=200_000 {
+            let x = -708.0 * (i as f64 / 200_000.0).powi(3);
+            let (ours, libm) = (exp_kernel(x), x.exp());
+            worst = worst.max((ours - libm).abs() / libm);
+        }
+        assert!(worst < 4.5e-16, "largest relative error {worst:e}");
+        assert_eq!(exp_kernel(0.0), 1.0);
+        assert_eq!(exp_kernel(-708.5), 0.0);
+        assert_eq!(exp_kernel(f64::NEG_INFINITY), 0.0);
+        assert!((exp_kernel(1.0) - std::f64::consts::E).abs() < 1e-15);
     }
 
     #[test]

@@ -22,7 +22,7 @@ use crate::params::Checked;
 use crate::exit::{Classify, ExitClass};
 
 pub use exact::{ExactGp, ExactGpData, GpWorkspace};
-pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress};
+pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress, Start};
 pub use kernel::{KernelKind, SeHyper};
 pub use mean::{LinearMean, MeanKind};
 pub use params::{GpParams, Subset};
@@ -80,7 +80,7 @@ impl TryFrom<GpData> for Gp {
 
 impl Gp {
     /// Fits an exact GP ([`fit_gp`]) when `params.inducing` is `None`, else a
-    /// sparse one ([`fit_sparse`]).
+    /// sparse one ([`fit_sparse`]), from the default [`Start`].
     pub fn fit(
         x: &[f64],
         d: usize,
@@ -88,13 +88,25 @@ impl Gp {
         params: &Checked<GpParams>,
         progress: &mut dyn FnMut(FitProgress),
     ) -> Result<(Gp, FitInfo), GpError> {
+        Self::fit_from(x, d, y, params, &Start::Multistart, progress)
+    }
+
+    /// [`Gp::fit`] with its hyperparameter search started as `start` says.
+    pub fn fit_from(
+        x: &[f64],
+        d: usize,
+        y: &[f64],
+        params: &Checked<GpParams>,
+        start: &Start,
+        progress: &mut dyn FnMut(FitProgress),
+    ) -> Result<(Gp, FitInfo), GpError> {
         Ok(match params.inducing {
             None => {
-                let (gp, info) = fit_gp(x, d, y, params, progress)?;
+                let (gp, info) = fit_gp(x, d, y, params, start, progress)?;
                 (Gp::Exact(gp), info)
             }
             Some(_) => {
-                let (gp, info) = fit_sparse(x, d, y, params, progress)?;
+                let (gp, info) = fit_sparse(x, d, y, params, start, progress)?;
                 (Gp::Sparse(gp), info)
             }
         })

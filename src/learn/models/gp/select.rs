@@ -11,7 +11,7 @@
 
 use rayon::prelude::*;
 
-use super::kernel::SeHyper;
+use super::kernel::{exp_kernel, SeHyper};
 
 /// Below this fraction of the signal variance the remaining prior variance
 /// counts as zero: every other row (nearly) duplicates a chosen one.
@@ -56,7 +56,7 @@ pub fn greedy_variance(x: &[f64], d: usize, hyper: &SeHyper, m: usize) -> Vec<us
                     if *v == f64::NEG_INFINITY {
                         continue;
                     }
-                    let kip = s2 * (-0.5 * scaled_sq_dist(xi, xp, &inv_l)).exp();
+                    let kip = s2 * exp_kernel(-0.5 * scaled_sq_dist(xi, xp, &inv_l));
                     let proj: f64 = row[..k].iter().zip(&lp).map(|(a, b)| a * b).sum();
                     let lik = (kip - proj) / sp;
                     row[k] = lik;

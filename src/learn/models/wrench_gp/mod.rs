@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
 use super::gp::fit::FitProgress;
-use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace};
+use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace, SeHyper, Start};
 use super::scale::{InputScaling, Standardizer};
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
@@ -179,6 +179,20 @@ impl WrenchGp {
         params: &Checked<GpParams>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
+        Self::train_from(data, tare, scaling, params, None, progress)
+    }
+
+    /// [`WrenchGp::train_scaled`], each axis's hyperparameter search
+    /// started warm at `warm`'s hyperparameters for it (from a model of the
+    /// same features, axes, scaling and mean on similar data) when given.
+    pub fn train_from(
+        data: &Dataset,
+        tare: TareSpec,
+        scaling: InputScaling,
+        params: &Checked<GpParams>,
+        warm: Option<&[SeHyper]>,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<Self, ModelError> {
         // Check before standardising: one infinity would spoil every row.
         let d = data.features.len();
         for (name, m) in [("features", &data.x), ("targets", &data.y)] {
@@ -224,7 +238,11 @@ impl WrenchGp {
                         f(axis, p)
                     }
                 };
-                let (gp, fit) = Gp::fit(&x, d, &y, params, &mut report)?;
+                let start = warm
+                    .and_then(|w| w.get(j))
+                    .filter(|h| h.lengthscales.len() == d)
+                    .map_or(Start::Multistart, |h| Start::Warm(h.clone()));
+                let (gp, fit) = Gp::fit_from(&x, d, &y, params, &start, &mut report)?;
                 Ok(AxisModel {
                     axis,
                     target_mean: m,
@@ -338,6 +356,16 @@ impl WrenchGp {
     /// see [`Gp::size`]).
     pub fn n_train(&self) -> usize {
         self.0.n_train
+    }
+
+    /// Per axis, in output order: the GP's hyperparameters (a warm start
+    /// for [`WrenchGp::train_from`]).
+    pub fn hypers(&self) -> Vec<SeHyper> {
+        self.0
+            .outputs
+            .iter()
+            .map(|o| o.gp.hyper().clone())
+            .collect()
     }
 
     /// Per axis: the fitted GP and what its fit did.

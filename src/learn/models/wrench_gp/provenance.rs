@@ -104,6 +104,10 @@ pub struct Selection {
     /// Candidates the budget left untried, or the data could not serve (a
     /// channel missing), with the reason.
     pub untried: Vec<(Choice, String)>,
+    /// The options the search could not vary, and why (the data hold one
+    /// channel set; the user fixed it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_varied: Vec<String>,
 }
 
 impl Selection {

@@ -1,0 +1,206 @@
+//! Tests of choice.rs.
+
+use super::*;
+use crate::biotac::sim::BioTacSimConfig;
+use crate::sim::collect::{collect, CollectConfig};
+use crate::wrench::Axis;
+
+/// A short simulated session with every channel, tared per trial.
+fn session() -> (Dataset, TareSpec) {
+    let cfg = CollectConfig::default().with_trials(3).unwrap();
+    let records = collect(&cfg, &BioTacSimConfig::default(), 1, 1);
+    let all = channel_columns(
+        &[
+            Channel::Electrodes,
+            Channel::Pdc,
+            Channel::Tdc,
+            Channel::Tac,
+        ],
+        ElectrodeLayout::Biotac,
+    );
+    let mut ds = Dataset::from_records(&records, &all, &"fz".parse().unwrap(), "session").unwrap();
+    // Every 4th row keeps it quick.
+    let rows: Vec<usize> = (0..ds.len()).step_by(4).collect();
+    ds = ds.select(&rows);
+    let baseline = ds.tare_per_trial(10).unwrap();
+    let tare = TareSpec {
+        samples: 10,
+        mean_baseline: baseline,
+    };
+    (ds, tare)
+}
+
+/// Every channel held.
+fn every() -> Space {
+    use Channel::{Electrodes, Pdc, Tac, Tdc};
+    Space::free(vec![Electrodes, Pdc, Tdc, Tac])
+}
+
+/// The first `cols` feature columns of `ds` and `tare`.
+fn first_columns(ds: &Dataset, tare: &TareSpec, cols: usize) -> (Dataset, TareSpec) {
+    let sub = Dataset {
+        features: ds.features[..cols].to_vec(),
+        x: ds.x.slice(ndarray::s![.., ..cols]).to_owned(),
+        ..ds.clone()
+    };
+    let tare = TareSpec {
+        samples: tare.samples,
+        mean_baseline: tare.mean_baseline[..cols].to_vec(),
+    };
+    (sub, tare)
+}
+
+fn quick() -> GpParams {
+    GpParams {
+        restarts: 1,
+        restart_subset: 200,
+        ..GpParams::default()
+    }
+}
+
+#[test]
+fn the_search_keeps_the_best_score_and_records_every_candidate() {
+    let (ds, tare) = session();
+    let s = select(&ds, &tare, &every(), 5, 600.0, &quick(), &mut |_, _| {}).unwrap();
+    assert_eq!(s.folds, 3, "3 trials per set: 3 folds");
+    assert_eq!(s.table[0].choice, Choice::default_options());
+    let best = s
+        .table
+        .iter()
+        .map(|r| r.score)
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(s.table[s.chosen].score, best);
+    // Every stage ran: channels, input, mean, GP (rows permit sparse 200).
+    let tried = |f: &dyn Fn(&Choice) -> bool| s.table.iter().any(|r| f(&r.choice));
+    assert!(tried(&|c| c.channels == [Channel::Pdc]));
+    assert!(tried(&|c| c.input == InputScaling::Raw));
+    assert!(tried(&|c| c.mean == MeanKind::Cubic));
+    assert!(tried(&|c| c.gp == GpChoice::Sparse(200)));
+    assert!(s.untried.is_empty(), "{:?}", s.untried);
+    for r in &s.table {
+        assert!(
+            r.score.is_finite() && r.score > 0.0 && r.rmse[&Axis::Fz] > 0.0,
+            "{r:?}"
+        );
+    }
+    // The record survives JSON.
+    let back: Selection = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+    assert_eq!(back, s);
+}
+
+#[test]
+fn the_budget_stops_the_search_and_says_what_it_left() {
+    let (ds, tare) = session();
+    let s = select(&ds, &tare, &every(), 5, 0.0, &quick(), &mut |_, _| {});
+    // Nothing fits in no time but the defaults, which are always scored.
+    let s = s.unwrap();
+    assert_eq!(s.table.len(), 1);
+    assert_eq!(s.choice(), &Choice::default_options());
+    assert!(!s.untried.is_empty());
+    assert!(
+        s.untried.iter().all(|(_, why)| why == BUDGET_RAN_OUT),
+        "{s:?}"
+    );
+    let one_trial = ds.select(&(0..50).collect::<Vec<_>>());
+    let e = select(
+        &one_trial,
+        &tare,
+        &every(),
+        5,
+        60.0,
+        &quick(),
+        &mut |_, _| {},
+    );
+    let e = e.unwrap_err();
+    assert!(e.to_string().contains("at least 2"), "{e}");
+}
+
+#[test]
+fn the_candidates_are_the_channels_held_and_the_options_left_free() {
+    use Channel::{Electrodes, Pdc, Tac, Tdc};
+    let best = Choice::default_options();
+    let channel_stage = |space: &Space| -> Vec<Vec<Channel>> {
+        let stages = space.stages(&best, 10_000);
+        stages
+            .last()
+            .unwrap()
+            .iter()
+            .map(|c| c.channels.clone())
+            .collect()
+    };
+    // Electrodes and PDC held: no candidate takes TDC or TAC.
+    let ep = Space::free(vec![Electrodes, Pdc]);
+    assert_eq!(
+        channel_stage(&ep),
+        [vec![Electrodes, Pdc], vec![Electrodes], vec![Pdc]]
+    );
+    assert!(ep.not_varied().is_empty());
+    assert_eq!(channel_stage(&every()).len(), 4);
+    // Electrodes only: one set, said so; the first candidate takes it.
+    let e = Space::free(vec![Electrodes]);
+    assert_eq!(channel_stage(&e), [vec![Electrodes]]);
+    assert_eq!(e.start().channels, [Electrodes]);
+    assert_eq!(e.not_varied(), ["channels: the data hold electrodes only"]);
+    // The form first, the channels last: input, mean, GP, channels.
+    let stages = every().stages(&best, 10_000);
+    assert_eq!(stages.len(), 4);
+    assert!(stages[0].iter().any(|c| c.input == InputScaling::Raw));
+    assert!(stages[1].iter().any(|c| c.mean == MeanKind::Cubic));
+    assert!(stages[2].iter().any(|c| c.gp == GpChoice::Sparse(500)));
+    assert!(stages[3]
+        .iter()
+        .any(|c| c.channels == [Electrodes, Pdc, Tdc, Tac]));
+    // Fixed options have no stage, and every candidate keeps them.
+    let fixed = Space {
+        channels: Some(vec![Electrodes, Tdc]),
+        gp: Some(GpChoice::Sparse(300)),
+        ..every()
+    };
+    assert_eq!(fixed.start().channels, [Electrodes, Tdc]);
+    assert_eq!(fixed.start().gp, GpChoice::Sparse(300));
+    let stages = fixed.stages(&fixed.start(), 10_000);
+    assert_eq!(stages.len(), 3, "input, mean, the one channel set");
+    assert!(stages
+        .iter()
+        .flatten()
+        .all(|c| c.gp == GpChoice::Sparse(300)));
+    assert_eq!(
+        fixed.not_varied(),
+        [
+            "channels: fixed by --channels",
+            "GP: fixed by --inducing or --max-train"
+        ]
+    );
+}
+
+#[test]
+fn electrode_only_data_vary_the_rest() {
+    use Channel::Electrodes;
+    let (ds, tare) = session();
+    let (e, e_tare) = first_columns(&ds, &tare, 19);
+    let space = Space {
+        input: Some(InputScaling::Pattern),
+        ..Space::free(vec![Electrodes])
+    };
+    let s = select(&e, &e_tare, &space, 5, 600.0, &quick(), &mut |_, _| {}).unwrap();
+    assert!(s.untried.is_empty(), "{:?}", s.untried);
+    assert!(s
+        .table
+        .iter()
+        .all(|r| { r.choice.channels == [Electrodes] && r.choice.input == InputScaling::Pattern }));
+    // The first candidate, 2 means, 4 more GPs below the 6000 rows.
+    assert_eq!(s.table.len(), 7, "{s:?}");
+    assert_eq!(
+        s.not_varied,
+        [
+            "channels: the data hold electrodes only",
+            "input: fixed by --input"
+        ]
+    );
+    let best = s
+        .table
+        .iter()
+        .map(|r| r.score)
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(s.table[s.chosen].score, best);
+}
