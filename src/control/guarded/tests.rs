@@ -268,3 +268,28 @@ fn bad_parameters_are_named() {
     let e = p.checked("guarded").unwrap_err().to_string();
     assert!(e.contains("guarded.direction"), "{e}");
 }
+
+/// Found by tests/reader_props.rs: a settle time of 1e300 s passed the
+/// check, and the move's window of that many estimates overflowed the
+/// allocator (a panic, "capacity overflow").
+#[test]
+fn a_settle_window_beyond_a_minute_is_refused_before_it_is_allocated() {
+    for t in [60.5, 1e300] {
+        let e = GuardedParams {
+            settle_time_s: t,
+            ..params()
+        }
+        .checked("guarded")
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("guarded.settle_time_s") && e.contains("at most 60 s"),
+            "{e}"
+        );
+    }
+    let p = GuardedParams {
+        settle_time_s: 60.0,
+        ..params()
+    };
+    assert!(p.checked("guarded").is_ok());
+}
