@@ -42,6 +42,7 @@ def make(scene=SCENE):
             robot=robot,
             description=description,
             links=links,
+            biotac_frame=value("biotac_frame"),
         )
         started = nodes(scene, value("use_sim") == "true", **args)
         return [
@@ -68,6 +69,8 @@ def make(scene=SCENE):
                               description="With urdf:=FILE: the link the BioTac is on; empty: the one leaf."),
         DeclareLaunchArgument("description_topic", default_value="false",
                               description="Take the URDF from /robot_description, not the file."),
+        DeclareLaunchArgument("biotac_frame", default_value="biotac",
+                              description="The BioTac frame: the wrenches' frame_id, on /tf_static in the tip link."),
         DeclareLaunchArgument("model", default_value="",
                               description="GP model file; empty: the default model."),
         DeclareLaunchArgument("port", default_value="/dev/ttyACM0",

@@ -20,7 +20,7 @@ def param_files(scene, robot="pa10"):
 
 
 def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_factor=1.0,
-          robot="pa10", description=None, links=None):
+          robot="pa10", description=None, links=None, biotac_frame="biotac"):
     """(executable, parameter files, overrides) for each node to start.
 
     scene: guarded_move.yaml or guided_move.yaml; use_sim: the simulated arm
@@ -32,7 +32,8 @@ def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_fa
     `robot_description` parameter, or None: they take it from the
     /robot_description topic; links: (base_link, tip_link) of the chain, or
     None for the robot file's (a URDF of the user's: its root and its one
-    leaf).
+    leaf); biotac_frame: the BioTac frame, the estimator's `frame_id` (the
+    wrenches' frame) and the frame force_controller places on /tf_static.
     """
     files = param_files(scene, robot)
     # Passed to every node, as Scene::with_object does in the embedded runtime.
@@ -48,6 +49,6 @@ def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_fa
     # commands zero until a goal, or a set of its `task`, asks for motion.
     return [
         first,
-        ("wrench_estimator", files, dict(shared, model_file=model)),
-        ("force_controller", files, dict(arm, autostart=use_sim)),
+        ("wrench_estimator", files, dict(shared, model_file=model, frame_id=biotac_frame)),
+        ("force_controller", files, dict(arm, autostart=use_sim, biotac_frame=biotac_frame)),
     ]

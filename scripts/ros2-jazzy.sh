@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# A real ROS 2 Jazzy from PyPI wheels, then our interface package (msg/, colcon)
-# and the ROS 2 executables (cargo --features ros2), for machines without
+# A real ROS 2 Jazzy from PyPI wheels, then our interface package (msg/, colcon),
+# tf2_msgs (not on PyPI; on a robot it comes with ROS), and the ROS 2 executables (cargo --features ros2), for machines without
 # access to the ROS apt repositories (ours, CI). Background and the reasons for
 # every workaround: shared/ROS2_ON_THIS_MACHINE.md.
 #
@@ -28,6 +28,11 @@ MSG_PREFIX=$MSG_INSTALL/tactile_force_msgs
 # The tests' Shadow hand: sr_robot_msgs' Biotac and BiotacAll, built beside msg/.
 HAND_MSGS=$REPO/tests/ros/sr_robot_msgs
 HAND_PREFIX=$MSG_INSTALL/sr_robot_msgs
+# tf2_msgs's one message the force controller publishes (TFMessage on
+# /tf_static), generated here: no Jazzy wheel ships tf2_msgs, and a copy in
+# the repository would shadow a robot's own in a colcon workspace.
+TF2_SRC=$R/tf2_msgs
+TF2_PREFIX=$MSG_INSTALL/tf2_msgs
 LINK_DIR=$R/link              # link-time alias librmw_implementation.so
 LOGS=$R/logs
 STAMPS=$R/stamps
@@ -244,7 +249,7 @@ ln -sfn "$V/lib/librmw_fastrtps_cpp.so" "$LINK_DIR/librmw_implementation.so"
 # ---------------------------------------------------------------- 4. env file
 t=$(now)
 SITE=lib/python3.11/site-packages
-LD_DIRS=("$MSG_PREFIX/lib" "$HAND_PREFIX/lib" "$V/lib")
+LD_DIRS=("$MSG_PREFIX/lib" "$HAND_PREFIX/lib" "$TF2_PREFIX/lib" "$V/lib")
 for d in "$V/$SITE"/ros_*.libs; do if [[ -d $d ]]; then LD_DIRS+=("$d"); fi; done
 ENV_NEW=$(
   cat <<EOF
@@ -276,13 +281,14 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 export _ROS_WHEELS_BOOTSTRAP_COMPLETE=1
 EOF
   echo "# r2r's build scripts hash these two and ROS_DISTRO: keep them exactly so."
-  echo "export AMENT_PREFIX_PATH='$MSG_PREFIX:$HAND_PREFIX:$V'"
-  echo "export CMAKE_PREFIX_PATH='$MSG_PREFIX:$HAND_PREFIX:$V'"
+  echo "export AMENT_PREFIX_PATH='$MSG_PREFIX:$HAND_PREFIX:$TF2_PREFIX:$V'"
+  echo "export CMAKE_PREFIX_PATH='$MSG_PREFIX:$HAND_PREFIX:$TF2_PREFIX:$V'"
   echo "export VIRTUAL_ENV='$V'"
   echo "export TACTILE_FORCE_ROS2_ENV='$ENV_FILE'"
   echo "export TACTILE_FORCE_ROS2_BIN='$BIN_DIR'"
   echo "_tf_prepend PATH '$V/bin'"
   echo "_tf_prepend PATH '$BIN_DIR'"
+  echo "_tf_prepend PYTHONPATH '$TF2_PREFIX/$SITE'"
   echo "_tf_prepend PYTHONPATH '$MSG_PREFIX/$SITE'"
   echo "_tf_prepend PYTHONPATH '$HAND_PREFIX/$SITE'"
   for ((i = ${#LD_DIRS[@]} - 1; i >= 0; i--)); do echo "_tf_prepend LD_LIBRARY_PATH '${LD_DIRS[i]}'"; done
@@ -300,15 +306,43 @@ fi
 # shellcheck disable=SC1090
 . "$ENV_FILE"
 
-# ---------------------------------------------------------------- 5. msg/ with colcon
+# ---------------------------------------------------------------- 5. msg/, the tests' sr_robot_msgs and tf2_msgs with colcon
 t=$(now)
-MSG_KEY=$( (cat "$STAMPS/venv"; cd "$REPO" && find msg "${HAND_MSGS#"$REPO"/}" -type f -not -name '*.pyc' -print0 | sort -z | xargs -0 sha256sum) | hash_of)
-if stamp_ok msg "$MSG_KEY" && [[ -f $MSG_PREFIX/share/tactile_force_msgs/package.xml && -f $HAND_PREFIX/share/sr_robot_msgs/package.xml ]]; then
-  say "5/6 tactile_force_msgs up to date ($(since "$t"))"
+mkdir -p "$TF2_SRC/msg"
+printf '%s\n' 'geometry_msgs/TransformStamped[] transforms' >"$TF2_SRC/msg/TFMessage.msg"
+cat >"$TF2_SRC/CMakeLists.txt" <<'EOF'
+cmake_minimum_required(VERSION 3.8)
+project(tf2_msgs)
+find_package(ament_cmake REQUIRED)
+find_package(rosidl_default_generators REQUIRED)
+find_package(geometry_msgs REQUIRED)
+rosidl_generate_interfaces(${PROJECT_NAME} "msg/TFMessage.msg" DEPENDENCIES geometry_msgs)
+ament_export_dependencies(rosidl_default_runtime)
+ament_package()
+EOF
+cat >"$TF2_SRC/package.xml" <<'EOF'
+<?xml version="1.0"?>
+<package format="3">
+  <name>tf2_msgs</name>
+  <version>0.36.0</version>
+  <description>TFMessage only, for machines without ROS's tf2_msgs (scripts/ros2-jazzy.sh).</description>
+  <maintainer email="maintainer@example.com">tactile_force maintainers</maintainer>
+  <license>BSD-3-Clause</license>
+  <buildtool_depend>ament_cmake</buildtool_depend>
+  <buildtool_depend>rosidl_default_generators</buildtool_depend>
+  <depend>geometry_msgs</depend>
+  <exec_depend>rosidl_default_runtime</exec_depend>
+  <member_of_group>rosidl_interface_packages</member_of_group>
+  <export><build_type>ament_cmake</build_type></export>
+</package>
+EOF
+MSG_KEY=$( (cat "$STAMPS/venv"; for d in "$REPO/msg" "$HAND_MSGS" "$TF2_SRC"; do (cd "$d" && find . -type f -not -name '*.pyc' -print0 | sort -z | xargs -0 sha256sum); done) | hash_of)
+if stamp_ok msg "$MSG_KEY" && [[ -f $MSG_PREFIX/share/tactile_force_msgs/package.xml && -f $HAND_PREFIX/share/sr_robot_msgs/package.xml && -f $TF2_PREFIX/share/tf2_msgs/package.xml ]]; then
+  say "5/6 tactile_force_msgs, sr_robot_msgs, tf2_msgs up to date ($(since "$t"))"
 else
-  say "5/6 tactile_force_msgs: colcon build ..."
+  say "5/6 tactile_force_msgs, sr_robot_msgs, tf2_msgs: colcon build ..."
   logged colcon colcon --log-base "$R/msg/log" build \
-    --base-paths "$REPO/msg" "$HAND_MSGS" --build-base "$MSG_BUILD" --install-base "$MSG_INSTALL" \
+    --base-paths "$REPO/msg" "$HAND_MSGS" "$TF2_SRC" --build-base "$MSG_BUILD" --install-base "$MSG_INSTALL" \
     --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$V/bin/python"
   stamp_set msg "$MSG_KEY"
   say "    done ($(since "$t"))"

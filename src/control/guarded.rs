@@ -41,7 +41,7 @@ use super::tuning::LoopTiming;
 use super::{Envelope, Phase, StopReason};
 use crate::contact::BodyParams;
 use crate::kinematics::Twist;
-use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
+use crate::params::{invalid, non_negative, positive, require, Check, Checked, ParamsError};
 use crate::wrench::Axis;
 
 /// Guarded-move settings (`force_controller.guarded` in the scene files).
@@ -111,6 +111,9 @@ impl Check for GuardedParams {
         non_negative(&name("retract_distance_m"), self.retract_distance_m)?;
         positive(&name("settle_band_n"), self.settle_band_n)?;
         non_negative(&name("settle_time_s"), self.settle_time_s)?;
+        // The window's estimates are held in memory.
+        let t = self.settle_time_s;
+        require(key, "settle_time_s", t, t <= 60.0, "at most 60 s")?;
         positive(&name("settle_sd_n"), self.settle_sd_n)?;
         Ok(self)
     }

@@ -118,8 +118,9 @@ impl RobotParams {
         Ok(s.robot)
     }
 
-    /// The tool transform; refuses values that are not finite.
-    fn tool(&self) -> Result<Isometry3<f64>, ParamsError> {
+    /// The tool transform (the BioTac frame in the tip link's); refuses
+    /// values that are not finite.
+    pub fn tool(&self) -> Result<Isometry3<f64>, ParamsError> {
         if self
             .tool_xyz_m
             .iter()

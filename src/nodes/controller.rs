@@ -25,7 +25,7 @@ use crate::control::{
     Watchdog, UNKNOWN_OBJECT,
 };
 use crate::kinematics::{Dls, JointVector, Robot, Twist};
-use crate::params::{positive, Check, Checked, ParamsError};
+use crate::params::{control_period, positive, Check, Checked, ParamsError};
 use crate::wrench::{Axis, AxisSet, WrenchEstimate};
 
 /// A motion an arm with fewer than six joints may leave undone, as a
@@ -493,7 +493,7 @@ struct Sections<'t> {
 
 impl<'t> Sections<'t> {
     fn check(p: &ControllerParams, tasks: &'t TaskRegistry) -> Result<Self, ParamsError> {
-        positive("control_period_s", p.control_period_s)?;
+        control_period(p.control_period_s)?;
         p.check_sections(tasks)?;
         let skin = p.skin.checked("skin")?;
         let pd = p.pd.checked("pd")?;

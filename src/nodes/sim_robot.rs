@@ -25,7 +25,7 @@ use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
 use crate::biotac::BioTacReading;
 use crate::contact::{object_body, BodyParams, SkinParams};
 use crate::kinematics::{JointVector, Robot, RobotParams};
-use crate::params::{invalid, non_negative, positive, Check, ParamsError};
+use crate::params::{control_period, invalid, non_negative, positive, within, Check, ParamsError};
 use crate::sim::arm::ArmPlant;
 use crate::sim::collect::unit_seed;
 use crate::sim::contact::PlaneContact;
@@ -144,8 +144,9 @@ impl SimRobot {
         sensor: &BioTacSimConfig,
         seed: u64,
     ) -> Result<Self, ParamsError> {
-        positive("control_period_s", p.control_period_s)?;
-        positive("physics_rate_hz", p.physics_rate_hz)?;
+        control_period(p.control_period_s)?;
+        // Steps of the physics per control period: bounded.
+        within("physics_rate_hz", p.physics_rate_hz, 1.0, 1e6)?;
         non_negative("command_cycle_s", p.command_cycle_s)?;
         non_negative("command_latency_s", p.command_latency_s)?;
         non_negative("velocity_lag_s", p.velocity_lag_s)?;

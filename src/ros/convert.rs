@@ -5,14 +5,19 @@
 
 use r2r::builtin_interfaces::msg::Time;
 use r2r::diagnostic_msgs::msg::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use r2r::geometry_msgs::msg::{Twist, TwistStamped, Vector3, Wrench as WrenchMsg, WrenchStamped};
+use r2r::geometry_msgs::msg::{
+    Quaternion, Transform, TransformStamped, Twist, TwistStamped, Vector3, Wrench as WrenchMsg,
+    WrenchStamped,
+};
 use r2r::sensor_msgs::msg::{FluidPressure, Image, JointState as JointStateMsg};
 use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
+use r2r::tf2_msgs::msg::TFMessage;
 
 use crate::biotac::msg::{join_stamp, split_stamp};
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{JointVector, Twist as TwistVector};
 use crate::nail::NailFrame;
+use crate::nodes::force_controller::tool_frame::StaticTransform;
 use crate::nodes::status::{Level, Status};
 use crate::nodes::JointState;
 use crate::wrench::Wrench;
@@ -294,6 +299,27 @@ pub fn twist_msg(stamp_s: f64, frame_id: &str, t: &TwistVector) -> TwistStamped 
     }
 }
 
+/// A static transform as the one TransformStamped of a TFMessage.
+pub fn tf_msg(stamp_s: f64, t: &StaticTransform) -> TFMessage {
+    let [x, y, z] = t.translation;
+    let [qx, qy, qz, qw] = t.rotation;
+    TFMessage {
+        transforms: vec![TransformStamped {
+            header: header(stamp_s, &t.parent),
+            child_frame_id: t.child.clone(),
+            transform: Transform {
+                translation: Vector3 { x, y, z },
+                rotation: Quaternion {
+                    x: qx,
+                    y: qy,
+                    z: qz,
+                    w: qw,
+                },
+            },
+        }],
+    }
+}
+
 /// A linear velocity (m/s) as a TwistStamped with zero angular part.
 pub fn linear_twist_msg(stamp_s: f64, frame_id: &str, v: &nalgebra::Vector3<f64>) -> TwistStamped {
     TwistStamped {
@@ -371,6 +397,33 @@ pub fn status_msg(stamp_s: f64, name: &str, hardware_id: &str, s: Status) -> Dia
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_static_transform_is_one_transform_from_its_parent_to_its_child() {
+        let t = StaticTransform {
+            parent: "link7".into(),
+            child: "biotac".into(),
+            translation: [0.1, -0.2, 0.09],
+            rotation: [0.0, 0.6, 0.0, 0.8],
+        };
+        let m = tf_msg(12.25, &t);
+        let [one] = m.transforms.as_slice() else {
+            panic!("{m:?}")
+        };
+        assert_eq!(
+            (one.header.stamp.sec, one.header.stamp.nanosec),
+            (12, 250_000_000)
+        );
+        assert_eq!(
+            (one.header.frame_id.as_str(), one.child_frame_id.as_str()),
+            ("link7", "biotac")
+        );
+        let (v, q) = (&one.transform.translation, &one.transform.rotation);
+        assert_eq!(
+            [v.x, v.y, v.z, q.x, q.y, q.z, q.w],
+            [0.1, -0.2, 0.09, 0.0, 0.6, 0.0, 0.8]
+        );
+    }
 
     #[test]
     fn images_become_nail_frames_by_their_grey_or_green() {

@@ -12,7 +12,10 @@
 //! the node commands nothing and says so; a new one is taken while no task
 //! runs, and refused, with the reason, while one does. `joint_names` (one
 //! per joint of the chain) renames the joints as `joint_states` lists them;
-//! by default they are the URDF's.
+//! by default they are the URDF's. For each description it takes, it
+//! publishes the BioTac frame (the parameter `biotac_frame`, the name the
+//! estimator's `frame_id` stamps its wrenches with) on `/tf_static`, in the
+//! tip link, from the tool mount `robot.tool_*` ([`tool_frame`]).
 //!
 //! The controller steps on each new estimate (the mean and the std of one
 //! reading both in), so an estimate acts as soon as it arrives rather than
@@ -54,6 +57,7 @@ mod estimator_link;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod guarded_move_action;
 mod stepping;
+mod tool_frame;
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -67,7 +71,8 @@ use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::control::ControllerParams;
 use crate::nodes::force_controller::{
-    ft_to_biotac, shipped_defaults, CommandInterface, ForceControllerNode, ForcePart,
+    ft_to_biotac, shipped_defaults, tool_frame::biotac_frame, tool_frame::BIOTAC_FRAME,
+    CommandInterface, ForceControllerNode, ForcePart,
 };
 use crate::nodes::tasks;
 use stepping::{force, Commands};
@@ -99,7 +104,14 @@ pub async fn run() -> Result<(), RosError> {
         "wrench_estimator",
         "The estimator whose model the calibration adapts and then sets (its model_file parameter).",
     )?;
+    let child = biotac_frame(&super::own_string(
+        &node,
+        "biotac_frame",
+        BIOTAC_FRAME,
+        "The BioTac frame, published on /tf_static in the tip link from robot.tool_*: the estimator's frame_id must name it too.",
+    )?)?;
     let skip = [
+        "biotac_frame",
         "joint_names",
         "robot_description",
         "command_interface",
@@ -117,23 +129,7 @@ pub async fn run() -> Result<(), RosError> {
     let period = Duration::from_secs_f64(host.params().control_period_s);
     tracing::info!("{}, commands: {interface:?}", host.summary()?);
     let shared = Arc::new(Mutex::new(host));
-    match robot_description(&mut node)? {
-        Description::Given(text) => {
-            lock(&shared).take_description(&text)?;
-        }
-        Description::Topic(topic) => {
-            tracing::info!(
-                "waiting for the robot description on {}: commanding nothing until it comes \
-                 (or set the robot_description parameter)",
-                super::description::DESCRIPTION_TOPIC
-            );
-            super::each(topic, &shared, |n, text: String| {
-                if let Err(e) = n.take_description(&text) {
-                    tracing::warn!("robot description refused: {e}");
-                }
-            });
-        }
-    }
+    let description = robot_description(&mut node)?;
 
     let qos = QosProfile::default;
     let joints = node.subscribe::<JointStateMsg>("joint_states", qos())?;
@@ -181,6 +177,28 @@ pub async fn run() -> Result<(), RosError> {
         }),
     );
     let clock = super::serve_parameters(&mut node, live)?;
+    let tf = tool_frame::ToolFrame::new(&mut node, child, clock.clone())?;
+    match description {
+        Description::Given(text) => {
+            let mut n = lock(&shared);
+            n.take_description(&text)?;
+            tf.publish(&n);
+        }
+        Description::Topic(topic) => {
+            tracing::info!(
+                "waiting for the robot description on {}: commanding nothing until it comes \
+                 (or set the robot_description parameter)",
+                super::description::DESCRIPTION_TOPIC
+            );
+            super::each(topic, &shared, move |n, text: String| {
+                match n.take_description(&text) {
+                    Ok(true) => tf.publish(n),
+                    Ok(false) => {}
+                    Err(e) => tracing::warn!("robot description refused: {e}"),
+                }
+            });
+        }
+    }
     super::spin_with_action_server(node);
 
     // Callbacks only convert and hand on (STYLE 3); the loop below steps.

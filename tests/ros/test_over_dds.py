@@ -24,6 +24,10 @@ independent rclpy peer that checks them from the topics and the action.
   (at most 3 periods beyond the estimates' usual age); restarted
   -> it takes up its saved tare and the hold resumes.
 - Start-up: every node says what it loaded, on /rosout.
+- The BioTac frame on /tf_static (transient local, subscribed after it was
+  sent): one transform, the robot file's tip link -> `biotac` (the
+  estimator's frame_id), its translation and rotation the file's tool
+  mount; for the UR5 too, sent once its description came by topic.
 - Guided move against the fingertip: RMS force error <= 0.3 N per axis while
   the finger pushes, off-axis speed <= 10 % of the finger's; then `task`
   switched to guarded and back.
@@ -52,6 +56,7 @@ check, the figures, and "N passed, N failed".
 """
 
 import json
+import math
 import os
 import random
 import shutil
@@ -61,6 +66,7 @@ import sys
 import tempfile
 import time
 
+import yaml
 import rclpy
 from rclpy.action import ActionClient
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
@@ -71,6 +77,7 @@ from std_msgs.msg import String
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from tf2_msgs.msg import TFMessage
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from diagnostic_msgs.msg import DiagnosticArray
@@ -100,13 +107,14 @@ def check(name, ok, detail):
 
 class Nodes:
     """The nodes of a scene, each a process with its log, on a ROS domain of
-    their own (so that nothing of another scenario reaches them); the
+    their own (`domain`, or a random one, so that nothing of another
+    scenario reaches them); the
     estimator first, until its model is loaded (training it on first use
     takes 10-20 s), so that the others start with estimates flowing."""
 
     def __init__(self, scene, object_name, port=None, only=None, speed=None, robot="pa10",
-                 description_topic=False, controller=None, sim=None):
-        self.domain = random.randint(10, 200)
+                 description_topic=False, controller=None, sim=None, domain=None):
+        self.domain = domain or random.randint(10, 200)
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
         self.procs = {}
@@ -241,6 +249,11 @@ class Peer:
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.description = self.node.create_publisher(String, "/robot_description", latched)
+        # tf2's static listener's QoS: every transform sent before it joined.
+        self.static_tf = []  # the transforms of each /tf_static message
+        self.node.create_subscription(TFMessage, "/tf_static", lambda m: self.static_tf.append(m.transforms),
+                                      QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                                                 durability=DurabilityPolicy.TRANSIENT_LOCAL))
 
     def publish_description(self, robot):
         """Publishes config/<robot>.urdf on /robot_description, as
@@ -386,8 +399,10 @@ def guarded(object_name, speed=None, label=None, robot="pa10"):
         if touched and not speed:
             by_goal(label, peer)
         if touched and robot != "pa10":
+            tool_frame(peer, robot, label)
             new_description_refused(n, peer, label)
         if touched and object_name == "wooden_box" and not speed and robot == "pa10":
+            tool_frame(peer, robot, label)
             startup_logs(peer)
             holding(n, peer)
             goals(peer)
@@ -408,6 +423,40 @@ def new_description_refused(n, peer, label):
                         in n.log("force_controller")[since:])
     check(f"{label}: a new description while holding is refused", refused and holding_on(peer),
           "refused and logged, the hold kept" if refused else n.tail("force_controller", 3))
+
+
+def quaternion_rpy(roll, pitch, yaw):
+    """(x, y, z, w) of the fixed-axis x-y-z rotation (URDF's rpy), rad."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+def tool_frame(peer, robot, label):
+    """The BioTac frame on /tf_static: the tip link of config/<robot>.yaml
+    -> biotac, at its tool mount."""
+    with open(os.path.join(REPO, "config", f"{robot}.yaml")) as f:
+        mount = yaml.safe_load(f)["/**"]["ros__parameters"]["robot"]
+    want_xyz = mount["tool_xyz_m"]
+    want_q = quaternion_rpy(*(math.radians(a) for a in mount["tool_rpy_deg"]))
+    peer.spin(5, lambda: peer.static_tf)
+    got = [t for ts in peer.static_tf for t in ts]
+    if len(got) != 1:
+        check(f"{label}: the BioTac frame on /tf_static", False, f"{len(got)} transforms")
+        return
+    t = got[0].transform
+    xyz = (t.translation.x, t.translation.y, t.translation.z)
+    q = (t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w)
+    # q and -q are the same rotation.
+    dq = min(max(abs(a - b) for a, b in zip(q, want_q)), max(abs(a + b) for a, b in zip(q, want_q)))
+    dxyz = max(abs(a - b) for a, b in zip(xyz, want_xyz))
+    frames = (got[0].header.frame_id, got[0].child_frame_id)
+    check(f"{label}: the BioTac frame on /tf_static", frames == (mount["tip_link"], "biotac")
+          and dxyz < 1e-12 and dq < 1e-12,
+          f"{frames[0]} -> {frames[1]}, xyz {xyz}, q ({', '.join(f'{c:.6f}' for c in q)}) "
+          f"[mount {want_xyz}, rpy {mount['tool_rpy_deg']} deg]")
 
 
 def startup_logs(peer):

@@ -268,3 +268,25 @@ fn bad_parameters_are_named() {
     let e = p.checked("guarded").unwrap_err().to_string();
     assert!(e.contains("guarded.direction"), "{e}");
 }
+
+/// Found by tests/reader_props.rs: a settle time of 1e300 s passed the
+/// check, and the move's window of that many estimates overflowed the
+/// allocator (a panic, "capacity overflow").
+#[test]
+fn a_settle_window_beyond_a_minute_is_refused_before_it_is_allocated() {
+    for (t, taken) in [(60.0, true), (60.5, false), (1e300, false)] {
+        let p = GuardedParams {
+            settle_time_s: t,
+            ..params()
+        };
+        match p.checked("guarded") {
+            Ok(_) => assert!(taken, "{t}"),
+            Err(e) => assert!(
+                !taken
+                    && e.to_string().contains("guarded.settle_time_s")
+                    && e.to_string().contains("at most 60 s"),
+                "{t}: {e}"
+            ),
+        }
+    }
+}

@@ -4,7 +4,8 @@
 //!
 //! - the arm: the robot description it commands (none: nothing is
 //!   commanded), a new one taken while no task runs and refused while one
-//!   does; the joints' names on `joint_states`;
+//!   does; the joints' names on `joint_states`; the BioTac frame on its
+//!   tip ([`tool_frame`]);
 //! - the task: the parameter `task`, switched while running, checked as at
 //!   start-up; `calibrate` waits, the arm still, for a calibration goal;
 //! - the goals of its actions and their life cycle ([`goals`]);
@@ -17,6 +18,7 @@
 
 pub mod estimates;
 pub mod goals;
+pub mod tool_frame;
 
 use nalgebra::Vector3;
 

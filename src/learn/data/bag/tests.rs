@@ -373,3 +373,99 @@ fn a_session_abandoned_part_way_reads_up_to_its_last_flush_with_a_warning() {
         "{e}"
     );
 }
+
+/// Property tests: whatever the bytes, the reader answers without a panic,
+/// and an error names the file.
+mod props {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// A session of 60 records written as the calibration writes one: a
+    /// chunk flushed every 10 records.
+    fn chunked() -> &'static Vec<u8> {
+        static BYTES: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+        BYTES.get_or_init(|| {
+            let f = tempfile::NamedTempFile::new().unwrap();
+            let mut w =
+                SessionWriter::create(f.path(), &BagTopics::default(), "biotac", 1e6).unwrap();
+            for (i, r) in records(0.0, 60, 1).iter().enumerate() {
+                w.write(r).unwrap();
+                if i % 10 == 9 {
+                    w.flush().unwrap();
+                }
+            }
+            w.finish().unwrap();
+            std::fs::read(f.path()).unwrap()
+        })
+    }
+
+    /// Reads `bytes` as a bag: the result and the file's path.
+    fn read_file(bytes: &[u8]) -> (Result<Bag, BagError>, String) {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        f.write_all(bytes).unwrap();
+        let path = f.path().display().to_string();
+        (read_bag(f.path(), &BagTopics::default()), path)
+    }
+
+    /// A bag read from damaged bytes: no more records than were written,
+    /// each one of them; or an error that names the file, once.
+    fn answered(got: (Result<Bag, BagError>, String)) -> Result<(), TestCaseError> {
+        match got {
+            (Ok(bag), _) => {
+                prop_assert!(bag.records.len() <= 60);
+                for r in &bag.records {
+                    let row = usize::from(r.reading.seq);
+                    prop_assert!(row < 60 && r.reading.electrodes[0] == 2000 + r.reading.seq);
+                }
+            }
+            (Err(e), path) => {
+                let msg = e.to_string();
+                prop_assert_eq!(msg.matches(&path).count(), 1, "{}", msg);
+                prop_assert!(msg.len() > path.len() + 10, "{}", msg);
+            }
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        #[test]
+        fn arbitrary_bytes_behind_the_magic_are_refused(bytes in proptest::collection::vec(any::<u8>(), 0..600),
+                                                        magic in any::<bool>()) {
+            let mut data = if magic { mcap::MAGIC.to_vec() } else { Vec::new() };
+            data.extend(bytes);
+            let got = read_file(&data);
+            prop_assert!(got.0.is_err());
+            answered(got)?;
+        }
+
+        #[test]
+        fn a_cut_session_reads_its_whole_chunks_or_is_refused(cut in 0.0..1.0f64) {
+            let good = chunked();
+            let at = (cut * good.len() as f64) as usize;
+            let got = read_file(&good[..at]);
+            if let Ok(bag) = &got.0 {
+                // What a cut file gives is said to be cut.
+                prop_assert!(bag.cut_after.is_some(), "cut at {} of {}", at, good.len());
+            }
+            answered(got)?;
+        }
+
+        #[test]
+        fn damaged_bytes_read_true_records_or_are_refused(at in proptest::collection::vec(0.0..1.0f64, 1..4),
+                                                          value in any::<u8>(),
+                                                          cut in proptest::option::of(0.0..1.0f64)) {
+            let mut bad = chunked().clone();
+            for a in at {
+                let i = (a * bad.len() as f64) as usize;
+                bad[i] = value;
+            }
+            if let Some(c) = cut {
+                bad.truncate((c * bad.len() as f64) as usize);
+            }
+            answered(read_file(&bad))?;
+        }
+    }
+}

@@ -64,7 +64,8 @@ pub(crate) fn check_data(x: &[f64], d: usize, y: &[f64]) -> Result<(), GpError> 
     }
     if x.len() != y.len() * d {
         return Err(GpError::ShapeMismatch {
-            inputs: x.len() / d.max(1),
+            values: x.len(),
+            dim: d,
             targets: y.len(),
         });
     }

@@ -239,7 +239,8 @@ impl LinearMean {
         }
         if x.len() != n * d {
             return Err(GpError::ShapeMismatch {
-                inputs: x.len() / d.max(1),
+                values: x.len(),
+                dim: d,
                 targets: n,
             });
         }

@@ -198,7 +198,11 @@ pub enum GpError {
         column: usize,
     },
     /// Hyperparameters that are not finite and positive, or of the wrong length.
-    #[error("invalid hyperparameters for {dim} inputs: {hyper:?}")]
+    #[error(
+        "invalid hyperparameters for {dim} inputs: signal variance {}, noise variance {}, \
+         lengthscales {:?} (each finite and positive, one per input)",
+        hyper.signal_var, hyper.noise_var, hyper.lengthscales
+    )]
     InvalidHyper {
         /// Input dimension.
         dim: usize,
@@ -209,10 +213,15 @@ pub enum GpError {
     #[error("no training samples")]
     Empty,
     /// Inputs and targets of different lengths.
-    #[error("{inputs} input rows but {targets} targets")]
+    #[error(
+        "{values} input values for {targets} targets of {dim} inputs each (expected {})",
+        targets * dim
+    )]
     ShapeMismatch {
-        /// Number of input rows.
-        inputs: usize,
+        /// Number of input values.
+        values: usize,
+        /// Inputs per row.
+        dim: usize,
         /// Number of targets.
         targets: usize,
     },

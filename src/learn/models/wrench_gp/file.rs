@@ -305,7 +305,11 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
             target_scale: o.target_scale,
             fit: o.fit,
             linear: o.linear,
-            gp: Gp::try_from(o.gp)?,
+            gp: Gp::try_from(o.gp).map_err(|source| ModelError::Stored {
+                path: path.into(),
+                axis: o.axis,
+                source,
+            })?,
         });
     }
     Ok(ModelFile {

@@ -107,9 +107,20 @@ pub enum ModelError {
     /// Training options out of range.
     #[error(transparent)]
     Options(#[from] ParamsError),
-    /// Training or rebuilding a GP failed.
+    /// Training a GP failed.
     #[error(transparent)]
     Gp(#[from] GpError),
+    /// A GP stored in the file cannot be rebuilt (its data or
+    /// hyperparameters refused).
+    #[error("model file {path}: axis {axis}: {source}")]
+    Stored {
+        /// File path.
+        path: String,
+        /// The GP's axis.
+        axis: Axis,
+        /// Why it was refused.
+        source: GpError,
+    },
 }
 
 /// A file not written is a failure, a GP that did not fit says its own; the
