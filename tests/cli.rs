@@ -375,6 +375,15 @@ fn training_data_that_cannot_be_true_is_refused_and_a_model_that_explains_nothin
     );
 }
 
+/// `train --select` on fz of `data` into `model` within 4 s, with `extra`
+/// options.
+fn select_fz_in_4_s(data: &str, model: &str, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["train", "--select", "--budget-s", "4", "--axes", "fz"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--data", data, "--out", model]);
+    run(&args)
+}
+
 #[test]
 fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table() {
     let dir = tempfile::tempdir().unwrap();
@@ -384,18 +393,7 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
     assert!(o.status.success(), "{:?}", text(&o));
     let model = dir.path().join("sel.json");
     let m = model.to_str().unwrap();
-    let o = run(&[
-        "train",
-        "--select",
-        "--budget-s",
-        "4",
-        "--axes",
-        "fz",
-        "--data",
-        d,
-        "--out",
-        m,
-    ]);
+    let o = select_fz_in_4_s(d, m, &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(
@@ -470,20 +468,7 @@ fn train_select_on_electrode_only_data_varies_the_rest_and_keeps_what_is_given()
     let d = data.to_str().unwrap();
     let model = dir.path().join("e.json");
     let m = model.to_str().unwrap();
-    let o = run(&[
-        "train",
-        "--select",
-        "--budget-s",
-        "4",
-        "--axes",
-        "fz",
-        "--input",
-        "pattern",
-        "--data",
-        d,
-        "--out",
-        m,
-    ]);
+    let o = select_fz_in_4_s(d, m, &["--input", "pattern"]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(
