@@ -102,11 +102,13 @@ class Nodes:
     """The nodes of a scene, each a process with its log, on a ROS domain of
     their own (so that nothing of another scenario reaches them); the
     estimator first, until its model is loaded (training it on first use
-    takes 10-20 s), so that the others start with estimates flowing."""
+    takes 10-20 s), so that the others start with estimates flowing. The
+    domain is `TACTILE_FORCE_ROS_DOMAIN` when set (a machine shared with
+    other DDS runs), else drawn."""
 
     def __init__(self, scene, object_name, port=None, only=None, speed=None, robot="pa10",
                  description_topic=False, controller=None, sim=None):
-        self.domain = random.randint(10, 200)
+        self.domain = int(os.environ.get("TACTILE_FORCE_ROS_DOMAIN") or random.randint(10, 200))
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
         self.procs = {}
