@@ -180,39 +180,12 @@ mod tests {
 
     #[test]
     fn more_delay_or_lag_lowers_the_gain_and_the_derivative_buys_some_back() {
-        let fast = gain(
-            1000.0,
-            1000.0,
-            &timing(0.0, 0.002, 0.0),
-            0.0,
-            0.01,
-            &MARGINS,
-        );
-        let slow = gain(
-            1000.0,
-            1000.0,
-            &timing(0.002, 0.032, 0.0),
-            0.0,
-            0.01,
-            &MARGINS,
-        );
-        let lagged = gain(
-            1000.0,
-            1000.0,
-            &timing(0.002, 0.032, 0.03),
-            0.0,
-            0.01,
-            &MARGINS,
-        );
+        let at = |t: LoopTiming, td: f64| gain(1000.0, 1000.0, &t, td, 0.01, &MARGINS);
+        let fast = at(timing(0.0, 0.002, 0.0), 0.0);
+        let slow = at(timing(0.002, 0.032, 0.0), 0.0);
+        let lagged = at(timing(0.002, 0.032, 0.03), 0.0);
         assert!(fast > 2.0 * slow && slow > lagged, "{fast} {slow} {lagged}");
-        let with_d = gain(
-            1000.0,
-            1000.0,
-            &timing(0.002, 0.032, 0.03),
-            0.03,
-            0.01,
-            &MARGINS,
-        );
+        let with_d = at(timing(0.002, 0.032, 0.03), 0.03);
         assert!(with_d > 1.2 * lagged, "{with_d} {lagged}");
     }
 
