@@ -31,7 +31,7 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::identify::ContactStiffness;
+use super::identify::{ContactStiffness, SAMPLE_SPAN_S};
 use super::oscillation::OscillationDetector;
 use super::pd::PdAxis;
 use super::task::{
@@ -218,7 +218,7 @@ impl GuardedMove {
         let window = (p.settle_time_s / law.period_s).round() as usize;
         GuardedMove {
             pd: PdAxis::new(&law.pd, law.pd.margins, 0.0),
-            stiffness: ContactStiffness::new(law.skin),
+            stiffness: ContactStiffness::new(law.skin, SAMPLE_SPAN_S),
             prior_body,
             watchdog: OscillationDetector::new(law.oscillation.threshold_n),
             softened: 0,
@@ -276,7 +276,9 @@ impl GuardedMove {
     pub fn speed(&mut self, i: &GuardedInput) -> f64 {
         let p = self.p;
         let k = self.stiffness.effective(p.target_force_n, self.prior_body);
-        self.pd.tune(k, &i.timing);
+        // A body with mass leaves the skin alone at the loop's crossover.
+        self.pd
+            .tune(k, self.law.skin.stiffness_at(p.target_force_n), &i.timing);
         let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
         self.since_fresh_s += i.dt;
         let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
@@ -329,10 +331,10 @@ impl GuardedMove {
     fn regulate(&mut self, u: f64, i: &GuardedInput, reaction_s: f64) -> f64 {
         let p = self.p;
         if i.fresh {
-            if let (Some(x), true) = (i.position_m, i.force_n >= p.contact_force_n) {
-                self.stiffness.push(x, i.force_n);
-            }
             let dt = std::mem::take(&mut self.since_fresh_s);
+            if let (Some(x), true) = (i.position_m, i.force_n >= p.contact_force_n) {
+                self.stiffness.push(dt, x, i.force_n);
+            }
             if self.watchdog.step(i.force_n, dt) {
                 let hz = self.watchdog.frequency_hz();
                 if self.softened > 0 {

@@ -158,7 +158,9 @@ impl GuidedMove {
         let watchdog = || OscillationDetector::new(law.oscillation.threshold_n);
         GuidedMove {
             pd: controlled.map(|c| c.then(axis)),
-            stiffness: ContactStiffness::new(law.skin),
+            // Each reading a sample: averaged over 40 ms, the x/y loop missed
+            // off-axis (14.5 % at a 16 ms cycle, the embedded hold_sweep).
+            stiffness: ContactStiffness::new(law.skin, 0.0),
             prior_body,
             watchdogs: [watchdog(), watchdog(), watchdog()],
             softened: 0,
@@ -199,7 +201,7 @@ impl GuidedMove {
         let k = self.stiffness();
         for (axis, k) in self.pd.iter_mut().zip(k) {
             if let Some(axis) = axis {
-                axis.tune(k, &i.timing);
+                axis.tune(k, k, &i.timing);
             }
         }
         let mut v = Vector3::zeros();
@@ -263,11 +265,11 @@ impl GuidedMove {
             return v;
         }
         self.pressed |= i.force.z >= p.target_force_n[2] - p.deadband_n;
+        let dt = std::mem::take(&mut self.since_fresh_s);
         if let (Some(x), true, false) = (i.pressed_m, i.force.z >= p.contact_force_n, self.pressed)
         {
-            self.stiffness.push(x, i.force.z);
+            self.stiffness.push(dt, x, i.force.z);
         }
-        let dt = std::mem::take(&mut self.since_fresh_s);
         for j in 0..3 {
             if self.pd[j].is_none() || !self.watchdogs[j].step(i.force[j], dt) {
                 continue;

@@ -14,7 +14,10 @@
 //!   BioTac's skin, `x_s(F) = x0 ln(1 + F / A)` (src/contact.rs), is in
 //!   series with an unknown body of compliance `c = 1 / k`, so the
 //!   position along the approach is `x = x_c + x_s(F) + c F`: a line in `F`
-//!   whose slope, fitted over a sliding window, is `c`.
+//!   whose slope, fitted over a sliding window, is `c`. Each sample is the
+//!   mean of 40 ms of readings (a body with mass rings against the skin;
+//!   the line is the quasi-static part), and a window far from a line is
+//!   no fit.
 //!
 //! Buffers are fixed at construction: nothing here allocates while the
 //! controller runs.
@@ -327,64 +330,114 @@ impl AgeWindow {
 
 /// Samples of the stiffness fit.
 const CONTACT_SAMPLES: usize = 24;
-/// Least spread of the force in the window for a fit (N).
+/// Least spread of the force in the window for a fit (N), and least
+/// samples (two more than the line's parameters, for its residual).
 const MIN_FORCE_SPREAD_N: f64 = 0.1;
-/// A reading joins the window once the BioTac moved this far (m) or the
+const MIN_SAMPLES: usize = 4;
+/// The span (s) a guarded move's samples average the readings over: a
+/// cycle of the 25 Hz at which a 50 g plate rings between the skin and its
+/// spring, so that the fit sees the quasi-static force, not the ring.
+pub const SAMPLE_SPAN_S: f64 = 0.04;
+/// A sample joins the window once the BioTac moved this far (m) or the
 /// force changed this much (N, six times a 5 mN estimate noise) since the
 /// last that joined: a slow press into a soft body still spans the force.
 const SAMPLE_STEP_M: f64 = 2.5e-4;
 const SAMPLE_STEP_N: f64 = 0.03;
+/// A window whose forces stray from its line by more than this (N, rms)
+/// is no spring: the fit is rejected and the last one stands.
+const MAX_RESIDUAL_N: f64 = 0.1;
 
 /// The compliance of the body the BioTac presses, from force against
 /// position along the approach.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContactStiffness {
     skin: SkinParams,
+    /// The span each sample averages (s).
+    span_s: f64,
     samples: Ring<(f64, f64), CONTACT_SAMPLES>,
-    /// The position and force of the last reading that joined (m, N).
+    /// The readings of the sample being averaged: time, sum of positions
+    /// and forces, count.
+    block: (f64, f64, f64, u32),
+    /// The position and force of the last sample that joined (m, N).
     last: Option<(f64, f64)>,
     /// The body's stiffness fitted last (N/m; infinite: rigid).
     body: Option<f64>,
 }
 
 impl ContactStiffness {
-    /// A fit through the BioTac's `skin`.
-    pub fn new(skin: SkinParams) -> Self {
+    /// A fit through the BioTac's `skin`, each sample the mean of the
+    /// readings over `span_s` (0: each reading).
+    pub fn new(skin: SkinParams, span_s: f64) -> Self {
         ContactStiffness {
             skin,
+            span_s,
             samples: Ring::new((0.0, 0.0)),
+            block: (0.0, 0.0, 0.0, 0),
             last: None,
             body: None,
         }
     }
 
     /// Takes the position along the approach `x` (m) at the reading whose
-    /// pressing force is `f` (N), in contact, when it moved or pressed
-    /// enough since the last it took; refits when the window's forces
-    /// spread enough. The body's stiffness when (re)fitted.
-    pub fn push(&mut self, x: f64, f: f64) -> Option<f64> {
-        if !(x.is_finite() && f.is_finite() && f > 0.0) {
+    /// pressing force is `f` (N), in contact, `dt` (s) after the reading
+    /// before; averages the readings over the span, and keeps
+    /// their mean when it moved or pressed enough since the last it kept;
+    /// refits when the window's forces spread enough. The body's stiffness
+    /// when (re)fitted and the fit stands.
+    pub fn push(&mut self, dt: f64, x: f64, f: f64) -> Option<f64> {
+        if !(x.is_finite() && f.is_finite() && f > 0.0 && dt.is_finite()) {
             return None;
         }
+        let (span, sx, sf, n) = self.block;
+        self.block = (span + dt.max(0.0), sx + x, sf + f, n + 1);
+        let (span, sx, sf, n) = self.block;
+        if span < self.span_s {
+            return None;
+        }
+        self.block = (0.0, 0.0, 0.0, 0);
+        let (x, f) = (sx / f64::from(n), sf / f64::from(n));
         if let Some((x1, f1)) = self.last {
             if (x - x1).abs() < SAMPLE_STEP_M && (f - f1).abs() < SAMPLE_STEP_N {
                 return None;
             }
         }
         self.last = Some((x, f));
-        let x0 = self.skin.length_scale_mm * 1e-3;
-        let y = x - x0 * (f / self.skin.force_scale_n).ln_1p();
+        let y = x - self.skin_squeeze(f);
         self.samples.push((f, y));
-        let n = self.samples.len() as f64;
+        tracing::trace!("stiffness sample: x {x:.6} m, f {f:.4} N, y {y:.6} m");
         let (lo, hi) = self
             .samples
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (f, _)| {
                 (lo.min(f), hi.max(f))
             });
-        if hi - lo < MIN_FORCE_SPREAD_N {
+        if hi - lo < MIN_FORCE_SPREAD_N || self.samples.len() < MIN_SAMPLES {
             return None;
         }
+        let (c, residual_n) = self.line();
+        if residual_n > MAX_RESIDUAL_N {
+            tracing::debug!(
+                "stiffness fit rejected: the forces stray {residual_n:.3} N rms from a spring"
+            );
+            return None;
+        }
+        // A negative compliance is noise on a rigid body.
+        let k = if c > 1e-7 { 1.0 / c } else { f64::INFINITY };
+        tracing::trace!("stiffness fit: body {k:.1} N/m");
+        self.body = Some(k);
+        Some(k)
+    }
+
+    /// The skin's squeeze at force `f` (m).
+    fn skin_squeeze(&self, f: f64) -> f64 {
+        self.skin.length_scale_mm * 1e-3 * (f / self.skin.force_scale_n).ln_1p()
+    }
+
+    /// The window's line `y = y0 + c f` by least squares: the compliance
+    /// `c` (m/N) and the rms of the samples' distance from it along the
+    /// force (N), through the local stiffness of skin and body in series.
+    fn line(&self) -> (f64, f64) {
+        let n = self.samples.len() as f64;
         let (mf, my) = self
             .samples
             .iter()
@@ -393,10 +446,13 @@ impl ContactStiffness {
             (a + (f - mf) * (y - my), b + (f - mf).powi(2))
         });
         let c = sfy / sff;
-        // A negative compliance is noise on a rigid body.
-        let k = if c > 1e-7 { 1.0 / c } else { f64::INFINITY };
-        self.body = Some(k);
-        Some(k)
+        let compliance = 1.0 / self.skin.stiffness_at(mf) + c.max(0.0);
+        let sq = self
+            .samples
+            .iter()
+            .map(|(f, y)| (y - my - c * (f - mf)).powi(2))
+            .sum::<f64>();
+        (c, (sq / (n - 2.0)).sqrt() / compliance)
     }
 
     /// The body's stiffness (N/m; infinite: rigid), once fitted.

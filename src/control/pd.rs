@@ -112,8 +112,8 @@ pub struct PdAxis {
     margins: Margins,
     /// The product of the factors the watchdog lowered the gain by.
     softened: f64,
-    /// The stiffness and timing the gain was tuned for.
-    tuned: Option<(f64, LoopTiming)>,
+    /// The stiffnesses and timing the gain was tuned for.
+    tuned: Option<(f64, f64, LoopTiming)>,
     filtered: Option<f64>,
     rate: f64,
 }
@@ -137,12 +137,14 @@ impl PdAxis {
     }
 
     /// Sets the gain and the derivative time for a contact of effective
-    /// stiffness `stiffness` (N/m) in a loop of timing `t`; a change of
-    /// under 1 % keeps them.
-    pub fn tune(&mut self, stiffness: f64, t: &LoopTiming) {
+    /// stiffness `stiffness` (N/m) that may look as stiff as `fast` (N/m)
+    /// at the loop's phase crossover ([`gain`]), in a loop of timing `t`; a
+    /// change of under 1 % keeps them.
+    pub fn tune(&mut self, stiffness: f64, fast: f64, t: &LoopTiming) {
         let near = |a: f64, b: f64| (a - b).abs() <= RETUNE_SHARE * a.abs().max(b.abs());
-        if let Some((k, old)) = &self.tuned {
+        if let Some((k, k_fast, old)) = &self.tuned {
             let same = near(*k, stiffness)
+                && near(*k_fast, fast)
                 && near(old.dead_s(), t.dead_s())
                 && near(old.lag_s + 1e-4, t.lag_s + 1e-4);
             if same {
@@ -153,12 +155,13 @@ impl PdAxis {
         self.gain = self.softened
             * gain(
                 stiffness,
+                fast,
                 t,
                 self.derivative_time_s,
                 self.filter_s,
                 &self.margins,
             );
-        self.tuned = Some((stiffness, *t));
+        self.tuned = Some((stiffness, fast, *t));
     }
 
     /// Lowers the gain by `factor` (0..1) for the rest of the task (the
@@ -250,7 +253,7 @@ mod tests {
         for k in [50.0, 1e3, 1e5] {
             for delay in [0usize, 2, 4] {
                 let mut pd = PdAxis::new(&params(), params().margins, 0.0);
-                pd.tune(k, &timing(delay));
+                pd.tune(k, k, &timing(delay));
                 let f = settle(&mut pd, k, delay);
                 let peak = f.iter().copied().fold(0.0, f64::max);
                 assert!(peak < 1.1, "k {k}, {delay} periods: peak {peak}");
@@ -263,15 +266,15 @@ mod tests {
     fn the_gain_follows_the_stiffness_and_the_watchdog_lowers_it_for_good() {
         let mut pd = PdAxis::new(&params(), params().margins, 0.0);
         assert_eq!(pd.gain(), 0.0, "untuned");
-        pd.tune(1000.0, &timing(2));
+        pd.tune(1000.0, 1000.0, &timing(2));
         let g = pd.gain();
-        pd.tune(1005.0, &timing(2));
+        pd.tune(1005.0, 1005.0, &timing(2));
         assert_eq!(pd.gain(), g, "a change under 1 % keeps the gain");
-        pd.tune(500.0, &timing(2));
+        pd.tune(500.0, 500.0, &timing(2));
         assert!((pd.gain() / g - 2.0).abs() < 1e-9, "K ~ 1 / k");
         pd.soften(0.5);
         assert!((pd.gain() / g - 1.0).abs() < 1e-9);
-        pd.tune(1000.0, &timing(2));
+        pd.tune(1000.0, 1000.0, &timing(2));
         assert!(
             (pd.gain() / g - 0.5).abs() < 1e-9,
             "softened after a retune too"
@@ -283,7 +286,7 @@ mod tests {
         let mut p = *params();
         p.max_speed_mps = 0.01;
         let mut pd = PdAxis::new(&p.checked("pd").unwrap(), p.margins, 0.2);
-        pd.tune(1e5, &timing(0));
+        pd.tune(1e5, 1e5, &timing(0));
         assert_eq!(pd.step(1.0, 0.85, 0.01), 0.0, "inside the deadband");
         let u = pd.step(1.0, 0.7, 0.01);
         assert!((u - 0.1 * pd.gain()).abs() < 1e-12, "width subtracted: {u}");
@@ -298,7 +301,7 @@ mod tests {
             ..timing(3)
         };
         let mut pd = PdAxis::new(&params(), params().margins, 0.0);
-        pd.tune(1e3, &lagged);
+        pd.tune(1e3, 1e3, &lagged);
         assert!((pd.derivative_time_s - 0.025).abs() < 1e-12);
         let mut u = 0.0;
         for k in 0..10 {

@@ -20,6 +20,9 @@ config/guided_move.yaml, RMS error per axis <= 0.3 N from contact on,
 off-axis speed <= 10 % of the finger's.
 
     python tests/ros/hold_sweep.py [--plants ours,mujoco] [--moves guarded,guided] [--grid full|ci]
+        [--cycles 2,4] [--lags 0,10] [--bodies 50,rigid]
+
+`--cycles`, `--lags` and `--bodies` run only those rows of the grid.
 
 Prints one row per run and a summary; exits 1 when a run misses a bound.
 Run after scripts/ros2-jazzy.sh, with `. target/ros2/env.sh`.
@@ -251,9 +254,16 @@ def main():
     ap.add_argument("--plants", default="ours,mujoco")
     ap.add_argument("--moves", default="guarded,guided")
     ap.add_argument("--grid", default="full", choices=GRIDS)
+    ap.add_argument("--cycles", help="only these cycles (ms), comma-separated")
+    ap.add_argument("--lags", help="only these servo lags (ms), comma-separated")
+    ap.add_argument("--bodies", help="only these bodies (N/m or rigid), comma-separated")
     a = ap.parse_args()
     os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(dds.REPO, "target", "ros-test-cache"))
     cycles, lags, bodies = GRIDS[a.grid]
+    body = lambda v: None if v == "rigid" else float(v)  # noqa: E731
+    cycles = only(cycles, a.cycles, int, "--cycles")
+    lags = only(lags, a.lags, int, "--lags")
+    bodies = only(bodies, a.bodies, body, "--bodies")
     failed = 0
     for plant in a.plants.split(","):
         guarded = {"ours": guarded_ours, "mujoco": guarded_mujoco}[plant]
@@ -264,6 +274,23 @@ def main():
             failed += sweep_guided(guided, plant, cycles, lags)
     print(f"{failed} runs missed a bound", flush=True)
     return 1 if failed else 0
+
+
+def only(values, chosen, parse, flag):
+    """The `values` named in `chosen` (comma-separated), all when None; exits
+    2 naming the flag when one is not in the grid."""
+    if chosen is None:
+        return values
+    try:
+        picked = [parse(v.strip()) for v in chosen.split(",")]
+    except ValueError as e:
+        print(f"hold_sweep: {flag}: not a number ({e})", file=sys.stderr)
+        sys.exit(2)
+    missing = [v for v in picked if v not in values]
+    if missing:
+        print(f"hold_sweep: {flag}: {missing} not in the grid {values}", file=sys.stderr)
+        sys.exit(2)
+    return picked
 
 
 def sweep_guarded(guarded, plant, cycles, lags, bodies):

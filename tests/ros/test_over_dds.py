@@ -107,14 +107,14 @@ def check(name, ok, detail):
 
 class Nodes:
     """The nodes of a scene, each a process with its log, on a ROS domain of
-    their own (`domain`, or a random one, so that nothing of another
-    scenario reaches them); the
-    estimator first, until its model is loaded (training it on first use
+    their own (`domain`, else `TACTILE_FORCE_ROS_DOMAIN` when set, as on a
+    machine shared with other DDS runs, else a random one: nothing of another
+    scenario reaches them); the estimator first, until its model is loaded (training it on first use
     takes 10-20 s), so that the others start with estimates flowing."""
 
     def __init__(self, scene, object_name, port=None, only=None, speed=None, robot="pa10",
                  description_topic=False, controller=None, sim=None, domain=None):
-        self.domain = domain or random.randint(10, 200)
+        self.domain = domain or int(os.environ.get("TACTILE_FORCE_ROS_DOMAIN") or random.randint(10, 200))
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
         self.procs = {}
