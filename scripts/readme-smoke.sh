@@ -11,7 +11,8 @@
 #
 # A line passes when it exits 0 (or N, for a line that ends `# exits N`) and
 # every file it names with --out, --plot or --csv exists and is not empty. The default models are trained afresh (an
-# empty TACTILE_FORCE_CACHE), as on a new machine. Each page runs on its own:
+# empty TACTILE_FORCE_CACHE), as on a new machine; no page but
+# docs/development.md may name ../shared. Each page runs on its own:
 # the files its lines write are removed before the next page (unless they
 # were there before), so no page needs another's.
 set -euo pipefail
@@ -33,6 +34,13 @@ fi
 
 pages=(README.md docs/*.md)
 python3 scripts/check-doc-links.py "${pages[@]}"
+# A user's clone has no ../shared (this project's tests' data, beside the
+# repository on our machines): no user-facing page may need it. Only the
+# contributors' page names it.
+if grep -n '\.\./shared' "${pages[@]}" | grep -v '^docs/development\.md:'; then
+  echo "readme-smoke: the lines above need ../shared, which a user's clone does not have" >&2
+  exit 1
+fi
 
 export TACTILE_FORCE_CACHE="$PWD/target/readme-smoke/cache"
 rm -rf "$TACTILE_FORCE_CACHE"
