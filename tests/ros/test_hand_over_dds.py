@@ -20,6 +20,11 @@ checks biotac/wrench and /diagnostics.
   ERROR, "model trained on 19 electrodes, readings have 24 electrodes"),
   publishes nothing and keeps running.
 
+Before each stream the peer sends messages the node drops (an electrode
+flagged invalid; 20 electrodes in the ring finger) until /diagnostics count
+one: readings sent before the node's best-effort subscription matched the
+new publisher would be lost (up to 1.8 s of them in one CI run).
+
 Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
 check and "N passed, N failed".
 """
@@ -130,15 +135,24 @@ class Peer:
         while time.monotonic() < end:
             rclpy.spin_once(self.node, timeout_sec=0.005)
 
-    def send(self, kind, topic, rows, make):
+    def send(self, kind, topic, rows, make, unusable):
         """Publishes make(row) for each row at 100 Hz, stamped when sent, on
         a publisher of its own (matched anew with the node just started):
-        [(stamp, fz)]."""
+        [(stamp, fz)]. Before the rows, unusable() messages, which the node
+        drops and counts, until its /diagnostics show one counted: a best
+        effort subscription loses what is sent before it has matched the
+        publisher, however soon the publisher sees the subscription."""
         pub = self.node.create_publisher(kind, topic, qos_profile_sensor_data)
         end = time.monotonic() + 10
         while pub.get_subscription_count() == 0 and time.monotonic() < end:
             self.spin(0.05)
-        self.spin(1.0)  # the subscriber's side of the discovery too
+        self.diagnostics.pop("wrench_estimator", None)
+        end = time.monotonic() + 15
+        while not self.dropped_any() and time.monotonic() < end:
+            msg = unusable()
+            msg.header.stamp = self.node.get_clock().now().to_msg()
+            pub.publish(msg)
+            self.spin(0.05)
         sent = []
         for row in rows:
             msg = make(row)
@@ -149,6 +163,10 @@ class Peer:
         self.spin(1.0)
         self.node.destroy_publisher(pub)
         return sent
+
+    def dropped_any(self):
+        values = self.diagnostics.get("wrench_estimator", (0, "", {}))[2]
+        return any(k.startswith("dropped_") and v != "0" for k, v in values.items())
 
     def check_estimates(self, what, sent):
         during_tare = sum(s in self.estimates for s, _ in sent[:TARE])
@@ -185,6 +203,20 @@ def biotac(row):
     return msg
 
 
+def hand_unusable(pressed):
+    """A BiotacAll whose ring finger has 20 electrodes: no BioTac's."""
+    msg = hand(pressed, pressed)
+    msg.tactiles[2].electrodes = [0] * 20
+    return msg
+
+
+def biotac_unusable(row):
+    """A BioTac whose driver flagged an electrode invalid."""
+    msg = biotac(row)
+    msg.invalid_channels = ["e1"]
+    return msg
+
+
 def main():
     work = tempfile.mkdtemp(prefix="tactile_force_hand_")
     rows19, model19 = session(work, "biotac")
@@ -208,7 +240,8 @@ def main():
     try:
         e.wait_for("reading sr_robot_msgs/msg/BiotacAll on /rh/tactile")
         pressed = max(rows19, key=lambda r: float(r["fz"]))
-        sent = peer.send(BiotacAll, "/rh/tactile", rows19, lambda row: hand(row, pressed))
+        sent = peer.send(BiotacAll, "/rh/tactile", rows19, lambda row: hand(row, pressed),
+                         lambda: hand_unusable(pressed))
         peer.check_estimates("Shadow hand, finger 2", sent)
     finally:
         e.stop()
@@ -218,7 +251,7 @@ def main():
     e = Estimator(work, "sp", dict(quiet, model_file=model24))
     try:
         e.wait_for(ours)
-        sent = peer.send(BioTac, "biotac/readings", rows24, biotac)
+        sent = peer.send(BioTac, "biotac/readings", rows24, biotac, lambda: biotac_unusable(rows24[0]))
         peer.check_estimates("BioTac SP, 24 electrodes", sent)
     finally:
         e.stop()
@@ -227,7 +260,8 @@ def main():
         e.wait_for(ours)
         peer.estimates.clear()
         peer.diagnostics.clear()
-        sent = peer.send(BioTac, "biotac/readings", rows24[:200], biotac)
+        sent = peer.send(BioTac, "biotac/readings", rows24[:200], biotac,
+                         lambda: biotac_unusable(rows24[0]))
         end = time.monotonic() + 3
         while peer.diagnostics.get("wrench_estimator", (0, "", {}))[0] != 2 and time.monotonic() < end:
             peer.spin(0.05)
