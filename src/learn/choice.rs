@@ -9,7 +9,7 @@
 //! kind and size), the channels last. Each candidate is trained as `train`
 //! trains it (every training row of a fold; the exact GP on its own
 //! subset), its search started warm where the same form was fitted before
-//! ([`WarmStarts`]), and scored on the held-out trials. The
+//! (`WarmStarts`), and scored on the held-out trials. The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. When the
 //! budget runs out the search stops, at the latest after the fold that

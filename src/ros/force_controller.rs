@@ -15,7 +15,7 @@
 //! by default they are the URDF's. For each description it takes, it
 //! publishes the BioTac frame (the parameter `biotac_frame`, the name the
 //! estimator's `frame_id` stamps its wrenches with) on `/tf_static`, in the
-//! tip link, from the tool mount `robot.tool_*` ([`tool_frame`]).
+//! tip link, from the tool mount `robot.tool_*` ([`crate::nodes::force_controller::tool_frame`]).
 //!
 //! The controller steps on each new estimate (the mean and the std of one
 //! reading both in), so an estimate acts as soon as it arrives rather than
