@@ -258,6 +258,56 @@ mod tests {
         }
     }
 
+    /// The soft bodies' floor (docs/results.md): with the gain margin kept
+    /// against the skin alone (1250 N/m at 1 N), the hold's margins and
+    /// an arm acting 1.5 command cycles late on average, the closed loop on
+    /// a soft body is first order with time constant `1 / (K k)`; the 2 s
+    /// goal (three time constants to the band, then the 1 s window) needs
+    /// `K k >= 3 /s`.
+    #[test]
+    fn on_a_soft_body_the_skins_gain_margin_sets_the_time_to_hold() {
+        let (skin, margins) = (
+            1250.0,
+            Margins {
+                phase_deg: 60.0,
+                gain: 2.5,
+            },
+        );
+        // (cycle, lag) s -> the least series stiffness for the 2 s goal,
+        // and the time constant on 50 N/m behind the skin.
+        let mut floor = Vec::new();
+        for (cycle, lag) in [(0.002, 0.0), (0.008, 0.02), (0.016, 0.0)] {
+            let t = LoopTiming {
+                transport_s: 0.001,
+                latency_s: 1.5 * cycle,
+                lag_s: lag,
+                period_s: 0.01,
+            };
+            let series = 1.0 / (1.0 / skin + 1.0 / 50.0);
+            let k = gain(series, skin, &t, 0.5 * t.arm_s(), 0.01, &margins);
+            println!(
+                "cycle {cycle} s, lag {lag} s: K {k:.3} m/s per N, tau on 50 N/m {:.2} s, \
+                 least stiffness for 2 s {:.0} N/m",
+                1.0 / (k * series),
+                3.0 / k
+            );
+            floor.push((3.0 / k, 1.0 / (k * series)));
+        }
+        let near = |a: f64, b: f64| (a / b - 1.0).abs() < 0.05;
+        assert!(
+            near(floor[0].0, 58.0) && near(floor[0].1, 0.40),
+            "{floor:?}"
+        );
+        assert!(
+            near(floor[1].0, 151.0) && near(floor[1].1, 1.04),
+            "{floor:?}"
+        );
+        assert!(
+            near(floor[2].0, 211.0) && near(floor[2].1, 1.46),
+            "{floor:?}"
+        );
+    }
+
     #[test]
     fn margins_out_of_range_are_named() {
         let e = Margins {
