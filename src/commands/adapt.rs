@@ -12,7 +12,7 @@ use tactile_force::learn::models::wrench_gp::{AdaptChoice, AdaptedFrom, WrenchGp
 use tactile_force::learn::pooled::{base_data, lineage, Adaptation, Unavailable};
 
 use super::data::{load_sessions, Features, SourceArgs};
-use super::output::{progress_bar, show};
+use super::output::{print_scores, progress_bar, show};
 use super::train::trained_on;
 use super::{Context, Result};
 
@@ -90,9 +90,8 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         trained_on: new_files.and_then(|n| lineage(base.trained_on(), n.files)),
     };
     let bar = progress_bar();
-    let (model, choice) = adaptation.run(pool, &mut |axis, p| {
-        show(&bar, Progress::Axis(axis, p))
-    })?;
+    let (model, choice) =
+        adaptation.run(pool, &mut |axis, p| show(&bar, Progress::Axis(axis, p)))?;
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
     training_fit(&model, &data)?;
@@ -123,18 +122,7 @@ fn print_choice(choice: &AdaptChoice) {
         println!("pooled retraining {}", choice.pooling);
         return;
     }
-    println!(
-        "held out {} rows of the new data; pooled candidate: {}",
-        choice.held_out_rows, choice.pooling
-    );
-    for v in &choice.validation {
-        let rmse: Vec<String> = v.rmse.iter().map(|(a, e)| format!("{a} {e:.4}")).collect();
-        println!(
-            "  {:<8} score {:.4} (RMSE {}){}",
-            v.model,
-            v.score,
-            rmse.join(", "),
-            if v.model == choice.chosen { "  <- chosen" } else { "" }
-        );
-    }
+    println!("pooled retraining: {}", choice.pooling);
+    let what = format!("held out {} rows of the new data", choice.held_out_rows);
+    print_scores(&what, &choice.validation, &choice.chosen);
 }

@@ -184,11 +184,20 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     let params = gp_params(&a.fit, &sessions.sensor)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
-    let model = WrenchGp::train_scaled(&ds, sessions.tare.clone(), scaling, &params, &mut |axis, p| {
-        show(&bar, Progress::Axis(axis, p))
-    })?
+    let model = WrenchGp::train_scaled(
+        &ds,
+        sessions.tare.clone(),
+        scaling,
+        &params,
+        &mut |axis, p| show(&bar, Progress::Axis(axis, p)),
+    )?
     .with_sensor(sessions.sensor.clone())
-    .with_trained_on(trained_on(&a.data, &sessions, &a.fit.source, GpParams::clone(&params))?);
+    .with_trained_on(trained_on(
+        &a.data,
+        &sessions,
+        &a.fit.source,
+        GpParams::clone(&params),
+    )?);
     bar.finish_and_clear();
     save_checked(&a, model, &ds, t0)
 }
@@ -294,7 +303,12 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     })?
     .with_sensor(sessions.sensor.clone())
     .with_selection(selection)
-    .with_trained_on(trained_on(&a.data, &sessions, &a.fit.source, GpParams::clone(&params))?);
+    .with_trained_on(trained_on(
+        &a.data,
+        &sessions,
+        &a.fit.source,
+        GpParams::clone(&params),
+    )?);
     bar.finish_and_clear();
     println!("chosen: {choice}");
     save_checked(a, model, &data, t0)

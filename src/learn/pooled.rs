@@ -124,7 +124,11 @@ pub fn base_data(model: &WrenchGp, given: Option<&[PathBuf]>) -> Result<BaseData
     let recorded = |hash: &str| reference.files.iter().find(|f| f.hash == hash);
     let paths: Vec<PathBuf> = match given {
         Some(g) => g.to_vec(),
-        None => reference.files.iter().map(|f| PathBuf::from(&f.path)).collect(),
+        None => reference
+            .files
+            .iter()
+            .map(|f| PathBuf::from(&f.path))
+            .collect(),
     };
     let mut sets = Vec::with_capacity(paths.len());
     let mut files = Vec::with_capacity(paths.len());
@@ -233,28 +237,24 @@ impl BaseData {
         }
     }
 
-    /// A model trained from scratch, with the base's options (`restarts`
-    /// given: that many optimiser starts), on these rows and `new` (tared
-    /// as `tare` says), for `base`'s sensor.
+    /// A model trained from scratch with `params` (the base's:
+    /// [`BaseData::params`]) on these rows and `new` (tared as `tare`
+    /// says), with `base`'s input scaling, for its sensor.
     pub fn pooled(
         &self,
         base: &WrenchGp,
         new: &Dataset,
         tare: TareSpec,
-        restarts: Option<usize>,
+        params: &Checked<GpParams>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<WrenchGp, ModelError> {
-        let params = GpParams {
-            restarts: restarts.unwrap_or(self.params.restarts),
-            ..self.params.clone()
-        }
-        .validate()?;
-        let data = Dataset::concat(&[&self.data, new]).ok_or_else(|| ModelError::AdaptMismatch {
-            base: format!("{:?}", self.data.features),
-            data: format!("{:?}", new.features),
-        })?;
+        let data =
+            Dataset::concat(&[&self.data, new]).ok_or_else(|| ModelError::AdaptMismatch {
+                base: format!("{:?}", self.data.features),
+                data: format!("{:?}", new.features),
+            })?;
         Ok(
-            WrenchGp::train_scaled(&data, tare, base.scaling(), &params, progress)?
+            WrenchGp::train_scaled(&data, tare, base.scaling(), params, progress)?
                 .with_sensor(base.sensor().clone()),
         )
     }
@@ -286,13 +286,13 @@ pub fn validate(
 /// The candidate with the lowest score; the first on a tie, and a score
 /// that is not a number never wins.
 pub fn best(candidates: &[Validation]) -> Option<&Validation> {
-    candidates
-        .iter()
-        .filter(|v| v.score.is_finite())
-        .fold(None, |b: Option<&Validation>, v| match b {
+    candidates.iter().filter(|v| v.score.is_finite()).fold(
+        None,
+        |b: Option<&Validation>, v| match b {
             Some(b) if b.score <= v.score => Some(b),
             _ => Some(v),
-        })
+        },
+    )
 }
 
 /// The rows of new data held out to choose on: every fourth (set, trial)
@@ -301,7 +301,7 @@ pub fn best(candidates: &[Validation]) -> Option<&Validation> {
 pub fn held_out(data: &Dataset) -> (Vec<usize>, Vec<usize>) {
     let groups = data.trials();
     let n = groups.len();
-    let out = |k: usize| (k + 1) % 4 == 0 || (n < 4 && k + 1 == n);
+    let out = |k: usize| (k + 1).is_multiple_of(4) || (n < 4 && k + 1 == n);
     let (mut train, mut test) = (Vec::new(), Vec::new());
     if groups.len() == 1 {
         let rows = &groups[0].1;
@@ -365,12 +365,17 @@ impl Adaptation<'_> {
         let sd = spread(self.data);
         let score = |name, m: &WrenchGp| validate(name, m, &test, &sd);
         let tare = self.tare.clone();
+        let options = base_data
+            .params
+            .clone()
+            .validate()
+            .map_err(ModelError::from)?;
         let adapted = adapt(&train, progress)?;
-        let pooled = base_data.pooled(self.base, &train, tare.clone(), None, progress)?;
+        let pooled = base_data.pooled(self.base, &train, tare.clone(), &options, progress)?;
         let validation = vec![score("adapted", &adapted)?, score("pooled", &pooled)?];
         let chosen = best(&validation).map_or("adapted", |v| v.model.as_str());
         let model = match chosen {
-            "pooled" => base_data.pooled(self.base, self.data, tare, None, progress)?,
+            "pooled" => base_data.pooled(self.base, self.data, tare, &options, progress)?,
             _ => adapt(self.data, progress)?,
         };
         let choice = AdaptChoice {

@@ -140,19 +140,28 @@ fn the_base_s_data_is_read_again_or_said_why_not() {
     std::fs::rename(&path, &moved).unwrap();
     let p = path.display().to_string();
     assert!(matches!(base_data(&model, None), Err(Unavailable::Missing { path, .. }) if path == p));
-    let given = base_data(&model, Some(&[moved.clone()])).unwrap();
+    let given = base_data(&model, Some(std::slice::from_ref(&moved))).unwrap();
     assert_eq!(given.data.x, tared.x);
 
     // Changed: named, with both hashes.
     let text = std::fs::read_to_string(&moved).unwrap();
     std::fs::write(&path, text.replacen(",1,", ",2,", 1)).unwrap();
     let err = base_data(&model, None).unwrap_err();
-    assert!(matches!(&err, Unavailable::Changed { path, .. } if *path == p), "{err}");
+    assert!(
+        matches!(&err, Unavailable::Changed { path, .. } if *path == p),
+        "{err}"
+    );
     let said = err.to_string();
-    assert!(said.contains(&model.trained_on().unwrap().files[0].hash), "{said}");
+    assert!(
+        said.contains(&model.trained_on().unwrap().files[0].hash),
+        "{said}"
+    );
 
     let bare = model.with_trained_on(None);
-    assert_eq!(base_data(&bare, None).unwrap_err(), Unavailable::NoReference);
+    assert_eq!(
+        base_data(&bare, None).unwrap_err(),
+        Unavailable::NoReference
+    );
 }
 
 #[test]
