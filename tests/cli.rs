@@ -413,7 +413,12 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
         !table.is_empty() && json["selection"]["budget_s"] == 4.0,
         "{json}"
     );
-    assert_eq!(json["version"], 6);
+    assert_eq!(json["version"], 7);
+    // The data it was trained on, by reference.
+    let files = &json["trained_on"]["files"];
+    assert_eq!(files[0]["path"], d, "{files}");
+    assert_eq!(files[0]["rows"], 16000, "{files}");
+    assert_eq!(files[0]["hash"].as_str().unwrap().len(), 16, "{files}");
     // `eval --model` prints the table it was chosen by.
     let o = run(&["eval", "--model", m, "--test", d, "--axes", "fz"]);
     let (out, err) = text(&o);

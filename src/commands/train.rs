@@ -191,15 +191,9 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
         &params,
         &mut |axis, p| show(&bar, Progress::Axis(axis, p)),
     )?
-    .with_sensor(sessions.sensor.clone())
-    .with_trained_on(trained_on(
-        &a.data,
-        &sessions,
-        &a.fit.source,
-        GpParams::clone(&params),
-    )?);
+    .with_sensor(sessions.sensor.clone());
     bar.finish_and_clear();
-    save_checked(&a, model, &ds, t0)
+    save_checked(&a, model, &ds, t0, (&sessions, &params))
 }
 
 /// The reference to `paths` (read as `sessions`) a model trained on them
@@ -302,26 +296,24 @@ fn run_select(a: &TrainArgs) -> Result<()> {
         show(&bar, Progress::Axis(axis, p))
     })?
     .with_sensor(sessions.sensor.clone())
-    .with_selection(selection)
-    .with_trained_on(trained_on(
-        &a.data,
-        &sessions,
-        &a.fit.source,
-        GpParams::clone(&params),
-    )?);
+    .with_selection(selection);
     bar.finish_and_clear();
     println!("chosen: {choice}");
-    save_checked(a, model, &data, t0)
+    save_checked(a, model, &data, t0, (&sessions, &params))
 }
 
-/// Checks the model's fit on its own training data `ds`, writes it and
-/// says what it did.
+/// Checks the model's fit on its own training data `ds`, writes it with
+/// the reference to the files `read` (as these sessions, with these
+/// options) and says what it did.
 fn save_checked(
     a: &TrainArgs,
     model: WrenchGp,
     ds: &tactile_force::learn::data::Dataset,
     t0: std::time::Instant,
+    read: (&Sessions, &GpParams),
 ) -> Result<()> {
+    let on = trained_on(&a.data, read.0, &a.fit.source, read.1.clone())?;
+    let model = model.with_trained_on(on);
     let fit_s = t0.elapsed().as_secs_f64();
     let fit = training_fit(&model, ds)?;
     model
