@@ -26,7 +26,8 @@ for secs in 10 20 40 80; do
   cut="$work/cut$secs.csv"
   # The first secs/4 s of each trial (t is the time since the trial's start).
   awk -F, -v s="$secs" 'NR == 1 || $1 < s / 4 - 1e-9' "$work/new80.csv" >"$cut"
-  took=$($tf adapt --model "$work/base.json" --data "$cut" --out "$work/adapted$secs.json" |
+  # --no-pool: the adapted model alone (pool_bench.sh compares it with pooling).
+  took=$($tf adapt --model "$work/base.json" --data "$cut" --no-pool --out "$work/adapted$secs.json" | tail -1 |
     sed -E 's/.* in ([0-9.]+) s;.*/\1/')
   $tf train --data "$cut" --out "$work/scratch$secs.json" >/dev/null
   printf '%6s  %-26s  %-26s  %s\n' "$secs" "$(rmse "$work/adapted$secs.json")" \

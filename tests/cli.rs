@@ -413,7 +413,12 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
         !table.is_empty() && json["selection"]["budget_s"] == 4.0,
         "{json}"
     );
-    assert_eq!(json["version"], 6);
+    assert_eq!(json["version"], 7);
+    // The data it was trained on, by reference.
+    let files = &json["trained_on"]["files"];
+    assert_eq!(files[0]["path"], d, "{files}");
+    assert_eq!(files[0]["rows"], 16000, "{files}");
+    assert_eq!(files[0]["hash"].as_str().unwrap().len(), 16, "{files}");
     // `eval --model` prints the table it was chosen by.
     let o = run(&["eval", "--model", m, "--test", d, "--axes", "fz"]);
     let (out, err) = text(&o);
@@ -609,12 +614,17 @@ fn a_new_unit_is_adapted_to_and_sessions_are_left_out_in_turn() {
         &new,
         "--max-train",
         "600",
+        "--no-pool",
         "--out",
         adapted,
     ]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(out.contains("with 80 s of data (8000 rows)"), "{out}");
+    assert!(
+        out.contains("pooled retraining not considered: pooling switched off"),
+        "{out}"
+    );
     let file: serde_json::Value = serde_json::from_slice(&std::fs::read(adapted).unwrap()).unwrap();
     assert_eq!(file["prior"]["from"]["model"], base);
     assert_eq!(file["prior"]["from"]["data"][0], new.as_str());
@@ -630,6 +640,15 @@ fn a_new_unit_is_adapted_to_and_sessions_are_left_out_in_turn() {
     assert!(
         after[1] < 1.1 * before[1],
         "fz RMSE {before:?} -> {after:?}"
+    );
+
+    pooling_wins_where_adapting_cannot_and_is_skipped_without_the_base_s_data(
+        dir.path(),
+        base,
+        [&a, &b],
+        &new,
+        &test,
+        before,
     );
 
     // Each session tested on a model of the others, one row per file.
@@ -667,6 +686,94 @@ fn a_new_unit_is_adapted_to_and_sessions_are_left_out_in_turn() {
     ]);
     assert!(!o.status.success());
     assert!(text(&o).1.contains("/no/such.csv"), "{:?}", text(&o));
+}
+
+/// The new unit's z and combined pushes only (sets 3 and 4; 4 held out):
+/// the base adapted to z pushes estimates the combined ones poorly, the
+/// base's data pooled with them well. Without the base's data (moved), the
+/// adapted model is kept and the output says why; `--base-data` finds it.
+fn pooling_wins_where_adapting_cannot_and_is_skipped_without_the_base_s_data(
+    dir: &Path,
+    base: &str,
+    base_data: [&str; 2],
+    new: &str,
+    test: &str,
+    base_rmse: [f64; 2],
+) {
+    let text_of = std::fs::read_to_string(new).unwrap();
+    let mut rows = text_of.lines();
+    let header = rows.next().unwrap();
+    let k = header.split(',').position(|h| h == "set").unwrap();
+    let kept: Vec<&str> = rows
+        .filter(|l| ["3", "4"].contains(&l.split(',').nth(k).unwrap()))
+        .collect();
+    let z = dir.join("u2_z_and_combined.csv");
+    std::fs::write(&z, format!("{header}\n{}\n", kept.join("\n"))).unwrap();
+    let out = dir.join("pooled.json");
+    let adapt = |extra: &[&str]| {
+        let mut args = vec!["adapt", "--model", base, "--data", z.to_str().unwrap()];
+        args.extend(["--max-train", "600", "--out", out.to_str().unwrap()]);
+        args.extend(extra);
+        let o = run(&args);
+        let (stdout, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        stdout
+    };
+    let said = adapt(&[]);
+    assert!(said.contains("pooled retraining: 16000 base rows of 2 file(s)\nheld out 2000 rows of the new data: RMSE (score)"), "{said}");
+    assert!(said.contains("retrained (pooled)"), "{said}");
+    let file: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let choice = &file["adapt_choice"];
+    assert_eq!(choice["chosen"], "pooled", "{choice}");
+    let score = |i: usize| choice["validation"][i]["score"].as_f64().unwrap();
+    assert_eq!(choice["validation"][0]["model"], "adapted");
+    assert!(score(1) < 0.6 * score(0), "{choice}");
+    let files: Vec<&str> = file["trained_on"]["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["path"].as_str().unwrap())
+        .collect();
+    assert_eq!(files, [base_data[0], base_data[1], z.to_str().unwrap()]);
+    assert!(file["prior"].is_null());
+    // On another session of the unit, all four kinds of push.
+    let (pooled, _, _) = gp_rmse(&[
+        "eval",
+        "--model",
+        out.to_str().unwrap(),
+        "--test",
+        test,
+        "--json",
+    ]);
+    assert!(
+        pooled[0] < 0.6 * base_rmse[0],
+        "fx RMSE {base_rmse:?} -> {pooled:?}"
+    );
+    assert!(
+        pooled[1] < 1.1 * base_rmse[1],
+        "fz RMSE {base_rmse:?} -> {pooled:?}"
+    );
+
+    // The base's data moved: adapted, saying why once; found again when given.
+    let moved = dir.join("moved.csv");
+    std::fs::rename(base_data[1], &moved).unwrap();
+    let said = adapt(&[]);
+    let why = format!(
+        "pooled retraining not considered: its training data file {} is missing",
+        base_data[1]
+    );
+    assert_eq!(said.matches(&why).count(), 1, "{said}");
+    assert!(said.contains("\nadapted "), "{said}");
+    let file: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    assert_eq!(file["adapt_choice"]["chosen"], "adapted");
+    assert!(!file["prior"].is_null());
+    let given = format!("{},{}", base_data[0], moved.display());
+    let said = adapt(&["--base-data", &given]);
+    assert!(
+        said.contains("pooled retraining: 16000 base rows of 2 file(s)"),
+        "{said}"
+    );
+    std::fs::rename(&moved, base_data[1]).unwrap();
 }
 
 #[test]

@@ -1,4 +1,6 @@
-//! `adapt`: a trained model adapted to another unit, session or person.
+//! `adapt`: a trained model adapted to another unit, session or person, or
+//! retrained on its own data pooled with the new, whichever estimates a
+//! held-out part of the new data better (`learn::pooled`).
 
 use std::path::PathBuf;
 
@@ -6,10 +8,12 @@ use clap::Args;
 
 use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::models::gp::GpParams;
-use tactile_force::learn::models::wrench_gp::{AdaptedFrom, WrenchGp};
+use tactile_force::learn::models::wrench_gp::{AdaptChoice, AdaptedFrom, WrenchGp};
+use tactile_force::learn::pooled::{base_data, lineage, Adaptation, Unavailable};
 
 use super::data::{load_sessions, Features, SourceArgs};
-use super::output::{progress_bar, show};
+use super::output::{print_scores, progress_bar, show};
+use super::train::trained_on;
 use super::{Context, Result};
 
 #[derive(Args)]
@@ -33,6 +37,14 @@ pub(crate) struct AdaptArgs {
     /// Seed of the subset and the optimiser starts.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// The base model's training data, comma-separated, where the files
+    /// are now (default: where its model file says they were); each must be
+    /// one of the files it was trained on (by content).
+    #[arg(long, value_delimiter = ',', conflicts_with = "no_pool")]
+    base_data: Option<Vec<PathBuf>>,
+    /// Adapt only: no model retrained on the base's data pooled with the new.
+    #[arg(long)]
+    no_pool: bool,
     #[command(flatten)]
     source: SourceArgs,
 }
@@ -63,19 +75,36 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         data: a.data.iter().map(|p| p.display().to_string()).collect(),
         seconds,
     };
-    let bar = progress_bar();
     let t0 = std::time::Instant::now();
-    let adapted = base.adapt(&data, sessions.tare, from, &params, &mut |axis, p| {
-        show(&bar, Progress::Axis(axis, p))
-    })?;
+    let pool = match a.no_pool {
+        true => Err(Unavailable::Off),
+        false => base_data(&base, a.base_data.as_deref()),
+    };
+    let new_files = trained_on(&a.data, &sessions, &a.source, GpParams::default())?;
+    let adaptation = Adaptation {
+        base: &base,
+        data: &data,
+        tare: sessions.tare.clone(),
+        from,
+        params: &params,
+        trained_on: new_files.and_then(|n| lineage(base.trained_on(), n.files)),
+    };
+    let bar = progress_bar();
+    let (model, choice) =
+        adaptation.run(pool, &mut |axis, p| show(&bar, Progress::Axis(axis, p)))?;
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    training_fit(&adapted, &data)?;
-    adapted
+    training_fit(&model, &data)?;
+    model
         .save(&a.out)
         .with_context(|| format!("saving the model to {}", a.out.display()))?;
+    print_choice(&choice);
     println!(
-        "adapted {} ({}) with {:.0} s of data ({} rows) in {:.2} s; model written to {}",
+        "{} {} ({}) with {:.0} s of data ({} rows) in {:.2} s; model written to {}",
+        match choice.chosen.as_str() {
+            "pooled" => "retrained (pooled)",
+            _ => "adapted",
+        },
         a.model.display(),
         base.axes(),
         seconds,
@@ -84,4 +113,16 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         a.out.display()
     );
     Ok(())
+}
+
+/// The candidates' scores on the held-out rows and the one chosen, or why
+/// pooling was not a candidate.
+fn print_choice(choice: &AdaptChoice) {
+    if choice.validation.is_empty() {
+        println!("pooled retraining {}", choice.pooling);
+        return;
+    }
+    println!("pooled retraining: {}", choice.pooling);
+    let what = format!("held out {} rows of the new data", choice.held_out_rows);
+    print_scores(&what, &choice.validation, &choice.chosen);
 }

@@ -138,6 +138,7 @@ pub(crate) fn run_calibrate(a: &CalibrateRun, scene: &Scene, current: WrenchGp) 
             "chosen": r.chosen,
             "validation": r.validation,
             "held_out": r.held_out,
+            "pooling": r.pooling,
             "session": session.map(|p| p.display().to_string()),
             "model": out.display().to_string(),
         });

@@ -62,6 +62,27 @@ pub(crate) struct SourceArgs {
     pub(crate) ft_to_biotac: Option<FrameTransform>,
 }
 
+impl SourceArgs {
+    /// The bag topics and pairing to read.
+    fn topics(&self) -> BagTopics {
+        BagTopics {
+            biotac: self.biotac_topic.clone(),
+            ft: self.ft_topic.clone(),
+            tolerance_s: self.pair_tolerance_s,
+            finger: self.finger,
+        }
+    }
+
+    /// Whether pooled retraining (`learn::pooled`), which reads files with
+    /// the default topics, whole trials and no frame change, reads them as
+    /// these options do.
+    pub(crate) fn pooling_repeats(&self) -> bool {
+        self.topics() == BagTopics::default()
+            && matches!(self.trials, TrialsArg::Auto | TrialsArg::Whole)
+            && self.ft_to_biotac.is_none()
+    }
+}
+
 /// Reads one session's `features` and `axes` targets and tares each trial
 /// on its first `tare_samples` rows (0: already tared); returns the
 /// baselines too.
@@ -106,12 +127,7 @@ pub(crate) fn read_data(
     };
     let (mcap, ros1) = (extension("mcap"), extension("bag") || is_ros1_bag(path));
     if mcap || ros1 {
-        let topics = BagTopics {
-            biotac: source.biotac_topic.clone(),
-            ft: source.ft_topic.clone(),
-            tolerance_s: source.pair_tolerance_s,
-            finger: source.finger,
-        };
+        let topics = source.topics();
         let mut bag = match mcap {
             true => read_bag(path, &topics)?,
             false => read_ros1_bag(path, &topics)?,

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-use tactile_force::learn::calibration::CalibrationRecord;
+use tactile_force::learn::calibration::{CalibrationRecord, Validation};
 use tactile_force::learn::choice::Selection;
 use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
 use tactile_force::learn::models::metrics::DirectionError;
@@ -39,11 +39,29 @@ pub(crate) fn show(bar: &ProgressBar, p: Progress) {
 /// and what it left untried.
 /// A calibration's validation: each model's RMSE on the held-out pushes.
 pub(crate) fn print_validation(r: &CalibrationRecord) {
+    if let Some(pooling) = &r.pooling {
+        println!("pooled retraining: {pooling}");
+    }
     let held: Vec<String> = r.held_out.iter().map(u32::to_string).collect();
-    println!("held-out pushes {}: RMSE (score)", held.join(", "));
-    for v in &r.validation {
+    print_scores(
+        &format!("held-out pushes {}", held.join(", ")),
+        &r.validation,
+        &r.chosen,
+    );
+}
+
+/// Models scored on held-out rows (`what`), the `chosen` one marked.
+pub(crate) fn print_scores(what: &str, validation: &[Validation], chosen: &str) {
+    println!("{what}: RMSE (score)");
+    for v in validation {
         let rmse: Vec<String> = v.rmse.iter().map(|(a, e)| format!("{a} {e:.3}")).collect();
-        println!("  {:<13} {} N ({:.4})", v.model, rmse.join(", "), v.score);
+        let mark = if v.model == chosen { "  <- chosen" } else { "" };
+        println!(
+            "  {:<13} {} N ({:.4}){mark}",
+            v.model,
+            rmse.join(", "),
+            v.score
+        );
     }
 }
 

@@ -9,12 +9,13 @@ use tactile_force::learn::data::{Channel, DatasetError};
 use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
 use tactile_force::learn::models::scale::InputScaling;
-use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::learn::models::wrench_gp::{TrainedOn, WrenchGp};
+use tactile_force::learn::pooled::{data_file, readable};
 use tactile_force::params::Checked;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
 
-use super::data::{load_sessions, Features, SourceArgs};
+use super::data::{load_sessions, Features, Sessions, SourceArgs};
 use super::output::{print_selection, progress_bar, show};
 use super::{BadArgument, Context, Failure, Result};
 
@@ -183,12 +184,38 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     let params = gp_params(&a.fit, &sessions.sensor)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
-    let model = WrenchGp::train_scaled(&ds, sessions.tare, scaling, &params, &mut |axis, p| {
-        show(&bar, Progress::Axis(axis, p))
-    })?
-    .with_sensor(sessions.sensor);
+    let model = WrenchGp::train_scaled(
+        &ds,
+        sessions.tare.clone(),
+        scaling,
+        &params,
+        &mut |axis, p| show(&bar, Progress::Axis(axis, p)),
+    )?
+    .with_sensor(sessions.sensor.clone());
     bar.finish_and_clear();
-    save_checked(&a, model, &ds, t0)
+    save_checked(&a, model, &ds, t0, (&sessions, &params))
+}
+
+/// The reference to `paths` (read as `sessions`) a model trained on them
+/// with `params` records; none when pooled retraining could not read them
+/// again as they were read (nail-camera directories, ROS 1 bags, other bag
+/// topics or trial cuts, `--ft-to-biotac`).
+pub(crate) fn trained_on(
+    paths: &[PathBuf],
+    sessions: &Sessions,
+    source: &SourceArgs,
+    params: GpParams,
+) -> Result<Option<TrainedOn>> {
+    let biotac = matches!(sessions.sensor, SensorSpec::Biotac { .. });
+    if !(biotac && source.pooling_repeats() && paths.iter().all(|p| readable(p))) {
+        return Ok(None);
+    }
+    let files = paths
+        .iter()
+        .zip(&sessions.sets)
+        .map(|(p, ds)| data_file(p, ds.len()).with_context(|| format!("data file {}", p.display())))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Some(TrainedOn { files, params }))
 }
 
 /// `train --select`: the options chosen by cross-validation on the data,
@@ -268,21 +295,25 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     let model = WrenchGp::train_scaled(&data, tare, choice.input, &params, &mut |axis, p| {
         show(&bar, Progress::Axis(axis, p))
     })?
-    .with_sensor(sessions.sensor)
+    .with_sensor(sessions.sensor.clone())
     .with_selection(selection);
     bar.finish_and_clear();
     println!("chosen: {choice}");
-    save_checked(a, model, &data, t0)
+    save_checked(a, model, &data, t0, (&sessions, &params))
 }
 
-/// Checks the model's fit on its own training data `ds`, writes it and
-/// says what it did.
+/// Checks the model's fit on its own training data `ds`, writes it with
+/// the reference to the files `read` (as these sessions, with these
+/// options) and says what it did.
 fn save_checked(
     a: &TrainArgs,
     model: WrenchGp,
     ds: &tactile_force::learn::data::Dataset,
     t0: std::time::Instant,
+    read: (&Sessions, &GpParams),
 ) -> Result<()> {
+    let on = trained_on(&a.data, read.0, &a.fit.source, read.1.clone())?;
+    let model = model.with_trained_on(on);
     let fit_s = t0.elapsed().as_secs_f64();
     let fit = training_fit(&model, ds)?;
     model

@@ -1,19 +1,22 @@
 //! A model from a calibration's recording: the current model adapted to it,
-//! or a model trained on it from scratch with the default options
-//! ([`Choice::default_options`]), whichever
-//! estimates the held-out pushes (every fourth) better; refused when
-//! neither beats the current model there. The winner is trained again on
-//! every push, checked on its own training data, and records what was
-//! chosen and the validation figures.
+//! a model trained on it from scratch with the default options
+//! ([`Choice::default_options`]), or, when the current model's training
+//! data is at hand, one retrained on that data pooled with the recording
+//! ([`super::pooled`]), whichever estimates the held-out pushes (every
+//! fourth) best; refused when none beats the current model there. The
+//! winner is trained again on every push, checked on its own training
+//! data, and records what was chosen, the validation figures and the data
+//! it was trained on.
 
 use std::path::Path;
 use std::time::Instant;
 
 use super::choice::Choice;
 use super::data::{channel_columns, Channel, Dataset, DatasetError};
-use super::evaluate::{score_model, training_fit, EvalError};
+use super::evaluate::{training_fit, EvalError};
 use super::models::gp::GpParams;
-use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, WrenchGp};
+use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, TrainedOn, WrenchGp};
+use super::pooled::{base_data, best, data_file, lineage, spread, validate};
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 
@@ -21,6 +24,12 @@ pub use super::models::wrench_gp::{CalibrationRecord, Validation};
 
 /// Every fourth push is held out to validate the candidates.
 pub const HELD_OUT_EVERY: u32 = 4;
+/// The most rows of the base model's own data the pooled candidate takes
+/// (evenly spaced). Its exact GP's fit hardly depends on them (1.8-2.4 s
+/// from 4000 to 80000 base rows with 5700 new, 3 axes, 2 cores), but on
+/// 80000 rows the new unit's would be 7 % of the rows it is conditioned
+/// on; with 8000, 42 %.
+pub const POOL_BASE_ROWS: usize = 8000;
 /// The fewest pushes a calibration needs (three to train on, one held out).
 pub const MIN_PUSHES: u32 = 4;
 
@@ -37,7 +46,7 @@ pub enum CalibrationError {
         rows: usize,
     },
     /// Neither candidate beats the current model on the held-out pushes.
-    #[error("neither model beats the current one on the held-out pushes (score: current {current:.4}, adapted {adapted:.4}, from scratch {scratch:.4}); the current model is kept")]
+    #[error("no model beats the current one on the held-out pushes (score: current {current:.4}, adapted {adapted:.4}, from scratch {scratch:.4}{}); the current model is kept", .pooled.map_or(String::new(), |p| format!(", pooled {p:.4}")))]
     NotBetter {
         /// The current model's score.
         current: f64,
@@ -45,6 +54,8 @@ pub enum CalibrationError {
         adapted: f64,
         /// The model from scratch's.
         scratch: f64,
+        /// The pooled model's, when it was a candidate.
+        pooled: Option<f64>,
     },
     /// The recording cannot be true.
     #[error(transparent)]
@@ -125,22 +136,8 @@ pub fn fit(
         cut_to(d, &tare, &current_features)
     };
     // Scores in units of each axis's spread over the whole recording.
-    let sd: Vec<f64> = all
-        .y
-        .columns()
-        .into_iter()
-        .map(|c| c.std(0.0).max(1e-9))
-        .collect();
-    let validate =
-        |name: &str, model: &WrenchGp, test: &Dataset| -> Result<Validation, CalibrationError> {
-            let s = score_model(model, test, f64::INFINITY)?;
-            let score = s.rmse.values().zip(&sd).map(|(e, s)| e / s).sum::<f64>() / sd.len() as f64;
-            Ok(Validation {
-                model: name.into(),
-                rmse: s.rmse,
-                score,
-            })
-        };
+    let sd = spread(&all);
+    let validate = |name: &str, model: &WrenchGp, test: &Dataset| validate(name, model, test, &sd);
     let (train_cur, train_tare) = cut(&train)?;
     let (test_cur, _) = cut(&test)?;
     let from = |data: Vec<String>| AdaptedFrom {
@@ -171,33 +168,72 @@ pub fn fit(
         &new_params,
         &mut |_, _| {},
     )?;
-    let validation = vec![
+    // The base's own data pooled with the recording, when at hand.
+    let pool = base_data(current, None).map(|b| b.thin(POOL_BASE_ROWS));
+    let pool_params = match &pool {
+        Ok(b) => Some(
+            pool_params(&b.params, &choice.gp_params(base))
+                .validate()
+                .map_err(ModelError::from)?,
+        ),
+        Err(_) => None,
+    };
+    let pooled = match (&pool, &pool_params) {
+        (Ok(b), Some(p)) => Some(b.pooled(current, &train_cur, train_tare, p, &mut |_, _| {})?),
+        _ => None,
+    };
+    let mut validation = vec![
         validate("current", current, &test_cur)?,
         validate("adapted", &adapted, &test_cur)?,
         validate("from scratch", &scratch, &test_new)?,
     ];
-    let [cur, ada, new] = [0, 1, 2].map(|i| validation[i].score);
-    if !(ada < cur || new < cur) {
-        return Err(CalibrationError::NotBetter {
-            current: cur,
-            adapted: ada,
-            scratch: new,
-        });
+    if let Some(p) = &pooled {
+        validation.push(validate("pooled", p, &test_cur)?);
     }
+    let cur = validation[0].score;
+    let chosen = match best(&validation[1..]) {
+        Some(v) if v.score < cur => v.model.clone(),
+        _ => {
+            return Err(CalibrationError::NotBetter {
+                current: cur,
+                adapted: validation[1].score,
+                scratch: validation[2].score,
+                pooled: validation.get(3).map(|v| v.score),
+            });
+        }
+    };
     // The winner again, on every push.
-    let (model, chosen, data) = if ada <= new {
-        let (data, t) = cut(&all)?;
-        let m = current.adapt(&data, t, from(session), &params, &mut |_, _| {})?;
-        (m, "adapted", data)
-    } else {
-        let (data, t) = cut_to(&all, &tare, &choice.features(layout))?;
-        let m = WrenchGp::train_scaled(&data, t, choice.input, &new_params, &mut |_, _| {})?
-            .with_sensor(current.sensor().clone());
-        (m, "from scratch", data)
+    let session_file = recorded
+        .session
+        .as_deref()
+        .and_then(|s| data_file(Path::new(s), all.len()).ok());
+    let lineage = || lineage(current.trained_on(), session_file.iter().cloned().collect());
+    let (model, data, trained_on) = match (chosen.as_str(), &pool) {
+        ("pooled", Ok(b)) => {
+            let (data, t) = cut(&all)?;
+            let p = pool_params.as_ref().expect("options with the base's data");
+            let m = b.pooled(current, &data, t, p, &mut |_, _| {})?;
+            (m, data, lineage())
+        }
+        ("from scratch", _) => {
+            let (data, t) = cut_to(&all, &tare, &choice.features(layout))?;
+            let m = WrenchGp::train_scaled(&data, t, choice.input, &new_params, &mut |_, _| {})?
+                .with_sensor(current.sensor().clone());
+            let on = session_file.clone().map(|f| TrainedOn {
+                files: vec![f],
+                params: GpParams::clone(&new_params),
+            });
+            (m, data, on)
+        }
+        _ => {
+            let (data, t) = cut(&all)?;
+            let m = current.adapt(&data, t, from(session), &params, &mut |_, _| {})?;
+            (m, data, lineage())
+        }
     };
     training_fit(&model, &data)?;
     let record = CalibrationRecord {
-        chosen: chosen.into(),
+        chosen,
         validation,
         scratch_options: Some(choice),
         pushes,
@@ -207,7 +243,17 @@ pub fn fit(
         compute_s: t0.elapsed().as_secs_f64(),
         peak_force_n: recorded.peak_force_n,
         session: recorded.session,
+        pooling: Some(match &pool {
+            Ok(b) if b.params.inducing.is_some() => format!(
+                "{}; the exact GP of the from-scratch candidate, not the base's sparse one \
+                 (its fit alone takes about 30 s)",
+                b.describe()
+            ),
+            Ok(b) => b.describe(),
+            Err(why) => format!("not considered: {why}"),
+        }),
     };
+    let model = model.with_trained_on(trained_on);
     Ok((model.with_calibration(record.clone()), record))
 }
 
@@ -218,6 +264,21 @@ pub fn gp_params() -> GpParams {
     GpParams {
         restarts: 1,
         ..GpParams::default()
+    }
+}
+
+/// The pooled candidate's options: the base model's `trained`, with the
+/// calibration's optimiser starts; a sparse base's refit would take about
+/// 30 s on 2 cores (3 axes, 200 inducing points, 8000 to 80000 base rows),
+/// beyond the calibration's compute, so the exact GP of the from-scratch
+/// candidate (`scratch`) takes its place.
+fn pool_params(trained: &GpParams, scratch: &GpParams) -> GpParams {
+    match trained.inducing {
+        Some(_) => scratch.clone(),
+        None => GpParams {
+            restarts: scratch.restarts,
+            ..trained.clone()
+        },
     }
 }
 

@@ -8,7 +8,8 @@
 //!   its model file ([`models::wrench_gp`]);
 //! - the workflows on top, one file each: the demos' default model, the
 //!   options chosen by cross-validation (`train --select`), evaluation,
-//!   the speed-accuracy trade-off, adaptation and a calibration's model.
+//!   the speed-accuracy trade-off, adaptation, pooled retraining and a
+//!   calibration's model.
 //!
 //! Each layer uses only the ones below it.
 
@@ -20,4 +21,5 @@ pub mod calibration;
 pub mod choice;
 pub mod default_model;
 pub mod evaluate;
+pub mod pooled;
 pub mod tradeoff;

@@ -4,7 +4,8 @@
 //! weights, intercept and, for a cubic mean, its `bend`) and the GP
 //! (`{"exact": ..}`: hyperparameters and training data; `{"sparse": ..}`:
 //! hyperparameters, inducing inputs and their posterior); an adapted model's
-//! base, and what made it ([`super::provenance`]). The factorisations are
+//! base, what made it and the data it was trained on, by reference
+//! ([`super::provenance`]). The factorisations are
 //! recomputed on load, which also re-checks the file's numbers.
 
 use std::path::Path;
@@ -12,7 +13,7 @@ use std::path::Path;
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
 
-use super::provenance::{AdaptedFrom, CalibrationRecord, Selection};
+use super::provenance::{AdaptChoice, AdaptedFrom, CalibrationRecord, Selection, TrainedOn};
 use super::{Estimate, EstimatorWorkspace, ModelError, TareSpec, WrenchGp};
 use crate::biotac::reading::Column;
 use crate::learn::models::gp::{FitInfo, Gp, GpData, GpWorkspace, LinearMean};
@@ -26,9 +27,10 @@ pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// exact or sparse; 3: an adapted model holds the model it was adapted
 /// from; 4: an axis may have a linear prior mean; 5: that mean may bend;
 /// 6: how its options were selected on the data, `train --select`, and the
-/// calibration on the robot that made it).
-/// It reads versions 2 to 6.
-pub const MODEL_VERSION: u32 = 6;
+/// calibration on the robot that made it; 7: the data it was trained on, by
+/// reference, and what `adapt` chose).
+/// It reads versions 2 to 7.
+pub const MODEL_VERSION: u32 = 7;
 
 /// One output axis: the target's linear mean when it has one (in target
 /// units), and the GP (fitted, or as stored) of what is left, standardised
@@ -80,6 +82,12 @@ pub(super) struct ModelFile<G> {
     /// The calibration on the robot that made it, with its validation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) calibration: Option<CalibrationRecord>,
+    /// The files it was trained on, by reference, and the base's options.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) trained_on: Option<TrainedOn>,
+    /// What `adapt` chose: adapted or pooled, with both scores.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) adapt_choice: Option<AdaptChoice>,
     /// Which features are electrodes (for the pattern), from their names.
     #[serde(skip)]
     pub(super) electrode: Vec<bool>,
@@ -326,6 +334,8 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         prior,
         selection: file.selection,
         calibration: file.calibration,
+        trained_on: file.trained_on,
+        adapt_choice: file.adapt_choice,
         electrode,
     })
 }

@@ -25,7 +25,8 @@ use file::{electrode_mask, AxisModel, ModelFile, Prior};
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
 pub use learner::GpLearner;
 pub use provenance::{
-    AdaptedFrom, CalibrationRecord, Choice, CvRow, GpChoice, Selection, Validation,
+    AdaptChoice, AdaptedFrom, CalibrationRecord, Choice, CvRow, DataFile, GpChoice, Selection,
+    TrainedOn, Validation,
 };
 
 /// Errors saving, loading or using a model.
@@ -280,6 +281,8 @@ impl WrenchGp {
             prior: None,
             selection: None,
             calibration: None,
+            trained_on: None,
+            adapt_choice: None,
             electrode,
         }))
     }
@@ -310,6 +313,28 @@ impl WrenchGp {
     pub fn with_calibration(mut self, record: CalibrationRecord) -> Self {
         self.0.calibration = Some(record);
         self
+    }
+
+    /// The model, recording the data it was trained on (None: not known).
+    pub fn with_trained_on(mut self, trained_on: Option<TrainedOn>) -> Self {
+        self.0.trained_on = trained_on;
+        self
+    }
+
+    /// The data it was trained on, by reference, when recorded.
+    pub fn trained_on(&self) -> Option<&TrainedOn> {
+        self.0.trained_on.as_ref()
+    }
+
+    /// The model, recording what `adapt` chose.
+    pub fn with_adapt_choice(mut self, choice: AdaptChoice) -> Self {
+        self.0.adapt_choice = Some(choice);
+        self
+    }
+
+    /// What `adapt` chose, when `adapt` made it.
+    pub fn adapt_choice(&self) -> Option<&AdaptChoice> {
+        self.0.adapt_choice.as_ref()
     }
 
     /// The calibration that made it, when one did.

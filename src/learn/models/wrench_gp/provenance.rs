@@ -1,6 +1,7 @@
 //! What made a model, as its file records it: the model it was adapted
-//! from (`adapt`), how its options were chosen (`train --select`), and the
-//! calibration on the robot that made it. The model file owns these types;
+//! from (`adapt`), how its options were chosen (`train --select`), the
+//! calibration on the robot that made it, the data it was trained on and
+//! what `adapt` chose. The model file owns these types;
 //! the workflows that make models fill them in.
 
 use std::collections::BTreeMap;
@@ -8,7 +9,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::learn::data::Channel;
-use crate::learn::models::gp::MeanKind;
+use crate::learn::models::gp::{GpParams, MeanKind};
 use crate::learn::models::scale::InputScaling;
 use crate::wrench::Axis;
 
@@ -121,7 +122,7 @@ impl Selection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Validation {
-    /// "current", "adapted" or "from scratch".
+    /// "current", "adapted", "from scratch" or "pooled".
     pub model: String,
     /// RMSE per axis on the held-out pushes (N or Nm).
     pub rmse: BTreeMap<Axis, f64>,
@@ -133,7 +134,7 @@ pub struct Validation {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CalibrationRecord {
-    /// "adapted" or "from scratch".
+    /// "adapted", "from scratch" or "pooled".
     pub chosen: String,
     /// The current model and both candidates on the held-out pushes.
     pub validation: Vec<Validation>,
@@ -153,4 +154,48 @@ pub struct CalibrationRecord {
     pub peak_force_n: f64,
     /// The recording's file (MCAP), when written.
     pub session: Option<String>,
+    /// Why the pooled candidate was not tried, or how many base rows it
+    /// took (absent in files before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pooling: Option<String>,
+}
+
+/// A training data file as a model records it: where it was, and enough of
+/// its content to tell the same file from a changed one.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataFile {
+    /// The path, as given.
+    pub path: String,
+    /// FNV-1a (64 bits, hex) of its bytes.
+    pub hash: String,
+    /// Rows read from it.
+    pub rows: usize,
+}
+
+/// The data behind a model (an adapted model's: its base's and its own) and
+/// the options that retrain a model like its base from scratch on them: the
+/// reference pooled retraining follows (`learn::pooled`). Not the data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainedOn {
+    /// The files, each read as a session (CSV or rosbag2 MCAP).
+    pub files: Vec<DataFile>,
+    /// The GP options of the model trained on the first of them.
+    pub params: GpParams,
+}
+
+/// What `adapt` chose between the adapted model and a model retrained on
+/// the base's data pooled with the new (in the model file it wrote).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptChoice {
+    /// "adapted" or "pooled".
+    pub chosen: String,
+    /// The candidates on the held-out part of the new data.
+    pub validation: Vec<Validation>,
+    /// Rows of the new data held out.
+    pub held_out_rows: usize,
+    /// Why pooling was not a candidate, or how many base rows it took.
+    pub pooling: String,
 }

@@ -453,3 +453,28 @@ mod props {
         }
     }
 }
+
+#[test]
+fn the_training_data_reference_round_trips_and_files_without_it_load() {
+    let on = TrainedOn {
+        files: vec![DataFile {
+            path: "a.csv".into(),
+            hash: "00ff".into(),
+            rows: 40,
+        }],
+        params: GpParams {
+            max_train: 33,
+            ..GpParams::default()
+        },
+    };
+    let model = small_model().with_trained_on(Some(on.clone()));
+    let json = serde_json::to_string(&model).unwrap();
+    assert_eq!(load_text(&json).unwrap().trained_on(), Some(&on));
+    // A version 6 file, from before the reference.
+    let old = serde_json::to_string(&small_model())
+        .unwrap()
+        .replace(&format!("\"version\":{MODEL_VERSION}"), "\"version\":6");
+    assert!(!old.contains("trained_on") && old.contains("\"version\":6"));
+    let back = load_text(&old).unwrap();
+    assert_eq!((back.trained_on(), back.adapt_choice()), (None, None));
+}

@@ -1,0 +1,398 @@
+//! Pooled retraining, the candidate beside an adapted model: a model
+//! trained from scratch, with the base model's options, on the base's own
+//! training data (found through the reference its file keeps, [`TrainedOn`])
+//! pooled with the new data. `adapt` and the calibration score both on the
+//! same held-out part of the new data and keep the better; when the base's
+//! data is not at hand they say why ([`Unavailable`]) and adapt.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use super::data::bag::{read_bag, BagTopics};
+use super::data::{Counts, Dataset, DatasetError};
+use super::evaluate::{score_model, EvalError};
+use super::models::gp::fit::FitProgress;
+use super::models::gp::GpParams;
+use super::models::wrench_gp::{
+    AdaptChoice, AdaptedFrom, DataFile, ModelError, TareSpec, TrainedOn, Validation, WrenchGp,
+};
+use crate::biotac::hand::HandKind;
+use crate::params::Checked;
+use crate::sensor::SensorSpec;
+use crate::wrench::Axis;
+
+/// Why the base model's training data cannot be pooled.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Unavailable {
+    /// The model file holds no reference (older, trained in memory, or from
+    /// files read with options pooling does not repeat).
+    #[error("the base model file records no training data")]
+    NoReference,
+    /// A recorded file is not where it was.
+    #[error("its training data file {path} is missing ({reason})")]
+    Missing {
+        /// The file.
+        path: String,
+        /// The reading error.
+        reason: String,
+    },
+    /// A file is not the one the model was trained on.
+    #[error("training data file {path} changed since the model was trained (FNV-1a {found}, recorded {recorded})")]
+    Changed {
+        /// The file.
+        path: String,
+        /// Its hash now.
+        found: String,
+        /// The recorded hash(es).
+        recorded: String,
+    },
+    /// A file could not be read as training data.
+    #[error("training data file {path}: {reason}")]
+    Unreadable {
+        /// The file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+    /// Pooling was switched off.
+    #[error("pooling switched off")]
+    Off,
+}
+
+/// FNV-1a (64 bits) of a file's bytes, as hex.
+pub fn file_hash(path: &Path) -> std::io::Result<String> {
+    let mut file = std::fs::File::open(path)?;
+    let mut buf = vec![0u8; 1 << 16];
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    loop {
+        let n = file.read(&mut buf)?;
+        if n == 0 {
+            return Ok(format!("{h:016x}"));
+        }
+        for &b in &buf[..n] {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// `path`'s reference: as given, its hash and the `rows` read from it.
+pub fn data_file(path: &Path, rows: usize) -> std::io::Result<DataFile> {
+    Ok(DataFile {
+        path: path.display().to_string(),
+        hash: file_hash(path)?,
+        rows,
+    })
+}
+
+/// Whether pooling can read `path` again as it was read for training
+/// (CSV, or rosbag2 MCAP of BioTac messages on the default topics).
+pub fn readable(path: &Path) -> bool {
+    !path.is_dir()
+        && !path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("bag"))
+}
+
+/// The reference an adapted or pooled model records: its base's files
+/// (when recorded) and the new ones, with the base's options.
+pub fn lineage(base: Option<&TrainedOn>, new: Vec<DataFile>) -> Option<TrainedOn> {
+    base.map(|b| TrainedOn {
+        files: b.files.iter().cloned().chain(new).collect(),
+        params: b.params.clone(),
+    })
+}
+
+/// The base model's training data, tared as it was, with the options to
+/// retrain on it.
+#[derive(Debug, Clone)]
+pub struct BaseData {
+    /// Its rows (every file's, pooled; maybe thinned: [`BaseData::thin`]).
+    pub data: Dataset,
+    /// Rows before thinning.
+    pub rows: usize,
+    /// The files read.
+    pub files: Vec<DataFile>,
+    /// The base model's GP options.
+    pub params: GpParams,
+}
+
+/// The training data `model` records, read again as it was (`given`: the
+/// same files elsewhere, matched by content).
+pub fn base_data(model: &WrenchGp, given: Option<&[PathBuf]>) -> Result<BaseData, Unavailable> {
+    let reference = model.trained_on().ok_or(Unavailable::NoReference)?;
+    let recorded = |hash: &str| reference.files.iter().find(|f| f.hash == hash);
+    let paths: Vec<PathBuf> = match given {
+        Some(g) => g.to_vec(),
+        None => reference
+            .files
+            .iter()
+            .map(|f| PathBuf::from(&f.path))
+            .collect(),
+    };
+    let mut sets = Vec::with_capacity(paths.len());
+    let mut files = Vec::with_capacity(paths.len());
+    for path in &paths {
+        let p = path.display().to_string();
+        let hash = file_hash(path).map_err(|e| Unavailable::Missing {
+            path: p.clone(),
+            reason: e.to_string(),
+        })?;
+        let Some(file) = recorded(&hash) else {
+            let expected: Vec<&str> = match given {
+                Some(_) => reference.files.iter().map(|f| f.hash.as_str()).collect(),
+                None => reference
+                    .files
+                    .iter()
+                    .filter(|f| f.path == p)
+                    .map(|f| f.hash.as_str())
+                    .collect(),
+            };
+            return Err(Unavailable::Changed {
+                path: p,
+                found: hash,
+                recorded: expected.join(", "),
+            });
+        };
+        let unreadable = |reason: String| Unavailable::Unreadable {
+            path: p.clone(),
+            reason,
+        };
+        let ds = read_session(path, model).map_err(unreadable)?;
+        if ds.len() != file.rows {
+            let why = format!("{} rows read, {} recorded", ds.len(), file.rows);
+            return Err(unreadable(why));
+        }
+        files.push(DataFile {
+            path: p.clone(),
+            ..file.clone()
+        });
+        sets.push(ds);
+    }
+    let refs: Vec<&Dataset> = sets.iter().collect();
+    let data = Dataset::concat(&refs).ok_or(Unavailable::NoReference)?;
+    Ok(BaseData {
+        rows: data.len(),
+        data,
+        files,
+        params: reference.params.clone(),
+    })
+}
+
+/// One training file read with `model`'s features and axes, each trial
+/// tared on its first rows as the model's were.
+fn read_session(path: &Path, model: &WrenchGp) -> Result<Dataset, String> {
+    if !matches!(model.sensor(), SensorSpec::Biotac { .. }) || !readable(path) {
+        return Err("pooling reads BioTac CSV or rosbag2 MCAP files".into());
+    }
+    let (features, axes) = (model.features(), model.axes());
+    let samples = model.tare().samples;
+    let name = path.display().to_string();
+    let mcap = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+    let mut ds = if mcap {
+        let bag = read_bag(path, &BagTopics::default()).map_err(|e| e.to_string())?;
+        if HandKind::of(&bag.reading_type).is_some() {
+            return Err(format!("{}: hand messages", bag.reading_type));
+        }
+        Dataset::from_records(&bag.records, features, axes, &name)
+    } else {
+        let counts = if samples == 0 {
+            Counts::Tared
+        } else {
+            Counts::Raw
+        };
+        Dataset::read_csv(path, features, axes, counts)
+    }
+    .map_err(|e| e.to_string())?;
+    if samples > 0 {
+        ds.tare_per_trial(samples)
+            .map_err(|e: DatasetError| e.to_string())?;
+    }
+    Ok(ds)
+}
+
+impl BaseData {
+    /// At most `max_rows` of its rows, evenly spaced (all when fewer).
+    pub fn thin(mut self, max_rows: usize) -> Self {
+        let n = self.data.len();
+        if n > max_rows && max_rows > 0 {
+            let idx: Vec<usize> = (0..max_rows).map(|i| i * n / max_rows).collect();
+            self.data = self.data.select(&idx);
+        }
+        self
+    }
+
+    /// What the pooled candidate took, for the output.
+    pub fn describe(&self) -> String {
+        let used = self.data.len();
+        match used < self.rows {
+            true => format!(
+                "base rows subsampled {} -> {used} of {} file(s)",
+                self.rows,
+                self.files.len()
+            ),
+            false => format!("{used} base rows of {} file(s)", self.files.len()),
+        }
+    }
+
+    /// A model trained from scratch with `params` (the base's:
+    /// [`BaseData::params`]) on these rows and `new` (tared as `tare`
+    /// says), with `base`'s input scaling, for its sensor.
+    pub fn pooled(
+        &self,
+        base: &WrenchGp,
+        new: &Dataset,
+        tare: TareSpec,
+        params: &Checked<GpParams>,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<WrenchGp, ModelError> {
+        let data =
+            Dataset::concat(&[&self.data, new]).ok_or_else(|| ModelError::AdaptMismatch {
+                base: format!("{:?}", self.data.features),
+                data: format!("{:?}", new.features),
+            })?;
+        Ok(
+            WrenchGp::train_scaled(&data, tare, base.scaling(), params, progress)?
+                .with_sensor(base.sensor().clone()),
+        )
+    }
+}
+
+/// Per axis, the targets' standard deviation: the scores' units.
+pub fn spread(data: &Dataset) -> Vec<f64> {
+    let sd = |c: ndarray::ArrayView1<f64>| c.std(0.0).max(1e-9);
+    data.y.columns().into_iter().map(sd).collect()
+}
+
+/// `model` scored on `test` as `name`: RMSE per axis, and their mean over
+/// axes in units of `sd` (lower is better).
+pub fn validate(
+    name: &str,
+    model: &WrenchGp,
+    test: &Dataset,
+    sd: &[f64],
+) -> Result<Validation, EvalError> {
+    let s = score_model(model, test, f64::INFINITY)?;
+    let score = s.rmse.values().zip(sd).map(|(e, s)| e / s).sum::<f64>() / sd.len() as f64;
+    Ok(Validation {
+        model: name.into(),
+        rmse: s.rmse,
+        score,
+    })
+}
+
+/// The candidate with the lowest score; the first on a tie, and a score
+/// that is not a number never wins.
+pub fn best(candidates: &[Validation]) -> Option<&Validation> {
+    candidates.iter().filter(|v| v.score.is_finite()).fold(
+        None,
+        |b: Option<&Validation>, v| match b {
+            Some(b) if b.score <= v.score => Some(b),
+            _ => Some(v),
+        },
+    )
+}
+
+/// The rows of new data held out to choose on: every fourth (set, trial)
+/// group; with fewer than four, the last; with one, its last quarter.
+/// Returns (training rows, held-out rows).
+pub fn held_out(data: &Dataset) -> (Vec<usize>, Vec<usize>) {
+    let groups = data.trials();
+    let n = groups.len();
+    let out = |k: usize| (k + 1).is_multiple_of(4) || (n < 4 && k + 1 == n);
+    let (mut train, mut test) = (Vec::new(), Vec::new());
+    if groups.len() == 1 {
+        let rows = &groups[0].1;
+        let cut = rows.len() - rows.len() / 4;
+        return (rows[..cut].to_vec(), rows[cut..].to_vec());
+    }
+    for (k, (_, rows)) in groups.into_iter().enumerate() {
+        match out(k) {
+            true => test.extend(rows),
+            false => train.extend(rows),
+        }
+    }
+    (train, test)
+}
+
+/// `adapt` with pooling: the adapted model and, when `base_data` is at hand,
+/// the pooled one, fitted on the new data less its held-out part
+/// ([`held_out`]) and scored there; the better fitted again on all of
+/// `data` and returned with what was chosen. The models record `trained_on`.
+pub struct Adaptation<'a> {
+    /// The base model.
+    pub base: &'a WrenchGp,
+    /// The new data (tared as `tare` says).
+    pub data: &'a Dataset,
+    /// Its tare.
+    pub tare: TareSpec,
+    /// What the adapted model records it came from.
+    pub from: AdaptedFrom,
+    /// The adaptation GPs' options.
+    pub params: &'a Checked<GpParams>,
+    /// The reference the models record.
+    pub trained_on: Option<TrainedOn>,
+}
+
+impl Adaptation<'_> {
+    /// Runs it (see [`Adaptation`]); `progress` is told every fit's progress.
+    pub fn run(
+        self,
+        base_data: Result<BaseData, Unavailable>,
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<(WrenchGp, AdaptChoice), EvalError> {
+        let adapt = |d: &Dataset, p: &mut (dyn FnMut(Axis, FitProgress) + Send)| {
+            let from = self.from.clone();
+            self.base.adapt(d, self.tare.clone(), from, self.params, p)
+        };
+        let base_data = match base_data {
+            Ok(b) => b,
+            Err(why) => {
+                let model = adapt(self.data, progress)?;
+                let choice = AdaptChoice {
+                    chosen: "adapted".into(),
+                    validation: Vec::new(),
+                    held_out_rows: 0,
+                    pooling: format!("not considered: {why}"),
+                };
+                return Ok((self.finish(model, &choice), choice));
+            }
+        };
+        let (train, test) = held_out(self.data);
+        let (train, test) = (self.data.select(&train), self.data.select(&test));
+        let sd = spread(self.data);
+        let score = |name, m: &WrenchGp| validate(name, m, &test, &sd);
+        let tare = self.tare.clone();
+        let options = base_data
+            .params
+            .clone()
+            .validate()
+            .map_err(ModelError::from)?;
+        let adapted = adapt(&train, progress)?;
+        let pooled = base_data.pooled(self.base, &train, tare.clone(), &options, progress)?;
+        let validation = vec![score("adapted", &adapted)?, score("pooled", &pooled)?];
+        let chosen = best(&validation).map_or("adapted", |v| v.model.as_str());
+        let model = match chosen {
+            "pooled" => base_data.pooled(self.base, self.data, tare, &options, progress)?,
+            _ => adapt(self.data, progress)?,
+        };
+        let choice = AdaptChoice {
+            chosen: chosen.into(),
+            held_out_rows: test.len(),
+            pooling: base_data.describe(),
+            validation,
+        };
+        Ok((self.finish(model, &choice), choice))
+    }
+
+    fn finish(&self, model: WrenchGp, choice: &AdaptChoice) -> WrenchGp {
+        model
+            .with_trained_on(self.trained_on.clone())
+            .with_adapt_choice(choice.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests;
