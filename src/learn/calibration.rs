@@ -25,10 +25,8 @@ pub use super::models::wrench_gp::{CalibrationRecord, Validation};
 /// Every fourth push is held out to validate the candidates.
 pub const HELD_OUT_EVERY: u32 = 4;
 /// The most rows of the base model's own data the pooled candidate takes
-/// (evenly spaced). Its exact GP's fit hardly depends on them (1.8-2.4 s
-/// from 4000 to 80000 base rows with 5700 new, 3 axes, 2 cores), but on
-/// 80000 rows the new unit's would be 7 % of the rows it is conditioned
-/// on; with 8000, 42 %.
+/// (evenly spaced): on 80000 base rows the new unit's 5700 would be 7 % of
+/// the rows the pooled model is conditioned on; with 8000, 42 %.
 pub const POOL_BASE_ROWS: usize = 8000;
 /// The fewest pushes a calibration needs (three to train on, one held out).
 pub const MIN_PUSHES: u32 = 4;
