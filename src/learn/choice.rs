@@ -8,7 +8,8 @@
 //! that change the model's form first (input scaling, prior mean, the GP's
 //! kind and size), the channels last. Each candidate is trained as `train`
 //! trains it (every training row of a fold; the exact GP on its own
-//! subset), its search started warm where the same form was fitted before
+//! subset; a sparse GP's search on fewer rows, `scoring`), its search
+//! started warm where the same form was fitted before
 //! (`WarmStarts`), and scored on the held-out trials. The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. When the
@@ -381,7 +382,8 @@ const SCORING_SPARSE_ITERS: u64 = 10;
 /// (no fewer than its inducing points) for at most
 /// [`SCORING_SPARSE_ITERS`] iterations (q(u) still conditioned
 /// on every training row). The chosen options are then trained in full.
-/// Why: on every row these took 90 % of the whole table's time; the
+/// Why: on every row the two sparse candidates took 84 % of the whole
+/// table's time on 20000 rows; the
 /// scores' change is measured in docs/results.md ("`train --select` within
 /// its budget").
 fn scoring(params: GpParams) -> GpParams {

@@ -214,7 +214,11 @@ fn sparse_candidates_are_scored_on_fewer_rows_and_iterations_exact_ones_as_train
     let s = scoring(sparse.clone());
     assert_eq!(
         (s.sparse_candidates, s.sparse_fit_subset, s.sparse_iters),
-        (SCORING_SPARSE_ROWS, SCORING_SPARSE_ROWS, SCORING_SPARSE_ITERS)
+        (
+            SCORING_SPARSE_ROWS,
+            SCORING_SPARSE_ROWS,
+            SCORING_SPARSE_ITERS
+        )
     );
     assert_eq!((s.inducing, s.restarts, s.max_train), (Some(200), 3, 2000));
     // Never fewer candidate rows than inducing points.
