@@ -8,7 +8,8 @@
 //! that change the model's form first (input scaling, prior mean, the GP's
 //! kind and size), the channels last. Each candidate is trained as `train`
 //! trains it (every training row of a fold; the exact GP on its own
-//! subset), its search started warm where the same form was fitted before
+//! subset; a sparse GP's search on fewer rows, `scoring`), its search
+//! started warm where the same form was fitted before
 //! (`WarmStarts`), and scored on the held-out trials. The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. When the
@@ -370,6 +371,31 @@ impl WarmStarts {
     }
 }
 
+/// Rows a sparse candidate's inducing points are chosen from, and its VFE
+/// bound optimised on, while it is scored.
+const SCORING_SPARSE_ROWS: usize = 2000;
+/// L-BFGS iterations of a sparse candidate's VFE bound while it is scored.
+const SCORING_SPARSE_ITERS: u64 = 10;
+
+/// The options a candidate is scored with: `params` with the sparse GP's
+/// inducing points and VFE search on at most [`SCORING_SPARSE_ROWS`] rows
+/// (no fewer than its inducing points) for at most
+/// [`SCORING_SPARSE_ITERS`] iterations (q(u) still conditioned
+/// on every training row). The chosen options are then trained in full.
+/// Why: on every row the two sparse candidates took 84 % of the whole
+/// table's time on 20000 rows; the
+/// scores' change is measured in docs/results.md ("`train --select` within
+/// its budget").
+fn scoring(params: GpParams) -> GpParams {
+    GpParams {
+        sparse_candidates: (params.sparse_candidates.min(SCORING_SPARSE_ROWS))
+            .max(params.inducing.unwrap_or(0)),
+        sparse_fit_subset: params.sparse_fit_subset.min(SCORING_SPARSE_ROWS),
+        sparse_iters: params.sparse_iters.min(SCORING_SPARSE_ITERS),
+        ..params
+    }
+}
+
 /// What every candidate's cross-validation shares.
 struct Cv<'a> {
     data: &'a Dataset,
@@ -391,8 +417,7 @@ impl Cv<'_> {
         progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
     ) -> Result<Option<CvRow>, String> {
         let (sub, sub_tare) = choice.cut(self.data, self.tare)?;
-        let params = choice
-            .gp_params(self.base)
+        let params = scoring(choice.gp_params(self.base))
             .validate()
             .map_err(|e| e.to_string())?;
         let t0 = Instant::now();

@@ -204,3 +204,36 @@ fn electrode_only_data_vary_the_rest() {
     );
     assert_chose_the_best(&s);
 }
+
+#[test]
+fn sparse_candidates_are_scored_on_fewer_rows_and_iterations_exact_ones_as_trained() {
+    let sparse = GpParams {
+        inducing: Some(200),
+        ..GpParams::default()
+    };
+    let s = scoring(sparse.clone());
+    assert_eq!(
+        (s.sparse_candidates, s.sparse_fit_subset, s.sparse_iters),
+        (
+            SCORING_SPARSE_ROWS,
+            SCORING_SPARSE_ROWS,
+            SCORING_SPARSE_ITERS
+        )
+    );
+    assert_eq!((s.inducing, s.restarts, s.max_train), (Some(200), 3, 2000));
+    // Never fewer candidate rows than inducing points.
+    let big = scoring(GpParams {
+        inducing: Some(3000),
+        ..sparse
+    });
+    assert_eq!(big.sparse_candidates, 3000);
+    assert!(big.validate().is_ok());
+    // Smaller settings are kept, and the other options.
+    let small = GpParams {
+        sparse_candidates: 1000,
+        sparse_fit_subset: 500,
+        sparse_iters: 5,
+        ..GpParams::default()
+    };
+    assert_eq!(scoring(small.clone()), small);
+}

@@ -191,6 +191,22 @@ impl Gradient for Objective<'_, '_> {
     }
 }
 
+/// What a fit is given: standardised inputs `x` (row-major n x `d`) and
+/// targets `y`, the options, and where the hyperparameter search starts.
+#[derive(Debug, Clone, Copy)]
+pub struct FitData<'a> {
+    /// Inputs, row-major n x d.
+    pub x: &'a [f64],
+    /// Inputs per row.
+    pub d: usize,
+    /// Targets, n.
+    pub y: &'a [f64],
+    /// The options.
+    pub params: &'a Checked<GpParams>,
+    /// Where the search starts.
+    pub start: &'a Start,
+}
+
 /// What every fit shares: options, bounds, the seeded generator and the
 /// evaluation counter.
 struct Fitter<'a> {
@@ -202,6 +218,18 @@ struct Fitter<'a> {
 }
 
 impl<'a> Fitter<'a> {
+    /// The fitter of `data`, once its rows are checked.
+    fn checked<'d>(
+        data: &FitData<'d>,
+        progress: &'a mut dyn FnMut(FitProgress),
+    ) -> Result<(Self, FitData<'d>), GpError>
+    where
+        'd: 'a,
+    {
+        check_data(data.x, data.d, data.y)?;
+        Ok((Fitter::new(data.params, data.d, progress), *data))
+    }
+
     fn new(
         params: &'a Checked<GpParams>,
         d: usize,
@@ -348,21 +376,15 @@ fn gather(x: &[f64], d: usize, y: &[f64], idx: &[usize]) -> (Vec<f64>, Vec<f64>)
 }
 
 /// Fits SE-kernel hyperparameters by maximum marginal likelihood and
-/// conditions an exact GP on `x` (row-major n x d) and `y`, both
-/// standardised: on all rows, or when n > `max_train` on `max_train` rows
+/// conditions an exact GP on `data`'s rows: on all of them, or when n > `max_train` on `max_train` rows
 /// chosen by `subset` (random, or [`farthest_point`] with the fitted
-/// length-scales). The search starts as `start` says. `progress` is called
+/// length-scales). The search starts as `data.start` says. `progress` is called
 /// after every likelihood evaluation.
 pub fn fit_gp(
-    x: &[f64],
-    d: usize,
-    y: &[f64],
-    params: &Checked<GpParams>,
-    start: &Start,
+    data: &FitData<'_>,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(ExactGp, FitInfo), GpError> {
-    check_data(x, d, y)?;
-    let mut fit = Fitter::new(params, d, progress);
+    let (mut fit, FitData { x, d, y, start, .. }) = Fitter::checked(data, progress)?;
     let p = fit.p;
     let n = y.len();
     let (mut theta, mut cost) = fit.multistart(x, y, start)?;
@@ -395,9 +417,9 @@ pub fn fit_gp(
 }
 
 /// Fits a sparse VFE GP (Titsias 2009) with `inducing` = m inducing points
-/// to `x` (row-major n x d) and `y`, both standardised:
+/// to `data`'s rows:
 /// 1. start hyperparameters from the exact-GP multistart on `restart_subset`
-///    rows (from `start`);
+///    rows (from `data.start`);
 /// 2. inducing inputs by [`greedy_variance`] with them, among at most
 ///    `sparse_candidates` random rows;
 /// 3. L-BFGS on the VFE bound ([`neg_vfe_and_grad`]) over the
@@ -408,15 +430,10 @@ pub fn fit_gp(
 /// [`FitInfo::full_evaluations`] counts the VFE evaluations and
 /// [`FitInfo::neg_lml_per_sample`] is the final negative bound per sample.
 pub fn fit_sparse(
-    x: &[f64],
-    d: usize,
-    y: &[f64],
-    params: &Checked<GpParams>,
-    start: &Start,
+    data: &FitData<'_>,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(SparseGp, FitInfo), GpError> {
-    check_data(x, d, y)?;
-    let mut fit = Fitter::new(params, d, progress);
+    let (mut fit, FitData { x, d, y, start, .. }) = Fitter::checked(data, progress)?;
     let p = fit.p;
     let m = p.inducing.ok_or(GpError::InvalidParam {
         name: "inducing",

@@ -22,7 +22,7 @@ use crate::params::Checked;
 use crate::exit::{Classify, ExitClass};
 
 pub use exact::{ExactGp, ExactGpData, GpWorkspace};
-pub use fit::{fit_gp, fit_sparse, FitInfo, FitProgress, Start};
+pub use fit::{fit_gp, fit_sparse, FitData, FitInfo, FitProgress, Start};
 pub use kernel::{KernelKind, SeHyper};
 pub use mean::{LinearMean, MeanKind};
 pub use params::{GpParams, Subset};
@@ -88,25 +88,32 @@ impl Gp {
         params: &Checked<GpParams>,
         progress: &mut dyn FnMut(FitProgress),
     ) -> Result<(Gp, FitInfo), GpError> {
-        Self::fit_from(x, d, y, params, &Start::Multistart, progress)
+        let start = Start::Multistart;
+        Self::fit_from(
+            &FitData {
+                x,
+                d,
+                y,
+                params,
+                start: &start,
+            },
+            progress,
+        )
     }
 
-    /// [`Gp::fit`] with its hyperparameter search started as `start` says.
+    /// [`Gp::fit`] of `data`, its hyperparameter search started as
+    /// `data.start` says.
     pub fn fit_from(
-        x: &[f64],
-        d: usize,
-        y: &[f64],
-        params: &Checked<GpParams>,
-        start: &Start,
+        data: &FitData<'_>,
         progress: &mut dyn FnMut(FitProgress),
     ) -> Result<(Gp, FitInfo), GpError> {
-        Ok(match params.inducing {
+        Ok(match data.params.inducing {
             None => {
-                let (gp, info) = fit_gp(x, d, y, params, start, progress)?;
+                let (gp, info) = fit_gp(data, progress)?;
                 (Gp::Exact(gp), info)
             }
             Some(_) => {
-                let (gp, info) = fit_sparse(x, d, y, params, start, progress)?;
+                let (gp, info) = fit_sparse(data, progress)?;
                 (Gp::Sparse(gp), info)
             }
         })

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
 use super::gp::fit::FitProgress;
-use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace, SeHyper, Start};
+use super::gp::{FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, SeHyper, Start};
 use super::scale::{InputScaling, Standardizer};
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
@@ -254,7 +254,14 @@ impl WrenchGp {
                     .and_then(|w| w.get(j))
                     .filter(|h| h.lengthscales.len() == d)
                     .map_or(Start::Multistart, |h| Start::Warm(h.clone()));
-                let (gp, fit) = Gp::fit_from(&x, d, &y, params, &start, &mut report)?;
+                let data = FitData {
+                    x: &x,
+                    d,
+                    y: &y,
+                    params,
+                    start: &start,
+                };
+                let (gp, fit) = Gp::fit_from(&data, &mut report)?;
                 Ok(AxisModel {
                     axis,
                     target_mean: m,

@@ -4,6 +4,23 @@ use super::*;
 use crate::learn::models::gp::{Gp, GpWorkspace};
 use rand::Rng;
 
+/// A GP (exact or sparse, as `params` say) fitted to `x`, `y` from `start`;
+/// checks that the progress callback heard of every evaluation.
+fn fit_counted(x: &[f64], d: usize, y: &[f64], params: GpParams, start: &Start) -> (Gp, FitInfo) {
+    let params = params.validate().unwrap();
+    let data = FitData {
+        x,
+        d,
+        y,
+        params: &params,
+        start,
+    };
+    let mut calls = 0;
+    let (gp, info) = Gp::fit_from(&data, &mut |_| calls += 1).unwrap();
+    assert_eq!(calls, info.evaluations);
+    (gp, info)
+}
+
 #[test]
 fn fit_recovers_a_smooth_function_to_within_the_noise() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -18,13 +35,8 @@ fn fit_recovers_a_smooth_function_to_within_the_noise() {
         let params = GpParams {
             kernel,
             ..GpParams::default()
-        }
-        .validate()
-        .unwrap();
-        let mut calls = 0;
-        let (gp, info) =
-            fit_gp(&x, d, &y, &params, &Start::Multistart, &mut |_| calls += 1).unwrap();
-        assert_eq!(calls, info.evaluations);
+        };
+        let (gp, _) = fit_counted(&x, d, &y, params, &Start::Multistart);
         let mut ws = GpWorkspace::new(n, d);
         let test: Vec<f64> = (0..200 * d).map(|_| rng.random_range(-1.4..1.4)).collect();
         let mse = test
@@ -70,13 +82,11 @@ fn sparse_fit_recovers_a_smooth_function_to_within_the_noise() {
         kernel: KernelKind::Ard,
         inducing: Some(50),
         ..GpParams::default()
-    }
-    .validate()
-    .unwrap();
-    let mut calls = 0;
-    let (gp, info) =
-        fit_sparse(&x, d, &y, &params, &Start::Multistart, &mut |_| calls += 1).unwrap();
-    assert_eq!(calls, info.evaluations);
+    };
+    let (gp, info) = fit_counted(&x, d, &y, params, &Start::Multistart);
+    let Gp::Sparse(gp) = gp else {
+        panic!("inducing points make a sparse GP")
+    };
     assert!(info.full_evaluations > 0);
     assert_eq!((gp.n_inducing(), gp.n_fit()), (50, n));
     let (test, _) = smooth_data(300, d, 0.0, 12);
@@ -96,10 +106,10 @@ fn sparse_fit_recovers_a_smooth_function_to_within_the_noise() {
 #[test]
 fn a_warm_start_at_the_optimum_stays_there_in_fewer_evaluations() {
     let (x, y) = smooth_data(400, 3, 0.05, 17);
-    let params = GpParams::default().validate().unwrap();
-    let (cold, cold_info) = fit_gp(&x, 3, &y, &params, &Start::Multistart, &mut |_| {}).unwrap();
+    let params = GpParams::default();
+    let (cold, cold_info) = fit_counted(&x, 3, &y, params.clone(), &Start::Multistart);
     let warm_start = Start::Warm(cold.hyper().clone());
-    let (warm, warm_info) = fit_gp(&x, 3, &y, &params, &warm_start, &mut |_| {}).unwrap();
+    let (warm, warm_info) = fit_counted(&x, 3, &y, params, &warm_start);
     assert!(
         3 * warm_info.evaluations < cold_info.evaluations,
         "{warm_info:?} against {cold_info:?}"
@@ -127,11 +137,9 @@ fn exact_fit_keeps_max_train_rows_by_either_rule() {
             max_train: 300,
             subset,
             ..GpParams::default()
-        }
-        .validate()
-        .unwrap();
-        let (gp, _) = fit_gp(&x, d, &y, &params, &Start::Multistart, &mut |_| {}).unwrap();
-        assert_eq!(gp.n_train(), 300, "{subset:?}");
+        };
+        let (gp, _) = fit_counted(&x, d, &y, params, &Start::Multistart);
+        assert_eq!(gp.size(), 300, "{subset:?}");
         let (test, _) = smooth_data(100, d, 0.0, 14);
         let (mean, _) = gp.predict(&test, false);
         let rmse = (test
