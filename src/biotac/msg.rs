@@ -11,7 +11,9 @@
 
 use serde_json::{json, Value};
 
-use crate::biotac::reading::{Electrodes, MAX_ELECTRODES, N_ELECTRODES, N_PAC};
+use serde::de::DeserializeOwned;
+
+use crate::biotac::reading::{Electrodes, Pac, MAX_ELECTRODES, MAX_PAC, N_ELECTRODES, N_PAC};
 use crate::biotac::{BioTacReading, ADC_MAX};
 use crate::exit::{Classify, ExitClass};
 
@@ -37,6 +39,9 @@ pub enum BioTacMsgError {
     /// An electrode count no BioTac has.
     #[error("BioTac message: {0}")]
     Layout(#[from] crate::biotac::reading::LayoutError),
+    /// No PAC sample, or more than a BioTac SP's frame holds.
+    #[error("BioTac message: {0}")]
+    Pac(#[from] crate::biotac::reading::PacError),
     /// A count above the 12-bit range.
     #[error("BioTac message: `{field}` = {value} is above 4095")]
     Range {
@@ -100,35 +105,59 @@ pub fn to_json(r: &BioTacReading, meta: &BioTacMeta) -> Value {
     })
 }
 
-/// How a message's `electrodes` field is laid out: the sequence of today's
-/// `msg/msg/BioTac.msg`, or the fixed `uint16[19]` of messages recorded
-/// before the BioTac SP (their bags' schema says so).
+/// How a message's arrays are laid out: today's `msg/msg/BioTac.msg`
+/// (`uint16[] electrodes`, `uint16[] pac`), or a fixed array of messages
+/// recorded before it (their bags' schema says so): `uint16[19]
+/// electrodes` before the BioTac SP, `uint16[22] pac` before its 27 PAC
+/// samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ElectrodeField {
-    /// `uint16[] electrodes`: 19 or 24 values.
-    Sequence,
-    /// `uint16[19] electrodes`.
-    Fixed19,
+pub struct MsgLayout {
+    /// `electrodes`: a sequence, or fixed (`uint16[19]`).
+    pub electrodes: ArrayField,
+    /// `pac`: a sequence, or fixed (`uint16[22]`).
+    pub pac: ArrayField,
 }
 
-impl ElectrodeField {
+/// One array field of the message: a sequence (a length, then the values)
+/// or the older fixed array (the values only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ArrayField {
+    /// `uint16[]`.
+    Sequence,
+    /// `uint16[N]`: 19 electrodes, 22 PAC samples.
+    Fixed,
+}
+
+impl MsgLayout {
+    /// Today's message: both arrays sequences.
+    pub const CURRENT: MsgLayout = MsgLayout {
+        electrodes: ArrayField::Sequence,
+        pac: ArrayField::Sequence,
+    };
+
     /// The layout a message definition (a bag's schema text) declares.
     pub fn of_definition(definition: &str) -> Self {
-        let fixed = definition.lines().any(|l| {
-            let code = l.split('#').next().unwrap_or("");
-            code.split_whitespace().eq(["uint16[19]", "electrodes"])
-        });
-        match fixed {
-            true => ElectrodeField::Fixed19,
-            false => ElectrodeField::Sequence,
+        let declares = |field: [&str; 2]| {
+            definition.lines().any(|l| {
+                let code = l.split('#').next().unwrap_or("");
+                code.split_whitespace().eq(field)
+            })
+        };
+        let field = |fixed| match declares(fixed) {
+            true => ArrayField::Fixed,
+            false => ArrayField::Sequence,
+        };
+        MsgLayout {
+            electrodes: field(["uint16[19]", "electrodes"]),
+            pac: field(["uint16[22]", "pac"]),
         }
     }
 }
 
 /// The message's fields in CDR order (`msg/msg/BioTac.msg`), electrodes
-/// as `E` (a sequence, or the older fixed array).
+/// as `E` and PAC as `P` (a sequence, or an older fixed array).
 #[derive(serde::Serialize, serde::Deserialize)]
-struct CdrBioTac<E> {
+struct CdrBioTac<E, P> {
     sec: i32,
     nanosec: u32,
     frame_id: String,
@@ -137,7 +166,7 @@ struct CdrBioTac<E> {
     seq: u16,
     electrodes: E,
     pdc: u16,
-    pac: [u16; N_PAC],
+    pac: P,
     tdc: u16,
     tac: u16,
     invalid_channels: Vec<String>,
@@ -211,7 +240,7 @@ impl<'a> CdrLengths<'a> {
 
 /// Checks every string and sequence length of a BioTac message in `bytes`
 /// ([`CdrLengths`]).
-fn check_lengths(bytes: &[u8], field: ElectrodeField) -> Result<(), BioTacMsgError> {
+fn check_lengths(bytes: &[u8], layout: MsgLayout) -> Result<(), BioTacMsgError> {
     let walk = || -> Result<(), &'static str> {
         let mut cdr = CdrLengths::new(bytes)?;
         cdr.skip(4, 8); // stamp: sec, nanosec
@@ -219,14 +248,22 @@ fn check_lengths(bytes: &[u8], field: ElectrodeField) -> Result<(), BioTacMsgErr
         cdr.string()?; // serial
         cdr.skip(1, 1); // sensor_index
         cdr.skip(2, 2); // seq
-        let electrodes = match field {
-            ElectrodeField::Fixed19 => N_ELECTRODES,
-            ElectrodeField::Sequence => cdr.length()?,
+        let electrodes = match layout.electrodes {
+            ArrayField::Fixed => N_ELECTRODES,
+            ArrayField::Sequence => cdr.length()?,
         };
         if electrodes > MAX_ELECTRODES {
             return Err("more electrodes than a BioTac SP has");
         }
-        cdr.skip(2, 2 * (electrodes + 1 + N_PAC + 2)); // electrodes .. tac
+        cdr.skip(2, 2 * (electrodes + 1)); // electrodes, pdc
+        let pac = match layout.pac {
+            ArrayField::Fixed => N_PAC,
+            ArrayField::Sequence => cdr.length()?,
+        };
+        if pac > MAX_PAC {
+            return Err("more PAC samples than a BioTac SP's frame has");
+        }
+        cdr.skip(2, 2 * (pac + 2)); // pac, tdc, tac
         let channels = cdr.length()?;
         // Each name takes at least its 4-byte length.
         if channels > cdr.left() / 4 {
@@ -239,31 +276,26 @@ fn check_lengths(bytes: &[u8], field: ElectrodeField) -> Result<(), BioTacMsgErr
 
 /// The reading in a serialized message (CDR, with its encapsulation
 /// header, as DDS delivers it); refuses bytes that do not decode, stamps
-/// that are not times, an electrode count no BioTac has and counts above
-/// 4095.
+/// that are not times, an electrode or PAC count no BioTac has and counts
+/// above 4095.
 pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
-    from_cdr_as(bytes, ElectrodeField::Sequence)
+    from_cdr_as(bytes, MsgLayout::CURRENT)
 }
 
-/// [`from_cdr`] for a message whose electrodes are laid out as `field`.
+/// [`from_cdr`] for a message whose arrays are laid out as `layout`.
 pub fn from_cdr_as(
     bytes: &[u8],
-    field: ElectrodeField,
+    layout: MsgLayout,
 ) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
-    check_lengths(bytes, field)?;
-    let cdr_error = |e: cdr::Error| BioTacMsgError::Cdr(e.to_string());
-    let m: CdrBioTac<Electrodes> = match field {
-        ElectrodeField::Sequence => {
-            let m: CdrBioTac<Vec<u16>> = cdr::deserialize(bytes).map_err(cdr_error)?;
-            let electrodes = Electrodes::from_slice(&m.electrodes)?;
-            m.with_electrodes(electrodes)
-        }
-        ElectrodeField::Fixed19 => {
-            let m: CdrBioTac<[u16; N_ELECTRODES]> = cdr::deserialize(bytes).map_err(cdr_error)?;
-            let electrodes = m.electrodes.into();
-            m.with_electrodes(electrodes)
-        }
-    };
+    use ArrayField::{Fixed, Sequence};
+    check_lengths(bytes, layout)?;
+    type Vec16 = Vec<u16>;
+    let m = match (layout.electrodes, layout.pac) {
+        (Sequence, Sequence) => decode::<Vec16, Vec16>(bytes),
+        (Sequence, Fixed) => decode::<Vec16, [u16; N_PAC]>(bytes),
+        (Fixed, Sequence) => decode::<[u16; N_ELECTRODES], Vec16>(bytes),
+        (Fixed, Fixed) => decode::<[u16; N_ELECTRODES], [u16; N_PAC]>(bytes),
+    }?;
     if m.sec < 0 || m.nanosec >= 1_000_000_000 {
         return Err(BioTacMsgError::Stamp {
             sec: m.sec,
@@ -300,6 +332,20 @@ pub fn from_cdr_as(
     Ok((reading, meta))
 }
 
+/// The message's fields with its arrays read as `E` and `P` (a sequence or
+/// a fixed array), then checked as a reading's.
+fn decode<E, P>(bytes: &[u8]) -> Result<CdrBioTac<Electrodes, Pac>, BioTacMsgError>
+where
+    E: DeserializeOwned + AsRef<[u16]>,
+    P: DeserializeOwned + AsRef<[u16]>,
+{
+    let m: CdrBioTac<E, P> =
+        cdr::deserialize(bytes).map_err(|e| BioTacMsgError::Cdr(e.to_string()))?;
+    let electrodes = Electrodes::from_slice(m.electrodes.as_ref())?;
+    let pac = Pac::from_slice(m.pac.as_ref())?;
+    Ok(m.with_arrays(electrodes, pac))
+}
+
 /// A reading as a serialized message (little-endian CDR with its
 /// encapsulation header), as DDS sends it and rosbag2 records it.
 pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
@@ -307,9 +353,9 @@ pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
         .expect("CDR of a BioTac message")
 }
 
-impl<E> CdrBioTac<E> {
-    /// The same fields with `electrodes`.
-    fn with_electrodes<F>(self, electrodes: F) -> CdrBioTac<F> {
+impl<E, P> CdrBioTac<E, P> {
+    /// The same fields with `electrodes` and `pac`.
+    fn with_arrays<F, Q>(self, electrodes: F, pac: Q) -> CdrBioTac<F, Q> {
         CdrBioTac {
             sec: self.sec,
             nanosec: self.nanosec,
@@ -319,7 +365,7 @@ impl<E> CdrBioTac<E> {
             seq: self.seq,
             electrodes,
             pdc: self.pdc,
-            pac: self.pac,
+            pac,
             tdc: self.tdc,
             tac: self.tac,
             invalid_channels: self.invalid_channels,
@@ -327,7 +373,7 @@ impl<E> CdrBioTac<E> {
     }
 }
 
-impl CdrBioTac<Vec<u16>> {
+impl CdrBioTac<Vec<u16>, Vec<u16>> {
     /// The message's fields for `r` and `meta`.
     fn new(r: &BioTacReading, meta: &BioTacMeta) -> Self {
         let (sec, nanosec) = split_stamp(r.stamp_s);
@@ -340,7 +386,7 @@ impl CdrBioTac<Vec<u16>> {
             seq: r.seq,
             electrodes: r.electrodes.to_vec(),
             pdc: r.pdc,
-            pac: r.pac,
+            pac: r.pac.to_vec(),
             tdc: r.tdc,
             tac: r.tac,
             invalid_channels: meta.invalid_channels.clone(),
@@ -379,7 +425,7 @@ mod tests {
             stamp_s: 12.25,
             electrodes: std::array::from_fn::<u16, 19, _>(|i| 100 * i as u16 + 7).into(),
             pdc: 2000,
-            pac: std::array::from_fn(|i| 2048 + i as u16),
+            pac: std::array::from_fn::<u16, N_PAC, _>(|i| 2048 + i as u16).into(),
             tdc: 1800,
             tac: 4095,
         }
@@ -393,7 +439,8 @@ mod tests {
             sensor_index: 2,
             invalid_channels: vec!["e3".into(), "pac7".into()],
         };
-        let v = to_json(&reading(), &meta);
+        let r = reading();
+        let v = to_json(&r, &meta);
         let obj = v.as_object().unwrap();
         let fields = msg_fields();
         assert_eq!(obj.len(), fields.len(), "{obj:?} vs {fields:?}");
@@ -411,16 +458,19 @@ mod tests {
                 "uint16" => assert!(x.as_u64().unwrap() <= u16::MAX as u64, "{name}"),
                 "uint16[]" => {
                     let a = x.as_array().unwrap();
-                    assert_eq!(len.unwrap_or(N_ELECTRODES), a.len(), "{name}");
+                    let n = [("electrodes", r.electrodes.len()), ("pac", r.pac.len())];
+                    let n = n.iter().find(|f| f.0 == name).map(|f| f.1);
+                    assert_eq!(len.or(n), Some(a.len()), "{name}");
                     assert!(a.iter().all(|e| e.as_u64().unwrap() <= 4095), "{name}");
                 }
                 "string[]" => assert!(x.as_array().unwrap().iter().all(Value::is_string)),
                 other => panic!("field {name}: type {other} not handled"),
             }
         }
-        // A sequence: 19 electrodes, or 24 from a BioTac SP.
+        // Sequences: 19 electrodes and 22 PAC samples, or 24 and 27 from a
+        // BioTac SP.
         assert_eq!(fields.iter().find(|f| f.0 == "electrodes").unwrap().2, None);
-        assert_eq!(fields.iter().find(|f| f.0 == "pac").unwrap().2, Some(N_PAC));
+        assert_eq!(fields.iter().find(|f| f.0 == "pac").unwrap().2, None);
     }
 
     #[test]
@@ -454,10 +504,21 @@ mod tests {
         // Big-endian CDR decodes too.
         let be = cdr::serialize::<_, _, cdr::CdrBe>(&m, cdr::Infinite).unwrap();
         assert_eq!(from_cdr(&be).unwrap().0, r);
-        // 24 electrodes: a BioTac SP's; 20 are no sensor's.
+        // 24 electrodes and 27 PAC samples: a BioTac SP's; 20 are no
+        // sensor's, nor are 28 PAC samples.
         let mut sp = r;
         sp.electrodes = Electrodes::from_slice(&[3000; MAX_ELECTRODES]).unwrap();
+        sp.pac = Pac::from_slice(&[2047; MAX_PAC]).unwrap();
         assert_eq!(from_cdr(&to_cdr(&sp, &meta)).unwrap().0, sp);
+        let mut long = CdrBioTac::new(&r, &meta);
+        long.pac = vec![2047; MAX_PAC + 1];
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&long, cdr::Infinite).unwrap();
+        let err = from_cdr(&bytes).unwrap_err().to_string();
+        assert!(err.contains("more PAC samples than a BioTac SP's"), "{err}");
+        long.pac = vec![];
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&long, cdr::Infinite).unwrap();
+        let err = from_cdr(&bytes).unwrap_err().to_string();
+        assert!(err.contains("0 PAC samples"), "{err}");
         let mut odd = CdrBioTac::new(&r, &meta);
         odd.electrodes = vec![3000; 20];
         let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&odd, cdr::Infinite).unwrap();
@@ -493,7 +554,7 @@ mod tests {
             seq: 0,
             electrodes: vec![0u16; N_ELECTRODES],
             pdc: 0,
-            pac: [0; N_PAC],
+            pac: vec![0u16; N_PAC],
             tdc: 0,
             tac: 0,
             invalid_channels: vec![],
@@ -516,19 +577,31 @@ mod tests {
     }
 
     #[test]
-    fn messages_recorded_with_the_fixed_19_electrode_array_decode() {
-        let old = "std_msgs/Header header\nuint16 seq\nuint16[19] electrodes  # E1..E19\n";
-        assert_eq!(ElectrodeField::of_definition(old), ElectrodeField::Fixed19);
+    fn messages_recorded_with_the_older_fixed_arrays_decode() {
+        use ArrayField::{Fixed, Sequence};
         let today = include_str!("../../msg/msg/BioTac.msg");
-        assert_eq!(
-            ElectrodeField::of_definition(today),
-            ElectrodeField::Sequence
-        );
+        assert_eq!(MsgLayout::of_definition(today), MsgLayout::CURRENT);
         let r = reading();
         let m = CdrBioTac::new(&r, &BioTacMeta::default());
-        let fixed = m.with_electrodes(<[u16; N_ELECTRODES]>::try_from(&r.electrodes[..]).unwrap());
+        let electrodes = <[u16; N_ELECTRODES]>::try_from(&r.electrodes[..]).unwrap();
+        let pac = <[u16; N_PAC]>::try_from(&r.pac[..]).unwrap();
+        // Before the BioTac SP: both fixed. Then a sequence of electrodes
+        // with the fixed 22 PAC samples.
+        let before_sp =
+            "uint16 seq\nuint16[19] electrodes  # E1..E19\nuint16 pdc\nuint16[22] pac\n";
+        let before_27 = "uint16 seq\nuint16[] electrodes\nuint16 pdc\nuint16[22] pac # 2200 Hz\n";
+        let fixed = m.with_arrays(electrodes, pac);
         let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&fixed, cdr::Infinite).unwrap();
-        assert_eq!(from_cdr_as(&bytes, ElectrodeField::Fixed19).unwrap().0, r);
-        assert!(from_cdr(&bytes).is_err(), "not a sequence");
+        let layout = MsgLayout::of_definition(before_sp);
+        assert_eq!((layout.electrodes, layout.pac), (Fixed, Fixed));
+        assert_eq!(from_cdr_as(&bytes, layout).unwrap().0, r);
+        assert!(from_cdr(&bytes).is_err(), "not sequences");
+        let m = CdrBioTac::new(&r, &BioTacMeta::default());
+        let fixed_pac = m.with_arrays(r.electrodes.to_vec(), pac);
+        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&fixed_pac, cdr::Infinite).unwrap();
+        let layout = MsgLayout::of_definition(before_27);
+        assert_eq!((layout.electrodes, layout.pac), (Sequence, Fixed));
+        assert_eq!(from_cdr_as(&bytes, layout).unwrap().0, r);
+        assert!(from_cdr(&bytes).is_err(), "no PAC sequence");
     }
 }

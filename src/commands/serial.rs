@@ -231,7 +231,7 @@ fn frame_json(f: &DecodedFrame) -> serde_json::Value {
         "pac": r.pac,
         "tdc": r.tdc,
         "tac": r.tac,
-        "invalid": f.invalid.names().collect::<Vec<_>>(),
+        "invalid": f.invalid_names().collect::<Vec<_>>(),
     })
 }
 
@@ -254,7 +254,7 @@ fn show_frame(bar: &ProgressBar, f: &DecodedFrame, s: &LinkStats) {
         .chunks(10)
         .map(|row| row.iter().map(|v| format!("{v:5}")).collect::<String>())
         .collect();
-    let invalid: Vec<&str> = f.invalid.names().collect();
+    let invalid: Vec<String> = f.invalid_names().collect();
     bar.set_message(format!(
         "sensor {} seq {:5}\nE1-E10 {}\nE11-19 {}\nPDC {:5}  TDC {:5}  TAC {:5}  invalid: {}\n\
          link: {:.0} frames/s, {} CRC errors, {} invalid samples, {} lost, {} dropped",

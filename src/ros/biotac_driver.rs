@@ -160,7 +160,7 @@ pub async fn run() -> Result<(), RosError> {
                             frame_id: frame_id.clone(),
                             serial: serial.clone(),
                             sensor_index: frame.sensor,
-                            invalid_channels: frame.invalid.names().map(str::to_string).collect(),
+                            invalid_channels: frame.invalid_names().collect(),
                         };
                         if let Err(e) = readings.publish(biotac_msg::to_json(&r, &meta)) {
                             tracing::warn!("biotac/readings: {e}");
