@@ -25,7 +25,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::driver::{FrameSource, LinkError};
+use super::driver::{Driver, DriverConfig, FrameSource, LinkError};
 use super::spi::{self, BatchPlan, SensorModel, SpiOp, BITRATE_KHZ, BOARD_SLOTS};
 use super::wire::{DecodedFrame, DecoderStats};
 use crate::exit::{Classify, ExitClass};
@@ -256,6 +256,16 @@ impl CheetahSource {
             serials: Default::default(),
             stats: DecoderStats::default(),
         }
+    }
+
+    /// The driver on this source, stale after three of its sensor's frames
+    /// (30 ms; 37 ms for a BioTac SP's longer frame).
+    pub fn into_driver(self) -> Driver {
+        let config = DriverConfig {
+            stale_after_s: 3.0 * self.config.model.frame_period_s(),
+            ..DriverConfig::new("")
+        };
+        Driver::with_source(config, Box::new(self))
     }
 
     /// The serial numbers the BioTacs answered at the last open, by board

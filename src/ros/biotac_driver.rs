@@ -78,8 +78,7 @@ pub async fn run() -> Result<(), RosError> {
             let config =
                 CheetahConfig::from_settings(&cheetah, &library, &slots, electrodes as usize)
                     .map_err(|e| invalid("cheetah", cheetah.clone(), &e))?;
-            let source = Box::new(CheetahSource::new(config));
-            Driver::with_source(DriverConfig::new(""), source)
+            CheetahSource::new(config).into_driver()
         }
         other => return Err(invalid_interface(other).into()),
     };

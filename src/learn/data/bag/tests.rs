@@ -1,7 +1,7 @@
 //! Bags: written and read back, pairing, and the errors that name their place.
 
 use super::*;
-use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
+use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta, CdrBioTac};
 use crate::biotac::{N_ELECTRODES, N_PAC};
 use crate::exit::{Classify, ExitClass};
 use std::io::{Cursor, Write};
@@ -482,42 +482,21 @@ mod props {
     }
 }
 
-/// `tactile_force_msgs/BioTac` as bags recorded before PAC became a
-/// sequence hold it: `uint16[22] pac`, electrodes `E` (`uint16[19]` before
-/// the BioTac SP, then `uint16[]`).
-#[derive(serde::Serialize)]
-struct OldBioTac<E> {
-    sec: i32,
-    nanosec: u32,
-    frame_id: String,
-    serial: String,
-    sensor_index: u8,
-    seq: u16,
-    electrodes: E,
-    pdc: u16,
-    pac: [u16; N_PAC],
-    tdc: u16,
-    tac: u16,
-    invalid_channels: Vec<String>,
-}
-
-/// An old message of reading `i` at `t` (PAC 2000 + k + i).
+/// Reading `i` at `t` (PAC 2000 + k + i) as bags recorded before PAC
+/// became a sequence hold it: `uint16[22] pac`, electrodes as `E`
+/// (`uint16[19]` before the BioTac SP, then `uint16[]`).
 fn old_cdr<E: serde::Serialize>(t: f64, i: u16, electrodes: E) -> Vec<u8> {
-    let (sec, nanosec) = split_stamp(t);
-    let m = OldBioTac {
-        sec,
-        nanosec,
-        frame_id: "biotac".into(),
-        serial: String::new(),
-        sensor_index: 0,
+    let pac: [u16; N_PAC] = std::array::from_fn(|k| 2000 + k as u16 + i);
+    let r = BioTacReading {
         seq: i,
-        electrodes,
+        stamp_s: t,
+        electrodes: [3000; N_ELECTRODES].into(),
         pdc: 2100,
-        pac: std::array::from_fn(|k| 2000 + k as u16 + i),
+        pac: pac.into(),
         tdc: 1800,
         tac: 2000,
-        invalid_channels: vec![],
     };
+    let m = CdrBioTac::new(&r, &BioTacMeta::default()).with_arrays(electrodes, pac);
     cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap()
 }
 
