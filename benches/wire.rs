@@ -44,7 +44,7 @@ fn valid_stream(rng: &mut ChaCha8Rng) -> Vec<u8> {
                 stamp_s: 0.0,
                 electrodes: std::array::from_fn::<u16, 19, _>(|_| value()).into(),
                 pdc: value(),
-                pac: std::array::from_fn(|_| value()),
+                pac: std::array::from_fn::<u16, 22, _>(|_| value()).into(),
                 tdc: value(),
                 tac: value(),
             };

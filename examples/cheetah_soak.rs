@@ -1,8 +1,8 @@
 //! The Cheetah backend's soak run against the test double of Total Phase's
 //! library (tests/cheetah_double, built here with `cc`): three BioTacs at
-//! 100 Hz for `--duration-s` seconds (default 600), every reading checked
-//! bit for bit against what the double sent, with faults injected on a
-//! fixed schedule:
+//! 100 Hz (or, with `--electrodes 24`, three BioTac SPs at 81.5 Hz) for
+//! `--duration-s` seconds (default 600), every reading checked bit for bit
+//! against what the double sent, with faults injected on a fixed schedule:
 //!
 //! - a parity error in every 997th response word, all along;
 //! - each minute at 20 s: the adapter unplugged for 2 s, then plugged back
@@ -14,7 +14,7 @@
 //! reconnect took 1 s or more.
 //!
 //! ```text
-//! cargo run --release --example cheetah_soak -- --duration-s 600
+//! cargo run --release --example cheetah_soak -- --duration-s 600 [--electrodes 24]
 //! ```
 
 #[path = "../tests/cheetah_double/mod.rs"]
@@ -24,7 +24,8 @@ use std::time::{Duration, Instant};
 
 use cheetah_double::{Checker, Double};
 use tactile_force::biotac::cheetah::{AdapterId, CheetahConfig, CheetahSource};
-use tactile_force::biotac::driver::{Driver, DriverConfig, DriverEvent};
+use tactile_force::biotac::driver::DriverEvent;
+use tactile_force::biotac::spi::SensorModel;
 
 const PARITY_EVERY: i64 = 997;
 const UNPLUG_AT_S: f64 = 20.0;
@@ -34,12 +35,16 @@ const MISSING_FOR_S: f64 = 3.0;
 
 fn main() -> std::process::ExitCode {
     let args: Vec<String> = std::env::args().collect();
-    let duration_s = args
-        .iter()
-        .position(|a| a == "--duration-s")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .unwrap_or(600.0);
+    let arg = |name: &str| {
+        let at = args.iter().position(|a| a == name)?;
+        args.get(at + 1)?.parse::<f64>().ok()
+    };
+    let duration_s = arg("--duration-s").unwrap_or(600.0);
+    let electrodes = arg("--electrodes").unwrap_or(19.0) as usize;
+    let Some(model) = SensorModel::from_electrodes(electrodes) else {
+        eprintln!("--electrodes {electrodes}: a BioTac has 19, a BioTac SP 24");
+        return std::process::ExitCode::from(2);
+    };
     let dir = std::env::temp_dir().join(format!("cheetah-soak-{}", std::process::id()));
     let double = match Double::build(&dir) {
         Ok(d) => d,
@@ -50,10 +55,11 @@ fn main() -> std::process::ExitCode {
     };
     let config = CheetahConfig {
         library: Some(double.path().to_path_buf()),
+        model,
         ..CheetahConfig::new(AdapterId::Port(0))
     };
-    let mut driver =
-        Driver::with_source(DriverConfig::new(""), Box::new(CheetahSource::new(config)));
+    let mut driver = CheetahSource::new(config).into_driver();
+    double.control("electrodes", electrodes as i64);
     double.control("parity_every", PARITY_EVERY);
 
     let mut checker = Checker::default();
@@ -118,7 +124,11 @@ fn main() -> std::process::ExitCode {
     let mean_reconnect =
         reconnects.iter().map(Duration::as_secs_f64).sum::<f64>() / reconnects.len().max(1) as f64;
 
-    println!("Cheetah double, 3 BioTacs, {elapsed:.1} s ({connected_s:.1} s connected)");
+    let sensor = match model {
+        SensorModel::BioTac => "BioTacs",
+        SensorModel::BioTacSp => "BioTac SPs",
+    };
+    println!("Cheetah double, 3 {sensor}, {elapsed:.1} s ({connected_s:.1} s connected)");
     for (s, t) in sensors.iter().enumerate() {
         println!(
             "  sensor {s}: {} frames ({:.2} per connected second), {} readings, {} dropped, \
@@ -138,9 +148,10 @@ fn main() -> std::process::ExitCode {
         stats.decoder.parity_errors
     );
     println!(
-        "  invalid words beyond the injected parity faults: {} (sensor 1's 44 per frame while \
+        "  invalid words beyond the injected parity faults: {} (sensor 1's {} per frame while \
          it was gone)",
-        invalid.saturating_sub(injected)
+        invalid.saturating_sub(injected),
+        model.frame_words()
     );
     println!(
         "  readings dropped: {dropped} (driver's count {})",
@@ -154,14 +165,18 @@ fn main() -> std::process::ExitCode {
         mean_reconnect,
         max_reconnect.as_secs_f64()
     );
+    let out_of_order = double.stat("out_of_order");
+    println!("  sampling commands out of the sensor's default order: {out_of_order}");
     let ok = failed.is_none()
         && mismatches == 0
+        && out_of_order == 0
         && stats.decoder.parity_errors == invalid
         && dropped == stats.dropped
         && max_reconnect < Duration::from_secs(1);
     println!(
         "{}",
         serde_json::json!({
+            "electrodes": electrodes,
             "duration_s": elapsed,
             "connected_s": connected_s,
             "frames": sensors.iter().map(|t| t.frames).collect::<Vec<_>>(),

@@ -1,9 +1,10 @@
 //! The Cheetah backend against a test double of Total Phase's library
 //! (tests/cheetah_double): three BioTacs at 100 Hz read bit-exactly,
 //! parity faults held or dropped and counted, a BioTac missing from the
-//! board, the adapter unplugged and plugged back, a BioTac SP refused at the
-//! one reading function, a missing library. A few seconds in all; the
-//! 10-minute run is examples/cheetah_soak.rs.
+//! board, the adapter unplugged and plugged back, one to three BioTac SPs
+//! (24 electrodes, 27 PAC samples a frame) read bit-exactly with their
+//! parity faults, a missing library. A few seconds in all; the 10-minute
+//! run is examples/cheetah_soak.rs.
 
 #[path = "cheetah_double/mod.rs"]
 mod cheetah_double;
@@ -16,6 +17,7 @@ use cheetah_double::{Checker, Double};
 use tactile_force::biotac::cheetah::{AdapterId, CheetahConfig, CheetahSource};
 use tactile_force::biotac::driver::{Driver, DriverConfig, DriverEvent, LinkStats};
 use tactile_force::biotac::spi::SensorModel;
+use tactile_force::biotac::ElectrodeLayout;
 
 fn dir(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
@@ -30,8 +32,7 @@ fn driver(double: &Double, sensors: Option<Vec<u8>>, model: SensorModel) -> Driv
         model,
         ..CheetahConfig::new(AdapterId::Port(0))
     };
-    let source = CheetahSource::new(config);
-    Driver::with_source(DriverConfig::new("cheetah"), Box::new(source))
+    CheetahSource::new(config).into_driver()
 }
 
 /// What a run saw.
@@ -211,18 +212,81 @@ fn an_unplugged_adapter_reconnects_within_a_second_of_replugging() {
 }
 
 #[test]
-fn a_biotac_sp_is_refused_at_the_reading_function() {
+fn biotac_sps_read_bit_exactly_with_parity_faults_dropped_and_counted() {
     let double = Double::build(&dir("sp")).unwrap();
+    double.control("electrodes", 24);
+    // Three SPs: clean, then every 97th word and every 162nd (3 x 54: the
+    // same channel of one SP every frame, so its readings are dropped).
     let mut d = driver(&double, None, SensorModel::BioTacSp);
     let mut r = Run::default();
-    run(&mut d, &mut r, 2.0, |_| {});
-    assert!(d.failed());
-    assert_eq!(r.failed.len(), 1);
-    assert!(
-        r.failed[0].contains("27 PAC samples in a frame, a reading holds 22"),
-        "{}",
-        r.failed[0]
+    run(&mut d, &mut r, 1.2, |_| {});
+    let clean = r.checker.sensors;
+    double.control("parity_every", 97);
+    run(&mut d, &mut r, 0.8, |_| {});
+    double.control("parity_every", 162);
+    run(&mut d, &mut r, 0.6, |_| {});
+    double.control("parity_every", 0);
+    run(&mut d, &mut r, 0.2, |_| {});
+    assert!(r.failed.is_empty(), "{:?}", r.failed);
+    let stats = r.stats.unwrap();
+    // 4400 words/s over 54-word frames: 81.5 frames/s per SP.
+    let per_sp = stats.frames_per_s / 3.0;
+    assert!((70.0..=88.0).contains(&per_sp), "{per_sp} frames/s");
+    for (s, t) in clean.iter().enumerate() {
+        assert!(t.frames >= 40, "sensor {s}: {t:?}");
+        assert_eq!((t.readings, t.invalid), (t.frames, 0), "sensor {s}: {t:?}");
+    }
+    let injected = double.stat("parity_injected") as u64;
+    let seen: u64 = r.checker.sensors.iter().map(|t| t.invalid).sum();
+    assert!(injected > 100, "{injected}");
+    assert_eq!(
+        (d.stats().decoder.parity_errors, seen),
+        (injected, injected)
     );
+    let dropped: u64 = r.checker.sensors.iter().map(|t| t.dropped).sum();
+    assert!(dropped >= 30, "{:?}", r.checker.sensors);
+    assert_eq!(d.stats().dropped, dropped);
+    for t in &r.checker.sensors {
+        assert_eq!((t.mismatches, t.gaps, t.unverified), (0, 0, 0), "{t:?}");
+        assert_eq!(t.readings + t.dropped, t.frames, "{t:?}");
+    }
+    assert_eq!(double.stat("out_of_order"), 0, "the SP's sampling order");
+    drop(d);
+
+    // One SP, at board position 1; its readings hold 24 electrodes and 27
+    // PAC samples.
+    let mut d = driver(&double, Some(vec![1]), SensorModel::BioTacSp);
+    let mut layouts = Vec::new();
+    let start = Instant::now();
+    let mut checker = Checker::default();
+    while start.elapsed() < Duration::from_secs_f64(0.6) {
+        d.poll(&mut |e| {
+            if let DriverEvent::Frame { frame, reading } = e {
+                checker.check(&frame, reading.as_ref());
+                let r = reading.unwrap();
+                layouts.push((r.electrodes.layout(), r.pac.len()));
+            }
+        });
+    }
+    assert!(layouts.len() > 30, "{}", layouts.len());
+    assert!(layouts
+        .iter()
+        .all(|l| *l == (ElectrodeLayout::BiotacSp, 27)));
+    let [zero, one, two] = checker.sensors;
+    assert_eq!((zero.frames, two.frames, one.mismatches), (0, 0, 0));
+    assert_eq!(one.readings, one.frames);
+    drop(d);
+
+    // BioTacs read as SPs: their E20..E24 answer SynTouch's error word, so
+    // no frame makes a reading, and every one is counted.
+    double.control("electrodes", 19);
+    let mut d = driver(&double, Some(vec![0]), SensorModel::BioTacSp);
+    let mut r = Run::default();
+    run(&mut d, &mut r, 0.5, |_| {});
+    let t = r.checker.sensors[0];
+    assert!(t.frames > 20 && t.readings == 0, "{t:?}");
+    assert_eq!(t.invalid, 5 * t.frames);
+    assert_eq!(d.stats().dropped, t.frames);
 }
 
 #[test]
@@ -266,11 +330,34 @@ fn biotac_monitor_reads_the_cheetah() {
     let first = &lines[0];
     let sensor = first["sensor"].as_u64().unwrap() as u8;
     let k = first["tdc"].as_u64().unwrap() as u32;
-    let want = cheetah_double::frame_values(sensor, k);
+    let want = cheetah_double::frame_values(sensor, k, 19);
     let electrodes: Vec<u16> = serde_json::from_value(first["electrodes"].clone()).unwrap();
     let got: Vec<u16> = (0..19).map(|i| want[2 * i]).collect();
     assert_eq!(electrodes, got);
+    assert_eq!(first["pac"].as_array().unwrap().len(), 22);
     assert!(lines[30]["stats"]["frames"].as_u64().unwrap() >= 30);
+
+    // A board of BioTac SPs: every electrode and PAC sample printed.
+    let sp = Command::new(exe)
+        .env("CHEETAH_DOUBLE_ELECTRODES", "24")
+        .args(["biotac-monitor", "--cheetah", "0", "--electrodes", "24"])
+        .arg("--cheetah-lib")
+        .arg(double.path())
+        .args(["--frames", "3", "--jsonl"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&sp.stdout);
+    assert!(sp.status.success(), "{text}");
+    let first: serde_json::Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
+    let (sensor, k) = (
+        first["sensor"].as_u64().unwrap() as u8,
+        first["tdc"].as_u64().unwrap(),
+    );
+    let want = cheetah_double::frame_values(sensor, k as u32, 24);
+    let pac: Vec<u16> = serde_json::from_value(first["pac"].clone()).unwrap();
+    let got: Vec<u16> = (0..27).map(|i| want[2 * i + 1]).collect();
+    assert_eq!(pac, got);
+    assert_eq!(first["electrodes"].as_array().unwrap().len(), 24);
 
     let missing = Command::new(exe)
         .args(["biotac-monitor", "--cheetah", "0", "--cheetah-lib"])

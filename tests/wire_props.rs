@@ -50,7 +50,7 @@ fn reading() -> impl Strategy<Value = BioTacReading> {
                 stamp_s,
                 electrodes: electrodes.into(),
                 pdc,
-                pac,
+                pac: pac.into(),
                 tdc,
                 tac,
             },
@@ -225,7 +225,7 @@ fn push_allocates_nothing() {
         stamp_s: 0.0,
         electrodes: [2000; 19].into(),
         pdc: 1500,
-        pac: [2048; 22],
+        pac: [2048; 22].into(),
         tdc: 2600,
         tac: 2040,
     };

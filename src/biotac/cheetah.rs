@@ -25,8 +25,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::driver::{FrameSource, LinkError};
-use super::spi::{self, BatchPlan, LayoutError, SensorModel, SpiOp, BITRATE_KHZ, BOARD_SLOTS};
+use super::driver::{Driver, DriverConfig, FrameSource, LinkError};
+use super::spi::{self, BatchPlan, SensorModel, SpiOp, BITRATE_KHZ, BOARD_SLOTS};
 use super::wire::{DecodedFrame, DecoderStats};
 use crate::exit::{Classify, ExitClass};
 
@@ -193,9 +193,6 @@ pub enum CheetahError {
     /// A board position or batch that cannot be planned.
     #[error(transparent)]
     Plan(#[from] spi::PlanError),
-    /// A sensor the reading type cannot hold.
-    #[error(transparent)]
-    Layout(#[from] LayoutError),
 }
 
 impl CheetahError {
@@ -205,7 +202,7 @@ impl CheetahError {
     }
 }
 
-/// A missing or wrong library, a bad id, plan or layout: refused input;
+/// A missing or wrong library, a bad id or plan: refused input;
 /// the adapter failing at run time: the work failed.
 impl Classify for CheetahError {
     fn class(&self) -> ExitClass {
@@ -215,8 +212,7 @@ impl Classify for CheetahError {
             | CheetahError::MissingFunction { .. }
             | CheetahError::Adapter(_)
             | CheetahError::Electrodes(_)
-            | CheetahError::Plan(_)
-            | CheetahError::Layout(_) => ExitClass::Refused,
+            | CheetahError::Plan(_) => ExitClass::Refused,
             _ => ExitClass::Failure,
         }
     }
@@ -260,6 +256,16 @@ impl CheetahSource {
             serials: Default::default(),
             stats: DecoderStats::default(),
         }
+    }
+
+    /// The driver on this source, stale after three of its sensor's frames
+    /// (30 ms; 37 ms for a BioTac SP's longer frame).
+    pub fn into_driver(self) -> Driver {
+        let config = DriverConfig {
+            stale_after_s: 3.0 * self.config.model.frame_period_s(),
+            ..DriverConfig::new("")
+        };
+        Driver::with_source(config, Box::new(self))
     }
 
     /// The serial numbers the BioTacs answered at the last open, by board
@@ -417,7 +423,6 @@ impl FrameSource for CheetahSource {
             return Err(LinkError::Lost(e));
         }
         for frame in s.plan.decode(&s.buf, &mut self.seq) {
-            let frame = frame.map_err(CheetahError::from)?;
             self.stats.frames += 1;
             self.stats.parity_errors += frame.invalid.len() as u64;
             frames.push(frame);

@@ -36,7 +36,8 @@ use std::time::{Duration, Instant};
 
 use super::tare::{Tare, TareError};
 use super::wire::{
-    slot, to_frame_order, ChannelMask, DecodedFrame, DecoderStats, DEFAULT_BAUD, N_SENSORS, N_WORDS,
+    slot, to_frame_order, ChannelMask, DecodedFrame, DecoderStats, DEFAULT_BAUD, MAX_WORDS,
+    N_SENSORS,
 };
 use super::{BioTacReading, FRAME_PERIOD_S};
 
@@ -399,7 +400,7 @@ pub struct HoldLastGood {
 struct Previous {
     seq: u16,
     /// Values in frame order (invalid channels as received: 0).
-    values: [u16; N_WORDS],
+    values: [u16; MAX_WORDS],
     invalid: ChannelMask,
 }
 

@@ -13,8 +13,8 @@
 
 use nalgebra::Vector3;
 
-use crate::biotac::reading::N_PAC;
-use crate::biotac::{BioTacReading, ElectrodeLayout, Electrodes};
+use crate::biotac::reading::PacError;
+use crate::biotac::{BioTacReading, ElectrodeLayout, Electrodes, Pac, MAX_PAC};
 use crate::wrench::Wrench;
 
 /// The two hand message types.
@@ -320,8 +320,8 @@ impl HandLayout {
 pub struct Channels<'a> {
     /// The electrodes, in order.
     pub electrodes: &'a [i32],
-    /// The PAC samples of the frame: 22, or fewer that divide 22 (the
-    /// Shadow hand sends two, pac0 and pac1).
+    /// The PAC samples of the frame: 22 (27 from a BioTac SP), or as many
+    /// as the message carries (the Shadow hand sends two, pac0 and pac1).
     pub pac: &'a [i32],
     /// Static pressure.
     pub pdc: i32,
@@ -332,28 +332,25 @@ pub struct Channels<'a> {
 }
 
 /// The one place a reading is made from a hand message's channels.
-/// Refuses an electrode count no BioTac has (19, or 24 on a BioTac SP) and
-/// values that are not counts. PAC: each of k samples fills 22 / k slots in order, so
-/// `pac_mean` is their mean (the Shadow hand's pac0 and pac1: 11 each).
+/// Refuses an electrode count no BioTac has (19, or 24 on a BioTac SP), no
+/// PAC sample or more than 27, and values that are not counts. The PAC
+/// samples are kept as the message has them, so `pac_mean` is their mean.
 pub fn reading_from(c: &Channels, seq: u16, stamp_s: f64) -> Result<BioTacReading, String> {
     let layout = ElectrodeLayout::with_count(c.electrodes.len())
         .map_err(|e| format!("the message has {e}"))?;
     let mut electrodes = Electrodes::filled(layout, 0);
-    if c.pac.is_empty() || !N_PAC.is_multiple_of(c.pac.len()) {
-        return Err(format!(
-            "{} PAC samples in the message; a reading takes {N_PAC} or a divisor of it",
-            c.pac.len()
-        ));
+    if c.pac.is_empty() || c.pac.len() > MAX_PAC {
+        let e = PacError { found: c.pac.len() };
+        return Err(format!("the message has {e}"));
     }
+    let mut pac = Pac::filled(c.pac.len(), 0);
     let count =
         |name: &str, v: i32| u16::try_from(v).map_err(|_| format!("{name} is {v}, not a count"));
     for (k, (e, &v)) in electrodes.iter_mut().zip(c.electrodes).enumerate() {
         *e = count(&format!("electrode {}", k + 1), v)?;
     }
-    let mut pac = [0; N_PAC];
-    let per = N_PAC / c.pac.len();
-    for (k, p) in pac.iter_mut().enumerate() {
-        *p = count("a PAC sample", c.pac[k / per])?;
+    for (p, &v) in pac.iter_mut().zip(c.pac) {
+        *p = count("a PAC sample", v)?;
     }
     Ok(BioTacReading {
         seq,

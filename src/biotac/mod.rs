@@ -16,8 +16,8 @@ pub mod wire;
 
 pub use driver::HoldLastGood;
 pub use reading::{
-    BioTacReading, ElectrodeLayout, Electrodes, ADC_MAX, FRAME_PERIOD_S, MAX_ELECTRODES,
-    N_ELECTRODES, N_PAC,
+    BioTacReading, ElectrodeLayout, Electrodes, Pac, ADC_MAX, FRAME_PERIOD_S, MAX_ELECTRODES,
+    MAX_PAC, N_ELECTRODES, N_PAC,
 };
 pub use sim::{BioTacSim, BioTacSimConfig, Contact};
 pub use tare::{Tare, TareError};

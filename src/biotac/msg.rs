@@ -11,7 +11,9 @@
 
 use serde_json::{json, Value};
 
-use crate::biotac::reading::{Electrodes, MAX_ELECTRODES, N_ELECTRODES, N_PAC};
+use serde::de::DeserializeOwned;
+
+use crate::biotac::reading::{Electrodes, Pac, MAX_ELECTRODES, MAX_PAC, N_ELECTRODES, N_PAC};
 use crate::biotac::{BioTacReading, ADC_MAX};
 use crate::exit::{Classify, ExitClass};
 
@@ -37,6 +39,9 @@ pub enum BioTacMsgError {
     /// An electrode count no BioTac has.
     #[error("BioTac message: {0}")]
     Layout(#[from] crate::biotac::reading::LayoutError),
+    /// No PAC sample, or more than a BioTac SP's frame holds.
+    #[error("BioTac message: {0}")]
+    Pac(#[from] crate::biotac::reading::PacError),
     /// A count above the 12-bit range.
     #[error("BioTac message: `{field}` = {value} is above 4095")]
     Range {
@@ -100,35 +105,59 @@ pub fn to_json(r: &BioTacReading, meta: &BioTacMeta) -> Value {
     })
 }
 
-/// How a message's `electrodes` field is laid out: the sequence of today's
-/// `msg/msg/BioTac.msg`, or the fixed `uint16[19]` of messages recorded
-/// before the BioTac SP (their bags' schema says so).
+/// How a message's arrays are laid out: today's `msg/msg/BioTac.msg`
+/// (`uint16[] electrodes`, `uint16[] pac`), or a fixed array of messages
+/// recorded before it (their bags' schema says so): `uint16[19]
+/// electrodes` before the BioTac SP, `uint16[22] pac` before its 27 PAC
+/// samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ElectrodeField {
-    /// `uint16[] electrodes`: 19 or 24 values.
-    Sequence,
-    /// `uint16[19] electrodes`.
-    Fixed19,
+pub struct MsgLayout {
+    /// `electrodes`: a sequence, or fixed (`uint16[19]`).
+    pub electrodes: ArrayField,
+    /// `pac`: a sequence, or fixed (`uint16[22]`).
+    pub pac: ArrayField,
 }
 
-impl ElectrodeField {
+/// One array field of the message: a sequence (a length, then the values)
+/// or the older fixed array (the values only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ArrayField {
+    /// `uint16[]`.
+    Sequence,
+    /// `uint16[N]`: 19 electrodes, 22 PAC samples.
+    Fixed,
+}
+
+impl MsgLayout {
+    /// Today's message: both arrays sequences.
+    pub const CURRENT: MsgLayout = MsgLayout {
+        electrodes: ArrayField::Sequence,
+        pac: ArrayField::Sequence,
+    };
+
     /// The layout a message definition (a bag's schema text) declares.
     pub fn of_definition(definition: &str) -> Self {
-        let fixed = definition.lines().any(|l| {
-            let code = l.split('#').next().unwrap_or("");
-            code.split_whitespace().eq(["uint16[19]", "electrodes"])
-        });
-        match fixed {
-            true => ElectrodeField::Fixed19,
-            false => ElectrodeField::Sequence,
+        let declares = |field: [&str; 2]| {
+            definition.lines().any(|l| {
+                let code = l.split('#').next().unwrap_or("");
+                code.split_whitespace().eq(field)
+            })
+        };
+        let field = |fixed| match declares(fixed) {
+            true => ArrayField::Fixed,
+            false => ArrayField::Sequence,
+        };
+        MsgLayout {
+            electrodes: field(["uint16[19]", "electrodes"]),
+            pac: field(["uint16[22]", "pac"]),
         }
     }
 }
 
 /// The message's fields in CDR order (`msg/msg/BioTac.msg`), electrodes
-/// as `E` (a sequence, or the older fixed array).
+/// as `E` and PAC as `P` (a sequence, or an older fixed array).
 #[derive(serde::Serialize, serde::Deserialize)]
-struct CdrBioTac<E> {
+pub(crate) struct CdrBioTac<E, P> {
     sec: i32,
     nanosec: u32,
     frame_id: String,
@@ -137,7 +166,7 @@ struct CdrBioTac<E> {
     seq: u16,
     electrodes: E,
     pdc: u16,
-    pac: [u16; N_PAC],
+    pac: P,
     tdc: u16,
     tac: u16,
     invalid_channels: Vec<String>,
@@ -211,7 +240,7 @@ impl<'a> CdrLengths<'a> {
 
 /// Checks every string and sequence length of a BioTac message in `bytes`
 /// ([`CdrLengths`]).
-fn check_lengths(bytes: &[u8], field: ElectrodeField) -> Result<(), BioTacMsgError> {
+fn check_lengths(bytes: &[u8], layout: MsgLayout) -> Result<(), BioTacMsgError> {
     let walk = || -> Result<(), &'static str> {
         let mut cdr = CdrLengths::new(bytes)?;
         cdr.skip(4, 8); // stamp: sec, nanosec
@@ -219,14 +248,22 @@ fn check_lengths(bytes: &[u8], field: ElectrodeField) -> Result<(), BioTacMsgErr
         cdr.string()?; // serial
         cdr.skip(1, 1); // sensor_index
         cdr.skip(2, 2); // seq
-        let electrodes = match field {
-            ElectrodeField::Fixed19 => N_ELECTRODES,
-            ElectrodeField::Sequence => cdr.length()?,
+        let electrodes = match layout.electrodes {
+            ArrayField::Fixed => N_ELECTRODES,
+            ArrayField::Sequence => cdr.length()?,
         };
         if electrodes > MAX_ELECTRODES {
             return Err("more electrodes than a BioTac SP has");
         }
-        cdr.skip(2, 2 * (electrodes + 1 + N_PAC + 2)); // electrodes .. tac
+        cdr.skip(2, 2 * (electrodes + 1)); // electrodes, pdc
+        let pac = match layout.pac {
+            ArrayField::Fixed => N_PAC,
+            ArrayField::Sequence => cdr.length()?,
+        };
+        if pac > MAX_PAC {
+            return Err("more PAC samples than a BioTac SP's frame has");
+        }
+        cdr.skip(2, 2 * (pac + 2)); // pac, tdc, tac
         let channels = cdr.length()?;
         // Each name takes at least its 4-byte length.
         if channels > cdr.left() / 4 {
@@ -239,31 +276,26 @@ fn check_lengths(bytes: &[u8], field: ElectrodeField) -> Result<(), BioTacMsgErr
 
 /// The reading in a serialized message (CDR, with its encapsulation
 /// header, as DDS delivers it); refuses bytes that do not decode, stamps
-/// that are not times, an electrode count no BioTac has and counts above
-/// 4095.
+/// that are not times, an electrode or PAC count no BioTac has and counts
+/// above 4095.
 pub fn from_cdr(bytes: &[u8]) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
-    from_cdr_as(bytes, ElectrodeField::Sequence)
+    from_cdr_as(bytes, MsgLayout::CURRENT)
 }
 
-/// [`from_cdr`] for a message whose electrodes are laid out as `field`.
+/// [`from_cdr`] for a message whose arrays are laid out as `layout`.
 pub fn from_cdr_as(
     bytes: &[u8],
-    field: ElectrodeField,
+    layout: MsgLayout,
 ) -> Result<(BioTacReading, BioTacMeta), BioTacMsgError> {
-    check_lengths(bytes, field)?;
-    let cdr_error = |e: cdr::Error| BioTacMsgError::Cdr(e.to_string());
-    let m: CdrBioTac<Electrodes> = match field {
-        ElectrodeField::Sequence => {
-            let m: CdrBioTac<Vec<u16>> = cdr::deserialize(bytes).map_err(cdr_error)?;
-            let electrodes = Electrodes::from_slice(&m.electrodes)?;
-            m.with_electrodes(electrodes)
-        }
-        ElectrodeField::Fixed19 => {
-            let m: CdrBioTac<[u16; N_ELECTRODES]> = cdr::deserialize(bytes).map_err(cdr_error)?;
-            let electrodes = m.electrodes.into();
-            m.with_electrodes(electrodes)
-        }
-    };
+    use ArrayField::{Fixed, Sequence};
+    check_lengths(bytes, layout)?;
+    type Vec16 = Vec<u16>;
+    let m = match (layout.electrodes, layout.pac) {
+        (Sequence, Sequence) => decode::<Vec16, Vec16>(bytes),
+        (Sequence, Fixed) => decode::<Vec16, [u16; N_PAC]>(bytes),
+        (Fixed, Sequence) => decode::<[u16; N_ELECTRODES], Vec16>(bytes),
+        (Fixed, Fixed) => decode::<[u16; N_ELECTRODES], [u16; N_PAC]>(bytes),
+    }?;
     if m.sec < 0 || m.nanosec >= 1_000_000_000 {
         return Err(BioTacMsgError::Stamp {
             sec: m.sec,
@@ -300,6 +332,20 @@ pub fn from_cdr_as(
     Ok((reading, meta))
 }
 
+/// The message's fields with its arrays read as `E` and `P` (a sequence or
+/// a fixed array), then checked as a reading's.
+fn decode<E, P>(bytes: &[u8]) -> Result<CdrBioTac<Electrodes, Pac>, BioTacMsgError>
+where
+    E: DeserializeOwned + AsRef<[u16]>,
+    P: DeserializeOwned + AsRef<[u16]>,
+{
+    let m: CdrBioTac<E, P> =
+        cdr::deserialize(bytes).map_err(|e| BioTacMsgError::Cdr(e.to_string()))?;
+    let electrodes = Electrodes::from_slice(m.electrodes.as_ref())?;
+    let pac = Pac::from_slice(m.pac.as_ref())?;
+    Ok(m.with_arrays(electrodes, pac))
+}
+
 /// A reading as a serialized message (little-endian CDR with its
 /// encapsulation header), as DDS sends it and rosbag2 records it.
 pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
@@ -307,9 +353,9 @@ pub(crate) fn to_cdr(r: &BioTacReading, meta: &BioTacMeta) -> Vec<u8> {
         .expect("CDR of a BioTac message")
 }
 
-impl<E> CdrBioTac<E> {
-    /// The same fields with `electrodes`.
-    fn with_electrodes<F>(self, electrodes: F) -> CdrBioTac<F> {
+impl<E, P> CdrBioTac<E, P> {
+    /// The same fields with `electrodes` and `pac`.
+    pub(crate) fn with_arrays<F, Q>(self, electrodes: F, pac: Q) -> CdrBioTac<F, Q> {
         CdrBioTac {
             sec: self.sec,
             nanosec: self.nanosec,
@@ -319,7 +365,7 @@ impl<E> CdrBioTac<E> {
             seq: self.seq,
             electrodes,
             pdc: self.pdc,
-            pac: self.pac,
+            pac,
             tdc: self.tdc,
             tac: self.tac,
             invalid_channels: self.invalid_channels,
@@ -327,9 +373,9 @@ impl<E> CdrBioTac<E> {
     }
 }
 
-impl CdrBioTac<Vec<u16>> {
+impl CdrBioTac<Vec<u16>, Vec<u16>> {
     /// The message's fields for `r` and `meta`.
-    fn new(r: &BioTacReading, meta: &BioTacMeta) -> Self {
+    pub(crate) fn new(r: &BioTacReading, meta: &BioTacMeta) -> Self {
         let (sec, nanosec) = split_stamp(r.stamp_s);
         CdrBioTac {
             sec,
@@ -340,7 +386,7 @@ impl CdrBioTac<Vec<u16>> {
             seq: r.seq,
             electrodes: r.electrodes.to_vec(),
             pdc: r.pdc,
-            pac: r.pac,
+            pac: r.pac.to_vec(),
             tdc: r.tdc,
             tac: r.tac,
             invalid_channels: meta.invalid_channels.clone(),
@@ -349,186 +395,4 @@ impl CdrBioTac<Vec<u16>> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// (name, type, array length) of every field in msg/msg/BioTac.msg.
-    fn msg_fields() -> Vec<(String, String, Option<usize>)> {
-        let text = include_str!("../../msg/msg/BioTac.msg");
-        text.lines()
-            .map(|l| l.split('#').next().unwrap_or("").trim())
-            .filter(|l| !l.is_empty())
-            .map(|l| {
-                let mut it = l.split_whitespace();
-                let ty = it.next().unwrap().to_string();
-                let name = it.next().unwrap().to_string();
-                match ty.split_once('[') {
-                    Some((base, rest)) => {
-                        let n = rest.trim_end_matches(']');
-                        (name, format!("{base}[]"), n.parse().ok())
-                    }
-                    None => (name, ty, None),
-                }
-            })
-            .collect()
-    }
-
-    fn reading() -> BioTacReading {
-        BioTacReading {
-            seq: 65535,
-            stamp_s: 12.25,
-            electrodes: std::array::from_fn::<u16, 19, _>(|i| 100 * i as u16 + 7).into(),
-            pdc: 2000,
-            pac: std::array::from_fn(|i| 2048 + i as u16),
-            tdc: 1800,
-            tac: 4095,
-        }
-    }
-
-    #[test]
-    fn every_field_of_the_msg_file_is_written_with_its_type_and_length() {
-        let meta = BioTacMeta {
-            frame_id: "biotac".into(),
-            serial: "BT-1".into(),
-            sensor_index: 2,
-            invalid_channels: vec!["e3".into(), "pac7".into()],
-        };
-        let v = to_json(&reading(), &meta);
-        let obj = v.as_object().unwrap();
-        let fields = msg_fields();
-        assert_eq!(obj.len(), fields.len(), "{obj:?} vs {fields:?}");
-        for (name, ty, len) in &fields {
-            let x = obj
-                .get(name)
-                .unwrap_or_else(|| panic!("{name} not written"));
-            match ty.as_str() {
-                "std_msgs/Header" => {
-                    assert!(x["stamp"]["sec"].is_u64() && x["stamp"]["nanosec"].is_u64());
-                    assert!(x["frame_id"].is_string());
-                }
-                "string" => assert!(x.is_string(), "{name}"),
-                "uint8" => assert!(x.as_u64().unwrap() <= u8::MAX as u64, "{name}"),
-                "uint16" => assert!(x.as_u64().unwrap() <= u16::MAX as u64, "{name}"),
-                "uint16[]" => {
-                    let a = x.as_array().unwrap();
-                    assert_eq!(len.unwrap_or(N_ELECTRODES), a.len(), "{name}");
-                    assert!(a.iter().all(|e| e.as_u64().unwrap() <= 4095), "{name}");
-                }
-                "string[]" => assert!(x.as_array().unwrap().iter().all(Value::is_string)),
-                other => panic!("field {name}: type {other} not handled"),
-            }
-        }
-        // A sequence: 19 electrodes, or 24 from a BioTac SP.
-        assert_eq!(fields.iter().find(|f| f.0 == "electrodes").unwrap().2, None);
-        assert_eq!(fields.iter().find(|f| f.0 == "pac").unwrap().2, Some(N_PAC));
-    }
-
-    #[test]
-    fn stamps_split_and_join() {
-        assert_eq!(split_stamp(12.25), (12, 250_000_000));
-        assert_eq!(split_stamp(f64::NAN), (0, 0));
-        assert_eq!(split_stamp(-1.0), (0, 0));
-        assert!((join_stamp(12, 250_000_000) - 12.25).abs() < 1e-12);
-    }
-
-    #[test]
-    fn cdr_bytes_decode_and_short_or_out_of_range_ones_are_refused() {
-        let r = reading();
-        let meta = BioTacMeta {
-            frame_id: "biotac".into(),
-            serial: "BT-1".into(),
-            sensor_index: 1,
-            invalid_channels: vec!["e3".into()],
-        };
-        let mut m = CdrBioTac::new(&r, &meta);
-        let bytes = to_cdr(&r, &meta);
-        let (back, meta) = from_cdr(&bytes).unwrap();
-        assert_eq!(back, r);
-        assert_eq!(
-            (meta.serial.as_str(), meta.invalid_channels.len()),
-            ("BT-1", 1)
-        );
-        // A message cut short (an electrode array of 10 values, say).
-        let err = from_cdr(&bytes[..40]).unwrap_err();
-        assert!(matches!(err, BioTacMsgError::Cdr(_)), "{err}");
-        // Big-endian CDR decodes too.
-        let be = cdr::serialize::<_, _, cdr::CdrBe>(&m, cdr::Infinite).unwrap();
-        assert_eq!(from_cdr(&be).unwrap().0, r);
-        // 24 electrodes: a BioTac SP's; 20 are no sensor's.
-        let mut sp = r;
-        sp.electrodes = Electrodes::from_slice(&[3000; MAX_ELECTRODES]).unwrap();
-        assert_eq!(from_cdr(&to_cdr(&sp, &meta)).unwrap().0, sp);
-        let mut odd = CdrBioTac::new(&r, &meta);
-        odd.electrodes = vec![3000; 20];
-        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&odd, cdr::Infinite).unwrap();
-        let err = from_cdr(&bytes).unwrap_err().to_string();
-        assert!(err.contains("20 electrodes"), "{err}");
-        m.pac[3] = 5000;
-        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
-        let err = from_cdr(&bytes).unwrap_err().to_string();
-        assert!(err.contains("pac") && err.contains("5000"), "{err}");
-        m.pac[3] = 0;
-        m.nanosec = 1_000_000_000;
-        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
-        assert!(matches!(
-            from_cdr(&bytes),
-            Err(BioTacMsgError::Stamp { .. })
-        ));
-    }
-
-    #[test]
-    fn a_stated_length_beyond_the_bytes_is_refused_before_anything_is_reserved() {
-        // Header, stamp, then a frame_id claiming 0xF000_0000 bytes.
-        let mut bytes = vec![0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0];
-        bytes.extend(0xF000_0000u32.to_le_bytes());
-        let err = from_cdr(&bytes).unwrap_err().to_string();
-        assert!(err.contains("longer than the message"), "{err}");
-        // So many invalid channels that their lengths alone cannot fit.
-        let m = CdrBioTac {
-            sec: 1,
-            nanosec: 0,
-            frame_id: String::new(),
-            serial: String::new(),
-            sensor_index: 0,
-            seq: 0,
-            electrodes: vec![0u16; N_ELECTRODES],
-            pdc: 0,
-            pac: [0; N_PAC],
-            tdc: 0,
-            tac: 0,
-            invalid_channels: vec![],
-        };
-        let mut bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
-        let n = bytes.len();
-        bytes[n - 4..].copy_from_slice(&u32::MAX.to_le_bytes());
-        let err = from_cdr(&bytes).unwrap_err().to_string();
-        assert!(err.contains("more invalid channels"), "{err}");
-        assert!(from_cdr(&[1, 2, 3]).is_err() && from_cdr(&[]).is_err());
-        // An electrode sequence claiming more values than a BioTac SP has.
-        let mut bytes = cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap();
-        // Header 4, stamp 8, two empty strings (length and NUL) 5 + 3 + 5,
-        // index 1, seq 2 (aligned): the sequence length at 4 + 24.
-        let at = 28;
-        assert_eq!(bytes[at..at + 4], 19u32.to_le_bytes());
-        bytes[at..at + 4].copy_from_slice(&0x7000_0000u32.to_le_bytes());
-        let err = from_cdr(&bytes).unwrap_err().to_string();
-        assert!(err.contains("more electrodes than a BioTac SP"), "{err}");
-    }
-
-    #[test]
-    fn messages_recorded_with_the_fixed_19_electrode_array_decode() {
-        let old = "std_msgs/Header header\nuint16 seq\nuint16[19] electrodes  # E1..E19\n";
-        assert_eq!(ElectrodeField::of_definition(old), ElectrodeField::Fixed19);
-        let today = include_str!("../../msg/msg/BioTac.msg");
-        assert_eq!(
-            ElectrodeField::of_definition(today),
-            ElectrodeField::Sequence
-        );
-        let r = reading();
-        let m = CdrBioTac::new(&r, &BioTacMeta::default());
-        let fixed = m.with_electrodes(<[u16; N_ELECTRODES]>::try_from(&r.electrodes[..]).unwrap());
-        let bytes = cdr::serialize::<_, _, cdr::CdrLe>(&fixed, cdr::Infinite).unwrap();
-        assert_eq!(from_cdr_as(&bytes, ElectrodeField::Fixed19).unwrap().0, r);
-        assert!(from_cdr(&bytes).is_err(), "not a sequence");
-    }
-}
+mod tests;

@@ -42,7 +42,7 @@ pub use config::{
 };
 
 use super::geometry::{electrodes, SurfacePoint};
-use super::{BioTacReading, Electrodes, N_PAC};
+use super::{BioTacReading, Electrodes, Pac};
 use crate::wrench::Wrench;
 
 /// The simulator configuration shipped with the crate (sensor and protocol).
@@ -267,15 +267,17 @@ impl BioTacSim {
             to_counts(self.pdc_baseline + pdc_rise + gaussian(&mut self.rng, p.pdc.noise_counts));
 
         // PAC sees the rate of change of the fluid pressure: ramp the rate
-        // linearly over the 22 samples from the previous frame's to this one's.
+        // linearly over the frame's samples (22; 27 on a BioTac SP) from the
+        // previous frame's to this one's.
         let rate = if dt_s > 0.0 {
             (normal_n - self.last_normal_n) / dt_s
         } else {
             0.0
         };
-        let mut pac = [0u16; N_PAC];
+        let mut pac = Pac::filled(p.layout.pac_per_frame(), 0);
+        let n_pac = pac.len() as f64;
         for (k, out) in pac.iter_mut().enumerate() {
-            let frac = (k + 1) as f64 / N_PAC as f64;
+            let frac = (k + 1) as f64 / n_pac;
             let r = self.last_rate_n_per_s + (rate - self.last_rate_n_per_s) * frac;
             let v = self.pac_baseline
                 + p.pac.rate_gain_counts_per_n_per_s * r

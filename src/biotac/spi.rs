@@ -27,8 +27,10 @@
 //!   forwards; [`super::wire::decode_word`] checks it (parity, error words
 //!   0xA5xx, reserved bits).
 //! - **Default sampling sequence**: every electrode followed by a PAC
-//!   sample, then PDC, PAC, TAC, PAC, TDC, PAC: 44 words on the BioTac,
-//!   54 on the BioTac SP (24 electrodes).
+//!   sample, then PDC, PAC, TAC, PAC, TDC, PAC: 44 words (22 PAC samples)
+//!   on the BioTac, 54 (27 PAC samples) on the BioTac SP
+//!   ([`ElectrodeLayout::pac_per_frame`] cites the SP's): a frame every
+//!   10 ms, or 12.3 ms on the SP.
 //! - **Timing** (the library's defaults): 4400 samples per second (44 words:
 //!   100 frames/s), SPI clock 4.4 MHz, 50 us between a sampling command and
 //!   reading its result, 10 us after the words; the rest of the sample
@@ -41,8 +43,8 @@
 //! - **Identification**: the read command 0x61 followed by 0x15 makes the
 //!   BioTac answer its 16-character serial number, which starts with "BT".
 
-use super::reading::{BioTacReading, Electrodes, N_PAC};
-use super::wire::{decode_word, with_odd_parity, ChannelMask, DecodedFrame};
+use super::reading::{BioTacReading, ElectrodeLayout};
+use super::wire::{decode_word, slot, with_odd_parity, ChannelMask, DecodedFrame};
 
 /// BioTacs on one multi-BioTac board (board positions 0..BOARD_SLOTS).
 pub const BOARD_SLOTS: usize = 3;
@@ -66,8 +68,6 @@ pub const READ_COMMAND: u8 = 0x61;
 pub const SERIAL_NUMBER_PROPERTY: u8 = 0x15;
 /// Characters of a serial number.
 pub const SERIAL_NUMBER_LEN: usize = 16;
-/// PAC samples per frame of the default sequence (both sensor models).
-pub const PAC_PER_FRAME: usize = N_PAC;
 
 /// Which BioTac sits on the board: how many electrodes its frame samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -96,10 +96,24 @@ impl SensorModel {
         }
     }
 
+    /// Its electrode layout.
+    pub fn layout(self) -> ElectrodeLayout {
+        match self {
+            SensorModel::BioTac => ElectrodeLayout::Biotac,
+            SensorModel::BioTacSp => ElectrodeLayout::BiotacSp,
+        }
+    }
+
     /// Words in its default frame: each electrode and PDC, TAC, TDC, each
     /// followed by a PAC sample.
     pub fn frame_words(self) -> usize {
-        2 * (self.electrodes() + 3)
+        super::wire::frame_words(self.layout())
+    }
+
+    /// Time its default frame takes at [`SAMPLE_RATE_HZ`] (s): 10 ms on the
+    /// BioTac, 12.3 ms on the BioTac SP.
+    pub fn frame_period_s(self) -> f64 {
+        self.frame_words() as f64 / f64::from(SAMPLE_RATE_HZ)
     }
 }
 
@@ -179,50 +193,6 @@ pub enum SpiOp {
     Bytes(Vec<u8>),
     /// Wait (ns).
     DelayNs(u32),
-}
-
-/// Why a board position's words cannot become a [`BioTacReading`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum LayoutError {
-    /// An electrode count no BioTac has.
-    #[error(transparent)]
-    Electrodes(#[from] crate::biotac::reading::LayoutError),
-    /// The frame's PAC samples are not 22.
-    #[error("{0} PAC samples in a frame, a reading holds 22")]
-    Pac(usize),
-}
-
-/// A sensor model the configuration asks for but the reading type cannot
-/// hold: refused input.
-impl crate::exit::Classify for LayoutError {
-    fn class(&self) -> crate::exit::ExitClass {
-        crate::exit::ExitClass::Refused
-    }
-}
-
-/// The one place a [`BioTacReading`] is built from sampled words: the
-/// electrodes in order, PDC, the frame's PAC samples, TDC and TAC (counts).
-/// The reading's stamp is 0 (the driver stamps it).
-pub fn reading_from_samples(
-    seq: u16,
-    electrodes: &[u16],
-    pdc: u16,
-    pac: &[u16],
-    tdc: u16,
-    tac: u16,
-) -> Result<BioTacReading, LayoutError> {
-    let electrodes = Electrodes::from_slice(electrodes)?;
-    let pac: [u16; N_PAC] = pac.try_into().map_err(|_| LayoutError::Pac(pac.len()))?;
-    Ok(BioTacReading {
-        seq,
-        stamp_s: 0.0,
-        electrodes,
-        pdc,
-        pac,
-        tdc,
-        tac,
-    })
 }
 
 /// What the adapter shifts for one batch of frames and how to read what
@@ -346,11 +316,7 @@ impl BatchPlan {
     /// and frame, in time order (frame by frame, positions ascending).
     /// `seq` holds the next sequence number per board position and steps
     /// on. A short batch gives the frames it completes.
-    pub fn decode(
-        &self,
-        bytes: &[u8],
-        seq: &mut [u16; BOARD_SLOTS],
-    ) -> Vec<Result<DecodedFrame, LayoutError>> {
+    pub fn decode(&self, bytes: &[u8], seq: &mut [u16; BOARD_SLOTS]) -> Vec<DecodedFrame> {
         let per_sample = self.bytes_per_sample();
         let per_frame = per_sample * self.sequence.len();
         let mut out = Vec::with_capacity(self.frames * self.slots.len());
@@ -367,39 +333,27 @@ impl BatchPlan {
         out
     }
 
-    /// One board position's frame from its words in sequence order.
-    fn frame_of(
-        &self,
-        slot: u8,
-        seq: u16,
-        words: impl Iterator<Item = u16>,
-    ) -> Result<DecodedFrame, LayoutError> {
-        let n = self.model.electrodes();
-        let mut electrodes = Vec::with_capacity(n);
-        let mut pac = Vec::with_capacity(PAC_PER_FRAME);
-        let (mut pdc, mut tac, mut tdc) = (0, 0, 0);
+    /// One board position's frame from its words in sequence order (the
+    /// default sequence: each word goes to its frame position's channel).
+    fn frame_of(&self, slot_index: u8, seq: u16, words: impl Iterator<Item = u16>) -> DecodedFrame {
+        let mut reading = BioTacReading {
+            seq,
+            ..BioTacReading::zeroed(self.model.layout())
+        };
         let mut invalid = ChannelMask::default();
-        for (position, (channel, word)) in self.sequence.iter().zip(words).enumerate() {
-            let value = decode_word(word).unwrap_or_else(|_| {
-                invalid.insert(position);
-                0
-            });
-            match channel {
-                Channel::Electrode(_) => electrodes.push(value),
-                Channel::Pac => pac.push(value),
-                Channel::Pdc => pdc = value,
-                Channel::Tac => tac = value,
-                Channel::Tdc => tdc = value,
+        for (position, word) in words.take(self.sequence.len()).enumerate() {
+            match (decode_word(word), slot(&mut reading, position)) {
+                (Ok(value), Some(dst)) => *dst = value,
+                _ => invalid.insert(position),
             }
         }
-        let reading = reading_from_samples(seq, &electrodes, pdc, &pac, tdc, tac)?;
-        Ok(DecodedFrame {
-            sensor: slot,
+        DecodedFrame {
+            sensor: slot_index,
             seq,
             bridge_us: 0,
             reading,
             invalid,
-        })
+        }
     }
 
     /// The operations that ask the BioTac at `slot` for its serial number:

@@ -59,7 +59,7 @@
 //!     stamp_s: 0.0,
 //!     electrodes: [2000; 19].into(),
 //!     pdc: 1500,
-//!     pac: [2048; 22],
+//!     pac: [2048; 22].into(),
 //!     tdc: 2600,
 //!     tac: 2040,
 //! };
@@ -78,7 +78,9 @@
 //!
 //! Throughput: `cargo bench --bench wire`.
 
-use super::{BioTacReading, ADC_MAX, N_ELECTRODES, N_PAC};
+use super::{
+    BioTacReading, ElectrodeLayout, Electrodes, Pac, ADC_MAX, MAX_ELECTRODES, N_ELECTRODES, N_PAC,
+};
 
 use crate::exit::{Classify, ExitClass};
 
@@ -89,6 +91,10 @@ pub use decoder::{Decoder, DecoderStats};
 pub const FRAME_LEN: usize = 100;
 /// Response words per frame: E1..E19, PDC, TAC, TDC and 22 PAC samples.
 pub const N_WORDS: usize = 44;
+/// Response words in a BioTac SP's default frame (E1..E24, PDC, TAC, TDC
+/// and 27 PAC samples), the most a [`ChannelMask`] holds; the Cheetah
+/// backend reads such frames, the bridge does not.
+pub const MAX_WORDS: usize = 2 * (MAX_ELECTRODES + 3);
 /// The two bytes every frame starts with.
 pub const SYNC: [u8; 2] = [0xAA, 0x55];
 /// The format version this module writes and reads.
@@ -118,14 +124,6 @@ const BUF_LEN: usize = 1024;
 
 const _: () = assert!(HEADER_LEN + 2 * N_WORDS + 2 == FRAME_LEN);
 const _: () = assert!(BUF_LEN >= 2 * FRAME_LEN);
-
-/// Channel names in frame order; PAC samples count from 1 like the electrodes.
-const CHANNEL_NAMES: [&str; N_WORDS] = [
-    "e1", "pac1", "e2", "pac2", "e3", "pac3", "e4", "pac4", "e5", "pac5", "e6", "pac6", "e7",
-    "pac7", "e8", "pac8", "e9", "pac9", "e10", "pac10", "e11", "pac11", "e12", "pac12", "e13",
-    "pac13", "e14", "pac14", "e15", "pac15", "e16", "pac16", "e17", "pac17", "e18", "pac18", "e19",
-    "pac19", "pdc", "pac20", "tac", "pac21", "tdc", "pac22",
-];
 
 /// Why a response word carries no sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -267,20 +265,38 @@ pub fn crc16_ccitt_false(bytes: &[u8]) -> u16 {
     })
 }
 
-/// The name of the channel at a frame position ("e7", "pac3", "pdc", "tac",
-/// "tdc"); `None` past the 44 positions.
-pub fn channel_name(position: usize) -> Option<&'static str> {
-    CHANNEL_NAMES.get(position).copied()
+/// Response words in the default frame of `layout`'s sensor: 44 on a
+/// BioTac, 54 on a BioTac SP.
+pub fn frame_words(layout: ElectrodeLayout) -> usize {
+    2 * (layout.count() + 3)
 }
 
-/// The reading's field at a frame position: even positions hold E1..E19,
-/// PDC, TAC, TDC; odd positions the PAC samples in order.
+/// The name of the channel at a position of `layout`'s default frame ("e7",
+/// "pac3", "pdc", "tac", "tdc"; PAC samples count from 1 like the
+/// electrodes); `None` past the frame's words.
+pub fn channel_name(position: usize, layout: ElectrodeLayout) -> Option<String> {
+    let index = position / 2;
+    if position >= frame_words(layout) {
+        return None;
+    }
+    Some(match (position % 2, index.checked_sub(layout.count())) {
+        (1, _) => format!("pac{}", index + 1),
+        (_, None) => format!("e{}", index + 1),
+        (_, Some(0)) => "pdc".into(),
+        (_, Some(1)) => "tac".into(),
+        _ => "tdc".into(),
+    })
+}
+
+/// The reading's field at a position of its layout's default frame: even
+/// positions hold the electrodes, PDC, TAC, TDC; odd positions the PAC
+/// samples in order.
 pub(super) fn slot(reading: &mut BioTacReading, position: usize) -> Option<&mut u16> {
     let index = position / 2;
     if position % 2 == 1 {
         return reading.pac.get_mut(index);
     }
-    match index.checked_sub(N_ELECTRODES) {
+    match index.checked_sub(reading.electrodes.len()) {
         None => reading.electrodes.get_mut(index),
         Some(0) => Some(&mut reading.pdc),
         Some(1) => Some(&mut reading.tac),
@@ -289,29 +305,29 @@ pub(super) fn slot(reading: &mut BioTacReading, position: usize) -> Option<&mut 
     }
 }
 
-/// The reading's 44 values in frame order.
-pub(super) fn to_frame_order(reading: &BioTacReading) -> [u16; N_WORDS] {
+/// The reading's values in its default frame's order (0 past its words).
+pub(super) fn to_frame_order(reading: &BioTacReading) -> [u16; MAX_WORDS] {
     // `slot` hands out `&mut`: read through a copy.
     let mut copy = *reading;
     std::array::from_fn(|position| slot(&mut copy, position).map_or(0, |v| *v))
 }
 
-/// A set of frame positions (0..44), such as the channels whose words were
+/// A set of frame positions (0..54), such as the channels whose words were
 /// invalid.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub struct ChannelMask(u64);
 
 impl ChannelMask {
-    /// Adds a frame position; positions past 43 are ignored.
+    /// Adds a frame position; positions past 53 are ignored.
     pub fn insert(&mut self, position: usize) {
-        if position < N_WORDS {
+        if position < MAX_WORDS {
             self.0 |= 1 << position;
         }
     }
 
     /// Whether the set holds a frame position.
     pub fn contains(self, position: usize) -> bool {
-        position < N_WORDS && (self.0 >> position) & 1 == 1
+        position < MAX_WORDS && (self.0 >> position) & 1 == 1
     }
 
     /// Number of positions in the set.
@@ -331,12 +347,14 @@ impl ChannelMask {
 
     /// The frame positions in the set, ascending.
     pub fn positions(self) -> impl Iterator<Item = usize> {
-        (0..N_WORDS).filter(move |&position| self.contains(position))
+        (0..MAX_WORDS).filter(move |&position| self.contains(position))
     }
 
-    /// The channel names in the set, in frame order (see [`channel_name`]).
-    pub fn names(self) -> impl Iterator<Item = &'static str> {
-        self.positions().filter_map(channel_name)
+    /// The channel names in the set for a frame of `layout`, in frame order
+    /// (see [`channel_name`]).
+    pub fn names(self, layout: ElectrodeLayout) -> impl Iterator<Item = String> {
+        self.positions()
+            .filter_map(move |position| channel_name(position, layout))
     }
 }
 
@@ -356,10 +374,19 @@ pub struct DecodedFrame {
     pub invalid: ChannelMask,
 }
 
+impl DecodedFrame {
+    /// The names of its invalid channels (`e3`, `pac27`, `pdc`, ...), in
+    /// frame order.
+    pub fn invalid_names(&self) -> impl Iterator<Item = String> {
+        self.invalid.names(self.reading.electrodes.layout())
+    }
+}
+
 /// The frame for one reading. `reading.seq` is ignored in favour of `seq`;
 /// a sensor index of 3 or more is written as given, and decoders reject it.
-/// The frame holds a BioTac's E1..E19: a BioTac SP's E20..E24 are not
-/// carried (the bridge reads BioTacs).
+/// The frame holds a BioTac's 44 words: of a BioTac SP's reading, E20..E24
+/// and PAC samples 23..27 are not carried (the bridge reads BioTacs;
+/// docs/serial-protocol.md says so).
 ///
 /// Values above 4095 are a caller bug (see [`encode_word`]).
 pub fn encode_frame(
@@ -372,7 +399,15 @@ pub fn encode_frame(
     let [q0, q1] = seq.to_le_bytes();
     let [t0, t1, t2, t3] = bridge_us.to_le_bytes();
     let header = [s0, s1, VERSION, sensor, q0, q1, t0, t1, t2, t3];
-    let words = to_frame_order(reading).map(encode_word);
+    let mut biotac = *reading;
+    biotac.electrodes = Electrodes::filled(ElectrodeLayout::Biotac, 0);
+    biotac
+        .electrodes
+        .copy_from_slice(&reading.electrodes[..N_ELECTRODES.min(reading.electrodes.len())]);
+    biotac.pac =
+        Pac::from_slice(&reading.pac[..N_PAC.min(reading.pac.len())]).unwrap_or(reading.pac);
+    let order = to_frame_order(&biotac);
+    let words: [u16; N_WORDS] = std::array::from_fn(|p| encode_word(order[p]));
     let mut frame = [0; FRAME_LEN];
     let bytes = header
         .into_iter()
@@ -414,12 +449,7 @@ pub fn decode_frame(frame: &[u8; FRAME_LEN]) -> Result<DecodedFrame, FrameError>
     let seq = u16::from_le_bytes([*q0, *q1]);
     let mut reading = BioTacReading {
         seq,
-        stamp_s: 0.0,
-        electrodes: [0; N_ELECTRODES].into(),
-        pdc: 0,
-        pac: [0; N_PAC],
-        tdc: 0,
-        tac: 0,
+        ..BioTacReading::zeroed(ElectrodeLayout::Biotac)
     };
     let mut invalid = ChannelMask::default();
     for (position, &bytes) in words.as_chunks::<2>().0.iter().enumerate() {

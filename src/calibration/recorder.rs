@@ -303,7 +303,7 @@ mod tests {
             stamp_s: t,
             electrodes: [3000; crate::biotac::N_ELECTRODES].into(),
             pdc,
-            pac: [2000; crate::biotac::N_PAC],
+            pac: [2000; crate::biotac::N_PAC].into(),
             tdc: 1800,
             tac: 2000,
         }

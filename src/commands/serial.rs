@@ -157,10 +157,7 @@ fn monitor_driver(a: &MonitorArgs) -> Result<(Driver, String)> {
     let adapter = config.adapter;
     let source = CheetahSource::new(config);
     let name = format!("the Cheetah adapter at {adapter}");
-    Ok((
-        Driver::with_source(DriverConfig::new(""), Box::new(source)),
-        name,
-    ))
+    Ok((source.into_driver(), name))
 }
 
 pub fn run_monitor(a: MonitorArgs) -> Result<()> {
@@ -231,7 +228,7 @@ fn frame_json(f: &DecodedFrame) -> serde_json::Value {
         "pac": r.pac,
         "tdc": r.tdc,
         "tac": r.tac,
-        "invalid": f.invalid.names().collect::<Vec<_>>(),
+        "invalid": f.invalid_names().collect::<Vec<_>>(),
     })
 }
 
@@ -249,22 +246,30 @@ fn show_frame(bar: &ProgressBar, f: &DecodedFrame, s: &LinkStats) {
         return;
     }
     let r = &f.reading;
-    let electrodes: Vec<String> = r
+    // Every electrode, ten to a row (E1-E10, E11-E19 or E11-E20, E21-E24).
+    let n = r.electrodes.len();
+    let electrodes: String = r
         .electrodes
         .chunks(10)
-        .map(|row| row.iter().map(|v| format!("{v:5}")).collect::<String>())
+        .enumerate()
+        .map(|(i, row)| {
+            let span = format!("E{}-E{}", 10 * i + 1, (10 * i + 10).min(n));
+            let values: String = row.iter().map(|v| format!("{v:5}")).collect();
+            format!("{span:7}{values}\n")
+        })
         .collect();
-    let invalid: Vec<&str> = f.invalid.names().collect();
+    let invalid: Vec<String> = f.invalid_names().collect();
     bar.set_message(format!(
-        "sensor {} seq {:5}\nE1-E10 {}\nE11-19 {}\nPDC {:5}  TDC {:5}  TAC {:5}  invalid: {}\n\
+        "sensor {} seq {:5}\n{electrodes}PDC {:5}  TDC {:5}  TAC {:5}  PAC mean {:6.1} ({} samples)  \
+         invalid: {}\n\
          link: {:.0} frames/s, {} CRC errors, {} invalid samples, {} lost, {} dropped",
         f.sensor,
         f.seq,
-        electrodes[0],
-        electrodes.get(1).map_or("", String::as_str),
         r.pdc,
         r.tdc,
         r.tac,
+        r.pac_mean(),
+        r.pac.len(),
         if invalid.is_empty() {
             "none".into()
         } else {

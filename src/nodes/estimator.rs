@@ -354,7 +354,7 @@ mod tests {
             stamp_s,
             electrodes: [2000 - pressed; 19].into(),
             pdc: 2000 + pressed,
-            pac: [0; 22],
+            pac: [0; 22].into(),
             tdc: 0,
             tac: 0,
         }

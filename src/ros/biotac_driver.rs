@@ -78,8 +78,7 @@ pub async fn run() -> Result<(), RosError> {
             let config =
                 CheetahConfig::from_settings(&cheetah, &library, &slots, electrodes as usize)
                     .map_err(|e| invalid("cheetah", cheetah.clone(), &e))?;
-            let source = Box::new(CheetahSource::new(config));
-            Driver::with_source(DriverConfig::new(""), source)
+            CheetahSource::new(config).into_driver()
         }
         other => return Err(invalid_interface(other).into()),
     };
@@ -160,7 +159,7 @@ pub async fn run() -> Result<(), RosError> {
                             frame_id: frame_id.clone(),
                             serial: serial.clone(),
                             sensor_index: frame.sensor,
-                            invalid_channels: frame.invalid.names().map(str::to_string).collect(),
+                            invalid_channels: frame.invalid_names().collect(),
                         };
                         if let Err(e) = readings.publish(biotac_msg::to_json(&r, &meta)) {
                             tracing::warn!("biotac/readings: {e}");

@@ -13,6 +13,14 @@
  * k mod 4096 (so a reader can tell k). tests/cheetah_double/mod.rs has
  * the same function.
  *
+ * The BioTacs on the board (CHEETAH_DOUBLE_ELECTRODES=n / "electrodes"):
+ * 19 electrodes (BioTacs, the default) or 24 (BioTac SPs). A sampling
+ * command for an electrode the sensor lacks (E20..E24 on a BioTac) is
+ * answered with SynTouch's error word "channel not recognized" (0xA558).
+ * Every sampling command is checked against the sensor's default sequence
+ * (E1, PAC, ..., En, PAC, PDC, PAC, TAC, PAC, TDC, PAC: 44 words, or 54
+ * on the SP); the stat "out_of_order" counts those that differ.
+ *
  * Faults (environment at load, or cheetah_double_control at run time):
  *   CHEETAH_DOUBLE_PARITY_EVERY=n  / "parity_every": every n-th response
  *       word gets one data bit flipped (a parity error); 0 = none.
@@ -23,7 +31,7 @@
  *       stay dead, as after a USB re-enumeration).
  *   CHEETAH_DOUBLE_SERIAL=n: the adapter's unique id (default 1364000042).
  * Counters (cheetah_double_stat): "words", "parity_injected", "frames",
- *   "opens", "submits".
+ *   "opens", "submits", "out_of_order".
  */
 #include <errno.h>
 #include <stdint.h>
@@ -57,10 +65,11 @@ static int generation = 1;
 static int open_handle; /* 0: closed */
 static int bitrate_khz = 1000;
 static long parity_every, missing_mask;
+static long electrodes = 19;
 static uint32_t unique_id = 1364000042u;
 static int inited;
 
-static long stat_words, stat_parity, stat_frames, stat_opens, stat_submits;
+static long stat_words, stat_parity, stat_frames, stat_opens, stat_submits, stat_order;
 
 /* Per board position: what the next bytes clocked under its own SS give. */
 static uint8_t out_buf[3][32];
@@ -97,6 +106,8 @@ static void init(void)
         parity_every = strtol(v, NULL, 10);
     if ((v = getenv("CHEETAH_DOUBLE_MISSING")))
         missing_mask = strtol(v, NULL, 0);
+    if ((v = getenv("CHEETAH_DOUBLE_ELECTRODES")))
+        electrodes = strtol(v, NULL, 10);
     if ((v = getenv("CHEETAH_DOUBLE_SERIAL")))
         unique_id = (uint32_t)strtoul(v, NULL, 10);
 }
@@ -131,6 +142,17 @@ static int handle_ok(int h)
     return CH_OK;
 }
 
+/* The channel index the default sequence samples at position p. */
+static int expected_index(int p)
+{
+    int i = p / 2;
+    if (p % 2)
+        return 0; /* PAC */
+    if (i < electrodes)
+        return 17 + i;
+    return 1 + (i - (int)electrodes); /* PDC 1, TAC 2, TDC 3 */
+}
+
 /* The bytes of one slave-select segment have all been clocked. */
 static void end_segment(int mask, const uint8_t *mosi, int n)
 {
@@ -144,14 +166,17 @@ static void end_segment(int mask, const uint8_t *mosi, int n)
             slot_in_frame = 0;
             stat_frames++;
         }
+        if (index != expected_index(slot_in_frame) || slot_in_frame >= 2 * (electrodes + 3))
+            stat_order++;
+        int lacks = index > 16 + electrodes; /* an electrode past the sensor's */
         for (int s = 0; s < 3; s++) {
             if (!(mask & (1 << s)))
                 continue;
             uint16_t v = index == 3 ? (uint16_t)frame_k
                                     : double_value((uint32_t)s, frame_k, (uint32_t)slot_in_frame);
-            uint16_t w = word_of(v);
+            uint16_t w = lacks ? 0xA558 : word_of(v);
             stat_words++;
-            if (parity_every > 0 && stat_words % parity_every == 0) {
+            if (!lacks && parity_every > 0 && stat_words % parity_every == 0) {
                 w ^= 0x0008; /* a data bit of the low byte */
                 stat_parity++;
             }
@@ -413,6 +438,8 @@ int cheetah_double_control(const char *key, long value)
         parity_every = value;
     } else if (!strcmp(key, "missing")) {
         missing_mask = value;
+    } else if (!strcmp(key, "electrodes")) {
+        electrodes = value;
     } else {
         return -1;
     }
@@ -426,6 +453,7 @@ long cheetah_double_stat(const char *key)
     if (!strcmp(key, "frames")) return stat_frames;
     if (!strcmp(key, "opens")) return stat_opens;
     if (!strcmp(key, "submits")) return stat_submits;
+    if (!strcmp(key, "out_of_order")) return stat_order;
     return -1;
 }
 

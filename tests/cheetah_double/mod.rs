@@ -46,7 +46,8 @@ impl Double {
         &self.path
     }
 
-    /// Sets a fault ("plugged", "parity_every", "missing").
+    /// Sets a fault ("plugged", "parity_every", "missing") or the sensors'
+    /// electrodes ("electrodes": 19 or 24).
     pub fn control(&self, key: &str, value: i64) {
         let key = CString::new(key).unwrap_or_default();
         // SAFETY: the double's exported `int cheetah_double_control(const char*, long)`.
@@ -62,7 +63,8 @@ impl Double {
         }
     }
 
-    /// A counter ("words", "parity_injected", "frames", "opens", "submits").
+    /// A counter ("words", "parity_injected", "frames", "opens", "submits",
+    /// "out_of_order").
     pub fn stat(&self, key: &str) -> c_long {
         let key = CString::new(key).unwrap_or_default();
         // SAFETY: the double's exported `long cheetah_double_stat(const char*)`.
@@ -78,10 +80,16 @@ impl Double {
     }
 }
 
+/// Words in the default frame of a sensor with `electrodes` electrodes
+/// (44; 54 on a BioTac SP).
+pub fn frame_words(electrodes: usize) -> usize {
+    2 * (electrodes + 3)
+}
+
 /// The value the double's BioTac at board position `s` answers at frame
-/// position `p` of frame `k` (mod 4096); TDC (position 42) answers `k`.
-pub fn value(s: u32, k: u32, p: u32) -> u16 {
-    if p == 42 {
+/// position `p` of frame `k` (mod 4096); TDC (position `tdc`) answers `k`.
+pub fn value(s: u32, k: u32, p: u32, tdc: u32) -> u16 {
+    if p == tdc {
         return (k & 0xFFF) as u16;
     }
     let mut h = (s + 1).wrapping_mul(0x9E37_79B1)
@@ -93,20 +101,29 @@ pub fn value(s: u32, k: u32, p: u32) -> u16 {
     (h & 0xFFF) as u16
 }
 
-/// The 44 values of frame `k` of board position `s`, in frame order.
-pub fn frame_values(s: u8, k: u32) -> [u16; 44] {
-    std::array::from_fn(|p| value(u32::from(s), k & 0xFFF, p as u32))
+/// The values of frame `k` of board position `s` holding a sensor of
+/// `electrodes`, in frame order.
+pub fn frame_values(s: u8, k: u32, electrodes: usize) -> Vec<u16> {
+    let words = frame_words(electrodes) as u32;
+    (0..words)
+        .map(|p| value(u32::from(s), k & 0xFFF, p, words - 2))
+        .collect()
 }
 
-/// The reading's 44 values in frame order (E1, PAC1, ..., TDC, PAC22).
-pub fn reading_values(r: &tactile_force::biotac::BioTacReading) -> [u16; 44] {
-    std::array::from_fn(|p| match (p % 2, p / 2) {
-        (1, n) => r.pac[n],
-        (_, i) if i < 19 => r.electrodes[i],
-        (_, 19) => r.pdc,
-        (_, 20) => r.tac,
-        _ => r.tdc,
-    })
+/// The reading's values in its default frame's order: E1, PAC1, ..., En,
+/// PACn, PDC, PAC, TAC, PAC, TDC, PAC (written here from the sequence, not
+/// taken from the crate).
+pub fn reading_values(r: &tactile_force::biotac::BioTacReading) -> Vec<u16> {
+    let n = r.electrodes.len();
+    (0..frame_words(n))
+        .map(|p| match (p % 2, p / 2) {
+            (1, i) => r.pac.get(i).copied().unwrap_or(u16::MAX),
+            (_, i) if i < n => r.electrodes[i],
+            (_, i) if i == n => r.pdc,
+            (_, i) if i == n + 1 => r.tac,
+            _ => r.tdc,
+        })
+        .collect()
 }
 
 /// Per board position: what the driver delivered, checked against what the
@@ -155,7 +172,9 @@ impl Checker {
         let t = &mut self.sensors[s];
         t.frames += 1;
         t.invalid += frame.invalid.len() as u64;
-        let k = if frame.invalid.contains(42) {
+        let electrodes = frame.reading.electrodes.len();
+        let words = frame_words(electrodes);
+        let k = if frame.invalid.contains(words - 2) {
             self.last_k[s].map(|k| (k + 1) & 0xFFF)
         } else {
             let k = u32::from(frame.reading.tdc);
@@ -171,10 +190,10 @@ impl Checker {
             t.readings += u64::from(reading.is_some());
             return;
         };
-        let expected = frame_values(frame.sensor, k);
-        let previous = frame_values(frame.sensor, k.wrapping_sub(1) & 0xFFF);
+        let expected = frame_values(frame.sensor, k, electrodes);
+        let previous = frame_values(frame.sensor, k.wrapping_sub(1) & 0xFFF, electrodes);
         let got = reading_values(&frame.reading);
-        for p in 0..44 {
+        for p in 0..words {
             if !frame.invalid.contains(p) && got[p] != expected[p] {
                 t.mismatches += 1;
             }
@@ -184,7 +203,10 @@ impl Checker {
             Some(r) => {
                 t.readings += 1;
                 let delivered = reading_values(r);
-                for p in 0..44 {
+                if delivered.len() != words {
+                    t.mismatches += 1;
+                }
+                for p in 0..words.min(delivered.len()) {
                     let want = if frame.invalid.contains(p) {
                         t.held += 1;
                         previous[p]

@@ -134,11 +134,7 @@ fn decode_is_bit_exact_and_flags_invalid_words() {
     let at = 38 * plan.bytes_per_sample() + 2 + 2 + 1;
     bytes[at] ^= 0x08;
     let mut seq = [7, 65535, 0];
-    let frames: Vec<_> = plan
-        .decode(&bytes, &mut seq)
-        .into_iter()
-        .map(Result::unwrap)
-        .collect();
+    let frames = plan.decode(&bytes, &mut seq);
     assert_eq!(frames.len(), 6);
     assert_eq!(seq, [9, 1, 2]);
     let f = &frames[1];
@@ -173,33 +169,31 @@ fn a_missing_sensor_answers_only_invalid_words() {
     let plan = BatchPlan::new(SensorModel::BioTac, &[0], 1).unwrap();
     let bytes = vec![0xFF; plan.batch_len()];
     let mut seq = [0; 3];
-    let frame = plan.decode(&bytes, &mut seq).remove(0).unwrap();
+    let frame = plan.decode(&bytes, &mut seq).remove(0);
     assert_eq!(frame.invalid.len(), 44);
 }
 
 #[test]
-fn the_sp_schedule_reaches_the_one_reading_function_and_is_refused_there() {
-    let plan = BatchPlan::new(SensorModel::BioTacSp, &[1], 1).unwrap();
-    assert_eq!(plan.batch_len(), 54 * 4);
-    let bytes = returned(&plan, |_, _, p| p as u16);
+fn an_sp_frame_fills_24_electrodes_and_27_pac_samples() {
+    let plan = BatchPlan::new(SensorModel::BioTacSp, &[0, 2], 1).unwrap();
+    assert_eq!(plan.batch_len(), 54 * 6);
+    assert!((SensorModel::BioTacSp.frame_period_s() - 54.0 / 4400.0).abs() < 1e-12);
+    let value = |j: usize, _: usize, p: usize| (j * 1000 + p) as u16;
+    let mut bytes = returned(&plan, value);
+    // Position 2, its last PAC sample (position 53): a parity error.
+    bytes[53 * plan.bytes_per_sample() + 4 + 1] ^= 0x08;
     let mut seq = [0; 3];
-    let err = plan.decode(&bytes, &mut seq).remove(0).unwrap_err();
-    // 24 electrodes fit a reading; the SP frame's 27 PAC samples do not.
-    assert_eq!(err, LayoutError::Pac(27));
-    assert_eq!(
-        err.to_string(),
-        "27 PAC samples in a frame, a reading holds 22"
-    );
-    let sp = reading_from_samples(0, &[5; 24], 0, &[0; 22], 0, 0).unwrap();
-    assert_eq!(sp.electrodes.len(), 24);
-    assert!(matches!(
-        reading_from_samples(0, &[0; 20], 0, &[0; 22], 0, 0),
-        Err(LayoutError::Electrodes(_))
-    ));
-    assert_eq!(
-        reading_from_samples(0, &[0; 19], 0, &[0; 21], 0, 0),
-        Err(LayoutError::Pac(21))
-    );
+    let frames = plan.decode(&bytes, &mut seq);
+    let (a, b) = (&frames[0].reading, &frames[1].reading);
+    assert_eq!((a.electrodes.len(), a.pac.len()), (24, 27));
+    let want: Vec<u16> = (0..24).map(|k| value(0, 0, 2 * k)).collect();
+    assert_eq!(&a.electrodes[..], &want[..]);
+    let want: Vec<u16> = (0..27).map(|n| value(0, 0, 2 * n + 1)).collect();
+    assert_eq!(&a.pac[..], &want[..]);
+    assert_eq!((a.pdc, a.tac, a.tdc), (48, 50, 52));
+    assert!(frames[0].invalid.is_empty());
+    assert_eq!(frames[1].invalid_names().collect::<Vec<_>>(), ["pac27"]);
+    assert_eq!((b.pac[25], b.pac[26]), (1051, 0));
 }
 
 #[test]

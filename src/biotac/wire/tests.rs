@@ -10,7 +10,7 @@ pub(in crate::biotac) fn reading(offset: u16) -> BioTacReading {
         stamp_s: 0.0,
         electrodes: std::array::from_fn::<u16, 19, _>(value).into(),
         pdc: value(19),
-        pac: std::array::from_fn(|i| value(20 + i)),
+        pac: std::array::from_fn::<u16, N_PAC, _>(|i| value(20 + i)).into(),
         tdc: value(42),
         tac: value(43),
     }
@@ -124,19 +124,25 @@ fn crc_table_matches_bitwise_crc() {
 
 #[test]
 fn channel_names_follow_the_frame_order() {
-    for k in 0..N_ELECTRODES {
-        assert_eq!(channel_name(2 * k), Some(format!("e{}", k + 1).as_str()));
+    use ElectrodeLayout::{Biotac, BiotacSp};
+    for (layout, words) in [(Biotac, N_WORDS), (BiotacSp, MAX_WORDS)] {
+        assert_eq!(frame_words(layout), words);
+        let n = layout.count();
+        for k in 0..n {
+            assert_eq!(channel_name(2 * k, layout), Some(format!("e{}", k + 1)));
+        }
+        for k in 0..layout.pac_per_frame() {
+            assert_eq!(
+                channel_name(2 * k + 1, layout),
+                Some(format!("pac{}", k + 1))
+            );
+        }
+        let name = |p| channel_name(p, layout);
+        assert_eq!(name(2 * n).as_deref(), Some("pdc"));
+        assert_eq!(name(2 * n + 2).as_deref(), Some("tac"));
+        assert_eq!(name(2 * n + 4).as_deref(), Some("tdc"));
+        assert_eq!(name(words), None);
     }
-    for k in 0..N_PAC {
-        assert_eq!(
-            channel_name(2 * k + 1),
-            Some(format!("pac{}", k + 1).as_str())
-        );
-    }
-    assert_eq!(channel_name(38), Some("pdc"));
-    assert_eq!(channel_name(40), Some("tac"));
-    assert_eq!(channel_name(42), Some("tdc"));
-    assert_eq!(channel_name(N_WORDS), None);
 }
 
 #[test]
@@ -152,20 +158,50 @@ fn slots_follow_the_frame_order() {
     let mut sorted = values.to_vec();
     sorted.sort_unstable();
     sorted.dedup();
-    assert_eq!(sorted.len(), N_WORDS, "every field appears once");
+    assert_eq!(
+        sorted.len(),
+        N_WORDS + 1,
+        "every field appears once, then 0"
+    );
+    assert_eq!(values[N_WORDS..], [0; MAX_WORDS - N_WORDS]);
+    // A BioTac SP's frame: E20 where a BioTac's PDC is, PDC at 48.
+    let mut sp = BioTacReading::zeroed(ElectrodeLayout::BiotacSp);
+    for p in 0..MAX_WORDS {
+        *slot(&mut sp, p).unwrap() = p as u16;
+    }
+    assert_eq!((sp.electrodes[19], sp.electrodes[23]), (38, 46));
+    assert_eq!((sp.pdc, sp.tac, sp.tdc), (48, 50, 52));
+    assert_eq!((sp.pac[0], sp.pac[26]), (1, 53));
+    assert_eq!(to_frame_order(&sp), std::array::from_fn(|p| p as u16));
+}
+
+#[test]
+fn the_bridge_frame_carries_a_biotacs_44_words_of_an_sp_reading() {
+    let mut sp = BioTacReading::zeroed(ElectrodeLayout::BiotacSp);
+    for p in 0..MAX_WORDS {
+        *slot(&mut sp, p).unwrap() = p as u16 + 1;
+    }
+    let back = decode_frame(&encode_frame(0, 1, 0, &sp)).unwrap().reading;
+    assert_eq!(&back.electrodes[..], &sp.electrodes[..N_ELECTRODES]);
+    assert_eq!(&back.pac[..], &sp.pac[..N_PAC]);
+    assert_eq!((back.pdc, back.tac, back.tdc), (sp.pdc, sp.tac, sp.tdc));
 }
 
 #[test]
 fn channel_mask_lists_names_in_frame_order() {
     let mut mask = ChannelMask::default();
-    for position in [42, 12, 5, 38, 40, 44, 100] {
+    for position in [42, 12, 5, 38, 40, 53, 54, 100] {
         mask.insert(position);
     }
-    assert_eq!(mask.len(), 5);
-    assert!(mask.contains(12) && !mask.contains(13) && !mask.contains(44));
+    assert_eq!(mask.len(), 6);
+    assert!(mask.contains(12) && !mask.contains(13) && mask.contains(53) && !mask.contains(54));
     assert_eq!(
-        mask.names().collect::<Vec<_>>(),
+        mask.names(ElectrodeLayout::Biotac).collect::<Vec<_>>(),
         ["pac3", "e7", "pdc", "tac", "tdc"]
+    );
+    assert_eq!(
+        mask.names(ElectrodeLayout::BiotacSp).collect::<Vec<_>>(),
+        ["pac3", "e7", "e20", "e21", "e22", "pac27"]
     );
 }
 
@@ -249,7 +285,7 @@ fn invalid_words_are_zeroed_and_listed() {
     set_word(&mut frame, 12, encode_word(100) ^ 1); // e7: parity
     set_word(&mut frame, 38, 0xA5A5); // pdc: error word
     let decoded = decode_frame(&frame).unwrap();
-    assert_eq!(decoded.invalid.names().collect::<Vec<_>>(), ["e7", "pdc"]);
+    assert_eq!(decoded.invalid_names().collect::<Vec<_>>(), ["e7", "pdc"]);
     assert_eq!(decoded.reading.electrodes[6], 0);
     assert_eq!(decoded.reading.pdc, 0);
     assert_eq!(decoded.reading.electrodes[5], reading(9).electrodes[5]);

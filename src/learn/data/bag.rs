@@ -16,7 +16,7 @@ use mcap::{Channel, McapError};
 use nalgebra::Vector3;
 
 use crate::biotac::hand::{DecodeError, Encoding, HandKind, HandLayout};
-use crate::biotac::msg::{from_cdr_as, join_stamp, CdrLengths, ElectrodeField, BIOTAC_MSG_TYPE};
+use crate::biotac::msg::{from_cdr_as, join_stamp, CdrLengths, MsgLayout, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacReading;
 use crate::record::Record;
 use crate::wrench::Wrench;
@@ -235,8 +235,8 @@ const READING_TYPES: &str =
 enum Role {
     /// A hand message, laid out as its schema says.
     Readings(HandLayout),
-    /// Our own BioTac message, its electrodes as its schema lays them out.
-    BioTac(ElectrodeField),
+    /// Our own BioTac message, its arrays as its schema lays them out.
+    BioTac(MsgLayout),
     Wrenches,
     Other,
 }
@@ -265,9 +265,7 @@ impl Role {
                 }
                 None => {
                     let schema = channel.schema.as_ref().map_or(&[][..], |s| &s.data[..]);
-                    Role::BioTac(ElectrodeField::of_definition(&String::from_utf8_lossy(
-                        schema,
-                    )))
+                    Role::BioTac(MsgLayout::of_definition(&String::from_utf8_lossy(schema)))
                 }
             };
             let ok = matches!(role, Role::Readings(_)) || name == BIOTAC_MSG_TYPE;

@@ -69,7 +69,7 @@ fn a_bag_reading_or_wrench_that_cannot_be_true_is_refused_with_its_place() {
                 stamp_s: 0.0,
                 electrodes: electrodes.into(),
                 pdc: 2000,
-                pac: [2000; N_PAC],
+                pac: [2000; N_PAC].into(),
                 tdc: 2000,
                 tac: 2000,
             },

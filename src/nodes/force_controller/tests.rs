@@ -259,7 +259,7 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
         stamp_s: t,
         electrodes: [3000; crate::biotac::N_ELECTRODES].into(),
         pdc: 2000,
-        pac: [2000; crate::biotac::N_PAC],
+        pac: [2000; crate::biotac::N_PAC].into(),
         tdc: 1800,
         tac: 2000,
     };

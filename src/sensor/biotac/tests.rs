@@ -7,7 +7,7 @@ fn reading(electrodes: Electrodes) -> BioTacReading {
         stamp_s: 0.0,
         electrodes,
         pdc: 2000,
-        pac: [2048; N_PAC],
+        pac: [2048; N_PAC].into(),
         tdc: 2500,
         tac: 2000,
     }

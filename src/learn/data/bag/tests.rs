@@ -1,7 +1,7 @@
 //! Bags: written and read back, pairing, and the errors that name their place.
 
 use super::*;
-use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta};
+use crate::biotac::msg::{split_stamp, to_cdr, BioTacMeta, CdrBioTac};
 use crate::biotac::{N_ELECTRODES, N_PAC};
 use crate::exit::{Classify, ExitClass};
 use std::io::{Cursor, Write};
@@ -35,7 +35,7 @@ fn reading_cdr(stamp_s: f64, e1: u16) -> Vec<u8> {
         stamp_s,
         electrodes: electrodes.into(),
         pdc: 2100,
-        pac: [2048; N_PAC],
+        pac: [2048; N_PAC].into(),
         tdc: 1800,
         tac: 2000,
     };
@@ -45,11 +45,23 @@ fn reading_cdr(stamp_s: f64, e1: u16) -> Vec<u8> {
 /// A bag written with the mcap crate: channels by (topic, schema name,
 /// message encoding), messages as (channel, log time in s, bytes).
 fn bag(channels: &[(&str, &str, &str)], messages: &[(usize, f64, Vec<u8>)]) -> Vec<u8> {
+    let with_text: Vec<_> = channels
+        .iter()
+        .map(|&(t, s, e)| (t, s, e, "# test"))
+        .collect();
+    bag_with_schemas(&with_text, messages)
+}
+
+/// [`bag`] with each channel's schema text (its message definition).
+fn bag_with_schemas(
+    channels: &[(&str, &str, &str, &str)],
+    messages: &[(usize, f64, Vec<u8>)],
+) -> Vec<u8> {
     let mut w = mcap::Writer::new(Cursor::new(Vec::new())).unwrap();
     let ids: Vec<u16> = channels
         .iter()
-        .map(|(topic, schema, encoding)| {
-            let schema = w.add_schema(schema, "ros2msg", b"# test").unwrap();
+        .map(|(topic, schema, encoding, text)| {
+            let schema = w.add_schema(schema, "ros2msg", text.as_bytes()).unwrap();
             w.add_channel(schema, topic, encoding, &BTreeMap::new())
                 .unwrap()
         })
@@ -309,7 +321,7 @@ fn reading_with(seq: u16, e: usize) -> BioTacReading {
         stamp_s: 0.0,
         electrodes: electrodes.into(),
         pdc: 2100,
-        pac: [2048; N_PAC],
+        pac: [2048; N_PAC].into(),
         tdc: 1800,
         tac: 2000,
     }
@@ -467,5 +479,70 @@ mod props {
             }
             answered(read_file(&bad))?;
         }
+    }
+}
+
+/// Reading `i` at `t` (PAC 2000 + k + i) as bags recorded before PAC
+/// became a sequence hold it: `uint16[22] pac`, electrodes as `E`
+/// (`uint16[19]` before the BioTac SP, then `uint16[]`).
+fn old_cdr<E: serde::Serialize>(t: f64, i: u16, electrodes: E) -> Vec<u8> {
+    let pac: [u16; N_PAC] = std::array::from_fn(|k| 2000 + k as u16 + i);
+    let r = BioTacReading {
+        seq: i,
+        stamp_s: t,
+        electrodes: [3000; N_ELECTRODES].into(),
+        pdc: 2100,
+        pac: pac.into(),
+        tdc: 1800,
+        tac: 2000,
+    };
+    let m = CdrBioTac::new(&r, &BioTacMeta::default()).with_arrays(electrodes, pac);
+    cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap()
+}
+
+#[test]
+fn bags_recorded_with_the_fixed_pac_array_read_by_their_schema() {
+    let definition = |electrodes: &str| {
+        format!(
+            "std_msgs/Header header\nstring serial\nuint8 sensor_index\nuint16 seq\n\
+             {electrodes} electrodes\nuint16 pdc\nuint16[22] pac\nuint16 tdc\nuint16 tac\n\
+             string[] invalid_channels\n"
+        )
+    };
+    let old = |t: f64, i: u16, fixed: bool| {
+        let mut e = [3000; N_ELECTRODES];
+        e[0] = i;
+        match fixed {
+            true => old_cdr(t, i, e),
+            false => old_cdr(t, i, e.to_vec()),
+        }
+    };
+    let ft = ("/ft_sensor/wrench", WRENCH_STAMPED_TYPE, "cdr", "# test");
+    for (fixed, electrodes) in [(true, "uint16[19]"), (false, "uint16[]")] {
+        let text = definition(electrodes);
+        let biotac = ("/biotac/readings", BIOTAC_MSG_TYPE, "cdr", text.as_str());
+        let mut m = Vec::new();
+        for i in 0..20u16 {
+            let t = 10.0 + 0.01 * f64::from(i);
+            m.push((0, t + 0.001, old(t, i, fixed)));
+            m.push((1, t + 0.003, wrench_cdr(t + 0.002, f64::from(i))));
+        }
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        f.write_all(&bag_with_schemas(&[biotac, ft], &m)).unwrap();
+        let back = read_bag(f.path(), &BagTopics::default()).unwrap();
+        assert_eq!(back.records.len(), 20, "{electrodes}");
+        for (i, r) in back.records.iter().enumerate() {
+            let want: Vec<u16> = (0..N_PAC).map(|k| (2000 + k + i) as u16).collect();
+            assert_eq!(&r.reading.pac[..], &want[..], "{electrodes}");
+            assert_eq!(r.reading.electrodes[0], i as u16);
+            assert_eq!(r.reading.electrodes.len(), N_ELECTRODES);
+        }
+        // Under today's definition the same bytes do not decode.
+        let today = include_str!("../../../../msg/msg/BioTac.msg");
+        let biotac = ("/biotac/readings", BIOTAC_MSG_TYPE, "cdr", today);
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        f.write_all(&bag_with_schemas(&[biotac, ft], &m)).unwrap();
+        let err = read_bag(f.path(), &BagTopics::default()).unwrap_err();
+        assert_eq!(err.class(), ExitClass::Refused, "{err}");
     }
 }

@@ -19,7 +19,7 @@ fn records(n: usize, force: impl Fn(f64) -> f64) -> Vec<Record> {
                     stamp_s: t,
                     electrodes: [3000; 19].into(),
                     pdc: 2000,
-                    pac: [2000; 22],
+                    pac: [2000; 22].into(),
                     tdc: 2300,
                     tac: 2000,
                 },
