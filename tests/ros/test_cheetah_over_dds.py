@@ -31,21 +31,14 @@ import rclpy
 from rclpy.qos import qos_profile_sensor_data
 from geometry_msgs.msg import WrenchStamped
 from tactile_force_msgs.msg import BioTac
+from checks import RESULTS, check, key, summary
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("TACTILE_FORCE_ROS2_BIN", os.path.join(REPO, "target", "release"))
-RESULTS = []
 TARE = 50
 SLOT = 1
 
 
-def check(name, ok, detail):
-    RESULTS.append(ok)
-    print(f"{'ok  ' if ok else 'FAIL'} {name}: {detail}", flush=True)
-
-
-def key(stamp):
-    return round(stamp.sec + 1e-9 * stamp.nanosec, 3)
 
 
 def double_value(s, k, p):
@@ -147,8 +140,7 @@ def main():
             print(f"== {name} (last lines)\n" + "\n".join(text))
     node.destroy_node()
     rclpy.shutdown()
-    print(f"{sum(RESULTS)} passed, {len(RESULTS) - sum(RESULTS)} failed")
-    return 0 if RESULTS and all(RESULTS) else 1
+    return summary()
 
 
 if __name__ == "__main__":

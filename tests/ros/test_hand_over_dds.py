@@ -44,22 +44,14 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from sr_robot_msgs.msg import Biotac, BiotacAll
 from tactile_force_msgs.msg import BioTac
+from checks import RESULTS, check, key, summary
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("TACTILE_FORCE_ROS2_BIN", os.path.join(REPO, "target", "release"))
-RESULTS = []
 ROWS = 700  # 7 s of the pressing set: one push, to 6.5 N
 TARE = 50
 
 
-def check(name, ok, detail):
-    RESULTS.append(ok)
-    print(f"{'ok  ' if ok else 'FAIL'} {name}: {detail}", flush=True)
-
-
-def key(stamp):
-    """A stamp to the millisecond (the node's stamps go through f64 s)."""
-    return round(stamp.sec + 1e-9 * stamp.nanosec, 3)
 
 
 def session(work, sensor):
@@ -276,8 +268,7 @@ def main():
         e.stop()
     peer.node.destroy_node()
     rclpy.shutdown()
-    print(f"{sum(RESULTS)} passed, {len(RESULTS) - sum(RESULTS)} failed")
-    return 0 if RESULTS and all(RESULTS) else 1
+    return summary()
 
 
 if __name__ == "__main__":

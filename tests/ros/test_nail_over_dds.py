@@ -34,15 +34,11 @@ from rclpy.qos import qos_profile_sensor_data
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from sensor_msgs.msg import Image
+from checks import RESULTS, check, key, summary
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.environ.get("TACTILE_FORCE_ROS2_BIN", os.path.join(REPO, "target", "release"))
-RESULTS = []
 
-
-def check(name, ok, detail):
-    RESULTS.append(ok)
-    print(f"{'ok  ' if ok else 'FAIL'} {name}: {detail}", flush=True)
 
 
 def read_grey_png(path):
@@ -79,11 +75,6 @@ def read_grey_png(path):
         prev = row
     return width, height, b"".join(rows)
 
-
-def key(stamp):
-    """A stamp to the millisecond: the node's stamps go through f64 seconds,
-    which keep ~0.1 us of a Unix time; frames are 33 ms apart."""
-    return round(stamp.sec + 1e-9 * stamp.nanosec, 3)
 
 
 def main():
@@ -179,8 +170,7 @@ def main():
         log.close()
         if not all(RESULTS):
             print("== wrench_estimator (last lines)\n" + "".join(open(log_path).readlines()[-15:]))
-    print(f"{sum(RESULTS)} passed, {len(RESULTS) - sum(RESULTS)} failed")
-    return 0 if RESULTS and all(RESULTS) else 1
+    return summary()
 
 
 if __name__ == "__main__":

@@ -75,7 +75,6 @@ from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
 from std_msgs.msg import String
 from rcl_interfaces.srv import GetParameters, SetParameters
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 from std_msgs.msg import Float64MultiArray
@@ -88,8 +87,8 @@ from tactile_force_msgs.msg import BioTac
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(REPO, "launch"))
 from tactile_force_nodes import nodes  # noqa: E402
+from checks import RESULTS, check, summary
 
-RESULTS = []
 CONTACT_N = 0.05
 PERIOD_S = 0.01
 
@@ -99,10 +98,6 @@ def urdf(robot):
     with open(os.path.join(REPO, "config", f"{robot}.urdf")) as f:
         return f.read()
 
-
-def check(name, ok, detail):
-    RESULTS.append(ok)
-    print(f"{'ok  ' if ok else 'FAIL'} {name}: {detail}", flush=True)
 
 
 class Nodes:
@@ -884,9 +879,7 @@ def main():
     calibration()
     twist_interface()
     driver()
-    failed = RESULTS.count(False)
-    print(f"{len(RESULTS) - failed} passed, {failed} failed")
-    return 1 if failed else 0
+    return summary()
 
 
 if __name__ == "__main__":
