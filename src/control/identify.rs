@@ -196,11 +196,13 @@ impl ArmTrack {
             travel += d.norm();
             total += (d - mean).norm_squared();
         }
-        // A steady motion shows no delay: the commands must change.
+        // A steady motion shows no delay: the commands must change within
+        // the window, early enough that the positions show the response
+        // (a change before it, its response over, fits any delay).
         let (lo, hi) = self
             .commands
             .iter()
-            .filter(|(t, _)| *t >= from - MAX_LATENCY_S - MAX_LAG_S)
+            .filter(|(t, _)| (from..=t_end - MAX_LATENCY_S).contains(t))
             .fold(
                 (
                     Vector3::repeat(f64::INFINITY),
@@ -522,6 +524,15 @@ impl LoopMeter {
             lag_s: self.arm.map_or(self.prior.lag_s, |a| a.lag_s),
             period_s: self.prior.period_s,
         };
+    }
+
+    /// Goes on from what `before` measured of the same arm and link (the
+    /// controller a goal replaces): its history, so that the step from
+    /// rest to the approach speed at a goal's start is fitted, and its fit.
+    pub fn carry_on(&mut self, before: &LoopMeter) {
+        self.track = before.track.clone();
+        self.ages = before.ages.clone();
+        self.arm = before.arm;
     }
 
     /// The timing as measured so far.

@@ -224,6 +224,11 @@ impl ForceController {
         &self.command
     }
 
+    /// Goes on from what `before` measured of the loop (same arm and link).
+    pub fn measured_from(&mut self, before: &ForceController) {
+        self.meter.carry_on(&before.meter);
+    }
+
     /// The task running.
     pub fn task(&self) -> &dyn Task {
         self.task.as_ref()

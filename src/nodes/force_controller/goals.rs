@@ -111,7 +111,12 @@ impl ForceControllerNode {
         Ok(())
     }
 
-    fn begin(&mut self, c: ForceController, goal: Running, task: TaskKind) {
+    /// Runs `c` for a goal; it goes on from what the controller it
+    /// replaces measured of the loop (the same arm).
+    fn begin(&mut self, mut c: ForceController, goal: Running, task: TaskKind) {
+        if let Some(before) = &self.controller {
+            c.measured_from(before);
+        }
         self.asked = true;
         self.controller = Some(c);
         self.task = task.name().into();

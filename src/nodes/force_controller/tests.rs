@@ -240,6 +240,53 @@ fn a_guarded_goal_runs_reports_and_ends_and_only_one_goal_at_a_time() {
     n.set_task("calibrate", true).unwrap();
 }
 
+/// The node on the PA10 whose joints follow its commands after a latency
+/// `l` and a lag `tau`, nothing touched: waiting until `t_goal` (s), then
+/// a guarded goal, to `t_end`. Joint states every 4 ms, estimates every
+/// 10 ms; the goal's controller.
+fn arm_under_a_goal(l: f64, tau: f64, t_goal: f64, t_end: f64) -> ForceControllerNode {
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    let (dt, mut q) = (1e-4, start_pose());
+    let mut qdot = q.clone() * 0.0;
+    let mut sent: Vec<(f64, JointVector)> = vec![(-1.0, qdot.clone())];
+    for k in 0..(t_end / dt).round() as usize {
+        let t = k as f64 * dt;
+        if k == (t_goal / dt).round() as usize {
+            n.start_guarded(&GuardedGoal::default()).unwrap();
+        }
+        if k % 40 == 0 {
+            n.on_joint_state(&JointState {
+                stamp_s: t,
+                q: q.clone(),
+            });
+        }
+        if k % 100 == 0 {
+            n.on_force(ForcePart::Mean, t, fz(0.0), t + 0.001);
+            n.on_force(ForcePart::Std, t, fz(0.001), t + 0.001);
+            sent.push((t + 0.001, n.controller().unwrap().command().clone()));
+        }
+        let u = &sent.iter().rev().find(|(ts, _)| ts + l <= t).unwrap().1;
+        qdot += (u - &qdot) * (dt / tau);
+        q += &qdot * dt;
+    }
+    n
+}
+
+#[test]
+fn a_goal_fits_the_arm_from_its_start_from_rest_on_any_body() {
+    // 0.5 s of an approach at a steady speed, nothing touched yet: the
+    // step from rest at the goal's start is all the fit sees.
+    for (l, tau) in [(0.02, 0.01), (0.008, 0.03)] {
+        let n = arm_under_a_goal(l, tau, 1.0, 1.5);
+        let arm = n.controller().unwrap().arm_response().expect("fitted");
+        assert!(
+            (arm.latency_s - l).abs() <= 0.005 && (arm.lag_s - tau).abs() <= 0.005,
+            "{l} {tau}: {arm:?}"
+        );
+    }
+}
+
 #[test]
 fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
     // The F/T sensor mounted upside down: its +z is the BioTac's -z.
