@@ -1,5 +1,5 @@
 //! BioTacs on SynTouch's multi-BioTac board, read over SPI by a Total Phase
-//! Cheetah USB adapter, as a [`FrameSource`] for the [`Driver`](super::driver::Driver).
+//! Cheetah USB adapter, as a [`FrameSource`] for the [`Driver`].
 //!
 //! What to shift and how to read it back is [`super::spi`]'s (the sampling
 //! sequence, commands, timing, parity); this module only hands its
