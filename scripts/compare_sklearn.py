@@ -67,8 +67,8 @@ def split(data_path, out_dir, axes, n_train, tare_samples=50, seed=0):
     return paths
 
 
-def ours(binary, paths, kernel, mode):
-    out = subprocess.run(ours_cmd(binary, paths, kernel, mode), check=True, capture_output=True,
+def ours(binary, paths, kernel, mode, extra):
+    out = subprocess.run(ours_cmd(binary, paths, kernel, mode, extra), check=True, capture_output=True,
                          text=True).stdout
     gp = json.loads(out.strip().splitlines()[-1])["gp"]
     return gp["fit_s"], gp["rmse"]
@@ -115,12 +115,12 @@ def sklearn_fit(paths, axes, kernel_name, per_axis, latency_samples):
     return fit_s, rmse, float(np.median(evals)), float(np.median(lat)), float(np.percentile(lat, 99))
 
 
-def ours_cmd(binary, paths, kernel, mode):
-    """Our eval run of the model that scikit-learn's `mode` fits."""
+def ours_cmd(binary, paths, kernel, mode, extra):
+    """Our eval run of the model that scikit-learn's `mode` fits, with `extra` options."""
     shared = ["--shared-hyper"] if mode == "shared" else []
     return [binary, "eval", "--train", paths["train"], "--test", paths["test"], "--tare-samples", "0",
             "--max-train", "1000000", "--kernel", kernel, "--channels", "electrodes", "--no-nn",
-            "--json"] + shared
+            "--json"] + shared + extra
 
 
 def load():
@@ -151,13 +151,13 @@ def sklearn_whole_process(train, test, kernel_name, per_axis):
     print(json.dumps([float(np.sqrt(np.mean((pred[:, j] - te[:, d + j]) ** 2))) for j in range(k)]))
 
 
-def whole(binary, paths, kernel, modes, repeats):
+def whole(binary, paths, kernel, modes, repeats, extra):
     """Whole process against whole process, alternated, medians."""
     times = {}
     for _ in range(repeats):
         for mode in modes:
             t0 = time.perf_counter()
-            subprocess.run(ours_cmd(binary, paths, kernel, mode), check=True, capture_output=True)
+            subprocess.run(ours_cmd(binary, paths, kernel, mode, extra), check=True, capture_output=True)
             times.setdefault(("ours", mode), []).append(time.perf_counter() - t0)
             t0 = time.perf_counter()
             subprocess.run([sys.executable, __file__, "--whole-sklearn", paths["train"], paths["test"],
@@ -191,13 +191,14 @@ def main():
     p.add_argument("--latency-samples", type=int, default=300)
     p.add_argument("--whole", action="store_true", help="time whole processes (medians of --repeats)")
     p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--ours-args", default="", help="more options of our eval, e.g. '--restarts 1'")
     args = p.parse_args()
     axes = args.axes.split(",")
     paths = split(args.data, args.out_dir, axes, args.n_train)
     for kernel in args.kernels.split(","):
         print(f"\n== kernel {kernel}, n_train {args.n_train}, {len(ELECTRODES)} features, axes {args.axes} ==")
         for mode in args.sklearn.split(","):
-            fit_s, rmse = ours(args.bin, paths, kernel, mode)
+            fit_s, rmse = ours(args.bin, paths, kernel, mode, args.ours_args.split())
             print(f"{'tactile_force (' + mode + ')':<26} fit {fit_s:8.2f} s   RMSE {fmt(rmse)}   ({load()})")
             s_fit, s_rmse, s_eval, s_med, s_p99 = sklearn_fit(
                 paths, axes, kernel, mode == "per-axis", args.latency_samples)
@@ -206,7 +207,7 @@ def main():
             print(f"{'':<26} {s_eval * 1e3:.0f} ms per likelihood+gradient evaluation; "
                   f"predict one sample, mean+std, all axes: median {s_med:.0f} us, p99 {s_p99:.0f} us")
         if args.whole:
-            whole(args.bin, paths, kernel, args.sklearn.split(","), args.repeats)
+            whole(args.bin, paths, kernel, args.sklearn.split(","), args.repeats, args.ours_args.split())
 
 
 if __name__ == "__main__":

@@ -67,7 +67,7 @@ pub(crate) fn check_targets(x: &[f64], d: usize, y: &[f64], k: usize) -> Result<
     if y.is_empty() {
         return Err(GpError::Empty);
     }
-    if x.len() * k != y.len() * d || y.len() % k != 0 {
+    if x.len() * k != y.len() * d || !y.len().is_multiple_of(k) {
         return Err(GpError::ShapeMismatch {
             values: x.len(),
             dim: d,
