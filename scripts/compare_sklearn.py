@@ -8,18 +8,24 @@ every set and the test rows are trials 9-10. Both tools get exactly these
 rows: ours through `eval --train --test --tare-samples 0`.
 
 scikit-learn runs the same kernel family, ConstantKernel * RBF + WhiteKernel
-(isotropic or ARD), on standardised inputs with normalize_y, in two ways:
+(isotropic or ARD), on standardised inputs with normalize_y, in two ways,
+each against the same model of ours:
   shared:   one regressor for the 3 outputs (what a user would write; the
-            outputs then share hyperparameters),
-  per-axis: one regressor per output (the model tactile_force fits).
+            outputs then share hyperparameters), against our
+            `--shared-hyper` (one set of hyperparameters for every axis);
+  per-axis: one regressor per output, against our default (a GP per axis
+            with its own hyperparameters).
 Prints fit times, RMSE per axis, the speed-up, sklearn's time per
 log-likelihood+gradient evaluation and its single-sample predict latency.
 Then, with --whole, each tool's whole process, --repeats times (medians):
 our `eval` run (start, read, fit, predict, exit) against a fresh Python
 process that imports scikit-learn, reads the same files, fits and predicts.
+Every figure is printed with the load average of the moment (the machine
+may be shared: the two tools alternate, so both see the same load).
 """
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -61,8 +67,9 @@ def split(data_path, out_dir, axes, n_train, tare_samples=50, seed=0):
     return paths
 
 
-def ours(binary, paths, kernel):
-    out = subprocess.run(ours_cmd(binary, paths, kernel), check=True, capture_output=True, text=True).stdout
+def ours(binary, paths, kernel, mode, extra):
+    out = subprocess.run(ours_cmd(binary, paths, kernel, mode, extra), check=True, capture_output=True,
+                         text=True).stdout
     gp = json.loads(out.strip().splitlines()[-1])["gp"]
     return gp["fit_s"], gp["rmse"]
 
@@ -108,9 +115,16 @@ def sklearn_fit(paths, axes, kernel_name, per_axis, latency_samples):
     return fit_s, rmse, float(np.median(evals)), float(np.median(lat)), float(np.percentile(lat, 99))
 
 
-def ours_cmd(binary, paths, kernel):
+def ours_cmd(binary, paths, kernel, mode, extra):
+    """Our eval run of the model that scikit-learn's `mode` fits, with `extra` options."""
+    shared = ["--shared-hyper"] if mode == "shared" else []
     return [binary, "eval", "--train", paths["train"], "--test", paths["test"], "--tare-samples", "0",
-            "--max-train", "1000000", "--kernel", kernel, "--channels", "electrodes", "--no-nn", "--json"]
+            "--max-train", "1000000", "--kernel", kernel, "--channels", "electrodes", "--no-nn",
+            "--json"] + shared + extra
+
+
+def load():
+    return "load {:.1f} {:.1f} {:.1f}".format(*os.getloadavg())
 
 
 def sklearn_whole_process(train, test, kernel_name, per_axis):
@@ -137,25 +151,25 @@ def sklearn_whole_process(train, test, kernel_name, per_axis):
     print(json.dumps([float(np.sqrt(np.mean((pred[:, j] - te[:, d + j]) ** 2))) for j in range(k)]))
 
 
-def whole(binary, paths, kernel, modes, repeats):
+def whole(binary, paths, kernel, modes, repeats, extra):
     """Whole process against whole process, alternated, medians."""
-    times = {"ours": []}
+    times = {}
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        subprocess.run(ours_cmd(binary, paths, kernel), check=True, capture_output=True)
-        times["ours"].append(time.perf_counter() - t0)
         for mode in modes:
+            t0 = time.perf_counter()
+            subprocess.run(ours_cmd(binary, paths, kernel, mode, extra), check=True, capture_output=True)
+            times.setdefault(("ours", mode), []).append(time.perf_counter() - t0)
             t0 = time.perf_counter()
             subprocess.run([sys.executable, __file__, "--whole-sklearn", paths["train"], paths["test"],
                             kernel, mode], check=True, capture_output=True)
-            times.setdefault(mode, []).append(time.perf_counter() - t0)
-    ours_s = statistics.median(times["ours"])
-    print(f"whole process, {repeats} runs each, medians: tactile_force {ours_s:.2f} s "
-          f"(runs {', '.join(f'{t:.2f}' for t in times['ours'])})")
+            times.setdefault(("sklearn", mode), []).append(time.perf_counter() - t0)
+    runs = lambda ts: ", ".join(f"{t:.2f}" for t in ts)
+    print(f"whole process, {repeats} runs each, medians ({load()}):")
     for mode in modes:
-        s = statistics.median(times[mode])
-        print(f"  scikit-learn ({mode}) {s:.2f} s (runs {', '.join(f'{t:.2f}' for t in times[mode])})"
-              f" -> tactile_force is {s / ours_s:.1f}x faster")
+        ours_t, theirs_t = times[("ours", mode)], times[("sklearn", mode)]
+        o, s = statistics.median(ours_t), statistics.median(theirs_t)
+        print(f"  {mode}: tactile_force {o:.2f} s (runs {runs(ours_t)}), scikit-learn {s:.2f} s "
+              f"(runs {runs(theirs_t)}) -> tactile_force is {s / o:.1f}x faster")
 
 
 def fmt(rmse):
@@ -177,22 +191,23 @@ def main():
     p.add_argument("--latency-samples", type=int, default=300)
     p.add_argument("--whole", action="store_true", help="time whole processes (medians of --repeats)")
     p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--ours-args", default="", help="more options of our eval, e.g. '--restarts 1'")
     args = p.parse_args()
     axes = args.axes.split(",")
     paths = split(args.data, args.out_dir, axes, args.n_train)
     for kernel in args.kernels.split(","):
         print(f"\n== kernel {kernel}, n_train {args.n_train}, {len(ELECTRODES)} features, axes {args.axes} ==")
-        fit_s, rmse = ours(args.bin, paths, kernel)
-        print(f"{'tactile_force (per axis)':<26} fit {fit_s:8.2f} s   RMSE {fmt(rmse)}")
         for mode in args.sklearn.split(","):
+            fit_s, rmse = ours(args.bin, paths, kernel, mode, args.ours_args.split())
+            print(f"{'tactile_force (' + mode + ')':<26} fit {fit_s:8.2f} s   RMSE {fmt(rmse)}   ({load()})")
             s_fit, s_rmse, s_eval, s_med, s_p99 = sklearn_fit(
                 paths, axes, kernel, mode == "per-axis", args.latency_samples)
             print(f"{'scikit-learn (' + mode + ')':<26} fit {s_fit:8.2f} s   RMSE {fmt(s_rmse)}   "
-                  f"-> tactile_force is {s_fit / fit_s:.1f}x faster")
+                  f"-> tactile_force is {s_fit / fit_s:.1f}x faster ({load()})")
             print(f"{'':<26} {s_eval * 1e3:.0f} ms per likelihood+gradient evaluation; "
                   f"predict one sample, mean+std, all axes: median {s_med:.0f} us, p99 {s_p99:.0f} us")
         if args.whole:
-            whole(args.bin, paths, kernel, args.sklearn.split(","), args.repeats)
+            whole(args.bin, paths, kernel, args.sklearn.split(","), args.repeats, args.ours_args.split())
 
 
 if __name__ == "__main__":

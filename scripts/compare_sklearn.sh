@@ -4,7 +4,8 @@
 #   scripts/compare_sklearn.sh [KERNELS] [SKLEARN_MODES] [N_TRAIN]
 #     KERNELS        iso,ard (default) | iso | ard
 #     SKLEARN_MODES  shared,per-axis (default) | shared | per-axis
-#     N_TRAIN        training rows (default 2000); WHOLE=1 also times whole processes
+#     N_TRAIN        training rows (default 2000); WHOLE=1 also times whole processes;
+#                    OURS_ARGS="--restarts 1" passes options to our eval
 #
 # scikit-learn ARD takes minutes per fit on 2 cores; see scripts/compare_sklearn.py.
 set -euo pipefail
@@ -24,7 +25,7 @@ bin=target/release/tactile_force
 "$bin" collect --seed 1 --out "$out/seed1.csv"
 "$py" scripts/compare_sklearn.py --bin "$bin" --data "$out/seed1.csv" --out-dir "$out" \
   --kernels "${1:-iso,ard}" --sklearn "${2:-shared,per-axis}" --n-train "${3:-2000}" \
-  ${WHOLE:+--whole}
+  ${WHOLE:+--whole} --ours-args="${OURS_ARGS:-}"
 
 echo
 echo "== tactile_force criterion benches (n = 2000, 19 features, 3 force axes) =="

@@ -59,6 +59,10 @@ pub(crate) struct FitArgs {
     /// zero for the BioTac, cubic for the nail camera (docs/nail-camera.md).
     #[arg(long)]
     pub(crate) mean: Option<MeanKind>,
+    /// One set of kernel hyperparameters for every axis (exact GP), fitted
+    /// on the sum of their likelihoods: one factorisation per evaluation.
+    #[arg(long)]
+    pub(crate) shared_hyper: bool,
     /// Optimiser starts of the hyperparameter fit.
     #[arg(long, default_value_t = 3)]
     pub(crate) restarts: usize,
@@ -153,6 +157,7 @@ pub(crate) fn gp_params(fit: &FitArgs, sensor: &SensorSpec) -> Result<Checked<Gp
     Ok(GpParams {
         kernel: fit.kernel,
         mean: fit.mean.unwrap_or(default_mean),
+        shared: fit.shared_hyper,
         restarts: fit.restarts,
         restart_subset: fit.restart_subset,
         polish_iters: fit.polish_iters,

@@ -59,14 +59,19 @@ pub(super) fn cholesky_with_jitter(
 
 /// Checks shapes and finiteness of row-major inputs `x` (n x d) and targets `y`.
 pub(crate) fn check_data(x: &[f64], d: usize, y: &[f64]) -> Result<(), GpError> {
+    check_targets(x, d, y, 1)
+}
+
+/// [`check_data`] for `k` targets per row (`y` row-major n x k).
+pub(crate) fn check_targets(x: &[f64], d: usize, y: &[f64], k: usize) -> Result<(), GpError> {
     if y.is_empty() {
         return Err(GpError::Empty);
     }
-    if x.len() != y.len() * d {
+    if x.len() * k != y.len() * d || !y.len().is_multiple_of(k) {
         return Err(GpError::ShapeMismatch {
             values: x.len(),
             dim: d,
-            targets: y.len(),
+            targets: y.len() / k,
         });
     }
     if let Some(i) = x.iter().position(|v| !v.is_finite()) {
@@ -75,8 +80,11 @@ pub(crate) fn check_data(x: &[f64], d: usize, y: &[f64]) -> Result<(), GpError> 
             column: i % d,
         });
     }
-    if let Some(row) = y.iter().position(|v| !v.is_finite()) {
-        return Err(GpError::NonFinite { row, column: d });
+    if let Some(i) = y.iter().position(|v| !v.is_finite()) {
+        return Err(GpError::NonFinite {
+            row: i / k,
+            column: d + i % k,
+        });
     }
     Ok(())
 }
@@ -103,35 +111,58 @@ pub fn neg_lml_and_grad(
     y: &[f64],
     hyper: &SeHyper,
 ) -> Result<(f64, Vec<f64>), GpError> {
+    neg_lml_and_grad_shared(x, d, y, 1, hyper)
+}
+
+/// [`neg_lml_and_grad`] of `k` outputs that share the hyperparameters
+/// (independent given them): `y` is row-major n x k, the likelihood is the
+/// sum of the outputs', given per sample and output, `-ln p(Y) / (n k)`.
+/// One factorisation serves every output: the cost is that of one.
+pub fn neg_lml_and_grad_shared(
+    x: &[f64],
+    d: usize,
+    y: &[f64],
+    k: usize,
+    hyper: &SeHyper,
+) -> Result<(f64, Vec<f64>), GpError> {
     check_hyper(hyper, d)?;
-    let n = y.len();
+    let n = y.len() / k;
     let xs = scale_rows(x, &hyper.lengthscales);
     let kf = se_gram(&xs, d, hyper.signal_var);
     let (llt, _) = cholesky_with_jitter(&kf, hyper.noise_var, hyper)?;
     let l = llt.L();
-    let mut alpha = Mat::from_fn(n, 1, |i, _| y[i]);
+    let mut alpha = Mat::from_fn(n, k, |i, c| y[i * k + c]);
     faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
-    let alpha = alpha.col(0);
-    let data_fit: f64 = y.iter().zip(alpha.iter()).map(|(a, b)| a * b).sum();
+    // Row-major n x k, as y.
+    let alpha: Vec<f64> = (0..n * k).map(|i| alpha[(i / k, i % k)]).collect();
+    let data_fit: f64 = y.iter().zip(&alpha).map(|(a, b)| a * b).sum();
     let log_det: f64 = (0..n).map(|i| l[(i, i)].ln()).sum();
-    let nll = 0.5 * data_fit + log_det + 0.5 * n as f64 * (2.0 * std::f64::consts::PI).ln();
+    let kf64 = k as f64;
+    let nll =
+        0.5 * data_fit + kf64 * log_det + 0.5 * (n * k) as f64 * (2.0 * std::f64::consts::PI).ln();
 
-    // W = alpha alpha^T - K^-1 and M = W o K_f (elementwise), column by
-    // column in K^-1's storage; per column: (W_jj, sum_i M_ij).
+    // W = sum_c alpha_c alpha_c^T - k K^-1 and M = W o K_f (elementwise),
+    // column by column in K^-1's storage; per column: (W_jj, sum_i M_ij).
     let mut m = llt.inverse();
-    let alpha: Vec<f64> = alpha.iter().copied().collect();
     let col_stats: Vec<(f64, f64)> = m
         .par_col_iter_mut()
         .enumerate()
         .map(|(j, col)| {
             let kf_col = kf.col(j);
+            let aj = &alpha[j * k..(j + 1) * k];
             let (mut w_jj, mut sum) = (0.0, 0.0);
-            for (i, (v, k)) in col.iter_mut().zip(kf_col.iter()).enumerate() {
-                let w = alpha[i] * alpha[j] - *v;
+            for (i, ((v, kv), ai)) in col
+                .iter_mut()
+                .zip(kf_col.iter())
+                .zip(alpha.chunks_exact(k))
+                .enumerate()
+            {
+                let aa: f64 = ai.iter().zip(aj).map(|(a, b)| a * b).sum();
+                let w = aa - kf64 * *v;
                 if i == j {
                     w_jj = w;
                 }
-                *v = w * k;
+                *v = w * kv;
                 sum += *v;
             }
             (w_jj, sum)
@@ -169,7 +200,7 @@ pub fn neg_lml_and_grad(
         super::KernelKind::Ard => grad.extend(dl.iter().map(|g| -g)),
     }
     grad.push(-0.5 * hyper.noise_var * trace_w);
-    let nf = n as f64;
+    let nf = (n * k) as f64;
     grad.iter_mut().for_each(|g| *g /= nf);
     Ok((nll / nf, grad))
 }
@@ -344,9 +375,22 @@ impl ExactGp {
     /// Conditions the GP on row-major inputs `x` (n x dim) and targets `y`,
     /// both standardised, with fixed hyperparameters.
     pub fn fit(x: &[f64], dim: usize, y: &[f64], hyper: SeHyper) -> Result<Self, GpError> {
-        check_data(x, dim, y)?;
+        let mut gps = Self::fit_shared(x, dim, y, 1, hyper)?;
+        Ok(gps.remove(0))
+    }
+
+    /// One GP per output of `y` (row-major n x k), all with `hyper`, on one
+    /// factorisation.
+    pub fn fit_shared(
+        x: &[f64],
+        dim: usize,
+        y: &[f64],
+        k: usize,
+        hyper: SeHyper,
+    ) -> Result<Vec<Self>, GpError> {
+        check_targets(x, dim, y, k)?;
         check_hyper(&hyper, dim)?;
-        let n = y.len();
+        let n = y.len() / k;
         let xs = scale_rows(x, &hyper.lengthscales);
         let kf = se_gram(&xs, dim, hyper.signal_var);
         let (llt, jitter) = cholesky_with_jitter(&kf, hyper.noise_var, &hyper)?;
@@ -358,28 +402,33 @@ impl ExactGp {
                 "kernel matrix needed jitter to factorise: duplicated or degenerate inputs?"
             );
         }
-        let mut alpha = Mat::from_fn(n, 1, |i, _| y[i]);
+        let mut alpha = Mat::from_fn(n, k, |i, c| y[i * k + c]);
         faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
-        let l_cols = pack_lower(llt.L());
-        let gp = ExactGp {
-            hyper,
-            dim,
-            x: x.to_vec(),
-            y: y.to_vec(),
-            xs,
-            alpha: alpha.col(0).iter().copied().collect(),
-            l_cols,
-            jitter,
-        };
-        if gp.alpha.iter().any(|a| !a.is_finite()) {
+        if alpha
+            .col_iter()
+            .flat_map(|c| c.iter())
+            .any(|a| !a.is_finite())
+        {
             return Err(GpError::NotPositiveDefinite {
                 n,
                 jitter,
-                signal_var: gp.hyper.signal_var,
-                noise_var: gp.hyper.noise_var,
+                signal_var: hyper.signal_var,
+                noise_var: hyper.noise_var,
             });
         }
-        Ok(gp)
+        let l_cols = pack_lower(llt.L());
+        Ok((0..k)
+            .map(|c| ExactGp {
+                hyper: hyper.clone(),
+                dim,
+                x: x.to_vec(),
+                y: (0..n).map(|i| y[i * k + c]).collect(),
+                xs: xs.clone(),
+                alpha: alpha.col(c).iter().copied().collect(),
+                l_cols: l_cols.clone(),
+                jitter,
+            })
+            .collect())
     }
 
     /// Number of training points.
@@ -423,23 +472,44 @@ impl ExactGp {
     /// Uses matrix products and one blocked triangular solve instead of m
     /// forward substitutions.
     pub fn predict(&self, z: &[f64], with_var: bool) -> (Vec<f64>, Vec<f64>) {
-        let d = self.dim;
-        let n = self.n_train();
+        Self::predict_shared(&[self], z, with_var).remove(0)
+    }
+
+    /// Whether `other` has the same kernel and training inputs (as the GPs
+    /// of [`ExactGp::fit_shared`]): then one cross-covariance serves both.
+    pub fn shares_kernel(&self, other: &ExactGp) -> bool {
+        self.hyper == other.hyper && self.x == other.x
+    }
+
+    /// [`ExactGp::predict`] of GPs that [share](ExactGp::shares_kernel)
+    /// the first one's kernel, on one cross-covariance (and one triangular
+    /// solve: their variances are the same); means and variances per GP.
+    pub fn predict_shared(
+        gps: &[&ExactGp],
+        z: &[f64],
+        with_var: bool,
+    ) -> Vec<(Vec<f64>, Vec<f64>)> {
+        let Some(first) = gps.first() else {
+            return Vec::new();
+        };
+        debug_assert!(gps.iter().all(|g| first.shares_kernel(g)));
+        let d = first.dim;
+        let n = first.n_train();
         let m = z.len() / d;
-        let zs = scale_rows(z, &self.hyper.lengthscales);
-        let s2 = self.hyper.signal_var;
-        let mut means = Vec::with_capacity(m);
+        let zs = scale_rows(z, &first.hyper.lengthscales);
+        let s2 = first.hyper.signal_var;
+        let mut means = vec![Vec::with_capacity(m); gps.len()];
         let mut vars = Vec::with_capacity(m);
-        let l = with_var.then(|| unpack_lower(&self.l_cols, n));
+        let l = with_var.then(|| unpack_lower(&first.l_cols, n));
         // Blocks of test points bound the n x block cross-covariance memory.
         const BLOCK: usize = 1024;
         for chunk in zs.chunks(BLOCK * d) {
-            let mut kt = se_cross(&self.xs, chunk, d, s2); // n x b
+            let mut kt = se_cross(&first.xs, chunk, d, s2); // n x b
             for c in 0..kt.ncols() {
-                means.push(dot(
-                    kt.col(c).try_as_col_major().unwrap().as_slice(),
-                    &self.alpha,
-                ));
+                let col = kt.col(c).try_as_col_major().unwrap().as_slice();
+                for (mean, g) in means.iter_mut().zip(gps) {
+                    mean.push(dot(col, &g.alpha));
+                }
             }
             if let Some(l) = &l {
                 faer::linalg::triangular_solve::solve_lower_triangular_in_place(
@@ -455,139 +525,9 @@ impl ExactGp {
                 vars.extend(std::iter::repeat_n(0.0, kt.ncols()));
             }
         }
-        (means, vars)
+        means.into_iter().map(|mean| (mean, vars.clone())).collect()
     }
 }
 
 #[cfg(test)]
-pub(super) mod tests {
-    use super::super::KernelKind;
-    use super::*;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    /// Random inputs in [-2, 2)^d and a smooth target with a little noise
-    /// (shared with the sparse GP's tests).
-    pub(in crate::learn::models::gp) fn data(
-        n: usize,
-        d: usize,
-        seed: u64,
-    ) -> (Vec<f64>, Vec<f64>) {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let x: Vec<f64> = (0..n * d).map(|_| rng.random_range(-2.0..2.0)).collect();
-        let y = x
-            .chunks_exact(d)
-            .map(|r| r[0].sin() + 0.3 * r[d - 1] + 0.05 * rng.random_range(-1.0..1.0))
-            .collect();
-        (x, y)
-    }
-
-    /// Fixed hyperparameters for `d` inputs (shared with the sparse GP's tests).
-    pub(in crate::learn::models::gp) fn hyper(kind: KernelKind, d: usize) -> SeHyper {
-        let mut h = SeHyper {
-            kind,
-            signal_var: 0.8,
-            lengthscales: (0..d).map(|i| 0.7 + 0.4 * i as f64).collect(),
-            noise_var: 0.02,
-        };
-        if kind == KernelKind::Isotropic {
-            h.lengthscales = vec![1.1; d];
-        }
-        h
-    }
-
-    /// Asserts that `objective`'s gradient matches central differences in
-    /// the log-parameters around `h`, for 3 inputs (shared with the sparse
-    /// GP's tests).
-    pub(in crate::learn::models::gp) fn assert_gradient_matches(
-        objective: impl Fn(&SeHyper) -> Result<(f64, Vec<f64>), GpError>,
-        h: &SeHyper,
-    ) {
-        let theta = h.to_log();
-        let (_, g) = objective(h).unwrap();
-        for k in 0..theta.len() {
-            let step = 1e-5;
-            let f = |s: f64| {
-                let mut t = theta.clone();
-                t[k] += s;
-                objective(&SeHyper::from_log(h.kind, 3, &t)).unwrap().0
-            };
-            let fd = (f(step) - f(-step)) / (2.0 * step);
-            assert!(
-                (fd - g[k]).abs() < 1e-6 * (1.0 + fd.abs()),
-                "{:?} param {k}: analytic {} vs finite difference {fd}",
-                h.kind,
-                g[k]
-            );
-        }
-    }
-
-    #[test]
-    fn likelihood_gradient_matches_central_differences() {
-        let (x, y) = data(40, 3, 1);
-        for kind in [KernelKind::Isotropic, KernelKind::Ard] {
-            assert_gradient_matches(|h| neg_lml_and_grad(&x, 3, &y, h), &hyper(kind, 3));
-        }
-    }
-
-    #[test]
-    fn single_sample_path_matches_batch_path_and_variance_is_bounded() {
-        let (x, y) = data(200, 4, 2);
-        let gp = ExactGp::fit(&x, 4, &y, hyper(KernelKind::Ard, 4)).unwrap();
-        let (z, _) = data(30, 4, 3);
-        let (means, vars) = gp.predict(&z, true);
-        let mut ws = GpWorkspace::new(gp.n_train(), 4);
-        for (i, row) in z.chunks_exact(4).enumerate() {
-            let (m, v) = gp.predict_one(row, &mut ws, true);
-            assert!((m - means[i]).abs() < 1e-9);
-            assert!((v - vars[i]).abs() < 1e-9);
-            assert!((0.0..=0.8).contains(&v));
-            assert_eq!(gp.predict_one(row, &mut ws, false), (m, 0.0));
-        }
-    }
-
-    #[test]
-    fn far_from_the_data_the_prediction_returns_to_the_prior() {
-        let (x, y) = data(100, 2, 4);
-        let gp = ExactGp::fit(&x, 2, &y, hyper(KernelKind::Ard, 2)).unwrap();
-        let mut ws = GpWorkspace::new(100, 2);
-        let (m, v) = gp.predict_one(&[1e3, -1e3], &mut ws, true);
-        assert!(m.abs() < 1e-12);
-        assert!((v - 0.8).abs() < 1e-12);
-    }
-
-    #[test]
-    fn bad_inputs_give_named_errors() {
-        let (mut x, y) = data(10, 2, 5);
-        x[7] = f64::NAN;
-        assert!(matches!(
-            ExactGp::fit(&x, 2, &y, hyper(KernelKind::Ard, 2)),
-            Err(GpError::NonFinite { row: 3, column: 1 })
-        ));
-        assert!(matches!(
-            ExactGp::fit(&[], 2, &[], hyper(KernelKind::Ard, 2)),
-            Err(GpError::Empty)
-        ));
-        let mut h = hyper(KernelKind::Ard, 2);
-        h.noise_var = -1.0;
-        let (x, y) = data(10, 2, 5);
-        assert!(matches!(
-            ExactGp::fit(&x, 2, &y, h),
-            Err(GpError::InvalidHyper { dim: 2, .. })
-        ));
-    }
-
-    #[test]
-    fn model_data_round_trip_rebuilds_the_same_predictor() {
-        let (x, y) = data(50, 3, 6);
-        let gp = ExactGp::fit(&x, 3, &y, hyper(KernelKind::Isotropic, 3)).unwrap();
-        let json = serde_json::to_string(&gp).unwrap();
-        let back: ExactGp = serde_json::from_str(&json).unwrap();
-        let z = [0.3, -0.2, 1.0];
-        let mut ws = GpWorkspace::new(50, 3);
-        assert_eq!(
-            gp.predict_one(&z, &mut ws, true),
-            back.predict_one(&z, &mut ws, true)
-        );
-    }
-}
+pub(super) mod tests;

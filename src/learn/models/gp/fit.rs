@@ -27,7 +27,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::exact::{check_data, neg_lml_and_grad, ExactGp};
+use super::exact::{check_targets, neg_lml_and_grad_shared, ExactGp};
 use super::kernel::{KernelKind, SeHyper};
 use super::params::{GpParams, Subset};
 use super::select::{farthest_point, greedy_variance};
@@ -221,12 +221,13 @@ impl<'a> Fitter<'a> {
     /// The fitter of `data`, once its rows are checked.
     fn checked<'d>(
         data: &FitData<'d>,
+        k: usize,
         progress: &'a mut dyn FnMut(FitProgress),
     ) -> Result<(Self, FitData<'d>), GpError>
     where
         'd: 'a,
     {
-        check_data(data.x, data.d, data.y)?;
+        check_targets(data.x, data.d, data.y, k)?;
         Ok((Fitter::new(data.params, data.d, progress), *data))
     }
 
@@ -278,13 +279,15 @@ impl<'a> Fitter<'a> {
         Ok((self.bounds.clamp(best), state.get_best_cost()))
     }
 
-    /// Maximum-likelihood hyperparameters of the exact GP: every start
+    /// Maximum-likelihood hyperparameters of the exact GP of the `k`
+    /// outputs of `y` (row-major n x k, shared hyperparameters): every start
     /// optimised on one random subset of at most `restart_subset` rows.
     /// Returns the best clamped log-parameters and their cost.
     fn multistart(
         &mut self,
         x: &[f64],
         y: &[f64],
+        k: usize,
         start: &Start,
     ) -> Result<(Vec<f64>, f64), GpError> {
         let (p, d) = (self.p, self.d);
@@ -315,8 +318,8 @@ impl<'a> Fitter<'a> {
                 }
             })
             .collect();
-        let (sub_x, sub_y) = self.random_rows(x, y, p.restart_subset);
-        let exact = |h: &SeHyper| neg_lml_and_grad(&sub_x, d, &sub_y, h);
+        let (sub_x, sub_y) = self.random_rows(x, y, k, p.restart_subset);
+        let exact = |h: &SeHyper| neg_lml_and_grad_shared(&sub_x, d, &sub_y, k, h);
         let mut best: Option<(Vec<f64>, f64)> = None;
         let mut last_error = None;
         for (s, start) in starts.into_iter().enumerate() {
@@ -339,19 +342,22 @@ impl<'a> Fitter<'a> {
         }
     }
 
-    /// At most `k` rows drawn at random without replacement, or all rows when there are no more than `k`.
+    /// At most `count` rows of `x` and of `y` (`k` targets per row) drawn
+    /// at random without replacement, or all rows when there are no more
+    /// than `count`.
     fn random_rows<'x>(
         &mut self,
         x: &'x [f64],
         y: &'x [f64],
         k: usize,
+        count: usize,
     ) -> (Cow<'x, [f64]>, Cow<'x, [f64]>) {
-        let n = y.len();
-        if n <= k {
+        let n = y.len() / k;
+        if n <= count {
             return (Cow::Borrowed(x), Cow::Borrowed(y));
         }
-        let idx = sample(&mut self.rng, n, k).into_vec();
-        let (sx, sy) = gather(x, self.d, y, &idx);
+        let idx = sample(&mut self.rng, n, count).into_vec();
+        let (sx, sy) = gather(x, self.d, y, k, &idx);
         (Cow::Owned(sx), Cow::Owned(sy))
     }
 
@@ -365,14 +371,15 @@ impl<'a> Fitter<'a> {
     }
 }
 
-/// Rows `idx` of `x` (row-major, `d` columns) and of `y`.
-fn gather(x: &[f64], d: usize, y: &[f64], idx: &[usize]) -> (Vec<f64>, Vec<f64>) {
-    let sx = idx
-        .iter()
-        .flat_map(|&i| &x[i * d..(i + 1) * d])
-        .copied()
-        .collect();
-    (sx, idx.iter().map(|&i| y[i]).collect())
+/// Rows `idx` of `x` (row-major, `d` columns) and of `y` (row-major, `k` columns).
+fn gather(x: &[f64], d: usize, y: &[f64], k: usize, idx: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    let rows = |m: &[f64], w: usize| -> Vec<f64> {
+        idx.iter()
+            .flat_map(|&i| &m[i * w..(i + 1) * w])
+            .copied()
+            .collect()
+    };
+    (rows(x, d), rows(y, k))
 }
 
 /// Fits SE-kernel hyperparameters by maximum marginal likelihood and
@@ -384,15 +391,28 @@ pub fn fit_gp(
     data: &FitData<'_>,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(ExactGp, FitInfo), GpError> {
-    let (mut fit, FitData { x, d, y, start, .. }) = Fitter::checked(data, progress)?;
+    let (mut gps, info) = fit_gp_shared(data, 1, progress)?;
+    Ok((gps.remove(0), info))
+}
+
+/// [`fit_gp`] for `k` outputs that share one set of hyperparameters:
+/// `data.y` is row-major n x k, the likelihood maximised is the sum of the
+/// outputs' ([`neg_lml_and_grad_shared`]: one factorisation per evaluation
+/// for all of them), and one GP per output is conditioned on the same rows.
+pub fn fit_gp_shared(
+    data: &FitData<'_>,
+    k: usize,
+    progress: &mut dyn FnMut(FitProgress),
+) -> Result<(Vec<ExactGp>, FitInfo), GpError> {
+    let (mut fit, FitData { x, d, y, start, .. }) = Fitter::checked(data, k, progress)?;
     let p = fit.p;
-    let n = y.len();
-    let (mut theta, mut cost) = fit.multistart(x, y, start)?;
+    let n = y.len() / k;
+    let (mut theta, mut cost) = fit.multistart(x, y, k, start)?;
     let before_full = fit.tracker.evaluations.get();
     if n > p.restart_subset && p.polish_iters > 0 {
         fit.tracker.start.set(p.restarts);
         // Keep the subset optimum if the polish fails (e.g. a singular K on all points).
-        let exact = |h: &SeHyper| neg_lml_and_grad(x, d, y, h);
+        let exact = |h: &SeHyper| neg_lml_and_grad_shared(x, d, y, k, h);
         match fit.minimise(&exact, theta.clone(), p.polish_iters) {
             Ok((t, c)) => (theta, cost) = (t, c),
             Err(e) => {
@@ -401,19 +421,19 @@ pub fn fit_gp(
         }
     }
     let hyper = SeHyper::from_log(p.kernel, d, &theta);
-    let gp = match p.subset {
-        _ if n <= p.max_train => ExactGp::fit(x, d, y, hyper)?,
+    let gps = match p.subset {
+        _ if n <= p.max_train => ExactGp::fit_shared(x, d, y, k, hyper)?,
         Subset::Random => {
-            let (sx, sy) = fit.random_rows(x, y, p.max_train);
-            ExactGp::fit(&sx, d, &sy, hyper)?
+            let (sx, sy) = fit.random_rows(x, y, k, p.max_train);
+            ExactGp::fit_shared(&sx, d, &sy, k, hyper)?
         }
         Subset::FarthestPoint => {
             let idx = farthest_point(x, d, &hyper.lengthscales, p.max_train);
-            let (sx, sy) = gather(x, d, y, &idx);
-            ExactGp::fit(&sx, d, &sy, hyper)?
+            let (sx, sy) = gather(x, d, y, k, &idx);
+            ExactGp::fit_shared(&sx, d, &sy, k, hyper)?
         }
     };
-    Ok((gp, fit.info(before_full, cost)))
+    Ok((gps, fit.info(before_full, cost)))
 }
 
 /// Fits a sparse VFE GP (Titsias 2009) with `inducing` = m inducing points
@@ -433,14 +453,14 @@ pub fn fit_sparse(
     data: &FitData<'_>,
     progress: &mut dyn FnMut(FitProgress),
 ) -> Result<(SparseGp, FitInfo), GpError> {
-    let (mut fit, FitData { x, d, y, start, .. }) = Fitter::checked(data, progress)?;
+    let (mut fit, FitData { x, d, y, start, .. }) = Fitter::checked(data, 1, progress)?;
     let p = fit.p;
     let m = p.inducing.ok_or(GpError::InvalidParam {
         name: "inducing",
         value: "none".into(),
         expected: "a number of inducing points for a sparse fit",
     })?;
-    let (theta0, _) = fit.multistart(x, y, start)?;
+    let (theta0, _) = fit.multistart(x, y, 1, start)?;
     let hyper0 = SeHyper::from_log(p.kernel, d, &theta0);
 
     let n = y.len();
@@ -451,14 +471,14 @@ pub fn fit_sparse(
     } else {
         (0..n).collect()
     };
-    let (cand_x, _) = gather(x, d, y, &candidates);
+    let (cand_x, _) = gather(x, d, y, 1, &candidates);
     let chosen: Vec<usize> = greedy_variance(&cand_x, d, &hyper0, m)
         .into_iter()
         .map(|i| candidates[i])
         .collect();
-    let (z, _) = gather(x, d, y, &chosen);
+    let (z, _) = gather(x, d, y, 1, &chosen);
 
-    let (fx, fy) = fit.random_rows(x, y, p.sparse_fit_subset);
+    let (fx, fy) = fit.random_rows(x, y, 1, p.sparse_fit_subset);
     let vfe = |h: &SeHyper| neg_vfe_and_grad(&fx, d, &fy, &z, h);
     let before_vfe = fit.tracker.evaluations.get();
     fit.tracker.start.set(p.restarts);

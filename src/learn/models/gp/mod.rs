@@ -21,8 +21,8 @@ use crate::params::Checked;
 
 use crate::exit::{Classify, ExitClass};
 
-pub use exact::{ExactGp, ExactGpData, GpWorkspace};
-pub use fit::{fit_gp, fit_sparse, FitData, FitInfo, FitProgress, Start};
+pub use exact::{neg_lml_and_grad_shared, ExactGp, ExactGpData, GpWorkspace};
+pub use fit::{fit_gp, fit_gp_shared, fit_sparse, FitData, FitInfo, FitProgress, Start};
 pub use kernel::{KernelKind, SeHyper};
 pub use mean::{LinearMean, MeanKind};
 pub use params::{GpParams, Subset};
@@ -171,6 +171,25 @@ impl Gp {
         match self {
             Gp::Exact(g) => g.predict(z, with_var),
             Gp::Sparse(g) => g.predict(z, with_var),
+        }
+    }
+
+    /// [`Gp::predict`] of several GPs: exact GPs that share a kernel
+    /// ([`ExactGp::shares_kernel`], as fitted with shared hyperparameters)
+    /// share one cross-covariance ([`ExactGp::predict_shared`]).
+    pub fn predict_all(gps: &[&Gp], z: &[f64], with_var: bool) -> Vec<(Vec<f64>, Vec<f64>)> {
+        let exact: Option<Vec<&ExactGp>> = gps
+            .iter()
+            .map(|g| match g {
+                Gp::Exact(e) => Some(e),
+                Gp::Sparse(_) => None,
+            })
+            .collect();
+        match exact {
+            Some(e) if e.len() > 1 && e.iter().all(|g| e[0].shares_kernel(g)) => {
+                ExactGp::predict_shared(&e, z, with_var)
+            }
+            _ => gps.iter().map(|g| g.predict(z, with_var)).collect(),
         }
     }
 }

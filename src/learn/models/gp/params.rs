@@ -14,6 +14,7 @@ use crate::params::{require, Check, Checked, ParamsError};
 /// |---|---|---|---|
 /// | kernel | iso | length-scale structure | iso, ard |
 /// | mean | zero | prior mean, fitted on every row | zero, linear, cubic |
+/// | shared | false | one set of hyperparameters for every axis (exact GP) | true, false |
 /// | restarts | 3 | optimiser starts | >= 1 |
 /// | restart_subset | 500 | points used to optimise each start | >= 10 |
 /// | max_iters | 100 | L-BFGS iterations of each start on the subset | >= 1 |
@@ -34,6 +35,11 @@ pub struct GpParams {
     /// Prior mean: zero, a least-squares line on every training row, or that
     /// line with the products and cubes of the axes' lines (cubic).
     pub mean: MeanKind,
+    /// Exact GP: the axes share one set of hyperparameters, fitted on the
+    /// sum of their likelihoods ([`fit_gp_shared`](super::fit_gp_shared):
+    /// one factorisation per evaluation for every axis, the model of
+    /// scikit-learn's GP given several outputs); a sparse GP fits each axis.
+    pub shared: bool,
     /// Number of optimiser starts.
     pub restarts: usize,
     /// Size of the random subset each start is optimised on.
@@ -109,6 +115,7 @@ impl Default for GpParams {
         GpParams {
             kernel: KernelKind::Isotropic,
             mean: MeanKind::Zero,
+            shared: false,
             restarts: 3,
             restart_subset: 500,
             max_iters: 100,

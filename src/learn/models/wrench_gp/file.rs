@@ -162,8 +162,9 @@ impl ModelFile<Gp> {
         let (n, k) = (x.nrows(), self.outputs.len());
         let mut mean = Array2::zeros((n, k));
         let mut std = Array2::zeros((n, k));
-        for (j, o) in self.outputs.iter().enumerate() {
-            let (m, v) = o.gp.predict(&z, with_std);
+        let gps: Vec<&Gp> = self.outputs.iter().map(|o| &o.gp).collect();
+        let preds = Gp::predict_all(&gps, &z, with_std);
+        for (j, (o, (m, v))) in self.outputs.iter().zip(preds).enumerate() {
             let prior = o.linear.as_ref().map(|l| l.at_rows(&z));
             for i in 0..n {
                 mean[[i, j]] =

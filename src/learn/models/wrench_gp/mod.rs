@@ -13,7 +13,9 @@ use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
 
 use super::gp::fit::FitProgress;
-use super::gp::{FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, SeHyper, Start};
+use super::gp::{
+    fit_gp_shared, FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, SeHyper, Start,
+};
 use super::scale::{InputScaling, Standardizer};
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
@@ -228,50 +230,79 @@ impl WrenchGp {
         let x: Vec<f64> = z.iter().copied().collect();
         let d = input.dim();
         let means = params.mean.fit(&x, d, data.y.view())?;
-        let progress = Mutex::new(progress);
-        let outputs = data
-            .axes
-            .axes()
-            .par_iter()
-            .enumerate()
-            .map(|(j, &axis)| {
-                // What the GP models: the target less its prior mean,
-                // standardised (so that the fit's starts and bounds hold).
+        let axes = data.axes.axes();
+        // What each GP models: the target less its prior mean, standardised
+        // (so that the fit's starts and bounds hold).
+        let targets: Vec<(Standardizer, Vec<f64>)> = (0..axes.len())
+            .map(|j| {
                 let mut y = data.y.column(j).to_owned();
-                let linear = means[j].clone();
-                if let Some(l) = &linear {
+                if let Some(l) = &means[j] {
                     y.iter_mut().zip(l.at_rows(&x)).for_each(|(y, p)| *y -= p);
                 }
                 let targets = Standardizer::fit(y.view().insert_axis(ndarray::Axis(1)));
                 let (m, s) = (targets.mean[0], targets.scale[0]);
-                let y: Vec<f64> = y.iter().map(|v| (v - m) / s).collect();
-                let mut report = |p| {
-                    if let Ok(mut f) = progress.lock() {
-                        f(axis, p)
-                    }
-                };
-                let start = warm
-                    .and_then(|w| w.get(j))
-                    .filter(|h| h.lengthscales.len() == d)
-                    .map_or(Start::Multistart, |h| Start::Warm(h.clone()));
-                let data = FitData {
-                    x: &x,
-                    d,
-                    y: &y,
-                    params,
-                    start: &start,
-                };
-                let (gp, fit) = Gp::fit_from(&data, &mut report)?;
-                Ok(AxisModel {
-                    axis,
-                    target_mean: m,
-                    target_scale: s,
-                    fit,
-                    linear,
-                    gp,
-                })
+                (targets, y.iter().map(|v| (v - m) / s).collect())
             })
-            .collect::<Result<Vec<_>, GpError>>()?;
+            .collect();
+        let start = |j: usize| {
+            warm.and_then(|w| w.get(j))
+                .filter(|h| h.lengthscales.len() == d)
+                .map_or(Start::Multistart, |h| Start::Warm(h.clone()))
+        };
+        let progress = Mutex::new(progress);
+        let report = |axis: &[Axis], p: FitProgress| {
+            if let Ok(mut f) = progress.lock() {
+                axis.iter().for_each(|&a| f(a, p));
+            }
+        };
+        let fits: Vec<(Gp, FitInfo)> = if params.shared && params.inducing.is_none() {
+            // One fit for every axis: targets row-major n x axes.
+            let k = axes.len();
+            let y: Vec<f64> = (0..data.len())
+                .flat_map(|i| targets.iter().map(move |t| t.1[i]))
+                .collect();
+            let start = start(0);
+            let fit = FitData {
+                x: &x,
+                d,
+                y: &y,
+                params,
+                start: &start,
+            };
+            let (gps, info) = fit_gp_shared(&fit, k, &mut |p| report(axes, p))?;
+            gps.into_iter()
+                .map(|g| (Gp::Exact(g), info.clone()))
+                .collect()
+        } else {
+            (0..axes.len())
+                .into_par_iter()
+                .map(|j| {
+                    let start = start(j);
+                    let fit = FitData {
+                        x: &x,
+                        d,
+                        y: &targets[j].1,
+                        params,
+                        start: &start,
+                    };
+                    Gp::fit_from(&fit, &mut |p| report(&axes[j..=j], p))
+                })
+                .collect::<Result<_, GpError>>()?
+        };
+        let outputs = fits
+            .into_iter()
+            .zip(targets)
+            .zip(means)
+            .zip(axes)
+            .map(|((((gp, fit), (t, _)), linear), &axis)| AxisModel {
+                axis,
+                target_mean: t.mean[0],
+                target_scale: t.scale[0],
+                fit,
+                linear,
+                gp,
+            })
+            .collect();
         Ok(WrenchGp(ModelFile {
             format: MODEL_FORMAT.into(),
             version: MODEL_VERSION,

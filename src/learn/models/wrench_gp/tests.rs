@@ -478,3 +478,44 @@ fn the_training_data_reference_round_trips_and_files_without_it_load() {
     let back = load_text(&old).unwrap();
     assert_eq!((back.trained_on(), back.adapt_choice()), (None, None));
 }
+
+#[test]
+fn shared_hyperparameters_serve_every_axis_and_batch_matches_single_rows() {
+    let data = small_model_data();
+    let params = super::super::gp::GpParams {
+        restarts: 1,
+        shared: true,
+        ..Default::default()
+    };
+    let tare = TareSpec {
+        samples: 5,
+        mean_baseline: vec![0.0; 3],
+    };
+    let mut heard = Vec::new();
+    let model = WrenchGp::train(&data, tare, &params.validate().unwrap(), &mut |a, _| {
+        heard.push(a)
+    })
+    .unwrap();
+    let hypers = model.hypers();
+    assert_eq!(hypers.len(), 2);
+    assert_eq!(hypers[0], hypers[1]);
+    assert!(heard.contains(&Axis::Fx) && heard.contains(&Axis::Fz));
+    let (mean, std) = model.predict(data.x.view(), true).unwrap();
+    let mut ws = model.workspace();
+    let mut one = [Estimate::default(); 2];
+    for (i, row) in data.x.rows().into_iter().enumerate().step_by(7) {
+        let row = row.to_vec();
+        model.predict_one(&row, &mut ws, true, &mut one).unwrap();
+        for (j, e) in one.iter().enumerate() {
+            let (m, s) = (mean[[i, j]], std[[i, j]]);
+            // Variances (not std: near 0 they differ by the round-off of s2 - |v|^2).
+            let var_diff = (e.std * e.std - s * s).abs();
+            assert!(
+                (e.mean - m).abs() < 1e-9 && var_diff < 1e-9,
+                "{e:?} vs {m} {s}"
+            );
+        }
+    }
+    // Each axis keeps its own target scale: the two axes differ.
+    assert!((0..data.len()).any(|i| (mean[[i, 0]] - mean[[i, 1]]).abs() > 0.1));
+}

@@ -185,3 +185,42 @@ fn gp_dispatches_on_inducing_and_round_trips_tagged() {
         }
     }
 }
+
+#[test]
+fn shared_fit_of_like_outputs_finds_the_single_fit_and_keeps_rows_aligned() {
+    let (x, y) = smooth_data(120, 3, 0.05, 11);
+    let params = GpParams {
+        max_train: 50,
+        ..GpParams::default()
+    }
+    .validate()
+    .unwrap();
+    let data = |y| FitData {
+        x: &x,
+        d: 3,
+        y,
+        params: &params,
+        start: &Start::Multistart,
+    };
+    let (one, one_info) = fit_gp(&data(&y), &mut |_| {}).unwrap();
+    // Two equal outputs: the same likelihood per output, the same search.
+    let same: Vec<f64> = y.iter().flat_map(|v| [*v, *v]).collect();
+    let (both, info) = fit_gp_shared(&data(&same), 2, &mut |_| {}).unwrap();
+    assert_eq!(info.evaluations, one_info.evaluations);
+    for gp in &both {
+        assert_eq!(gp.n_train(), 50);
+        let (h, h1) = (gp.hyper().to_log(), one.hyper().to_log());
+        assert!(
+            h.iter().zip(&h1).all(|(a, b)| (a - b).abs() < 1e-9),
+            "{h:?} vs {h1:?}"
+        );
+    }
+    // The second output twice the first: conditioned on the same rows, its
+    // mean is twice the first's.
+    let twice: Vec<f64> = y.iter().flat_map(|v| [*v, 2.0 * v]).collect();
+    let (both, _) = fit_gp_shared(&data(&twice), 2, &mut |_| {}).unwrap();
+    assert!(both[0].shares_kernel(&both[1]));
+    let (z, _) = smooth_data(20, 3, 0.0, 12);
+    let (m0, m1) = (both[0].predict(&z, false).0, both[1].predict(&z, false).0);
+    assert!(m0.iter().zip(&m1).all(|(a, b)| (2.0 * a - b).abs() < 1e-9));
+}
