@@ -10,8 +10,8 @@
 //! trains it (every training row of a fold; the exact GP on its own
 //! subset; a sparse GP's search on fewer rows, `scoring`), its search
 //! started warm where the same form was fitted before
-//! (`WarmStarts`), its folds after the first run in parallel, and scored
-//! on the held-out trials (each candidate's wall and CPU seconds recorded). The
+//! (`WarmStarts`), and scored on the held-out trials (each candidate's
+//! wall and CPU seconds recorded). The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. When the
 //! budget runs out the search stops, at the latest after the fold that
@@ -19,11 +19,9 @@
 //! whatever the budget: they are what every other candidate must beat.
 
 use std::collections::BTreeMap;
-use std::sync::Mutex;
 use std::time::Instant;
 
 use ndarray::{Array2, Axis as NdAxis};
-use rayon::prelude::*;
 
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::gp::fit::FitProgress;
@@ -348,10 +346,9 @@ fn best_of(table: &[CvRow]) -> &CvRow {
 /// Hyperparameters fitted so far, per axis, by the model's form (channels,
 /// input scaling, prior mean: what the hyperparameters depend on) and fold.
 ///
-/// A candidate's first fold starts its search warm from the same form's fit
-/// on that fold (another GP size), or runs the full multistart; its other
-/// folds, run in parallel, start from the same form's fit on their own
-/// fold, else from the candidate's first fold. Measured in docs/results.md ("`train
+/// A candidate's fold starts its search warm from the same form's fit on
+/// the same fold (another GP size) or on the fold before; only a form's
+/// first fold runs the full multistart. Measured in docs/results.md ("`train
 /// --select` within its budget").
 #[derive(Default)]
 struct WarmStarts(BTreeMap<(String, usize), Vec<SeHyper>>);
@@ -366,9 +363,12 @@ impl WarmStarts {
         )
     }
 
-    /// The same form's fit on fold `fold`, if any.
+    /// The warm start of `choice`'s fold `fold`, if any.
     fn get(&self, choice: &Choice, fold: usize) -> Option<&[SeHyper]> {
-        self.0.get(&(Self::key(choice), fold)).map(Vec::as_slice)
+        let key = Self::key(choice);
+        let same = self.0.get(&(key.clone(), fold));
+        let before = (0..fold).rev().find_map(|f| self.0.get(&(key.clone(), f)));
+        same.or(before).map(Vec::as_slice)
     }
 }
 
@@ -408,15 +408,13 @@ struct Cv<'a> {
 }
 
 impl Cv<'_> {
-    /// One candidate's folds: the first, then the others in parallel
-    /// (each started from the first's fit, or the same form's on its own
-    /// fold); None when the budget ran out in them; Err when the data
-    /// cannot serve it (the reason).
+    /// One candidate's folds; None when the budget ran out in them; Err
+    /// when the data cannot serve it (the reason).
     fn run(
         &self,
         choice: &Choice,
         warm: &mut WarmStarts,
-        over: &(dyn Fn() -> bool + Sync),
+        over: &dyn Fn() -> bool,
         progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
     ) -> Result<Option<CvRow>, String> {
         let (sub, sub_tare) = choice.cut(self.data, self.tare)?;
@@ -424,48 +422,27 @@ impl Cv<'_> {
             .validate()
             .map_err(|e| e.to_string())?;
         let (t0, cpu0) = (Instant::now(), cpu_seconds());
-        let progress = Mutex::new(progress);
-        let fold = |f: usize, start: Option<&[SeHyper]>| {
-            let (train, test) = &self.splits[f];
+        let mut pred = Array2::zeros(self.data.y.raw_dim());
+        for (fold, (train, test)) in self.splits.iter().enumerate() {
             let model = WrenchGp::train_from(
                 &sub.select(train),
                 sub_tare.clone(),
                 choice.input,
                 &params,
-                start,
-                &mut |_, p| {
-                    if let Ok(mut report) = progress.lock() {
-                        report(choice, p)
-                    }
-                },
+                warm.get(choice, fold),
+                &mut |_, p| progress(choice, p),
             )
             .map_err(|e| e.to_string())?;
+            warm.0
+                .insert((WarmStarts::key(choice), fold), model.hypers());
             let (p, _) = model
                 .predict(sub.select(test).x.view(), false)
                 .map_err(|e| e.to_string())?;
-            Ok::<_, String>((model.hypers(), p))
-        };
-        let first = fold(0, warm.get(choice, 0))?;
-        if over() {
-            return Ok(None);
-        }
-        let shared: &WarmStarts = warm;
-        let rest: Vec<Option<Result<_, String>>> = (1..self.splits.len())
-            .into_par_iter()
-            .map(|f| {
-                let start = shared.get(choice, f).unwrap_or(&first.0);
-                (!over()).then(|| fold(f, Some(start)))
-            })
-            .collect();
-        let mut pred = Array2::zeros(self.data.y.raw_dim());
-        for (f, result) in std::iter::once(Some(Ok(first))).chain(rest).enumerate() {
-            let Some(result) = result else {
-                return Ok(None);
-            };
-            let (hypers, p) = result?;
-            warm.0.insert((WarmStarts::key(choice), f), hypers);
-            for (row, &i) in p.rows().into_iter().zip(&self.splits[f].1) {
+            for (row, &i) in p.rows().into_iter().zip(test) {
                 pred.row_mut(i).assign(&row);
+            }
+            if over() {
+                return Ok(None);
             }
         }
         let rmse = rmse_columns(self.data.y.view(), pred.view());
@@ -490,8 +467,7 @@ fn cpu_seconds() -> Option<f64> {
 }
 
 /// utime + stime (fields 14 and 15, in clock ticks of `hz`: USER_HZ, 100
-/// on Linux) of a
-/// `/proc/<pid>/stat` line, in seconds.
+/// on Linux) of a `/proc/<pid>/stat` line, in seconds.
 fn parse_cpu_seconds(stat: &str, hz: f64) -> Option<f64> {
     // The command name (field 2) may hold spaces: count after its ')'.
     let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
