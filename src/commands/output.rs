@@ -82,12 +82,13 @@ pub(crate) fn print_selection(s: &Selection) {
         .iter()
         .map(|a| format!("{:>8}", format!("{a} RMSE")))
         .collect();
-    println!("    score {} seconds  options", heads.join(" "));
+    println!("    score {} seconds  CPU s  options", heads.join(" "));
     for (i, r) in s.table.iter().enumerate() {
         let mark = if i == s.chosen { '*' } else { ' ' };
         let cells: Vec<String> = axes.iter().map(|a| format!("{:>8.4}", r.rmse[a])).collect();
+        let cpu = r.cpu_s.map_or("-".into(), |c| format!("{c:.1}"));
         println!(
-            "  {mark} {:.4} {} {:>7.1}  {}",
+            "  {mark} {:.4} {} {:>7.1} {cpu:>6}  {}",
             r.score,
             cells.join(" "),
             r.seconds,

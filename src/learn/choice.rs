@@ -10,7 +10,8 @@
 //! trains it (every training row of a fold; the exact GP on its own
 //! subset; a sparse GP's search on fewer rows, `scoring`), its search
 //! started warm where the same form was fitted before
-//! (`WarmStarts`), and scored on the held-out trials. The
+//! (`WarmStarts`), and scored on the held-out trials (each candidate's
+//! wall and CPU seconds recorded). The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. When the
 //! budget runs out the search stops, at the latest after the fold that
@@ -420,7 +421,7 @@ impl Cv<'_> {
         let params = scoring(choice.gp_params(self.base))
             .validate()
             .map_err(|e| e.to_string())?;
-        let t0 = Instant::now();
+        let (t0, cpu0) = (Instant::now(), cpu_seconds());
         let mut pred = Array2::zeros(self.data.y.raw_dim());
         for (fold, (train, test)) in self.splits.iter().enumerate() {
             let model = WrenchGp::train_from(
@@ -452,8 +453,26 @@ impl Cv<'_> {
             rmse: axes.iter().copied().zip(rmse.iter().copied()).collect(),
             score,
             seconds: t0.elapsed().as_secs_f64(),
+            cpu_s: cpu_seconds().zip(cpu0).map(|(now, then)| now - then),
         }))
     }
+}
+
+/// The process's CPU time so far (user + system, every thread, s), from
+/// Linux's `/proc/self/stat`; None elsewhere. Load-independent, unlike the
+/// wall time, on shared cores.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    parse_cpu_seconds(&stat, 100.0)
+}
+
+/// utime + stime (fields 14 and 15, in clock ticks of `hz`: USER_HZ, 100
+/// on Linux) of a `/proc/<pid>/stat` line, in seconds.
+fn parse_cpu_seconds(stat: &str, hz: f64) -> Option<f64> {
+    // The command name (field 2) may hold spaces: count after its ')'.
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i)?.parse::<f64>().ok();
+    Some((ticks(11)? + ticks(12)?) / hz)
 }
 
 /// `data` and `tare` cut to the columns `features`; the name of one that is

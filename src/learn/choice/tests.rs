@@ -237,3 +237,18 @@ fn sparse_candidates_are_scored_on_fewer_rows_and_iterations_exact_ones_as_train
     };
     assert_eq!(scoring(small.clone()), small);
 }
+
+#[test]
+fn cpu_seconds_are_user_plus_system_ticks_after_the_command_name() {
+    // Fields 14 and 15 (utime, stime) of a stat line whose name holds ") ".
+    let stat = "42 (a) b) S 1 42 42 0 -1 4194560 100 0 0 0 250 130 0 0 20 0 3";
+    assert_eq!(parse_cpu_seconds(stat, 100.0), Some(3.8));
+    assert_eq!(parse_cpu_seconds("42 (a) S 1 2", 100.0), None);
+    assert_eq!(parse_cpu_seconds("no name", 100.0), None);
+    // Each candidate's CPU time is measured (Linux) and positive.
+    if cfg!(target_os = "linux") {
+        let (ds, tare) = session();
+        let s = select(&ds, &tare, &every(), 3, 0.0, &quick(), &mut |_, _| {}).unwrap();
+        assert!(s.table[0].cpu_s.is_some_and(|c| c > 0.0), "{s:?}");
+    }
+}

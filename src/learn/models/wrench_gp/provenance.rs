@@ -85,6 +85,10 @@ pub struct CvRow {
     pub score: f64,
     /// Seconds its folds took.
     pub seconds: f64,
+    /// CPU seconds the process spent in its folds, all threads (None where
+    /// the system does not say, and in files written before).
+    #[serde(default)]
+    pub cpu_s: Option<f64>,
 }
 
 /// What `select` did: every candidate's cross-validation, the one chosen,
