@@ -21,7 +21,8 @@
 //! one retracts.
 //!
 //! On a soft body the force rises slowly under the gain the skin's margin
-//! allows (src/control/tuning.rs): once the body is fitted, a feedforward
+//! allows (src/control/tuning.rs): once the body is fitted (at least twice
+//! as compliant as the skin at the target), a feedforward
 //! drives the BioTac to where the fitted line puts the target force, on
 //! its own position (a loop through the arm, not the force, so the skin
 //! sets no margin on it) at `1 / (3 R)` per second of the distance left,
@@ -224,6 +225,9 @@ pub struct GuardedMove {
 
 /// The feedforward's time constant, in reaction times.
 const FEEDFORWARD_REACTIONS: f64 = 3.0;
+/// The feedforward acts on a body at least this many times as compliant
+/// as the skin at the target.
+const FEEDFORWARD_SOFTNESS: f64 = 2.0;
 
 impl GuardedMove {
     /// A move with checked parameters in the loop of `law`, assuming a
@@ -392,6 +396,13 @@ impl GuardedMove {
         let p = self.p;
         self.pressed |= i.force_n >= p.target_force_n - 0.5 * p.settle_band_n;
         if self.pressed {
+            return None;
+        }
+        // Only where the body gives most: on a stiff one the skin's law
+        // is most of the distance left, and a skin not quite its law puts
+        // the target past where it is.
+        let skin = self.law.skin.stiffness_at(p.target_force_n);
+        if self.stiffness.body()? * FEEDFORWARD_SOFTNESS > skin {
             return None;
         }
         let left = self.stiffness.position_of(p.target_force_n)? - i.travelled_m;

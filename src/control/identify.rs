@@ -363,7 +363,8 @@ pub struct ContactStiffness {
     /// The position and force of the last sample that joined (m, N).
     last: Option<(f64, f64)>,
     /// The line fitted last: a point on it (N, m) and its slope, the
-    /// body's compliance (m/N, at least 0).
+    /// body's compliance (m/N; below 0 where the skin is not quite its
+    /// law).
     line: Option<(f64, f64, f64)>,
 }
 
@@ -427,7 +428,7 @@ impl ContactStiffness {
         // A negative compliance is noise on a rigid body.
         let k = if c > 1e-7 { 1.0 / c } else { f64::INFINITY };
         tracing::trace!("stiffness fit: body {k:.1} N/m");
-        self.line = Some((mf, my, c.max(0.0)));
+        self.line = Some((mf, my, c));
         Some(k)
     }
 
@@ -466,7 +467,7 @@ impl ContactStiffness {
     }
 
     /// Where along the approach the pressing force is `f` (m), by the last
-    /// fit: its line, and the skin's squeeze at `f`.
+    /// fit: its line as fitted, and the skin's squeeze at `f`.
     pub fn position_of(&self, f: f64) -> Option<f64> {
         let (mf, my, c) = self.line?;
         Some(my + c * (f - mf) + self.skin_squeeze(f))
