@@ -14,6 +14,9 @@
 //! move presses no faster than its approach, so this shows how much of the
 //! time from contact to `hold` that cap costs.
 //!
+//! Subsets: `--cycles 2,8` and `--lags 0,20` (ms), `--bodies 50,1e6`
+//! (N/m), `--moves guarded` or `guided`.
+//!
 //! The same sweep over DDS: tests/ros/hold_sweep.py.
 
 use std::process::ExitCode;
@@ -34,66 +37,84 @@ fn main() -> Result<ExitCode, Box<dyn std::error::Error>> {
     let Some(guarded) = approach(Scene::builtin(TaskKind::Guarded)?) else {
         return Ok(ExitCode::from(2));
     };
-    println!(
+    let (Some(cycles), Some(lags), Some(bodies)) = (
+        list("--cycles", &CYCLES_S.map(|c| c * 1e3)),
+        list("--lags", &LAGS_S.map(|l| l * 1e3)),
+        list("--bodies", &STIFFNESS_N_PER_M),
+    ) else {
+        return Ok(ExitCode::from(2));
+    };
+    let grid = || {
+        cycles
+            .iter()
+            .flat_map(|&c| lags.iter().map(move |&l| (c * 1e-3, l * 1e-3)))
+    };
+    let moves = arg("--moves").unwrap_or_default();
+    let (do_guarded, do_guided) = (moves != "guided", moves != "guarded");
+    if do_guarded {
+        println!(
         "guarded move, hold 1 N (bounds: hold, peak <= 1.1 N, |mean - 1| <= 0.05 N, sd <= 0.02 N)"
     );
-    println!("cycle ms  lag ms  body N/m  result  peak N  |mean-1| N  sd N    contact->hold s");
-    let (model, _) = load_or_train(&guarded.estimator.default_model, &mut || {})?;
-    for (cycle, lag) in grid() {
-        for k in STIFFNESS_N_PER_M {
-            let body = BodyParams {
-                stiffness_n_per_m: k,
-                damping_n_s_per_m: 0.06 * k.sqrt(),
-                friction: 0.5,
-            };
-            let mut s = guarded.clone().with_body("sweep", body);
-            s.controller.object = "unknown".into();
-            s.controller.safety.objects = vec!["unknown".into()];
-            s.sim.object = "sweep".into();
-            s.sim.duration_s = 12.0;
+        println!("cycle ms  lag ms  body N/m  result  peak N  |mean-1| N  sd N    contact->hold s");
+        let (model, _) = load_or_train(&guarded.estimator.default_model, &mut || {})?;
+        for (cycle, lag) in grid() {
+            for &k in &bodies {
+                let body = BodyParams {
+                    stiffness_n_per_m: k,
+                    damping_n_s_per_m: 0.06 * k.sqrt(),
+                    friction: 0.5,
+                };
+                let mut s = guarded.clone().with_body("sweep", body);
+                s.controller.object = "unknown".into();
+                s.controller.safety.objects = vec!["unknown".into()];
+                s.sim.object = "sweep".into();
+                s.sim.duration_s = 12.0;
+                at(&mut s, cycle, lag);
+                let m = run_scene(&s, model.clone(), 1, Pacing::Lockstep, &mut |_| {})?.summary;
+                let ok = m.final_phase == "hold"
+                    && m.peak_force_n <= 1.1
+                    && m.steady_state_error_n.is_some_and(|e| e <= 0.05)
+                    && m.final_sd_n.is_some_and(|sd| sd <= 0.02);
+                missed += usize::from(!ok);
+                println!(
+                    "{:8.0}  {:6.0}  {k:8.0}  {:<6}  {:.3}   {:.4}      {:.4}  {}{}",
+                    cycle * 1e3,
+                    lag * 1e3,
+                    m.final_phase,
+                    m.peak_force_n,
+                    m.steady_state_error_n.unwrap_or(f64::NAN),
+                    m.final_sd_n.unwrap_or(f64::NAN),
+                    figure(m.hold_after_contact_s),
+                    if ok { "" } else { "  MISSED" }
+                );
+            }
+        }
+    }
+    if do_guided {
+        println!("guided move, the finger of config/guided_move.yaml (bounds: RMS <= 0.3 N per axis, off-axis <= 10 %)");
+        println!("cycle ms  lag ms  RMS fx, fy, fz N       off-axis");
+        let guided = Scene::builtin(TaskKind::Guided)?;
+        let (model, _) = load_or_train(&guided.estimator.default_model, &mut || {})?;
+        for (cycle, lag) in grid() {
+            let mut s = guided.clone();
             at(&mut s, cycle, lag);
             let m = run_scene(&s, model.clone(), 1, Pacing::Lockstep, &mut |_| {})?.summary;
-            let ok = m.final_phase == "hold"
-                && m.peak_force_n <= 1.1
-                && m.steady_state_error_n.is_some_and(|e| e <= 0.05)
-                && m.final_sd_n.is_some_and(|sd| sd <= 0.02);
+            let ok = guided_ok(&m);
             missed += usize::from(!ok);
+            let rms: Vec<String> = m
+                .rms_force_error_by_axis_n
+                .values()
+                .map(|e| format!("{e:.3}"))
+                .collect();
             println!(
-                "{:8.0}  {:6.0}  {k:8.0}  {:<6}  {:.3}   {:.4}      {:.4}  {}{}",
+                "{:8.0}  {:6.0}  {:<21}  {:.1} %{}",
                 cycle * 1e3,
                 lag * 1e3,
-                m.final_phase,
-                m.peak_force_n,
-                m.steady_state_error_n.unwrap_or(f64::NAN),
-                m.final_sd_n.unwrap_or(f64::NAN),
-                figure(m.hold_after_contact_s),
+                rms.join(" "),
+                100.0 * m.max_off_axis_ratio.unwrap_or(f64::NAN),
                 if ok { "" } else { "  MISSED" }
             );
         }
-    }
-    println!("guided move, the finger of config/guided_move.yaml (bounds: RMS <= 0.3 N per axis, off-axis <= 10 %)");
-    println!("cycle ms  lag ms  RMS fx, fy, fz N       off-axis");
-    let guided = Scene::builtin(TaskKind::Guided)?;
-    let (model, _) = load_or_train(&guided.estimator.default_model, &mut || {})?;
-    for (cycle, lag) in grid() {
-        let mut s = guided.clone();
-        at(&mut s, cycle, lag);
-        let m = run_scene(&s, model.clone(), 1, Pacing::Lockstep, &mut |_| {})?.summary;
-        let ok = guided_ok(&m);
-        missed += usize::from(!ok);
-        let rms: Vec<String> = m
-            .rms_force_error_by_axis_n
-            .values()
-            .map(|e| format!("{e:.3}"))
-            .collect();
-        println!(
-            "{:8.0}  {:6.0}  {:<21}  {:.1} %{}",
-            cycle * 1e3,
-            lag * 1e3,
-            rms.join(" "),
-            100.0 * m.max_off_axis_ratio.unwrap_or(f64::NAN),
-            if ok { "" } else { "  MISSED" }
-        );
     }
     println!("{missed} runs missed a bound");
     Ok(if missed == 0 {
@@ -106,12 +127,11 @@ fn main() -> Result<ExitCode, Box<dyn std::error::Error>> {
 /// The guarded scene at the speed of `--approach-mm-s`, when given; None
 /// (said on stderr) when it is not a speed or the envelope refuses it.
 fn approach(scene: Scene) -> Option<Scene> {
-    let args: Vec<String> = std::env::args().collect();
-    let Some(i) = args.iter().position(|a| a == "--approach-mm-s") else {
+    let Some(v) = arg("--approach-mm-s") else {
         return Some(scene);
     };
-    let mps = match args.get(i + 1).map(|v| v.parse::<f64>()) {
-        Some(Ok(v)) if v > 0.0 => v * 1e-3,
+    let mps = match v.parse::<f64>() {
+        Ok(v) if v > 0.0 => v * 1e-3,
         _ => {
             eprintln!("hold_sweep: --approach-mm-s: expected a speed above 0 (mm/s)");
             return None;
@@ -133,11 +153,27 @@ fn approach(scene: Scene) -> Option<Scene> {
     }
 }
 
-/// Every (command cycle, servo lag) pair of the sweep.
-fn grid() -> impl Iterator<Item = (f64, f64)> {
-    CYCLES_S
-        .into_iter()
-        .flat_map(|c| LAGS_S.into_iter().map(move |l| (c, l)))
+/// The value after `name` on the command line.
+fn arg(name: &str) -> Option<String> {
+    let args: Vec<String> = std::env::args().collect();
+    let i = args.iter().position(|a| a == name)?;
+    args.get(i + 1).cloned()
+}
+
+/// The comma-separated numbers after `name`, `all` when absent; None (said
+/// on stderr) when one is not a number.
+fn list(name: &str, all: &[f64]) -> Option<Vec<f64>> {
+    let Some(v) = arg(name) else {
+        return Some(all.to_vec());
+    };
+    let parsed: Result<Vec<f64>, _> = v.split(',').map(str::parse::<f64>).collect();
+    match parsed {
+        Ok(l) if !l.is_empty() => Some(l),
+        _ => {
+            eprintln!("hold_sweep: {name}: expected numbers separated by commas, got {v}");
+            None
+        }
+    }
 }
 
 /// The simulated arm takes commands every `cycle` s (pure latency), then

@@ -20,6 +20,17 @@
 //! sustained oscillation ([`OscillationDetector`]) halves the gain; a second
 //! one retracts.
 //!
+//! On a soft body the force rises slowly under the gain the skin's margin
+//! allows (src/control/tuning.rs): once the body is fitted (at least twice
+//! as compliant as the skin at the target), a feedforward
+//! drives the BioTac to where the fitted line puts the target force, on
+//! its own position (a loop through the arm, not the force, so the skin
+//! sets no margin on it) at `1 / (3 R)` per second of the distance left,
+//! `R` the measured reaction time, no faster than the skin's travel to the
+//! force limit in `R` (a rigid body under a soft layer still stops
+//! within it). It ends for good once the force is within half the band of
+//! the target; the PD trims throughout.
+//!
 //! Settled is the pressing force within `settle_band_n` of the target for
 //! `settle_time_s` of estimates, with a standard deviation of at most
 //! `settle_sd_n` over them: `hold` is true of the force, not of a moment.
@@ -208,7 +219,15 @@ pub struct GuardedMove {
     reason: Option<StopReason>,
     approach_s: f64,
     retract_from_m: f64,
+    /// True once the feedforward has brought the force near the target.
+    pressed: bool,
 }
+
+/// The feedforward's time constant, in reaction times.
+const FEEDFORWARD_REACTIONS: f64 = 3.0;
+/// The feedforward acts on a body at least this many times as compliant
+/// as the skin at the target.
+const FEEDFORWARD_SOFTNESS: f64 = 2.0;
 
 impl GuardedMove {
     /// A move with checked parameters in the loop of `law`, assuming a
@@ -230,6 +249,7 @@ impl GuardedMove {
             reason: None,
             approach_s: 0.0,
             retract_from_m: 0.0,
+            pressed: false,
         }
     }
 
@@ -362,7 +382,42 @@ impl GuardedMove {
         } else {
             Phase::Regulate
         };
-        u.min(self.approach_speed(reaction_s))
+        let approach = self.approach_speed(reaction_s);
+        match self.feedforward(i, reaction_s) {
+            Some((v, cap)) => (u + v).min(cap.max(approach)),
+            None => u.min(approach),
+        }
+    }
+
+    /// The feedforward's speed towards the position of the target force
+    /// and the speed it may reach at the measured force (m/s); None once
+    /// the force is near the target, or before a fit.
+    fn feedforward(&mut self, i: &GuardedInput, reaction_s: f64) -> Option<(f64, f64)> {
+        let p = self.p;
+        self.pressed |= i.force_n >= p.target_force_n - 0.5 * p.settle_band_n;
+        if self.pressed {
+            return None;
+        }
+        // Only where the body gives most: on a stiff one the skin's law
+        // is most of the distance left, and a skin not quite its law puts
+        // the target past where it is.
+        let skin = self.law.skin.stiffness_at(p.target_force_n);
+        if self.stiffness.body()? * FEEDFORWARD_SOFTNESS > skin {
+            return None;
+        }
+        let left = self.stiffness.position_of(p.target_force_n)? - i.travelled_m;
+        let rigid = Envelope {
+            skin: self.law.skin,
+            stiffness_n_per_m: f64::INFINITY,
+            shear: false,
+            trigger_n: i.force_n.max(0.0),
+            target_n: p.target_force_n,
+            limit_n: p.force_limit_n,
+            reaction_s,
+        };
+        let cap = rigid.max_speed_mps().min(self.law.pd.max_speed_mps);
+        let v = (left / (FEEDFORWARD_REACTIONS * reaction_s)).clamp(0.0, cap);
+        Some((v, cap))
     }
 }
 

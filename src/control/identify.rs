@@ -362,8 +362,10 @@ pub struct ContactStiffness {
     block: (f64, f64, f64, u32),
     /// The position and force of the last sample that joined (m, N).
     last: Option<(f64, f64)>,
-    /// The body's stiffness fitted last (N/m; infinite: rigid).
-    body: Option<f64>,
+    /// The line fitted last: a point on it (N, m) and its slope, the
+    /// body's compliance (m/N; below 0 where the skin is not quite its
+    /// law).
+    line: Option<(f64, f64, f64)>,
 }
 
 impl ContactStiffness {
@@ -376,7 +378,7 @@ impl ContactStiffness {
             samples: Ring::new((0.0, 0.0)),
             block: (0.0, 0.0, 0.0, 0),
             last: None,
-            body: None,
+            line: None,
         }
     }
 
@@ -416,7 +418,7 @@ impl ContactStiffness {
         if hi - lo < MIN_FORCE_SPREAD_N || self.samples.len() < MIN_SAMPLES {
             return None;
         }
-        let (c, residual_n) = self.line();
+        let (c, (mf, my), residual_n) = self.line();
         if residual_n > MAX_RESIDUAL_N {
             tracing::debug!(
                 "stiffness fit rejected: the forces stray {residual_n:.3} N rms from a spring"
@@ -426,7 +428,7 @@ impl ContactStiffness {
         // A negative compliance is noise on a rigid body.
         let k = if c > 1e-7 { 1.0 / c } else { f64::INFINITY };
         tracing::trace!("stiffness fit: body {k:.1} N/m");
-        self.body = Some(k);
+        self.line = Some((mf, my, c));
         Some(k)
     }
 
@@ -436,9 +438,10 @@ impl ContactStiffness {
     }
 
     /// The window's line `y = y0 + c f` by least squares: the compliance
-    /// `c` (m/N) and the rms of the samples' distance from it along the
-    /// force (N), through the local stiffness of skin and body in series.
-    fn line(&self) -> (f64, f64) {
+    /// `c` (m/N), the samples' mean (N, m) and the rms of their distance
+    /// from it along the force (N), through the local stiffness of skin and
+    /// body in series.
+    fn line(&self) -> (f64, (f64, f64), f64) {
         let n = self.samples.len() as f64;
         let (mf, my) = self
             .samples
@@ -454,18 +457,26 @@ impl ContactStiffness {
             .iter()
             .map(|(f, y)| (y - my - c * (f - mf)).powi(2))
             .sum::<f64>();
-        (c, (sq / (n - 2.0)).sqrt() / compliance)
+        (c, (mf, my), (sq / (n - 2.0)).sqrt() / compliance)
     }
 
     /// The body's stiffness (N/m; infinite: rigid), once fitted.
     pub fn body(&self) -> Option<f64> {
-        self.body
+        let (_, _, c) = self.line?;
+        Some(if c > 1e-7 { 1.0 / c } else { f64::INFINITY })
+    }
+
+    /// Where along the approach the pressing force is `f` (m), by the last
+    /// fit: its line as fitted, and the skin's squeeze at `f`.
+    pub fn position_of(&self, f: f64) -> Option<f64> {
+        let (mf, my, c) = self.line?;
+        Some(my + c * (f - mf) + self.skin_squeeze(f))
     }
 
     /// The stiffness of skin and body in series at force `f` (N/m), with
     /// `prior` (N/m) for the body until it is fitted.
     pub fn effective(&self, f: f64, prior: f64) -> f64 {
-        let body = self.body.unwrap_or(prior);
+        let body = self.body().unwrap_or(prior);
         1.0 / (1.0 / self.skin.stiffness_at(f) + 1.0 / body)
     }
 }

@@ -50,7 +50,7 @@ import test_over_dds as dds  # noqa: E402
 CONTACT_N = 0.05
 GRIDS = {
     # cycle (ms), lag (ms), stiffness (N/m; None: rigid)
-    "full": ([2, 4, 8, 16], [0, 10, 20, 30], [50, 300, 3700, 1e5, None]),
+    "full": ([2, 4, 8, 16], [0, 10, 20, 30], [50, 100, 300, 3700, 1e5, None]),
     # What CI asserts: a CB-series UR's 8 ms cycle (16 ms misses on MuJoCo,
     # docs/results.md).
     "ci": ([8], [20], [300, None]),
