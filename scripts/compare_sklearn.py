@@ -190,7 +190,7 @@ def main():
     p.add_argument("--sklearn", default="shared,per-axis", help="shared, per-axis or both")
     p.add_argument("--latency-samples", type=int, default=300)
     p.add_argument("--whole", action="store_true", help="time whole processes (medians of --repeats)")
-    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--repeats", type=int, default=9)
     p.add_argument("--ours-args", default="", help="more options of our eval, e.g. '--restarts 1'")
     args = p.parse_args()
     axes = args.axes.split(",")

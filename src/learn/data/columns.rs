@@ -22,32 +22,48 @@ pub const MAX_FORCE_N: f64 = 1e6;
 /// The same for torques (Nm).
 pub const MAX_TORQUE_NM: f64 = 1e5;
 
-/// What column `name` must hold when `value` cannot be true there: a
-/// BioTac channel beyond the 12-bit range, a force or torque beyond any
-/// sensor's. None when the value can be true (or the column is no
-/// BioTac channel or wrench axis).
-pub(super) fn implausible(name: &str, value: f64, counts: Counts) -> Option<String> {
-    let adc = f64::from(ADC_MAX);
-    if Column::from_name(name).is_some() {
-        let low = match counts {
-            Counts::Raw => 0.0,
-            Counts::Tared => -adc,
+/// The values a column can hold: a BioTac channel within the 12-bit range,
+/// a force or torque within any sensor's. Found once per column, checked
+/// per value.
+pub(super) struct Plausible {
+    low: f64,
+    high: f64,
+    expected: String,
+}
+
+impl Plausible {
+    /// The range of column `name`; None when the column is no BioTac
+    /// channel or wrench axis (any value can be true).
+    pub(super) fn of(name: &str, counts: Counts) -> Option<Self> {
+        let adc = f64::from(ADC_MAX);
+        if Column::from_name(name).is_some() {
+            let (low, what) = match counts {
+                Counts::Raw => (0.0, "a raw"),
+                Counts::Tared => (-adc, "a tared"),
+            };
+            return Some(Plausible {
+                low,
+                high: adc,
+                expected: format!("{what} 12-bit BioTac count, {low} to {adc}"),
+            });
+        }
+        let axis: Axis = name.parse().ok()?;
+        let (max, unit) = if axis.index() < 3 {
+            (MAX_FORCE_N, "N")
+        } else {
+            (MAX_TORQUE_NM, "Nm")
         };
-        let what = match counts {
-            Counts::Raw => "a raw",
-            Counts::Tared => "a tared",
-        };
-        return (!(low..=adc).contains(&value))
-            .then(|| format!("{what} 12-bit BioTac count, {low} to {adc}"));
+        Some(Plausible {
+            low: -max,
+            high: max,
+            expected: format!("a wrench within +-{max:e} {unit}, what an F/T sensor can measure"),
+        })
     }
-    let axis: Axis = name.parse().ok()?;
-    let (max, unit) = if axis.index() < 3 {
-        (MAX_FORCE_N, "N")
-    } else {
-        (MAX_TORQUE_NM, "Nm")
-    };
-    (value.abs() > max)
-        .then(|| format!("a wrench within +-{max:e} {unit}, what an F/T sensor can measure"))
+
+    /// What the column must hold, when `value` cannot be true there.
+    pub(super) fn check(&self, value: f64) -> Option<&str> {
+        (!(self.low..=self.high).contains(&value)).then_some(self.expected.as_str())
+    }
 }
 
 /// Names of the electrode columns of `layout`, `e1..e19` or `e1..e24`: the

@@ -23,7 +23,7 @@ use std::path::Path;
 
 use ndarray::Array2;
 
-use super::columns::{electrode_columns, implausible, Counts};
+use super::columns::{electrode_columns, Counts, Plausible};
 use super::{records_layout, Dataset, DatasetError};
 use crate::biotac::ElectrodeLayout;
 use crate::record::Record;
@@ -96,8 +96,10 @@ impl Dataset {
             }
             1 + bytes[..end].iter().filter(|&&b| b == b'\n').count() as u64
         };
+        // Fields are trimmed as they are parsed: one record is reused and
+        // only the columns taken are looked at.
         let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
+            .trim(csv::Trim::Headers)
             .from_reader(bytes.as_slice());
         let header: Vec<String> = reader
             .headers()
@@ -123,33 +125,35 @@ impl Dataset {
             .map(|a| need(a.name()))
             .collect::<Result<Vec<_>, _>>()?;
         let (set_idx, trial_idx) = (find("set"), find("trial"));
+        let plausible: Vec<Option<Plausible>> =
+            header.iter().map(|h| Plausible::of(h, counts)).collect();
 
         let mut xs = Vec::new();
         let mut ys = Vec::new();
         let (mut set, mut trial) = (Vec::new(), Vec::new());
-        for rec in reader.records() {
-            let rec = rec.map_err(csv_err)?;
+        let mut rec = csv::ByteRecord::new();
+        while reader.read_byte_record(&mut rec).map_err(csv_err)? {
             let line = || rec.position().map_or(0, |pos| line_at(pos.byte()));
             let num = |i: usize| -> Result<f64, DatasetError> {
-                let text = rec.get(i).unwrap_or("");
-                let value = text
-                    .parse::<f64>()
+                let field = rec.get(i).unwrap_or(b"");
+                let value = std::str::from_utf8(field)
                     .ok()
+                    .and_then(|text| text.trim().parse::<f64>().ok())
                     .filter(|v| v.is_finite())
                     .ok_or_else(|| DatasetError::BadValue {
                         path: p.clone(),
                         line: line(),
                         column: header[i].clone(),
-                        value: text.to_string(),
+                        value: String::from_utf8_lossy(field).trim().to_string(),
                     })?;
-                match implausible(&header[i], value, counts) {
+                match plausible[i].as_ref().and_then(|c| c.check(value)) {
                     None => Ok(value),
                     Some(expected) => Err(DatasetError::Implausible {
                         path: p.clone(),
                         at: format!("line {}", line()),
                         column: header[i].clone(),
                         value,
-                        expected,
+                        expected: expected.to_string(),
                     }),
                 }
             };

@@ -21,7 +21,7 @@ use crate::biotac::ElectrodeLayout;
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 use crate::wrench::AxisSet;
-use columns::implausible;
+use columns::Plausible;
 
 pub use columns::{
     channel_columns, electrode_columns, layout_of, Channel, Counts, MAX_FORCE_N, MAX_TORQUE_NM,
@@ -220,10 +220,12 @@ impl Dataset {
             .zip(x.columns())
             .chain(axes.axes().iter().map(|a| a.name()).zip(y.columns()));
         for (name, column) in names {
+            let plausible = Plausible::of(name, Counts::Raw);
             for (i, &value) in column.iter().enumerate() {
                 let bad = (!value.is_finite())
-                    .then(|| "a finite number".to_string())
-                    .or_else(|| implausible(name, value, Counts::Raw));
+                    .then_some("a finite number")
+                    .or_else(|| plausible.as_ref().and_then(|c| c.check(value)))
+                    .map(String::from);
                 if let Some(expected) = bad {
                     return Err(DatasetError::Implausible {
                         path: source.to_string(),

@@ -12,7 +12,7 @@ use faer::{Mat, MatRef, Par, Side};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::kernel::{exp_kernel, scale_rows, se_cross, se_gram, SeHyper};
+use super::kernel::{exp_kernel, scale_rows, se_cross_into, se_gram, SeHyper};
 use super::GpError;
 
 /// First jitter tried, relative to the mean diagonal of K.
@@ -133,9 +133,10 @@ pub fn neg_lml_and_grad_shared(
     let l = llt.L();
     let mut alpha = Mat::from_fn(n, k, |i, c| y[i * k + c]);
     faer::linalg::solvers::Solve::solve_in_place(&llt, alpha.as_mut());
-    // Row-major n x k, as y.
-    let alpha: Vec<f64> = (0..n * k).map(|i| alpha[(i / k, i % k)]).collect();
-    let data_fit: f64 = y.iter().zip(&alpha).map(|(a, b)| a * b).sum();
+    let alpha_col = |c: usize| alpha.col(c).try_as_col_major().unwrap().as_slice();
+    let data_fit: f64 = (0..k)
+        .map(|c| (0..n).map(|i| y[i * k + c] * alpha_col(c)[i]).sum::<f64>())
+        .sum();
     let log_det: f64 = (0..n).map(|i| l[(i, i)].ln()).sum();
     let kf64 = k as f64;
     let nll =
@@ -143,28 +144,21 @@ pub fn neg_lml_and_grad_shared(
 
     // W = sum_c alpha_c alpha_c^T - k K^-1 and M = W o K_f (elementwise),
     // column by column in K^-1's storage; per column: (W_jj, sum_i M_ij).
+    // Each step is a loop over one column, which stays in cache.
     let mut m = llt.inverse();
     let col_stats: Vec<(f64, f64)> = m
         .par_col_iter_mut()
         .enumerate()
         .map(|(j, col)| {
-            let kf_col = kf.col(j);
-            let aj = &alpha[j * k..(j + 1) * k];
-            let (mut w_jj, mut sum) = (0.0, 0.0);
-            for (i, ((v, kv), ai)) in col
-                .iter_mut()
-                .zip(kf_col.iter())
-                .zip(alpha.chunks_exact(k))
-                .enumerate()
-            {
-                let aa: f64 = ai.iter().zip(aj).map(|(a, b)| a * b).sum();
-                let w = aa - kf64 * *v;
-                if i == j {
-                    w_jj = w;
-                }
-                *v = w * kv;
-                sum += *v;
+            let col = col.try_as_col_major_mut().unwrap().as_slice_mut();
+            let kf_col = kf.col(j).try_as_col_major().unwrap().as_slice();
+            col.iter_mut().for_each(|v| *v *= -kf64);
+            for c in 0..k {
+                let (a, aj) = (alpha_col(c), alpha_col(c)[j]);
+                col.iter_mut().zip(a).for_each(|(v, ai)| *v += ai * aj);
             }
+            let (w_jj, sum) = (col[j], dot(col, kf_col));
+            col.iter_mut().zip(kf_col).for_each(|(v, kv)| *v *= kv);
             (w_jj, sum)
         })
         .collect();
@@ -501,15 +495,24 @@ impl ExactGp {
         let mut means = vec![Vec::with_capacity(m); gps.len()];
         let mut vars = Vec::with_capacity(m);
         let l = with_var.then(|| unpack_lower(&first.l_cols, n));
+        let alpha = Mat::from_fn(n, gps.len(), |i, c| gps[c].alpha[i]);
         // Blocks of test points bound the n x block cross-covariance memory.
         const BLOCK: usize = 1024;
+        let mut buffer = Mat::zeros(n, BLOCK.min(m));
         for chunk in zs.chunks(BLOCK * d) {
-            let mut kt = se_cross(&first.xs, chunk, d, s2); // n x b
-            for c in 0..kt.ncols() {
-                let col = kt.col(c).try_as_col_major().unwrap().as_slice();
-                for (mean, g) in means.iter_mut().zip(gps) {
-                    mean.push(dot(col, &g.alpha));
-                }
+            let mut kt = buffer.as_mut().subcols_mut(0, chunk.len() / d); // n x b
+            se_cross_into(&first.xs, chunk, d, s2, kt.as_mut());
+            let mut block_means = Mat::<f64>::zeros(kt.ncols(), gps.len());
+            faer::linalg::matmul::matmul(
+                block_means.as_mut(),
+                faer::Accum::Replace,
+                kt.as_ref().transpose(),
+                alpha.as_ref(),
+                1.0,
+                Par::rayon(0),
+            );
+            for (mean, col) in means.iter_mut().zip(block_means.col_iter()) {
+                mean.extend(col.iter());
             }
             if let Some(l) = &l {
                 faer::linalg::triangular_solve::solve_lower_triangular_in_place(
@@ -518,7 +521,7 @@ impl ExactGp {
                     Par::rayon(0),
                 );
                 for c in 0..kt.ncols() {
-                    let v: f64 = kt.col(c).iter().map(|v| v * v).sum();
+                    let v: f64 = kt.as_ref().col(c).iter().map(|v| v * v).sum();
                     vars.push(clamp_var(s2 - v, s2));
                 }
             } else {
