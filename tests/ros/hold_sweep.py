@@ -29,6 +29,7 @@ Run after scripts/ros2-jazzy.sh, with `. target/ros2/env.sh`.
 """
 
 import argparse
+import contextlib
 import math
 import os
 import statistics
@@ -144,7 +145,11 @@ def mujoco_nodes(scene):
                      only=["force_controller"], controller={"autostart": scene != "guarded_move.yaml"})
 
 
-def guarded_mujoco(cycle_ms, lag_ms, k):
+@contextlib.contextmanager
+def mujoco_guarded(cycle_ms, lag_ms, k):
+    """force_controller and MuJoCo's UR5 before a body of `k` N/m (None:
+    rigid), spinning, once the controller has commanded for a while;
+    yields (plant, node, action client) and stops them all after."""
     import mujoco_ur5
     n = mujoco_nodes("guarded_move.yaml")
     rclpy.init(domain_id=n.domain)
@@ -158,11 +163,7 @@ def guarded_mujoco(cycle_ms, lag_ms, k):
         end = time.monotonic() + 20.0
         while plant.commands < 100 and time.monotonic() < end:
             time.sleep(0.1)
-        idle = plant.commands >= 100 and plant.nonzero == 0
-        got = guarded_result(client, node)
-        time.sleep(3.0)
-        forces = [(t, f[2]) for t, f in plant.truth]
-        return dict(summarize(got, forces, idle), behind=plant.behind_s)
+        yield plant, node, client
     finally:
         plant.running = False
         physics.join(timeout=5)
@@ -172,6 +173,15 @@ def guarded_mujoco(cycle_ms, lag_ms, k):
         plant.destroy_node()
         rclpy.shutdown()
         n.stop(keep_logs=False)
+
+
+def guarded_mujoco(cycle_ms, lag_ms, k):
+    with mujoco_guarded(cycle_ms, lag_ms, k) as (plant, node, client):
+        idle = plant.commands >= 100 and plant.nonzero == 0
+        got = guarded_result(client, node)
+        time.sleep(3.0)
+        forces = [(t, f[2]) for t, f in plant.truth]
+        return dict(summarize(got, forces, idle), behind=plant.behind_s)
 
 
 def summarize(got, forces, idle):
