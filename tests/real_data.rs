@@ -130,7 +130,21 @@ fn select_picks_what_leaving_one_press_out_favours() {
         .iter()
         .map(|r| r.score)
         .fold(f64::INFINITY, f64::min);
-    assert_eq!(s.table[s.chosen].score, best, "the best of the table");
+    // The best of the table, or within noise of it (one standard error of
+    // the folds' scores) and said why.
+    let chosen = &s.table[s.chosen];
+    let spread = chosen
+        .fold_scores
+        .iter()
+        .map(|f| (f - chosen.score).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        chosen.score <= best + spread,
+        "{} against the best {best}",
+        chosen.score
+    );
+    assert!(!s.why.is_empty());
+    assert!(chosen.latency_us.is_some_and(|l| l > 0.0) && chosen.fold_scores.len() == 3);
     // Scored again by eval's own leave-one-press-out, the chosen options
     // beat the defaults.
     let chosen = leave_one_press_out(s.choice()).1 .0;

@@ -87,7 +87,10 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         tare: sessions.tare.clone(),
         from,
         params: &params,
-        trained_on: new_files.and_then(|n| lineage(base.trained_on(), n.files)),
+        trained_on: new_files
+            .clone()
+            .and_then(|n| lineage(base.trained_on(), n.files)),
+        new_only: new_files,
     };
     let bar = progress_bar();
     let (model, choice) =
@@ -100,16 +103,15 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         .with_context(|| format!("saving the model to {}", a.out.display()))?;
     print_choice(&choice);
     println!(
-        "{} {} ({}) with {:.0} s of data ({} rows) in {:.2} s; model written to {}",
-        match choice.chosen.as_str() {
-            "pooled" => "retrained (pooled)",
-            _ => "adapted",
-        },
+        "{} from {} ({}) with {:.0} s of data ({} rows) in {:.2} s; its standard deviations \
+         scaled by {:.2?} to cover the held-out errors; model written to {}",
+        choice.chosen,
         a.model.display(),
         base.axes(),
         seconds,
         data.len(),
         fit_s,
+        model.std_scales(),
         a.out.display()
     );
     Ok(())
@@ -118,10 +120,6 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
 /// The candidates' scores on the held-out rows and the one chosen, or why
 /// pooling was not a candidate.
 fn print_choice(choice: &AdaptChoice) {
-    if choice.validation.is_empty() {
-        println!("pooled retraining {}", choice.pooling);
-        return;
-    }
     println!("pooled retraining: {}", choice.pooling);
     let what = format!("held out {} rows of the new data", choice.held_out_rows);
     print_scores(&what, &choice.validation, &choice.chosen);

@@ -207,13 +207,13 @@ pub(crate) fn run_score(
         folds.push(FoldScores {
             fold: i + 1,
             n_test: ds.len(),
-            gp: score_model(&model, ds, min_peak_n)?,
+            gp: score_model(&model, ds, min_peak_n, true)?,
             baselines: BTreeMap::new(),
         });
     }
     let eval = Evaluation {
         folds,
-        gp: score_model(&model, &pooled, min_peak_n)?,
+        gp: score_model(&model, &pooled, min_peak_n, true)?,
         baselines: BTreeMap::new(),
     };
     print_table(model.axes(), &eval, &file_labels(tests));

@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tactile_force::learn::calibration::{CalibrationRecord, Validation};
 use tactile_force::learn::choice::Selection;
 use tactile_force::learn::evaluate::{Evaluation, Progress, Scores};
-use tactile_force::learn::models::metrics::DirectionError;
+use tactile_force::learn::models::metrics::{mean_and_error, DirectionError};
 use tactile_force::wrench::{Axis, AxisSet};
 
 pub(crate) fn progress_bar() -> ProgressBar {
@@ -68,12 +68,18 @@ pub(crate) fn print_scores(what: &str, validation: &[Validation], chosen: &str) 
 pub(crate) fn print_selection(s: &Selection) {
     println!(
         "--select: {}-fold trial-wise cross-validation of {} candidates in {:.1} s (budget {:.0} s); \
-         score = mean over axes of RMSE / sd of the targets",
+         score = mean over axes of RMSE / sd of the targets, ± its standard error over the folds",
         s.folds,
         s.table.len(),
         s.spent_s,
         s.budget_s
     );
+    for set in &s.blocks {
+        println!(
+            "    set {set} is one trial: cross-validated on {} contiguous blocks of it",
+            s.folds
+        );
+    }
     let axes: Vec<Axis> = s
         .table
         .first()
@@ -82,18 +88,26 @@ pub(crate) fn print_selection(s: &Selection) {
         .iter()
         .map(|a| format!("{:>8}", format!("{a} RMSE")))
         .collect();
-    println!("    score {} seconds  CPU s  options", heads.join(" "));
+    println!(
+        "    score  ± s.e. {} seconds  CPU s  est. µs  options",
+        heads.join(" ")
+    );
     for (i, r) in s.table.iter().enumerate() {
         let mark = if i == s.chosen { '*' } else { ' ' };
         let cells: Vec<String> = axes.iter().map(|a| format!("{:>8.4}", r.rmse[a])).collect();
         let cpu = r.cpu_s.map_or("-".into(), |c| format!("{c:.1}"));
+        let latency = r.latency_us.map_or("-".into(), |l| format!("{l:.0}"));
         println!(
-            "  {mark} {:.4} {} {:>7.1} {cpu:>6}  {}",
+            "  {mark} {:.4} {:>6} {} {:>7.1} {cpu:>6} {latency:>8}  {}",
             r.score,
+            mean_and_error(&r.fold_scores).map_or("-".into(), |(_, e)| format!("{e:.4}")),
             cells.join(" "),
             r.seconds,
             r.choice
         );
+    }
+    if !s.why.is_empty() {
+        println!("    chosen: {}", s.why);
     }
     for (c, why) in &s.untried {
         println!("    not tried: {c} ({why})");
@@ -175,6 +189,7 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
         if let Some(d) = &s.direction_deg {
             print_direction(&name, d);
         }
+        print_coverage(&name, s);
     }
     if eval.folds.len() > 1 {
         for (f, label) in eval.folds.iter().zip(labels) {
@@ -183,6 +198,21 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
             }
         }
     }
+}
+
+/// One line of how many errors lie within one and two standard deviations,
+/// for a model that has them.
+pub(crate) fn print_coverage(name: &str, s: &Scores) {
+    let (Some(one), Some(two)) = (&s.coverage_1s, &s.coverage_2s) else {
+        return;
+    };
+    let cells: Vec<String> = (one.iter().zip(two))
+        .map(|((a, c1), (_, c2))| format!("{a} {c1:.2} / {c2:.2}"))
+        .collect();
+    println!(
+        "{name}: errors within 1 / 2 standard deviations (0.68 / 0.95 when calibrated): {}",
+        cells.join(", ")
+    );
 }
 
 /// One line of direction errors at the peaks.

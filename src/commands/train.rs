@@ -54,9 +54,11 @@ pub(crate) struct FitArgs {
     #[arg(long, default_value = "iso")]
     pub(crate) kernel: KernelKind,
     /// The GPs' prior mean: zero; linear (a least-squares line on every
-    /// training row; the GP models what it leaves out); or cubic (that line
-    /// plus the products and cubes of the trained axes' lines). Default:
-    /// zero for the BioTac, cubic for the nail camera (docs/nail-camera.md).
+    /// training row; the GP models what it leaves out); cubic (that line
+    /// plus the products and cubes of the trained axes' lines); or network
+    /// (the baseline network on every row, every axis; the GPs model what
+    /// it leaves and give its standard deviation). Default: zero for the
+    /// BioTac, cubic for the nail camera (docs/nail-camera.md).
     #[arg(long)]
     pub(crate) mean: Option<MeanKind>,
     /// One set of kernel hyperparameters for every axis (exact GP), fitted
@@ -292,6 +294,10 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     bar.finish_and_clear();
     print_selection(&selection);
     let choice = selection.choice().clone();
+    let row = &selection.table[selection.chosen];
+    let scales: Vec<f64> = (a.fit.axes.axes().iter())
+        .map(|axis| row.std_scale.get(axis).copied().unwrap_or(1.0))
+        .collect();
     let (data, tare) = choice
         .cut(&ds, &sessions.tare)
         .map_err(|e| Failure::failed(format!("the chosen options: {e}")))?;
@@ -301,9 +307,10 @@ fn run_select(a: &TrainArgs) -> Result<()> {
         show(&bar, Progress::Axis(axis, p))
     })?
     .with_sensor(sessions.sensor.clone())
+    .with_std_scales(&scales)
     .with_selection(selection);
     bar.finish_and_clear();
-    println!("chosen: {choice}");
+    println!("chosen: {choice}; its standard deviations scaled by {scales:.2?} to cover the held-out errors");
     save_checked(a, model, &data, t0, (&sessions, &params))
 }
 

@@ -11,12 +11,15 @@
 //! subset; a sparse GP's search on fewer rows, `scoring`), its search
 //! started warm where the same form was fitted before
 //! (`WarmStarts`), and scored on the held-out trials (each candidate's
-//! wall and CPU seconds recorded). The
+//! wall and CPU seconds recorded, and its estimate's latency). The
 //! score is the mean over axes of the RMSE over the standard deviation of
-//! the axis's targets, so that forces and torques weigh alike. When the
+//! the axis's targets, so that forces and torques weigh alike. A set
+//! recorded as one trial is cut into contiguous blocks, each a trial. When the
 //! budget runs out the search stops, at the latest after the fold that
 //! passed it, and says what it did not try. The defaults are scored
 //! whatever the budget: they are what every other candidate must beat.
+//! Among the candidates within noise of the best score, the simplest, then
+//! the fastest, is chosen ([`pick`]).
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -28,7 +31,9 @@ use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind, SeHyper};
 use super::models::metrics::rmse_columns;
 use super::models::scale::InputScaling;
+use super::models::wrench_gp::{std_scale, Estimate, EstimatorWorkspace};
 use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
+use super::tradeoff::{median_latency_us, timed_rows};
 use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};
@@ -207,7 +212,12 @@ impl Space {
             InputScaling::Pattern,
             InputScaling::Raw,
         ];
-        let means = [MeanKind::Zero, MeanKind::Linear, MeanKind::Cubic];
+        let means = [
+            MeanKind::Zero,
+            MeanKind::Linear,
+            MeanKind::Cubic,
+            MeanKind::Network,
+        ];
         // Smaller exact subsets and sparse sizes, then more rows when there are.
         let gps = [
             GpChoice::Exact(2000),
@@ -246,7 +256,8 @@ impl Space {
 /// Chooses the training options on `data` (tared; its features the union
 /// of the channels `space` says it holds, tared as `tare` says) by
 /// trial-wise cross-validation with `folds` folds (fewer when a set has
-/// fewer trials), within `budget_s` seconds, among what `space` leaves free.
+/// fewer trials; a set of one trial cut into `folds` contiguous blocks),
+/// within `budget_s` seconds, among what `space` leaves free.
 /// `base` holds the other GP options (restarts, seed). `progress` hears of
 /// each candidate as it starts.
 #[allow(clippy::too_many_arguments)]
@@ -259,6 +270,8 @@ pub fn select(
     base: &GpParams,
     progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
 ) -> Result<Selection, SelectError> {
+    let (data, blocks) = data.single_trials_in_blocks(folds);
+    let data = &data;
     let mut per_set: BTreeMap<u32, usize> = BTreeMap::new();
     for ((set, _), _) in data.trials() {
         *per_set.entry(set).or_default() += 1;
@@ -320,22 +333,21 @@ pub fn select(
             run(c, true, &mut table, &mut untried);
         }
     }
-    let chosen = table
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.score.total_cmp(&b.1.score))
-        .map_or(0, |(i, _)| i);
+    let (chosen, why) = pick::choose(&table);
     Ok(Selection {
         folds: k,
         budget_s,
         spent_s: start.elapsed().as_secs_f64(),
         table,
         chosen,
+        why,
+        blocks,
         untried,
         not_varied: space.not_varied(),
     })
 }
 
+/// The best score (the search goes on from it).
 fn best_of(table: &[CvRow]) -> &CvRow {
     table
         .iter()
@@ -423,6 +435,9 @@ impl Cv<'_> {
             .map_err(|e| e.to_string())?;
         let (t0, cpu0) = (Instant::now(), cpu_seconds());
         let mut pred = Array2::zeros(self.data.y.raw_dim());
+        let mut fold_scores = Vec::with_capacity(self.splits.len());
+        let mut latency_us = None;
+        let mut z: Vec<Vec<f64>> = vec![Vec::new(); self.sd.len()];
         for (fold, (train, test)) in self.splits.iter().enumerate() {
             let model = WrenchGp::train_from(
                 &sub.select(train),
@@ -435,11 +450,19 @@ impl Cv<'_> {
             .map_err(|e| e.to_string())?;
             warm.0
                 .insert((WarmStarts::key(choice), fold), model.hypers());
+            let held_out = sub.select(test);
             let (p, _) = model
-                .predict(sub.select(test).x.view(), false)
+                .predict(held_out.x.view(), false)
                 .map_err(|e| e.to_string())?;
             for (row, &i) in p.rows().into_iter().zip(test) {
                 pred.row_mut(i).assign(&row);
+            }
+            fold_scores.push(self.score(held_out.y.view(), p.view()));
+            let errors = (model.standardised_errors(&held_out, CALIBRATION_ROWS))
+                .map_err(|e| e.to_string())?;
+            z.iter_mut().zip(errors).for_each(|(z, e)| z.extend(e));
+            if fold + 1 == self.splits.len() {
+                latency_us = Some(latency(&model, &held_out));
             }
             if over() {
                 return Ok(None);
@@ -447,15 +470,48 @@ impl Cv<'_> {
         }
         let rmse = rmse_columns(self.data.y.view(), pred.view());
         let axes = self.data.axes.axes();
-        let score = rmse.iter().zip(self.sd).map(|(e, s)| e / s).sum::<f64>() / axes.len() as f64;
+        let score = self.score(self.data.y.view(), pred.view());
         Ok(Some(CvRow {
             choice: choice.clone(),
             rmse: axes.iter().copied().zip(rmse.iter().copied()).collect(),
             score,
             seconds: t0.elapsed().as_secs_f64(),
             cpu_s: cpu_seconds().zip(cpu0).map(|(now, then)| now - then),
+            fold_scores,
+            latency_us,
+            std_scale: (axes.iter().zip(&z))
+                .filter_map(|(&a, z)| std_scale(z).map(|s| (a, s)))
+                .collect(),
         }))
     }
+
+    /// The mean over axes of the RMSE of `pred` over the targets' standard
+    /// deviation.
+    fn score(&self, y: ndarray::ArrayView2<f64>, pred: ndarray::ArrayView2<f64>) -> f64 {
+        let rmse = rmse_columns(y, pred);
+        rmse.iter().zip(self.sd).map(|(e, s)| e / s).sum::<f64>() / self.sd.len() as f64
+    }
+}
+
+/// Held-out rows of a fold whose errors are compared with the standard
+/// deviation (evenly spread): its variance costs O(n^2) a row.
+const CALIBRATION_ROWS: usize = 100;
+
+/// Rows an estimate's latency is timed on, and passes over them (the median
+/// pass is taken).
+const LATENCY_ROWS: usize = 100;
+const LATENCY_PASSES: usize = 3;
+
+/// The median time (µs) of `model`'s estimate with its standard deviation,
+/// as the estimator makes one, on rows of `data`.
+fn latency(model: &WrenchGp, data: &Dataset) -> f64 {
+    let rows = timed_rows(data, LATENCY_ROWS);
+    let mut ws: EstimatorWorkspace = model.workspace();
+    let mut out = vec![Estimate::default(); model.axes().len()];
+    median_latency_us(&rows, LATENCY_PASSES, |x| {
+        // The rows have the model's features, so this cannot fail.
+        let _ = model.predict_one(x, &mut ws, true, &mut out);
+    })
 }
 
 /// The process's CPU time so far (user + system, every thread, s), from
@@ -503,5 +559,6 @@ pub(crate) fn columns(
     Ok((sub, tare))
 }
 
+mod pick;
 #[cfg(test)]
 mod tests;

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use ndarray::{Array2, ArrayView2};
+use ndarray::ArrayView2;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -13,11 +13,13 @@ use serde::Serialize;
 use super::data::{trialwise_folds, Dataset};
 use super::models::cnn::{CnnLearner, CnnParams};
 use super::models::gp::{FitProgress, GpParams};
-use super::models::metrics::{direction_error_at_peaks, r2_columns, rmse_columns, DirectionError};
+use super::models::metrics::{
+    coverage, direction_error_at_peaks, r2_columns, rmse_columns, DirectionError,
+};
 use super::models::nn::{NnLearner, NnParams};
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{GpLearner, ModelError, TareSpec, WrenchGp};
-use super::models::{LearnError, Learner};
+use super::models::{LearnError, Learner, Prediction};
 use crate::exit::{Classify, ExitClass};
 use crate::params::Checked;
 use crate::wrench::{Axis, AxisSet};
@@ -134,6 +136,13 @@ pub struct Scores {
     /// fy are estimated ([`direction_error_at_peaks`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub direction_deg: Option<DirectionError>,
+    /// For a model with a standard deviation: per axis, the share of the
+    /// errors within one of it ([`coverage`]; about 0.68 when calibrated).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage_1s: Option<BTreeMap<Axis, f64>>,
+    /// The same within two (about 0.95 when calibrated).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage_2s: Option<BTreeMap<Axis, f64>>,
 }
 
 /// Scores of one cross-validation fold.
@@ -173,31 +182,27 @@ pub enum Progress {
     Axis(Axis, FitProgress),
 }
 
+/// The scores of the estimates `yhat` (with their standard deviations
+/// `std`, when the model has them) of the targets `y`.
 pub(crate) fn scores(
     axes: &AxisSet,
     y: ArrayView2<f64>,
-    yhat: ArrayView2<f64>,
+    (yhat, std): (ArrayView2<f64>, Option<ArrayView2<f64>>),
     fit_s: f64,
     n_train: usize,
 ) -> Scores {
-    let rmse = rmse_columns(y, yhat);
-    let r2 = r2_columns(y, yhat);
+    let per_axis = |v: ndarray::Array1<f64>| -> BTreeMap<Axis, f64> {
+        axes.axes().iter().copied().zip(v).collect()
+    };
+    let within = |k| std.map(|s| per_axis(coverage(y, yhat, s, k)));
     Scores {
-        rmse: axes
-            .axes()
-            .iter()
-            .copied()
-            .zip(rmse.iter().copied())
-            .collect(),
-        r2: axes
-            .axes()
-            .iter()
-            .copied()
-            .zip(r2.iter().copied())
-            .collect(),
+        rmse: per_axis(rmse_columns(y, yhat)),
+        r2: per_axis(r2_columns(y, yhat)),
         fit_s,
         n_train,
         direction_deg: None,
+        coverage_1s: within(1.0),
+        coverage_2s: within(2.0),
     }
 }
 
@@ -227,7 +232,7 @@ fn with_direction(mut s: Scores, test: &Dataset, pred: ArrayView2<f64>, min_peak
 /// One model's predictions on a test set, and its training time.
 struct Predictions {
     name: &'static str,
-    pred: Array2<f64>,
+    pred: Prediction,
     fit_s: f64,
 }
 
@@ -257,7 +262,7 @@ fn fit_and_predict(
         let fit_s = t0.elapsed().as_secs_f64();
         out.push(Predictions {
             name: l.name(),
-            pred: fitted.predict(test)?,
+            pred: fitted.predict(test, true)?,
             fit_s,
         });
     }
@@ -339,7 +344,7 @@ fn evaluate_splits(
     let mut pooled = Vec::new();
     // Per model, in the learners' order: its predictions per split and
     // its total training time.
-    let mut per_model: Vec<(&'static str, Vec<Array2<f64>>, f64)> = Vec::new();
+    let mut per_model: Vec<(&'static str, Vec<Prediction>, f64)> = Vec::new();
     let mut n_train = 0;
     for (s, (train, tests)) in splits.enumerate() {
         progress(Progress::Fold(s + 1, n_splits));
@@ -359,8 +364,9 @@ fn evaluate_splits(
             let rows = from..from + t.len();
             from += t.len();
             let mut by_model = preds.iter().map(|p| {
-                let pred = p.pred.slice(ndarray::s![rows.clone(), ..]);
-                let s = scores(&t.axes, t.y.view(), pred, p.fit_s, n_train);
+                let pred = p.pred.mean.slice(ndarray::s![rows.clone(), ..]);
+                let std = (p.pred.std.as_ref()).map(|m| m.slice(ndarray::s![rows.clone(), ..]));
+                let s = scores(&t.axes, t.y.view(), (pred, std), p.fit_s, n_train);
                 (p.name, with_direction(s, t, pred, opts.min_peak_n))
             });
             let (_, gp) = by_model.next().ok_or(EvalError::Folds(0))?;
@@ -390,10 +396,18 @@ fn evaluate_splits(
         .iter()
         .filter(|(_, preds, _)| preds.len() == pooled.len())
         .map(|(name, preds, time)| {
-            let views: Vec<_> = preds.iter().map(|a| a.view()).collect();
-            let pred = ndarray::concatenate(ndarray::Axis(0), &views)
-                .map_err(|e| EvalError::Mismatch(e.to_string()))?;
-            let s = scores(&all.axes, all.y.view(), pred.view(), time / nf, n_train);
+            let stack = |parts: Vec<_>| {
+                ndarray::concatenate(ndarray::Axis(0), &parts)
+                    .map_err(|e| EvalError::Mismatch(e.to_string()))
+            };
+            let pred = stack(preds.iter().map(|p| p.mean.view()).collect())?;
+            let stds: Option<Vec<_>> = preds
+                .iter()
+                .map(|p| p.std.as_ref().map(|s| s.view()))
+                .collect();
+            let std = stds.map(stack).transpose()?;
+            let both = (pred.view(), std.as_ref().map(|s| s.view()));
+            let s = scores(&all.axes, all.y.view(), both, time / nf, n_train);
             Ok((*name, with_direction(s, &all, pred.view(), opts.min_peak_n)))
         })
         .collect::<Result<Vec<_>, EvalError>>()?
@@ -421,7 +435,7 @@ const TRAINING_FIT_ROWS: usize = 5000;
 pub fn training_fit(model: &WrenchGp, data: &Dataset) -> Result<Scores, EvalError> {
     let step = data.len().div_ceil(TRAINING_FIT_ROWS).max(1);
     let rows: Vec<usize> = (0..data.len()).step_by(step).collect();
-    let s = score_model(model, &data.select(&rows), f64::INFINITY)?;
+    let s = score_model(model, &data.select(&rows), f64::INFINITY, false)?;
     let worst = s.r2.iter().min_by(|a, b| a.1.total_cmp(b.1));
     match worst {
         Some((&axis, &r2)) if r2 < MIN_TRAINING_R2 => Err(EvalError::ExplainsNothing {
@@ -434,8 +448,14 @@ pub fn training_fit(model: &WrenchGp, data: &Dataset) -> Result<Scores, EvalErro
 }
 
 /// Scores a trained model on `test` (tared, with the model's features and axes).
-/// Directions are scored at peaks of at least `min_peak_n`.
-pub fn score_model(model: &WrenchGp, test: &Dataset, min_peak_n: f64) -> Result<Scores, EvalError> {
+/// Directions are scored at peaks of at least `min_peak_n`; the coverage of
+/// its standard deviation when `with_std`.
+pub fn score_model(
+    model: &WrenchGp,
+    test: &Dataset,
+    min_peak_n: f64,
+    with_std: bool,
+) -> Result<Scores, EvalError> {
     if test.features != model.features() || &test.axes != model.axes() {
         return Err(EvalError::Mismatch(format!(
             "model has features {:?} / axes {}, test data {:?} / {}",
@@ -445,7 +465,8 @@ pub fn score_model(model: &WrenchGp, test: &Dataset, min_peak_n: f64) -> Result<
             test.axes
         )));
     }
-    let (pred, _) = model.predict(test.x.view(), false)?;
-    let s = scores(&test.axes, test.y.view(), pred.view(), 0.0, model.n_train());
-    Ok(with_direction(s, test, pred.view(), min_peak_n))
+    let pred = model.predict_observed(test.x.view(), with_std)?;
+    let both = (pred.mean.view(), pred.std.as_ref().map(|s| s.view()));
+    let s = scores(&test.axes, test.y.view(), both, 0.0, model.n_train());
+    Ok(with_direction(s, test, pred.mean.view(), min_peak_n))
 }

@@ -1,9 +1,10 @@
-//! Pooled retraining, the candidate beside an adapted model: a model
+//! Pooled retraining, a candidate beside an adapted model: a model
 //! trained from scratch, with the base model's options, on the base's own
 //! training data (found through the reference its file keeps, [`TrainedOn`])
-//! pooled with the new data. `adapt` and the calibration score both on the
-//! same held-out part of the new data and keep the better; when the base's
-//! data is not at hand they say why ([`Unavailable`]) and adapt.
+//! pooled with the new data. `adapt` scores it with the adapted model and
+//! the models of the new data alone on the same held-out part of the new
+//! data and keeps the best ([`Adaptation`]), as the calibration does; when
+//! the base's data is not at hand they say why ([`Unavailable`]).
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -12,9 +13,10 @@ use super::data::bag::{read_bag, BagTopics};
 use super::data::{Counts, Dataset, DatasetError};
 use super::evaluate::{score_model, EvalError};
 use super::models::gp::fit::FitProgress;
-use super::models::gp::GpParams;
+use super::models::gp::{GpParams, MeanKind};
 use super::models::wrench_gp::{
-    AdaptChoice, AdaptedFrom, DataFile, ModelError, TareSpec, TrainedOn, Validation, WrenchGp,
+    std_scale, AdaptChoice, AdaptedFrom, DataFile, ModelError, TareSpec, TrainedOn, Validation,
+    WrenchGp,
 };
 use crate::biotac::hand::HandKind;
 use crate::params::Checked;
@@ -274,7 +276,7 @@ pub fn validate(
     test: &Dataset,
     sd: &[f64],
 ) -> Result<Validation, EvalError> {
-    let s = score_model(model, test, f64::INFINITY)?;
+    let s = score_model(model, test, f64::INFINITY, false)?;
     let score = s.rmse.values().zip(sd).map(|(e, s)| e / s).sum::<f64>() / sd.len() as f64;
     Ok(Validation {
         model: name.into(),
@@ -317,10 +319,15 @@ pub fn held_out(data: &Dataset) -> (Vec<usize>, Vec<usize>) {
     (train, test)
 }
 
-/// `adapt` with pooling: the adapted model and, when `base_data` is at hand,
-/// the pooled one, fitted on the new data less its held-out part
-/// ([`held_out`]) and scored there; the better fitted again on all of
-/// `data` and returned with what was chosen. The models record `trained_on`.
+/// `adapt`: the candidates for a new unit, each fitted on the new data less
+/// its held-out part ([`held_out`]) and scored there: the base adapted
+/// ([`WrenchGp::adapt`]); retrained on the base's data pooled with the new,
+/// when `base_data` is at hand; and each family on the new data alone (the
+/// GP, and the GP with the network as its mean). The best is fitted again
+/// on all of `data`, its standard deviations scaled to cover its held-out
+/// errors ([`std_scale`]), and returned with what was chosen. The models
+/// record `trained_on` (the new data's own, `new_only`, for those trained
+/// on it alone).
 pub struct Adaptation<'a> {
     /// The base model.
     pub base: &'a WrenchGp,
@@ -330,11 +337,23 @@ pub struct Adaptation<'a> {
     pub tare: TareSpec,
     /// What the adapted model records it came from.
     pub from: AdaptedFrom,
-    /// The adaptation GPs' options.
+    /// The adaptation GPs' options (and the new-data candidates').
     pub params: &'a Checked<GpParams>,
-    /// The reference the models record.
+    /// The reference the adapted and pooled models record.
     pub trained_on: Option<TrainedOn>,
+    /// The reference the models of the new data alone record.
+    pub new_only: Option<TrainedOn>,
 }
+
+/// The candidates of [`Adaptation`], by the names they are scored under.
+const ADAPTED: &str = "adapted";
+const POOLED: &str = "pooled";
+const NEW_GP: &str = "new data: GP";
+const NEW_NETWORK: &str = "new data: GP, network mean";
+
+/// Held-out rows whose errors set the chosen model's standard deviation
+/// scale (evenly spread).
+const CALIBRATION_ROWS: usize = 500;
 
 impl Adaptation<'_> {
     /// Runs it (see [`Adaptation`]); `progress` is told every fit's progress.
@@ -343,54 +362,72 @@ impl Adaptation<'_> {
         base_data: Result<BaseData, Unavailable>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<(WrenchGp, AdaptChoice), EvalError> {
-        let adapt = |d: &Dataset, p: &mut (dyn FnMut(Axis, FitProgress) + Send)| {
-            let from = self.from.clone();
-            self.base.adapt(d, self.tare.clone(), from, self.params, p)
+        let pool = match &base_data {
+            Ok(b) => Some((b, b.params.clone().validate().map_err(ModelError::from)?)),
+            Err(_) => None,
         };
-        let base_data = match base_data {
-            Ok(b) => b,
-            Err(why) => {
-                let model = adapt(self.data, progress)?;
-                let choice = AdaptChoice {
-                    chosen: "adapted".into(),
-                    validation: Vec::new(),
-                    held_out_rows: 0,
-                    pooling: format!("not considered: {why}"),
-                };
-                return Ok((self.finish(model, &choice), choice));
+        let network = GpParams {
+            mean: MeanKind::Network,
+            ..GpParams::clone(self.params)
+        }
+        .validate()
+        .map_err(ModelError::from)?;
+        let fit = |name: &str,
+                   d: &Dataset,
+                   p: &mut (dyn FnMut(Axis, FitProgress) + Send)|
+         -> Result<WrenchGp, ModelError> {
+            let (tare, scaling) = (self.tare.clone(), self.base.scaling());
+            let alone = match name {
+                NEW_GP => Some(self.params),
+                NEW_NETWORK => Some(&network),
+                _ => None,
+            };
+            match (alone, name, &pool) {
+                (Some(params), ..) => Ok(WrenchGp::train_scaled(d, tare, scaling, params, p)?
+                    .with_sensor(self.base.sensor().clone())),
+                (None, POOLED, Some((b, options))) => b.pooled(self.base, d, tare, options, p),
+                _ => (self.base).adapt(d, tare, self.from.clone(), self.params, p),
             }
         };
+        let names: Vec<&str> = [ADAPTED, POOLED, NEW_GP, NEW_NETWORK]
+            .into_iter()
+            .filter(|n| *n != POOLED || pool.is_some())
+            .collect();
         let (train, test) = held_out(self.data);
         let (train, test) = (self.data.select(&train), self.data.select(&test));
         let sd = spread(self.data);
-        let score = |name, m: &WrenchGp| validate(name, m, &test, &sd);
-        let tare = self.tare.clone();
-        let options = base_data
-            .params
-            .clone()
-            .validate()
-            .map_err(ModelError::from)?;
-        let adapted = adapt(&train, progress)?;
-        let pooled = base_data.pooled(self.base, &train, tare.clone(), &options, progress)?;
-        let validation = vec![score("adapted", &adapted)?, score("pooled", &pooled)?];
-        let chosen = best(&validation).map_or("adapted", |v| v.model.as_str());
-        let model = match chosen {
-            "pooled" => base_data.pooled(self.base, self.data, tare, &options, progress)?,
-            _ => adapt(self.data, progress)?,
+        let mut validation = Vec::with_capacity(names.len());
+        let mut scales = Vec::with_capacity(names.len());
+        for name in &names {
+            let m = fit(name, &train, progress)?;
+            validation.push(validate(name, &m, &test, &sd)?);
+            let z = m.standardised_errors(&test, CALIBRATION_ROWS)?;
+            scales.push(
+                z.iter()
+                    .map(|z| std_scale(z).unwrap_or(1.0))
+                    .collect::<Vec<_>>(),
+            );
+        }
+        let chosen = best(&validation).map_or(ADAPTED, |v| v.model.as_str());
+        let at = names.iter().position(|n| *n == chosen).unwrap_or(0);
+        let model = fit(chosen, self.data, progress)?.with_std_scales(&scales[at]);
+        let trained_on = match chosen {
+            NEW_GP | NEW_NETWORK => self.new_only.clone(),
+            _ => self.trained_on.clone(),
         };
         let choice = AdaptChoice {
             chosen: chosen.into(),
             held_out_rows: test.len(),
-            pooling: base_data.describe(),
+            pooling: match &base_data {
+                Ok(b) => b.describe(),
+                Err(why) => format!("not considered: {why}"),
+            },
             validation,
         };
-        Ok((self.finish(model, &choice), choice))
-    }
-
-    fn finish(&self, model: WrenchGp, choice: &AdaptChoice) -> WrenchGp {
-        model
-            .with_trained_on(self.trained_on.clone())
-            .with_adapt_choice(choice.clone())
+        let model = model
+            .with_trained_on(trained_on)
+            .with_adapt_choice(choice.clone());
+        Ok((model, choice))
     }
 }
 

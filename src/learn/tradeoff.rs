@@ -204,8 +204,14 @@ pub fn tradeoff(
         let t0 = Instant::now();
         let mut fitted = s.learner.fit(train, &mut |_, _| {})?;
         let fit_s = t0.elapsed().as_secs_f64();
-        let pred = fitted.predict(test)?;
-        let scored = scores(&test.axes, test.y.view(), pred.view(), fit_s, train.len());
+        let pred = fitted.predict(test, false)?.mean;
+        let scored = scores(
+            &test.axes,
+            test.y.view(),
+            (pred.view(), None),
+            fit_s,
+            train.len(),
+        );
         let has_std = fitted.has_std();
         let mut latency = |with_std| {
             median_latency_us(&timed, opts.latency_passes, |x| {
@@ -231,7 +237,7 @@ pub fn tradeoff(
 }
 
 /// At most `n` rows of `test`, evenly spread, as contiguous feature vectors.
-fn timed_rows(test: &Dataset, n: usize) -> Vec<Vec<f64>> {
+pub(crate) fn timed_rows(test: &Dataset, n: usize) -> Vec<Vec<f64>> {
     let step = (test.len() / n.max(1)).max(1);
     test.x
         .rows()
@@ -243,7 +249,11 @@ fn timed_rows(test: &Dataset, n: usize) -> Vec<Vec<f64>> {
 }
 
 /// Median over `passes` of the mean time of `predict` per row (µs).
-fn median_latency_us(rows: &[Vec<f64>], passes: usize, mut predict: impl FnMut(&[f64])) -> f64 {
+pub(crate) fn median_latency_us(
+    rows: &[Vec<f64>],
+    passes: usize,
+    mut predict: impl FnMut(&[f64]),
+) -> f64 {
     let mut per_row: Vec<f64> = (0..passes.max(1))
         .map(|_| {
             let t0 = Instant::now();

@@ -293,6 +293,29 @@ impl Dataset {
             .collect()
     }
 
+    /// The data with the one trial of each set that has only one cut into
+    /// `k` contiguous blocks of rows, each a trial (trial-wise folds then
+    /// never hold rows of one stretch on both sides), and the sets so cut.
+    pub fn single_trials_in_blocks(&self, k: usize) -> (Dataset, Vec<u32>) {
+        let trials = self.trials();
+        let mut per_set: BTreeMap<u32, Vec<&[usize]>> = BTreeMap::new();
+        for ((set, _), rows) in &trials {
+            per_set.entry(*set).or_default().push(rows);
+        }
+        let mut out = self.clone();
+        let mut cut = Vec::new();
+        for (set, rows) in per_set {
+            if let [rows] = rows[..] {
+                let n = rows.len().max(1);
+                for (j, &i) in rows.iter().enumerate() {
+                    out.trial[i] = (j * k / n) as u32 + 1;
+                }
+                cut.push(set);
+            }
+        }
+        (out, cut)
+    }
+
     /// Subtracts from every feature and target its mean over the first
     /// `samples` rows of the same trial (taken out of contact), as the
     /// BioTac and the F/T sensor are tared before each trial. A file without

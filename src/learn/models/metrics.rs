@@ -55,6 +55,49 @@ pub fn r2_columns(y: ArrayView2<f64>, yhat: ArrayView2<f64>) -> Array1<f64> {
     per_column(y, yhat, r2)
 }
 
+/// Per column, the share of the errors `y - yhat` within `k` standard
+/// deviations `std` (the same shape): about 0.68 for `k = 1` and 0.95 for
+/// `k = 2` when the errors are Gaussian with that standard deviation; NaN
+/// for an empty column.
+///
+/// # Panics
+/// If the shapes differ.
+pub fn coverage(
+    y: ArrayView2<f64>,
+    yhat: ArrayView2<f64>,
+    std: ArrayView2<f64>,
+    k: f64,
+) -> Array1<f64> {
+    assert!(
+        y.dim() == yhat.dim() && y.dim() == std.dim(),
+        "coverage: shapes differ"
+    );
+    let within = |y: ArrayView1<f64>, yhat: ArrayView1<f64>, std: ArrayView1<f64>| {
+        let n = y.len() as f64;
+        let inside = (y.iter().zip(yhat).zip(std))
+            .filter(|((y, m), s)| (*y - *m).abs() <= k * **s)
+            .count();
+        inside as f64 / n
+    };
+    let cols = y
+        .columns()
+        .into_iter()
+        .zip(yhat.columns())
+        .zip(std.columns());
+    cols.map(|((y, m), s)| within(y, m, s)).collect()
+}
+
+/// The mean of `x` and its standard error (the sample standard deviation
+/// over the square root of the count); None for fewer than two values.
+pub fn mean_and_error(x: &[f64]) -> Option<(f64, f64)> {
+    let n = x.len();
+    (n >= 2).then(|| {
+        let mean = x.iter().sum::<f64>() / n as f64;
+        let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        (mean, (var / n as f64).sqrt())
+    })
+}
+
 /// Applies a metric column by column.
 fn per_column(
     y: ArrayView2<f64>,

@@ -51,10 +51,22 @@ pub trait Learner: Send + Sync {
     ) -> Result<Box<dyn Fitted>, LearnError>;
 }
 
+/// A fitted model's estimates for the rows of a data set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Prediction {
+    /// Means (rows x axes, N or Nm).
+    pub mean: Array2<f64>,
+    /// For a model with a standard deviation, when asked: that of a
+    /// measured target (rows x axes), the model's own doubt and the noise
+    /// of the data it learnt from; what held-out errors are judged against.
+    pub std: Option<Array2<f64>>,
+}
+
 /// A fitted model.
 pub trait Fitted: Send {
-    /// Means (rows x axes, N or Nm) for the rows of `data`.
-    fn predict(&self, data: &Dataset) -> Result<Array2<f64>, LearnError>;
+    /// Estimates for the rows of `data`, with the standard deviation when
+    /// `with_std` and the model has one.
+    fn predict(&self, data: &Dataset, with_std: bool) -> Result<Prediction, LearnError>;
 
     /// Estimates one row of features, with the standard deviation when
     /// `with_std` and the model has one ([`Fitted::has_std`]), into scratch

@@ -165,7 +165,7 @@ fn the_base_s_data_is_read_again_or_said_why_not() {
 }
 
 #[test]
-fn adaptation_scores_both_on_the_held_out_rows_and_keeps_the_better() {
+fn adaptation_scores_every_candidate_on_the_held_out_rows_and_keeps_the_best() {
     let dir = tempfile::tempdir().unwrap();
     let (path, data) = session(dir.path(), 1);
     let (base, _, _) = model_of(&path, &data);
@@ -187,22 +187,40 @@ fn adaptation_scores_both_on_the_held_out_rows_and_keeps_the_better() {
             },
             params: &quick_params(),
             trained_on: None,
+            new_only: None,
         };
         adaptation.run(pool, &mut |_, _| {}).unwrap()
     };
     let (model, choice) = run(base_data(&base, None));
     let names: Vec<&str> = choice.validation.iter().map(|v| v.model.as_str()).collect();
-    assert_eq!(names, ["adapted", "pooled"]);
+    assert_eq!(
+        names,
+        [
+            "adapted",
+            "pooled",
+            "new data: GP",
+            "new data: GP, network mean"
+        ]
+    );
     assert_eq!(choice.chosen, best(&choice.validation).unwrap().model);
     assert_eq!(choice.held_out_rows, held_out(&new_tared).1.len());
     assert_eq!(model.adapted_from().is_some(), choice.chosen == "adapted");
     assert_eq!(model.adapt_choice(), Some(&choice));
+    // Its standard deviations were scaled on the held-out rows.
+    assert!(
+        model.std_scales().iter().all(|s| *s > 0.0 && *s != 1.0),
+        "{:?}",
+        model.std_scales()
+    );
 
-    let (model, choice) = run(Err(Unavailable::NoReference));
-    assert!(choice.validation.is_empty() && choice.chosen == "adapted");
+    let (_, choice) = run(Err(Unavailable::NoReference));
+    let names: Vec<&str> = choice.validation.iter().map(|v| v.model.as_str()).collect();
+    assert_eq!(
+        names,
+        ["adapted", "new data: GP", "new data: GP, network mean"]
+    );
     assert_eq!(
         choice.pooling,
         "not considered: the base model file records no training data"
     );
-    assert!(model.adapted_from().is_some());
 }

@@ -1,12 +1,10 @@
 //! The CNN behind the shared interface ([`crate::learn::models::Learner`]):
 //! it reads a data set's images, not its features.
 
-use ndarray::Array2;
-
 use super::{Cnn, CnnError, CnnParams};
 use crate::learn::data::Dataset;
 use crate::learn::models::gp::FitProgress;
-use crate::learn::models::{Fitted, LearnError, Learner};
+use crate::learn::models::{Fitted, LearnError, Learner, Prediction};
 use crate::params::Checked;
 use crate::wrench::Axis;
 
@@ -41,9 +39,10 @@ impl Learner for CnnLearner {
 }
 
 impl Fitted for Cnn {
-    fn predict(&self, data: &Dataset) -> Result<Array2<f64>, LearnError> {
+    fn predict(&self, data: &Dataset, _: bool) -> Result<Prediction, LearnError> {
         let images = data.images.as_ref().ok_or_else(no_images)?;
-        Cnn::predict(self, images.view()).map_err(|e| LearnError::new("cnn", e))
+        let mean = Cnn::predict(self, images.view()).map_err(|e| LearnError::new("cnn", e))?;
+        Ok(Prediction { mean, std: None })
     }
 
     fn predict_row(&mut self, _: &[f64], _: bool) -> Result<(), LearnError> {

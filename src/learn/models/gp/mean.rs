@@ -1,4 +1,5 @@
-//! The GP's prior mean: zero, linear in the inputs, or cubic in the lines.
+//! The GP's prior mean: zero, linear in the inputs, cubic in the lines, or
+//! the baseline network's estimate.
 //!
 //! A linear mean `m(x) = w.x + b` is the GP with explicit basis functions of
 //! Rasmussen & Williams (2006, Sec. 2.7) with the weights taken at their
@@ -16,6 +17,13 @@
 //! and one force scaling another's pattern (a twist skews the region the
 //! normal force whitens): a line misses both by a margin that grows with
 //! the force, and the GP's training rows thin out where it grows.
+//!
+//! A network mean is the baseline network (`nn`) trained on every row, all
+//! axes at once; the GPs model what it leaves, so that the network's
+//! accuracy comes with the GP's standard deviation (its noise where the
+//! training rows were, its prior variance far from them). The wrench model
+//! fits and holds the network ([`crate::learn::models::wrench_gp`]), not a
+//! line per axis.
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Par, Side};
@@ -35,6 +43,8 @@ pub enum MeanKind {
     Linear,
     /// Linear, plus a cubic in the axes' lines ([`Bend`]).
     Cubic,
+    /// The baseline network's estimate, one network for every axis.
+    Network,
 }
 
 impl MeanKind {
@@ -44,11 +54,13 @@ impl MeanKind {
             MeanKind::Zero => "zero",
             MeanKind::Linear => "linear",
             MeanKind::Cubic => "cubic",
+            MeanKind::Network => "network",
         }
     }
 
     /// The means of this kind, one per column of the targets `y` (n x k),
-    /// through row-major inputs `x` (n x d); None for a zero mean.
+    /// through row-major inputs `x` (n x d); None for a zero mean and for
+    /// the network, which the wrench model fits on the features.
     pub fn fit(
         self,
         x: &[f64],
@@ -56,7 +68,7 @@ impl MeanKind {
         y: ArrayView2<f64>,
     ) -> Result<Vec<Option<LinearMean>>, GpError> {
         match self {
-            MeanKind::Zero => Ok(vec![None; y.ncols()]),
+            MeanKind::Zero | MeanKind::Network => Ok(vec![None; y.ncols()]),
             MeanKind::Linear => Ok(LinearMean::fit_columns(x, d, y)?
                 .into_iter()
                 .map(Some)
@@ -92,8 +104,9 @@ impl std::str::FromStr for MeanKind {
             "zero" => Ok(MeanKind::Zero),
             "linear" => Ok(MeanKind::Linear),
             "cubic" => Ok(MeanKind::Cubic),
+            "network" => Ok(MeanKind::Network),
             _ => Err(format!(
-                "unknown mean {s:?}: expected zero, linear or cubic"
+                "unknown mean {s:?}: expected zero, linear, cubic or network"
             )),
         }
     }
@@ -352,7 +365,8 @@ mod tests {
         assert!("affine"
             .parse::<MeanKind>()
             .unwrap_err()
-            .contains("zero, linear or cubic"));
+            .contains("zero, linear, cubic or network"));
+        assert_eq!("network".parse(), Ok(MeanKind::Network));
     }
 
     #[test]

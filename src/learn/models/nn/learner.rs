@@ -1,11 +1,9 @@
 //! The network behind the shared interface ([`crate::learn::models::Learner`]).
 
-use ndarray::Array2;
-
 use super::{Mlp, NnParams};
 use crate::learn::data::Dataset;
 use crate::learn::models::gp::FitProgress;
-use crate::learn::models::{Fitted, LearnError, Learner};
+use crate::learn::models::{Fitted, LearnError, Learner, Prediction};
 use crate::params::Checked;
 use crate::wrench::Axis;
 
@@ -37,8 +35,11 @@ struct FittedNn {
 }
 
 impl Fitted for FittedNn {
-    fn predict(&self, data: &Dataset) -> Result<Array2<f64>, LearnError> {
-        Ok(self.net.predict(data.x.view()))
+    fn predict(&self, data: &Dataset, _: bool) -> Result<Prediction, LearnError> {
+        Ok(Prediction {
+            mean: self.net.predict(data.x.view()),
+            std: None,
+        })
     }
 
     fn predict_row(&mut self, features: &[f64], _: bool) -> Result<(), LearnError> {

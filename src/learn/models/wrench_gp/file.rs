@@ -3,7 +3,8 @@
 //! target standardisation, the GP's prior mean when it has one (`linear`:
 //! weights, intercept and, for a cubic mean, its `bend`) and the GP
 //! (`{"exact": ..}`: hyperparameters and training data; `{"sparse": ..}`:
-//! hyperparameters, inducing inputs and their posterior); an adapted model's
+//! hyperparameters, inducing inputs and their posterior); the network whose
+//! estimate is every GP's prior mean, when it has one; an adapted model's
 //! base, what made it and the data it was trained on, by reference
 //! ([`super::provenance`]). The factorisations are
 //! recomputed on load, which also re-checks the file's numbers.
@@ -17,6 +18,7 @@ use super::provenance::{AdaptChoice, AdaptedFrom, CalibrationRecord, Selection, 
 use super::{Estimate, EstimatorWorkspace, ModelError, TareSpec, WrenchGp};
 use crate::biotac::reading::Column;
 use crate::learn::models::gp::{FitInfo, Gp, GpData, GpWorkspace, LinearMean};
+use crate::learn::models::nn::Mlp;
 use crate::learn::models::scale::{InputScaling, Standardizer};
 use crate::sensor::SensorSpec;
 use crate::wrench::{Axis, AxisSet};
@@ -28,9 +30,9 @@ pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// from; 4: an axis may have a linear prior mean; 5: that mean may bend;
 /// 6: how its options were selected on the data, `train --select`, and the
 /// calibration on the robot that made it; 7: the data it was trained on, by
-/// reference, and what `adapt` chose).
-/// It reads versions 2 to 7.
-pub const MODEL_VERSION: u32 = 7;
+/// reference, and what `adapt` chose; 8: the network as the GPs' prior
+/// mean). It reads versions 2 to 8.
+pub const MODEL_VERSION: u32 = 8;
 
 /// One output axis: the target's linear mean when it has one (in target
 /// units), and the GP (fitted, or as stored) of what is left, standardised
@@ -46,6 +48,19 @@ pub(super) struct AxisModel<G> {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) linear: Option<LinearMean>,
     pub(super) gp: G,
+    /// What the GP's standard deviation is multiplied by, so that held-out
+    /// errors fall within two of it as often as they should
+    /// ([`WrenchGp::with_std_scales`]; absent: 1).
+    #[serde(default = "unit", skip_serializing_if = "is_unit")]
+    pub(super) std_scale: f64,
+}
+
+fn unit() -> f64 {
+    1.0
+}
+
+fn is_unit(x: &f64) -> bool {
+    *x == 1.0
 }
 
 /// An adapted model's base: its estimate is the prior mean of the GPs.
@@ -74,6 +89,10 @@ pub(super) struct ModelFile<G> {
     pub(super) input: Standardizer,
     pub(super) n_train: usize,
     pub(super) outputs: Vec<AxisModel<G>>,
+    /// The network whose estimate (from the GPs' inputs) is the prior mean
+    /// of every axis's GP (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) network: Option<Mlp>,
     #[serde(default = "no_prior", skip_serializing_if = "Option::is_none")]
     pub(super) prior: Option<Prior<G>>,
     /// How its options were chosen (`train --select`), with the CV table.
@@ -110,6 +129,7 @@ impl ModelFile<Gp> {
             represented: vec![0.0; self.input.dim()],
             z: vec![0.0; self.input.dim()],
             gp: largest.map_or_else(|| GpWorkspace::new(0, 0), |o| o.gp.workspace()),
+            network: vec![0.0; self.network.as_ref().map_or(0, Mlp::n_outputs)],
             prior: self.prior.as_ref().map(|p| {
                 Box::new((
                     p.base.workspace(),
@@ -138,7 +158,13 @@ impl ModelFile<Gp> {
             let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
             let prior = o.linear.as_ref().map_or(0.0, |l| l.at(&ws.z));
             e.mean = m * o.target_scale + o.target_mean + prior;
-            e.std = v.sqrt() * o.target_scale;
+            e.std = v.sqrt() * o.target_scale * o.std_scale;
+        }
+        if let Some(net) = &self.network {
+            net.predict_one(&ws.z, &mut ws.network);
+            for (e, n) in out.iter_mut().zip(&ws.network) {
+                e.mean += n;
+            }
         }
         // The prior mean: the base's estimate (same features and axes, checked
         // on load), into scratch allocated with the workspace.
@@ -169,8 +195,13 @@ impl ModelFile<Gp> {
             for i in 0..n {
                 mean[[i, j]] =
                     m[i] * o.target_scale + o.target_mean + prior.as_ref().map_or(0.0, |p| p[i]);
-                std[[i, j]] = v[i].sqrt() * o.target_scale;
+                std[[i, j]] = v[i].sqrt() * o.target_scale * o.std_scale;
             }
+        }
+        if let Some(net) = &self.network {
+            let inputs =
+                ArrayView2::from_shape((n, self.input.dim()), &z).expect("n rows of inputs");
+            mean += &net.predict(inputs);
         }
         if let Some(p) = &self.prior {
             mean += &p.base.predict(x, false).0;
@@ -277,6 +308,16 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
             })
         }
     };
+    if let Some(net) = &file.network {
+        if net.n_inputs() != d || net.n_outputs() != file.axes.len() {
+            return bad(format!(
+                "a network mean of {} inputs and {} outputs, but {d} inputs and {} axes",
+                net.n_inputs(),
+                net.n_outputs(),
+                file.axes.len()
+            ));
+        }
+    }
     let mut outputs = Vec::with_capacity(file.outputs.len());
     for o in std::mem::take(&mut file.outputs) {
         if o.gp.dim() != d {
@@ -286,10 +327,11 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
                 o.gp.dim()
             ));
         }
-        if !(o.target_scale > 0.0 && o.target_scale.is_finite() && o.target_mean.is_finite()) {
+        let positive = |v: f64| v > 0.0 && v.is_finite();
+        if !(positive(o.target_scale) && positive(o.std_scale) && o.target_mean.is_finite()) {
             return bad(format!(
-                "axis {}: target scale {} / mean {}",
-                o.axis, o.target_scale, o.target_mean
+                "axis {}: target scale {} / mean {} / std scale {}",
+                o.axis, o.target_scale, o.target_mean, o.std_scale
             ));
         }
         if let Some(l) = o.linear.as_ref().filter(|l| !l.is_valid(d)) {
@@ -314,6 +356,7 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
             target_scale: o.target_scale,
             fit: o.fit,
             linear: o.linear,
+            std_scale: o.std_scale,
             gp: Gp::try_from(o.gp).map_err(|source| ModelError::Stored {
                 path: path.into(),
                 axis: o.axis,
@@ -332,6 +375,7 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         input: file.input,
         n_train: file.n_train,
         outputs,
+        network: file.network,
         prior,
         selection: file.selection,
         calibration: file.calibration,

@@ -1,12 +1,10 @@
 //! The wrench GP behind the shared interface ([`crate::learn::models::Learner`]).
 
-use ndarray::Array2;
-
 use super::{Estimate, EstimatorWorkspace, TareSpec, WrenchGp};
 use crate::learn::data::Dataset;
 use crate::learn::models::gp::{FitProgress, GpParams, MeanKind};
 use crate::learn::models::scale::InputScaling;
-use crate::learn::models::{Fitted, LearnError, Learner};
+use crate::learn::models::{Fitted, LearnError, Learner, Prediction};
 use crate::params::Checked;
 use crate::wrench::Axis;
 
@@ -61,10 +59,8 @@ impl From<WrenchGp> for FittedGp {
 }
 
 impl Fitted for FittedGp {
-    fn predict(&self, data: &Dataset) -> Result<Array2<f64>, LearnError> {
-        let (mean, _) =
-            (self.model.predict(data.x.view(), false)).map_err(|e| LearnError::new("gp", e))?;
-        Ok(mean)
+    fn predict(&self, data: &Dataset, with_std: bool) -> Result<Prediction, LearnError> {
+        (self.model.predict_observed(data.x.view(), with_std)).map_err(|e| LearnError::new("gp", e))
     }
 
     fn predict_row(&mut self, features: &[f64], with_std: bool) -> Result<(), LearnError> {

@@ -14,12 +14,14 @@ use std::sync::Mutex;
 
 use super::gp::fit::FitProgress;
 use super::gp::{
-    fit_gp_shared, FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, SeHyper, Start,
+    fit_gp_shared, FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, MeanKind, SeHyper, Start,
 };
+use super::nn::{Mlp, NnError, NnParams};
 use super::scale::{InputScaling, Standardizer};
+use super::Prediction;
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
-use crate::params::{Checked, ParamsError};
+use crate::params::{Check, Checked, ParamsError};
 use crate::sensor::{ModelInput, SensorSpec};
 use crate::wrench::{Axis, AxisSet};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
@@ -113,6 +115,9 @@ pub enum ModelError {
     /// Training a GP failed.
     #[error(transparent)]
     Gp(#[from] GpError),
+    /// Training the network of a network mean failed.
+    #[error("the network mean: {0}")]
+    Network(#[from] NnError),
     /// A GP stored in the file cannot be rebuilt (its data or
     /// hyperparameters refused).
     #[error("model file {path}: axis {axis}: {source}")]
@@ -134,6 +139,7 @@ impl Classify for ModelError {
             ModelError::Write { .. } => ExitClass::Failure,
             ModelError::Options(e) => e.class(),
             ModelError::Gp(e) => e.class(),
+            ModelError::Network(e) => e.class(),
             _ => ExitClass::Refused,
         }
     }
@@ -169,6 +175,7 @@ pub struct EstimatorWorkspace {
     represented: Vec<f64>,
     z: Vec<f64>,
     gp: GpWorkspace,
+    network: Vec<f64>,
     prior: Option<Box<(EstimatorWorkspace, Vec<Estimate>)>>,
 }
 
@@ -230,12 +237,18 @@ impl WrenchGp {
         let x: Vec<f64> = z.iter().copied().collect();
         let d = input.dim();
         let means = params.mean.fit(&x, d, data.y.view())?;
+        let inputs = ArrayView2::from_shape((data.len(), d), &x).expect("n rows of d inputs");
+        let network = network_mean(inputs, data.y.view(), params)?;
+        let mut residual = data.y.clone();
+        if let Some(net) = &network {
+            residual -= &net.predict(inputs);
+        }
         let axes = data.axes.axes();
         // What each GP models: the target less its prior mean, standardised
         // (so that the fit's starts and bounds hold).
         let targets: Vec<(Standardizer, Vec<f64>)> = (0..axes.len())
             .map(|j| {
-                let mut y = data.y.column(j).to_owned();
+                let mut y = residual.column(j).to_owned();
                 if let Some(l) = &means[j] {
                     y.iter_mut().zip(l.at_rows(&x)).for_each(|(y, p)| *y -= p);
                 }
@@ -301,6 +314,7 @@ impl WrenchGp {
                 fit,
                 linear,
                 gp,
+                std_scale: 1.0,
             })
             .collect();
         Ok(WrenchGp(ModelFile {
@@ -316,6 +330,7 @@ impl WrenchGp {
             input,
             n_train: data.len(),
             outputs,
+            network,
             prior: None,
             selection: None,
             calibration: None,
@@ -339,6 +354,50 @@ impl WrenchGp {
             base: Box::new(base.0.clone()),
         });
         self
+    }
+
+    /// The model with each axis's standard deviation (and noise) multiplied
+    /// by its scale in `scales` (in output order; positive and finite, or
+    /// that axis is left as it is): a GP's noise, fitted on its training
+    /// rows, understates its errors on another stretch of data, so the
+    /// scales come from errors on held-out rows ([`std_scale`]).
+    pub fn with_std_scales(mut self, scales: &[f64]) -> Self {
+        for (o, s) in self.0.outputs.iter_mut().zip(scales) {
+            if *s > 0.0 && s.is_finite() {
+                o.std_scale = *s;
+            }
+        }
+        self
+    }
+
+    /// Per axis, the errors on at most `rows` rows of `data` (tared, evenly
+    /// spread) over the observed standard deviation
+    /// ([`WrenchGp::predict_observed`]): what [`std_scale`] takes.
+    pub fn standardised_errors(
+        &self,
+        data: &Dataset,
+        rows: usize,
+    ) -> Result<Vec<Vec<f64>>, ModelError> {
+        let step = (data.len() / rows.max(1)).max(1);
+        let picked: Vec<usize> = (0..data.len()).step_by(step).collect();
+        let some = data.select(&picked);
+        let p = self.predict_observed(some.x.view(), true)?;
+        let Some(std) = p.std else {
+            return Ok(Vec::new());
+        };
+        let z = (0..some.y.ncols()).map(|j| {
+            let errors = some.y.column(j).into_iter().zip(p.mean.column(j));
+            errors
+                .zip(std.column(j))
+                .map(|((y, m), s)| (y - m) / s)
+                .collect()
+        });
+        Ok(z.collect())
+    }
+
+    /// Each axis's scale of its standard deviation (1: as fitted).
+    pub fn std_scales(&self) -> Vec<f64> {
+        self.0.outputs.iter().map(|o| o.std_scale).collect()
     }
 
     /// The model, recording how its options were chosen.
@@ -488,6 +547,67 @@ impl WrenchGp {
         }
         Ok(self.0.predict(x, with_std))
     }
+
+    /// Means and, when `with_std`, the standard deviation of a measured
+    /// target: the GP's latent one ([`WrenchGp::predict`], what the
+    /// estimator publishes) with its noise added in quadrature. Held-out
+    /// errors are judged against it ([`crate::learn::models::metrics::coverage`]).
+    pub fn predict_observed(
+        &self,
+        x: ArrayView2<f64>,
+        with_std: bool,
+    ) -> Result<Prediction, ModelError> {
+        let (mean, mut std) = self.predict(x, with_std)?;
+        if !with_std {
+            return Ok(Prediction { mean, std: None });
+        }
+        for (mut col, o) in std.columns_mut().into_iter().zip(&self.0.outputs) {
+            let noise = o.gp.hyper().noise_var.sqrt() * o.target_scale * o.std_scale;
+            col.mapv_inplace(|s| s.hypot(noise));
+        }
+        Ok(Prediction {
+            mean,
+            std: Some(std),
+        })
+    }
+}
+
+/// The scale that puts 95 % of held-out standardised errors `z` (error
+/// over the model's observed standard deviation) within two standard
+/// deviations: the 95th percentile of `|z|` over 1.96 (one scale of the
+/// standard deviation per axis, fitted on held-out errors); None without a
+/// finite one.
+pub fn std_scale(z: &[f64]) -> Option<f64> {
+    let mut a: Vec<f64> = z
+        .iter()
+        .map(|v| v.abs())
+        .filter(|v| v.is_finite())
+        .collect();
+    if a.is_empty() {
+        return None;
+    }
+    a.sort_by(f64::total_cmp);
+    let q95 = a[((a.len() as f64 * 0.95).ceil() as usize).clamp(1, a.len()) - 1];
+    Some(q95 / 1.96).filter(|s| *s > 0.0 && s.is_finite())
+}
+
+/// The network of a network mean ([`MeanKind::Network`]): the baseline
+/// network's defaults, seeded as the GP is, from the GPs' inputs `z` to the
+/// targets `y` of every axis; None for the other means.
+fn network_mean(
+    z: ArrayView2<f64>,
+    y: ArrayView2<f64>,
+    params: &GpParams,
+) -> Result<Option<Mlp>, ModelError> {
+    if params.mean != MeanKind::Network {
+        return Ok(None);
+    }
+    let nn = NnParams {
+        seed: params.seed,
+        ..NnParams::default()
+    }
+    .checked("nn")?;
+    Ok(Some(Mlp::fit(&nn, z, y)?))
 }
 
 #[cfg(test)]

@@ -89,6 +89,18 @@ pub struct CvRow {
     /// the system does not say, and in files written before).
     #[serde(default)]
     pub cpu_s: Option<f64>,
+    /// The score of each fold alone (empty in files written before).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fold_scores: Vec<f64>,
+    /// Median time of one estimate with its standard deviation (µs), as the
+    /// estimator makes it (None in files written before).
+    #[serde(default)]
+    pub latency_us: Option<f64>,
+    /// Per axis, the scale of the standard deviation that puts 95 % of the
+    /// held-out errors within two of it ([`super::std_scale`]; empty in
+    /// files written before).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub std_scale: BTreeMap<Axis, f64>,
 }
 
 /// What `select` did: every candidate's cross-validation, the one chosen,
@@ -104,8 +116,15 @@ pub struct Selection {
     pub spent_s: f64,
     /// Every candidate scored, in the order tried.
     pub table: Vec<CvRow>,
-    /// Index of the chosen candidate in `table`: the best score.
+    /// Index of the chosen candidate in `table`: among those within noise
+    /// of the best score, the simplest, then the fastest.
     pub chosen: usize,
+    /// Why it was chosen (empty in files written before).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub why: String,
+    /// Sets of one trial, cross-validated on contiguous blocks of it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub blocks: Vec<u32>,
     /// Candidates the budget left untried, or the data could not serve (a
     /// channel missing), with the reason.
     pub untried: Vec<(Choice, String)>,
@@ -194,7 +213,7 @@ pub struct TrainedOn {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AdaptChoice {
-    /// "adapted" or "pooled".
+    /// "adapted", "pooled", "new data: GP" or "new data: GP, network mean".
     pub chosen: String,
     /// The candidates on the held-out part of the new data.
     pub validation: Vec<Validation>,

@@ -1,0 +1,148 @@
+//! Which scored candidate `--select` takes: among those within noise of the
+//! best score, the simplest prior mean, then the fastest estimate.
+//!
+//! A more flexible model can win the cross-validation by less than the
+//! folds disagree, and then generalise worse to a new session (a cubic mean
+//! over a linear one on a real unit, issue 45). The noise is measured on
+//! the folds themselves: a candidate is within noise of the best when its
+//! mean fold-wise score exceeds the best's by at most one standard error of
+//! their fold-wise differences (the folds are shared, so the comparison is
+//! paired), the "one standard error" rule of Hastie, Tibshirani and
+//! Friedman (2009, Sec. 7.10).
+
+use super::{CvRow, MeanKind};
+use crate::learn::models::metrics::mean_and_error;
+
+/// How flexible a prior mean is: what the data must pay for.
+fn flexibility(mean: MeanKind) -> u8 {
+    match mean {
+        MeanKind::Zero => 0,
+        MeanKind::Linear => 1,
+        MeanKind::Cubic => 2,
+        MeanKind::Network => 3,
+    }
+}
+
+/// The mean of `row`'s fold scores less `best`'s, and the standard error of
+/// that mean; None when the rows were not scored on the same folds.
+fn paired_difference(row: &CvRow, best: &CvRow) -> Option<(f64, f64)> {
+    if row.fold_scores.len() != best.fold_scores.len() {
+        return None;
+    }
+    let d: Vec<f64> = (row.fold_scores.iter().zip(&best.fold_scores))
+        .map(|(a, b)| a - b)
+        .collect();
+    mean_and_error(&d)
+}
+
+/// The index of the chosen row of `table` (not empty), and why.
+pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
+    let Some((best_i, best)) =
+        (table.iter().enumerate()).min_by(|a, b| a.1.score.total_cmp(&b.1.score))
+    else {
+        return (0, String::new());
+    };
+    let near: Vec<usize> = (0..table.len())
+        .filter(|&i| {
+            i == best_i || paired_difference(&table[i], best).is_some_and(|(mean, se)| mean <= se)
+        })
+        .collect();
+    let cost = |i: &usize| {
+        let r = &table[*i];
+        (
+            flexibility(r.choice.mean),
+            r.latency_us.unwrap_or(f64::INFINITY),
+        )
+    };
+    let chosen = near
+        .iter()
+        .copied()
+        .min_by(|a, b| {
+            let (ca, cb) = (cost(a), cost(b));
+            ca.0.cmp(&cb.0).then(ca.1.total_cmp(&cb.1))
+        })
+        .unwrap_or(best_i);
+    let why = if chosen == best_i {
+        format!(
+            "the best score ({:.4}); {} other candidate(s) within one standard error of it, none simpler or faster",
+            best.score,
+            near.len() - 1
+        )
+    } else {
+        let c = &table[chosen];
+        format!(
+            "within one standard error of the best score ({:.4} vs {:.4}, {}), the simplest mean \
+             ({}) and then the fastest estimate ({:.0} µs) of the {} candidates there",
+            c.score,
+            best.score,
+            best.choice,
+            c.choice.mean.name(),
+            c.latency_us.unwrap_or(f64::NAN),
+            near.len()
+        )
+    };
+    (chosen, why)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learn::choice::Choice;
+
+    fn row(mean: MeanKind, folds: &[f64], latency_us: f64) -> CvRow {
+        CvRow {
+            choice: Choice {
+                mean,
+                ..Choice::default_options()
+            },
+            rmse: Default::default(),
+            score: folds.iter().sum::<f64>() / folds.len() as f64,
+            seconds: 1.0,
+            cpu_s: None,
+            fold_scores: folds.to_vec(),
+            latency_us: Some(latency_us),
+            std_scale: Default::default(),
+        }
+    }
+
+    #[test]
+    fn a_flexible_mean_that_wins_by_less_than_the_folds_disagree_is_not_chosen() {
+        // Cubic is better on average by 0.01, but linear's fold-wise
+        // differences from it are -0.03, +0.05, -0.02, +0.04, +0.01: mean
+        // 0.01, standard error 0.016. Zero is worse on every fold.
+        let table = [
+            row(MeanKind::Zero, &[0.50, 0.52, 0.49, 0.51, 0.50], 20.0),
+            row(MeanKind::Linear, &[0.30, 0.35, 0.28, 0.33, 0.31], 25.0),
+            row(MeanKind::Cubic, &[0.33, 0.30, 0.30, 0.29, 0.30], 26.0),
+        ];
+        let (i, why) = choose(&table);
+        assert_eq!(i, 1, "{why}");
+        assert!(why.contains("simplest mean (linear)"), "{why}");
+        let (mean, se) = paired_difference(&table[1], &table[2]).unwrap();
+        assert!((mean - 0.01).abs() < 1e-12 && mean < se, "{mean} {se}");
+    }
+
+    #[test]
+    fn a_flexible_mean_better_on_every_fold_is_chosen() {
+        let table = [
+            row(MeanKind::Linear, &[0.30, 0.35, 0.28, 0.33, 0.31], 25.0),
+            row(MeanKind::Network, &[0.20, 0.26, 0.19, 0.22, 0.21], 60.0),
+        ];
+        let (i, why) = choose(&table);
+        assert_eq!(i, 1, "{why}");
+        assert!(why.starts_with("the best score (0.2160)"), "{why}");
+    }
+
+    #[test]
+    fn among_equally_simple_candidates_the_faster_is_chosen() {
+        let table = [
+            row(MeanKind::Zero, &[0.300, 0.310, 0.290], 80.0),
+            row(MeanKind::Zero, &[0.301, 0.308, 0.294], 30.0),
+        ];
+        assert_eq!(choose(&table).0, 1);
+        // Without fold scores (a file written before) only the best is known.
+        let mut old = table.clone();
+        old[1].fold_scores.clear();
+        assert_eq!(choose(&old).0, 0);
+    }
+}
