@@ -88,7 +88,9 @@ fn a_calibration_of_unit_2_makes_a_model_that_holds_the_guarded_move_on_every_ob
     )
     .unwrap();
     test.tare_per_trial(calibrated.tare().samples).unwrap();
-    let rmse = score_model(&calibrated, &test, f64::INFINITY, false).unwrap().rmse;
+    let rmse = score_model(&calibrated, &test, f64::INFINITY, false)
+        .unwrap()
+        .rmse;
     for (axis, thesis) in [(Axis::Fx, 0.27), (Axis::Fy, 0.28), (Axis::Fz, 0.23)] {
         assert!(rmse[&axis] <= thesis, "{axis:?}: {rmse:?}");
     }

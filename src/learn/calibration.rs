@@ -1,6 +1,7 @@
 //! A model from a calibration's recording: the current model adapted to it,
 //! a model trained on it from scratch with the default options
-//! ([`Choice::default_options`]), or, when the current model's training
+//! ([`Choice::default_options`]) and one with the network as its GPs' prior
+//! mean, or, when the current model's training
 //! data is at hand, one retrained on that data pooled with the recording
 //! ([`super::pooled`]), whichever estimates the held-out pushes (every
 //! fourth) best; refused when none beats the current model there. The
@@ -14,13 +15,16 @@ use std::time::Instant;
 use super::choice::Choice;
 use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{training_fit, EvalError};
-use super::models::gp::GpParams;
+use super::models::gp::{GpParams, MeanKind};
 use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, TrainedOn, WrenchGp};
-use super::pooled::{base_data, best, data_file, lineage, spread, validate};
+use super::pooled::{base_data, best, data_file, lineage, spread, std_scales, validate};
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 
 pub use super::models::wrench_gp::{CalibrationRecord, Validation};
+
+/// The candidate trained from scratch with the network as its GPs' mean.
+const SCRATCH_NETWORK: &str = "from scratch, network mean";
 
 /// Every fourth push is held out to validate the candidates.
 pub const HELD_OUT_EVERY: u32 = 4;
@@ -44,7 +48,7 @@ pub enum CalibrationError {
         rows: usize,
     },
     /// Neither candidate beats the current model on the held-out pushes.
-    #[error("no model beats the current one on the held-out pushes (score: current {current:.4}, adapted {adapted:.4}, from scratch {scratch:.4}{}); the current model is kept", .pooled.map_or(String::new(), |p| format!(", pooled {p:.4}")))]
+    #[error("no model beats the current one on the held-out pushes (score: current {current:.4}, adapted {adapted:.4}, from scratch {scratch:.4}, from scratch with a network mean {network:.4}{}); the current model is kept", .pooled.map_or(String::new(), |p| format!(", pooled {p:.4}")))]
     NotBetter {
         /// The current model's score.
         current: f64,
@@ -52,6 +56,8 @@ pub enum CalibrationError {
         adapted: f64,
         /// The model from scratch's.
         scratch: f64,
+        /// The model from scratch's with a network mean.
+        network: f64,
         /// The pooled model's, when it was a candidate.
         pooled: Option<f64>,
     },
@@ -159,13 +165,22 @@ pub fn fit(
         .gp_params(base)
         .validate()
         .map_err(ModelError::from)?;
-    let scratch = WrenchGp::train_scaled(
-        &train_new,
-        new_tare,
-        choice.input,
-        &new_params,
-        &mut |_, _| {},
-    )?;
+    let network_params = GpParams {
+        mean: MeanKind::Network,
+        ..GpParams::clone(&new_params)
+    }
+    .validate()
+    .map_err(ModelError::from)?;
+    let scratch = |params| {
+        WrenchGp::train_scaled(
+            &train_new,
+            new_tare.clone(),
+            choice.input,
+            params,
+            &mut |_, _| {},
+        )
+    };
+    let (scratch, scratch_network) = (scratch(&new_params)?, scratch(&network_params)?);
     // The base's own data pooled with the recording, when at hand.
     let pool = base_data(current, None).map(|b| b.thin(POOL_BASE_ROWS));
     let pool_params = match &pool {
@@ -184,6 +199,7 @@ pub fn fit(
         validate("current", current, &test_cur)?,
         validate("adapted", &adapted, &test_cur)?,
         validate("from scratch", &scratch, &test_new)?,
+        validate(SCRATCH_NETWORK, &scratch_network, &test_new)?,
     ];
     if let Some(p) = &pooled {
         validation.push(validate("pooled", p, &test_cur)?);
@@ -196,9 +212,17 @@ pub fn fit(
                 current: cur,
                 adapted: validation[1].score,
                 scratch: validation[2].score,
-                pooled: validation.get(3).map(|v| v.score),
+                network: validation[3].score,
+                pooled: validation.get(4).map(|v| v.score),
             });
         }
+    };
+    // Its standard deviations scaled to cover its held-out errors.
+    let scales = match chosen.as_str() {
+        "from scratch" => std_scales(&scratch, &test_new)?,
+        SCRATCH_NETWORK => std_scales(&scratch_network, &test_new)?,
+        "pooled" => pooled.as_ref().map_or(Ok(Vec::new()), |p| std_scales(p, &test_cur))?,
+        _ => std_scales(&adapted, &test_cur)?,
     };
     // The winner again, on every push.
     let session_file = recorded
@@ -213,13 +237,17 @@ pub fn fit(
             let m = b.pooled(current, &data, t, p, &mut |_, _| {})?;
             (m, data, lineage())
         }
-        ("from scratch", _) => {
+        (name @ ("from scratch" | SCRATCH_NETWORK), _) => {
+            let params = match name {
+                SCRATCH_NETWORK => &network_params,
+                _ => &new_params,
+            };
             let (data, t) = cut_to(&all, &tare, &choice.features(layout))?;
-            let m = WrenchGp::train_scaled(&data, t, choice.input, &new_params, &mut |_, _| {})?
+            let m = WrenchGp::train_scaled(&data, t, choice.input, params, &mut |_, _| {})?
                 .with_sensor(current.sensor().clone());
             let on = session_file.clone().map(|f| TrainedOn {
                 files: vec![f],
-                params: GpParams::clone(&new_params),
+                params: GpParams::clone(params),
             });
             (m, data, on)
         }
@@ -230,6 +258,7 @@ pub fn fit(
         }
     };
     training_fit(&model, &data)?;
+    let model = model.with_std_scales(&scales);
     let record = CalibrationRecord {
         chosen,
         validation,

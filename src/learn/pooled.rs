@@ -285,6 +285,17 @@ pub fn validate(
     })
 }
 
+/// Held-out rows whose errors set a chosen model's standard deviation
+/// scale (evenly spread).
+const CALIBRATION_ROWS: usize = 500;
+
+/// Per axis, the scale of `model`'s standard deviation that covers its
+/// errors on `test` ([`std_scale`]; 1 without one).
+pub fn std_scales(model: &WrenchGp, test: &Dataset) -> Result<Vec<f64>, ModelError> {
+    let z = model.standardised_errors(test, CALIBRATION_ROWS)?;
+    Ok(z.iter().map(|z| std_scale(z).unwrap_or(1.0)).collect())
+}
+
 /// The candidate with the lowest score; the first on a tie, and a score
 /// that is not a number never wins.
 pub fn best(candidates: &[Validation]) -> Option<&Validation> {
@@ -350,10 +361,6 @@ const ADAPTED: &str = "adapted";
 const POOLED: &str = "pooled";
 const NEW_GP: &str = "new data: GP";
 const NEW_NETWORK: &str = "new data: GP, network mean";
-
-/// Held-out rows whose errors set the chosen model's standard deviation
-/// scale (evenly spread).
-const CALIBRATION_ROWS: usize = 500;
 
 impl Adaptation<'_> {
     /// Runs it (see [`Adaptation`]); `progress` is told every fit's progress.

@@ -7,6 +7,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+use crate::learn::models::gp::kernel::{exp_kernel, tanh_in_place};
+
 /// Weights and biases of the two layers.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub(super) struct Layers {
@@ -51,7 +53,10 @@ impl Layers {
     ) {
         hid.assign(&self.b1);
         general_mat_mul(1.0, &z, &self.w1, 1.0, &mut hid);
-        hid.mapv_inplace(f64::tanh);
+        match hid.as_slice_mut() {
+            Some(values) => tanh_in_place(values),
+            None => hid.mapv_inplace(tanh),
+        }
         out.assign(&self.b2);
         general_mat_mul(1.0, &hid, &self.w2, 1.0, &mut out);
     }
@@ -100,6 +105,13 @@ impl Layers {
         general_mat_mul(1.0, &z.t(), &d_hid, 2.0 * l2, &mut grad.w1);
         column_sums_into(d_hid.view(), &mut grad.b1);
     }
+}
+
+/// `tanh` of one value as [`tanh_in_place`] takes it (a row at a time).
+#[inline]
+pub(super) fn tanh(x: f64) -> f64 {
+    let e = exp_kernel(-2.0 * x.abs());
+    ((1.0 - e) / (1.0 + e)).copysign(x)
 }
 
 /// `out = 1ᵀ a` (sum over rows) without allocating.

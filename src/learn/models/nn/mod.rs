@@ -232,7 +232,7 @@ impl Mlp {
                     .zip(w1)
                     .map(|(((x, m), s), w)| (x - m) / s * w)
                     .sum::<f64>();
-            let h = a.tanh();
+            let h = layers::tanh(a);
             for (o, w) in out.iter_mut().zip(self.net.w2.row(j)) {
                 *o += h * w;
             }
