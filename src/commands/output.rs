@@ -53,11 +53,12 @@ pub(crate) fn print_validation(r: &CalibrationRecord) {
 /// Models scored on held-out rows (`what`), the `chosen` one marked.
 pub(crate) fn print_scores(what: &str, validation: &[Validation], chosen: &str) {
     println!("{what}: RMSE (score)");
+    let width = validation.iter().map(|v| v.model.len()).max().unwrap_or(0);
     for v in validation {
         let rmse: Vec<String> = v.rmse.iter().map(|(a, e)| format!("{a} {e:.3}")).collect();
         let mark = if v.model == chosen { "  <- chosen" } else { "" };
         println!(
-            "  {:<13} {} N ({:.4}){mark}",
+            "  {:<width$} {} N ({:.4}){mark}",
             v.model,
             rmse.join(", "),
             v.score

@@ -221,7 +221,9 @@ pub fn fit(
     let scales = match chosen.as_str() {
         "from scratch" => std_scales(&scratch, &test_new)?,
         SCRATCH_NETWORK => std_scales(&scratch_network, &test_new)?,
-        "pooled" => pooled.as_ref().map_or(Ok(Vec::new()), |p| std_scales(p, &test_cur))?,
+        "pooled" => pooled
+            .as_ref()
+            .map_or(Ok(Vec::new()), |p| std_scales(p, &test_cur))?,
         _ => std_scales(&adapted, &test_cur)?,
     };
     // The winner again, on every push.

@@ -4,7 +4,8 @@
 //!
 //! The search starts from the defaults within what the data hold
 //! ([`Space`]: the channels the data have, the options the user fixed) and
-//! changes one option at a time, keeping what scores better: the options
+//! changes one option at a time, going on from the candidate that would be
+//! chosen so far: the options
 //! that change the model's form first (input scaling, prior mean, the GP's
 //! kind and size), the channels last. Each candidate is trained as `train`
 //! trains it (every training row of a fold; the exact GP on its own
@@ -327,7 +328,8 @@ pub fn select(
     }
     let n_stages = space.stages(&defaults, data.len()).len();
     for stage in 0..n_stages {
-        let best = best_of(&table).choice.clone();
+        // Each stage goes on from what would be chosen so far.
+        let best = table[pick::choose(&table).0].choice.clone();
         let candidates = space.stages(&best, data.len()).swap_remove(stage);
         for c in &candidates {
             run(c, true, &mut table, &mut untried);
@@ -345,14 +347,6 @@ pub fn select(
         untried,
         not_varied: space.not_varied(),
     })
-}
-
-/// The best score (the search goes on from it).
-fn best_of(table: &[CvRow]) -> &CvRow {
-    table
-        .iter()
-        .min_by(|a, b| a.score.total_cmp(&b.score))
-        .expect("the defaults were scored")
 }
 
 /// Hyperparameters fitted so far, per axis, by the model's form (channels,

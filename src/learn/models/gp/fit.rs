@@ -81,11 +81,11 @@ struct Bounds {
 }
 
 impl Bounds {
-    fn new(kind: KernelKind, d: usize, min_noise_var: f64) -> Self {
+    fn new(kind: KernelKind, d: usize, min_noise_var: f64, min_signal_var: f64) -> Self {
         let n = SeHyper::n_params(kind, d);
         let mut lo = vec![1e-3f64.ln(); n];
         let mut hi = vec![1e4f64.ln(); n];
-        lo[0] = 1e-4f64.ln();
+        lo[0] = min_signal_var.ln();
         lo[n - 1] = min_noise_var.ln();
         hi[n - 1] = 10f64.ln();
         Bounds { lo, hi }
@@ -240,7 +240,7 @@ impl<'a> Fitter<'a> {
         Fitter {
             p,
             d,
-            bounds: Bounds::new(p.kernel, d, p.min_noise_var),
+            bounds: Bounds::new(p.kernel, d, p.min_noise_var, p.min_signal_var),
             rng: ChaCha8Rng::seed_from_u64(p.seed),
             tracker: Tracker::new(progress),
         }
@@ -297,7 +297,7 @@ impl<'a> Fitter<'a> {
         };
         let first = SeHyper {
             kind: p.kernel,
-            signal_var: 1.0,
+            signal_var: p.min_signal_var.max(1.0),
             lengthscales: vec![(d as f64).sqrt(); d],
             noise_var: 0.01f64.max(p.min_noise_var),
         }

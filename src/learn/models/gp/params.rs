@@ -20,6 +20,7 @@ use crate::params::{require, Check, Checked, ParamsError};
 /// | max_iters | 100 | L-BFGS iterations of each start on the subset | >= 1 |
 /// | polish_iters | 0 | L-BFGS iterations of the best start on all points | >= 0 |
 /// | min_noise_var | 1e-6 | lower bound of the noise variance (standardised) | (0, 1) |
+/// | min_signal_var | 1e-4 | lower bound of the signal variance (standardised) | (0, 1e4) |
 /// | seed | 0 | starts and subsets | any |
 /// | max_train | 2000 | exact GP: rows it is conditioned on | >= 1 |
 /// | subset | random | exact GP: how those rows are chosen when n > max_train | random, farthest |
@@ -50,6 +51,9 @@ pub struct GpParams {
     pub polish_iters: u64,
     /// Lower bound of the noise variance, in standardised target units.
     pub min_noise_var: f64,
+    /// Lower bound of the signal variance, in standardised target units
+    /// (the network mean's GPs: [`super::MeanKind::Network`]).
+    pub min_signal_var: f64,
     /// Seed of the starts and of the random subsets.
     pub seed: u64,
     /// Exact GP: most rows it is conditioned on (the cost is O(n^3) to fit,
@@ -121,6 +125,7 @@ impl Default for GpParams {
             max_iters: 100,
             polish_iters: 0,
             min_noise_var: 1e-6,
+            min_signal_var: 1e-4,
             seed: 0,
             max_train: 2000,
             subset: Subset::Random,
@@ -156,6 +161,8 @@ impl Check for GpParams {
         )?;
         let v = p.min_noise_var;
         require(key, "min_noise_var", v, v > 0.0 && v < 1.0, "in (0, 1)")?;
+        let v = p.min_signal_var;
+        require(key, "min_signal_var", v, v > 0.0 && v < 1e4, "in (0, 1e4)")?;
         require(
             key,
             "max_train",
@@ -185,7 +192,7 @@ mod tests {
     #[test]
     fn invalid_options_are_rejected_by_name() {
         type Edit = fn(&mut GpParams);
-        let cases: [(&str, Edit); 5] = [
+        let cases: [(&str, Edit); 6] = [
             ("inducing", |p| p.inducing = Some(0)),
             ("sparse_candidates", |p| {
                 p.inducing = Some(500);
@@ -194,6 +201,7 @@ mod tests {
             ("max_train", |p| p.max_train = 0),
             ("restarts", |p| p.restarts = 0),
             ("min_noise_var", |p| p.min_noise_var = f64::NAN),
+            ("min_signal_var", |p| p.min_signal_var = 0.0),
         ];
         for (name, edit) in cases {
             let mut p = GpParams::default();

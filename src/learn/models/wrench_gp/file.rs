@@ -48,9 +48,11 @@ pub(super) struct AxisModel<G> {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) linear: Option<LinearMean>,
     pub(super) gp: G,
-    /// What the GP's standard deviation is multiplied by, so that held-out
-    /// errors fall within two of it as often as they should
-    /// ([`WrenchGp::with_std_scales`]; absent: 1).
+    /// What the standard deviation of a measured target (the GP's own with
+    /// its noise) is multiplied by, so that held-out errors fall within two
+    /// of it as often as they should ([`WrenchGp::with_std_scales`];
+    /// absent: 1). The estimator's standard deviation, which the
+    /// controller's doubt stop reads, is the GP's own.
     #[serde(default = "unit", skip_serializing_if = "is_unit")]
     pub(super) std_scale: f64,
 }
@@ -158,7 +160,7 @@ impl ModelFile<Gp> {
             let (m, v) = o.gp.predict_one(&ws.z, &mut ws.gp, with_std);
             let prior = o.linear.as_ref().map_or(0.0, |l| l.at(&ws.z));
             e.mean = m * o.target_scale + o.target_mean + prior;
-            e.std = v.sqrt() * o.target_scale * o.std_scale;
+            e.std = v.sqrt() * o.target_scale;
         }
         if let Some(net) = &self.network {
             net.predict_one(&ws.z, &mut ws.network);
@@ -195,7 +197,7 @@ impl ModelFile<Gp> {
             for i in 0..n {
                 mean[[i, j]] =
                     m[i] * o.target_scale + o.target_mean + prior.as_ref().map_or(0.0, |p| p[i]);
-                std[[i, j]] = v[i].sqrt() * o.target_scale * o.std_scale;
+                std[[i, j]] = v[i].sqrt() * o.target_scale;
             }
         }
         if let Some(net) = &self.network {

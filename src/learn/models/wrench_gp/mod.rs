@@ -268,6 +268,23 @@ impl WrenchGp {
                 axis.iter().for_each(|&a| f(a, p));
             }
         };
+        // A network mean's GPs may not shrink their prior below the targets'
+        // own variance: far from the training rows their doubt grows as a
+        // zero-mean GP's does, whatever the network extrapolates to.
+        let floors: Vec<Checked<GpParams>> = (0..axes.len())
+            .map(|j| {
+                let floor = match &network {
+                    Some(_) => (data.y.column(j).var(0.0) / targets[j].0.scale[0].powi(2))
+                        .clamp(params.min_signal_var, MAX_SIGNAL_FLOOR),
+                    None => params.min_signal_var,
+                };
+                GpParams {
+                    min_signal_var: floor,
+                    ..GpParams::clone(params)
+                }
+                .validate()
+            })
+            .collect::<Result<_, _>>()?;
         let fits: Vec<(Gp, FitInfo)> = if params.shared && params.inducing.is_none() {
             // One fit for every axis: targets row-major n x axes.
             let k = axes.len();
@@ -279,7 +296,10 @@ impl WrenchGp {
                 x: &x,
                 d,
                 y: &y,
-                params,
+                params: floors
+                    .iter()
+                    .min_by(|a, b| a.min_signal_var.total_cmp(&b.min_signal_var))
+                    .unwrap_or(params),
                 start: &start,
             };
             let (gps, info) = fit_gp_shared(&fit, k, &mut |p| report(axes, p))?;
@@ -295,7 +315,7 @@ impl WrenchGp {
                         x: &x,
                         d,
                         y: &targets[j].1,
-                        params,
+                        params: &floors[j],
                         start: &start,
                     };
                     Gp::fit_from(&fit, &mut |p| report(&axes[j..=j], p))
@@ -356,11 +376,14 @@ impl WrenchGp {
         self
     }
 
-    /// The model with each axis's standard deviation (and noise) multiplied
-    /// by its scale in `scales` (in output order; positive and finite, or
-    /// that axis is left as it is): a GP's noise, fitted on its training
-    /// rows, understates its errors on another stretch of data, so the
-    /// scales come from errors on held-out rows ([`std_scale`]).
+    /// The model with each axis's standard deviation of a measured target
+    /// ([`WrenchGp::predict_observed`]) multiplied by its scale in `scales`
+    /// (in output order; positive and finite, or that axis is left as it
+    /// is): a GP's noise, fitted on its training rows, understates its
+    /// errors on another stretch of data, so the scales come from errors on
+    /// held-out rows ([`std_scale`]). The estimator's own standard
+    /// deviation stays the GP's: the controller's doubt stop compares it
+    /// with a limit set for it.
     pub fn with_std_scales(mut self, scales: &[f64]) -> Self {
         for (o, s) in self.0.outputs.iter_mut().zip(scales) {
             if *s > 0.0 && s.is_finite() {
@@ -550,8 +573,10 @@ impl WrenchGp {
 
     /// Means and, when `with_std`, the standard deviation of a measured
     /// target: the GP's latent one ([`WrenchGp::predict`], what the
-    /// estimator publishes) with its noise added in quadrature. Held-out
-    /// errors are judged against it ([`crate::learn::models::metrics::coverage`]).
+    /// estimator publishes and the controller's doubt stop reads) with its
+    /// noise added in quadrature, times the axis's scale
+    /// ([`WrenchGp::with_std_scales`]). Held-out errors are judged against
+    /// it ([`crate::learn::models::metrics::coverage`]).
     pub fn predict_observed(
         &self,
         x: ArrayView2<f64>,
@@ -562,8 +587,8 @@ impl WrenchGp {
             return Ok(Prediction { mean, std: None });
         }
         for (mut col, o) in std.columns_mut().into_iter().zip(&self.0.outputs) {
-            let noise = o.gp.hyper().noise_var.sqrt() * o.target_scale * o.std_scale;
-            col.mapv_inplace(|s| s.hypot(noise));
+            let noise = o.gp.hyper().noise_var.sqrt() * o.target_scale;
+            col.mapv_inplace(|s| s.hypot(noise) * o.std_scale);
         }
         Ok(Prediction {
             mean,
@@ -593,6 +618,11 @@ pub fn std_scale(z: &[f64]) -> Option<f64> {
     let q95 = a[((a.len() as f64 * 0.95).ceil() as usize).clamp(1, a.len()) - 1];
     Some((q95 / 1.96).max(1.0)).filter(|s| s.is_finite())
 }
+
+/// The largest floor of a network mean's GP's signal variance, in units of
+/// its residuals' variance (a network that leaves 1 % of the targets'
+/// spread): below the bound on the search's signal variance.
+const MAX_SIGNAL_FLOOR: f64 = 1e3;
 
 /// The network of a network mean ([`MeanKind::Network`]): the baseline
 /// network's defaults, seeded as the GP is, from the GPs' inputs `z` to the
