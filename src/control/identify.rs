@@ -7,9 +7,9 @@
 //!   `tau dv/dt = v_cmd(t - L) - v`, by least squares on the positions
 //!   (grid search, coarse then fine), whenever the commands vary enough;
 //!   and the position at any recent time (a reading's stamp);
-//! - [`AgeWindow`]: how old each estimate's reading is when stepped on;
-//! - [`LoopMeter`]: the loop's timing from both, and how late an estimate
-//!   may be before the arm halts;
+//! - [`LoopMeter`]: the loop's timing from it and the estimates' ages
+//!   and arrivals (src/control/window.rs), and how late an estimate may be
+//!   before the arm halts;
 //! - [`ContactStiffness`]: force against the approach in contact. The
 //!   BioTac's skin, `x_s(F) = x0 ln(1 + F / A)` (src/contact.rs), is in
 //!   series with an unknown body of compliance `c = 1 / k`, so the
@@ -25,63 +25,8 @@
 use nalgebra::Vector3;
 
 use super::tuning::LoopTiming;
+use super::window::{AgeWindow, Arrivals, Ring};
 use crate::contact::SkinParams;
-
-/// A fixed-capacity ring of the newest `N` items.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Ring<T: Copy, const N: usize> {
-    items: [T; N],
-    next: usize,
-    len: usize,
-}
-
-impl<T: Copy, const N: usize> Ring<T, N> {
-    /// An empty ring (`fill` only takes the slots).
-    pub fn new(fill: T) -> Self {
-        Ring {
-            items: [fill; N],
-            next: 0,
-            len: 0,
-        }
-    }
-
-    /// Adds the newest item, dropping the oldest when full.
-    pub fn push(&mut self, item: T) {
-        self.items[self.next] = item;
-        self.next = (self.next + 1) % N;
-        self.len = (self.len + 1).min(N);
-    }
-
-    /// Items held.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// True when empty.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// The `i`-th oldest item.
-    pub fn get(&self, i: usize) -> T {
-        self.items[(self.next + N - self.len + i) % N]
-    }
-
-    /// The newest item.
-    pub fn last(&self) -> Option<T> {
-        (self.len > 0).then(|| self.get(self.len - 1))
-    }
-
-    /// Oldest first.
-    pub fn iter(&self) -> impl Iterator<Item = T> + '_ {
-        (0..self.len).map(|i| self.get(i))
-    }
-
-    /// Forgets everything.
-    pub fn clear(&mut self) {
-        self.len = 0;
-    }
-}
 
 /// The arm's response to a velocity command.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -290,46 +235,6 @@ impl ArmTrack {
     }
 }
 
-/// Estimates' ages when stepped on, over the last `AGES` steps.
-#[derive(Debug, Clone)]
-pub struct AgeWindow {
-    ages: Ring<f64, AGES>,
-}
-
-/// Ages kept.
-const AGES: usize = 64;
-
-impl Default for AgeWindow {
-    fn default() -> Self {
-        AgeWindow {
-            ages: Ring::new(0.0),
-        }
-    }
-}
-
-impl AgeWindow {
-    /// An estimate `age_s` old when stepped on; not finite: not kept.
-    pub fn push(&mut self, age_s: f64) {
-        if age_s.is_finite() {
-            self.ages.push(age_s.max(0.0));
-        }
-    }
-
-    /// The `q` quantile (0..1) of the ages kept; None when none is.
-    pub fn quantile(&self, q: f64) -> Option<f64> {
-        if self.ages.is_empty() {
-            return None;
-        }
-        let mut sorted = [0.0; AGES];
-        let n = self.ages.len();
-        for (slot, a) in sorted.iter_mut().zip(self.ages.iter()) {
-            *slot = a;
-        }
-        sorted[..n].sort_unstable_by(f64::total_cmp);
-        Some(sorted[((n - 1) as f64 * q).round() as usize])
-    }
-}
-
 /// Samples of the stiffness fit.
 const CONTACT_SAMPLES: usize = 24;
 /// Least spread of the force in the window for a fit (N), and least
@@ -492,6 +397,7 @@ pub struct LoopMeter {
     prior: LoopTiming,
     track: ArmTrack,
     ages: AgeWindow,
+    arrivals: Arrivals,
     arm: Option<ArmResponse>,
     since_fit: usize,
     timing: LoopTiming,
@@ -504,6 +410,7 @@ impl LoopMeter {
             prior,
             track: ArmTrack::default(),
             ages: AgeWindow::default(),
+            arrivals: Arrivals::default(),
             arm: None,
             since_fit: 0,
             timing: prior,
@@ -543,6 +450,7 @@ impl LoopMeter {
     pub fn carry_on(&mut self, before: &LoopMeter) {
         self.track = before.track.clone();
         self.ages = before.ages.clone();
+        self.arrivals = before.arrivals.clone();
         self.arm = before.arm;
     }
 
@@ -566,14 +474,20 @@ impl LoopMeter {
         self.track.velocity_at(t)
     }
 
-    /// How old the newest estimate may be before the arm halts (s): the
-    /// usual age, and beyond it as long as the gains allow, the loop's
-    /// delay (waiting that long more costs about half the phase margin),
-    /// at least a period, at most `max_wait_s`.
-    pub fn stale_after_s(&self, max_wait_s: f64) -> f64 {
-        let t = &self.timing;
-        let usual = self.ages.quantile(0.9).unwrap_or(self.prior.transport_s);
-        usual + (t.dead_s() + t.lag_s).max(t.period_s).min(max_wait_s)
+    /// An estimate stamped `stamp_s` seen at `now` (s).
+    pub fn on_arrival(&mut self, now: f64, stamp_s: f64) {
+        self.arrivals.on_arrival(now, stamp_s);
+    }
+
+    /// How the estimates arrive.
+    pub fn arrivals(&self) -> &Arrivals {
+        &self.arrivals
+    }
+
+    /// How old the newest estimate may be before the arm halts (s): its
+    /// usual age and `periods` of the stream's own (src/control/window.rs).
+    pub fn stale_after_s(&self, periods: f64) -> f64 {
+        self.arrivals.stale_after_s(periods, &self.prior)
     }
 }
 

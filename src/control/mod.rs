@@ -14,6 +14,7 @@ pub mod pd;
 pub mod safety;
 pub mod task;
 pub mod tuning;
+pub mod window;
 
 pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
@@ -24,6 +25,7 @@ pub use pd::{LoopDelays, PdAxis, PdParams};
 pub use safety::{Halt, Watchdog};
 pub use task::{Task, TaskEnvelope, TaskFigures, TaskKind, TaskLoop, TaskRegistry, TaskSection};
 pub use tuning::{LoopTiming, Margins};
+pub use window::Arrivals;
 
 use serde::Serialize;
 

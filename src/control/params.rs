@@ -30,7 +30,9 @@ pub struct ControllerParams {
     /// The arm: the links of its robot description, the BioTac's mount,
     /// limits and inverse-kinematics settings.
     pub robot: RobotParams,
-    /// Estimates older than this many periods stop the arm.
+    /// An estimate this many of its stream's measured periods later than
+    /// usual (at least 2, plus the arrival's jitter: src/control/window.rs),
+    /// or a joint state this many control periods old, stops the arm.
     pub stale_periods: f64,
     /// When the estimate cannot be trusted.
     pub out_of_range: OutOfRangeParams,

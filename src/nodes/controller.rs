@@ -15,18 +15,17 @@ use nalgebra::{Isometry3, Vector3};
 
 use super::tasks;
 use super::JointState;
-use crate::contact::SkinParams;
-use crate::contact::{object_body, BodyParams};
 use crate::control::identify::{ArmResponse, LoopMeter};
 use crate::control::task::{missing_axis, TaskInput, TaskRegistry};
 use crate::control::{
-    ControllerParams, Envelope, Goal, Halt, LoopDelays, LoopTiming, OscillationParams,
-    OutOfRangeParams, PdParams, Phase, SafetyParams, StopReason, Task, TaskEnvelope, TaskLoop,
-    Watchdog, UNKNOWN_OBJECT,
+    Arrivals, ControllerParams, Envelope, Goal, Halt, LoopTiming, OutOfRangeParams, Phase,
+    StopReason, Task, Watchdog,
 };
 use crate::kinematics::{Dls, JointVector, Robot, Twist};
-use crate::params::{control_period, positive, Check, Checked, ParamsError};
+use crate::params::{positive, within, ParamsError};
 use crate::wrench::{Axis, AxisSet, WrenchEstimate};
+pub use sections::task_envelope;
+use sections::{stiffest_permitted, Sections};
 
 /// A motion an arm with fewer than six joints may leave undone, as a
 /// fraction of the commanded motion, for a task direction to count as
@@ -64,8 +63,8 @@ pub struct ForceController {
     out_of_range: OutOfRangeParams,
     /// The joint states' age limit.
     watchdog: Watchdog,
-    /// Estimates may come this late beyond their usual age (s).
-    max_wait_s: f64,
+    /// Estimates may come this many of their periods late (`stale_periods`).
+    stale_periods: f64,
     meter: LoopMeter,
     envelope: Envelope,
     period_s: f64,
@@ -90,7 +89,7 @@ impl CheckedTask {
     /// Checks every parameter but the robot's and builds the task of
     /// `tasks`.
     fn new(p: &ControllerParams, tasks: &TaskRegistry) -> Result<Self, ParamsError> {
-        positive("stale_periods", p.stale_periods)?;
+        within("stale_periods", p.stale_periods, 2.0, 10.0)?;
         positive("out_of_range.max_std_n", p.out_of_range.max_std_n)?;
         positive(
             "out_of_range.max_pdc_rise_counts",
@@ -170,7 +169,7 @@ impl ForceController {
                 p.stale_periods + p.loop_delays.transport_delay_s / p.control_period_s,
                 p.control_period_s,
             ),
-            max_wait_s: p.stale_periods * p.control_period_s,
+            stale_periods: p.stale_periods,
             meter: LoopMeter::new(LoopTiming {
                 transport_s: p.loop_delays.transport_delay_s,
                 latency_s: p.loop_delays.command_latency_s,
@@ -331,11 +330,15 @@ impl ForceController {
         self.estimate.map(|e| now - e.stamp_s)
     }
 
-    /// How old the newest estimate may be before the arm halts (s): its
-    /// usual age and what the gains allow beyond it, at most
-    /// `stale_periods` periods.
+    /// How old the newest estimate may be before the arm halts (s): its usual
+    /// age, `stale_periods` of its stream's periods, jitter (control/window.rs).
     pub fn stale_after_s(&self) -> f64 {
-        self.meter.stale_after_s(self.max_wait_s)
+        self.meter.stale_after_s(self.stale_periods)
+    }
+
+    /// How the estimates arrive.
+    pub fn arrivals(&self) -> &Arrivals {
+        self.meter.arrivals()
     }
 
     /// Stops the task where it is (a canceled goal): every later tick
@@ -348,6 +351,9 @@ impl ForceController {
     pub fn tick(&mut self, now: f64) -> ControlOutput {
         let dt = self.last_tick.map_or(self.period_s, |t| now - t);
         self.last_tick = Some(now);
+        if let Some(e) = &self.estimate {
+            self.meter.on_arrival(now, e.stamp_s);
+        }
         match self.step(now, dt) {
             Ok((velocity, damping)) => self.output(velocity, damping, None),
             Err(halt) => self.halt(now, halt),
@@ -480,117 +486,7 @@ fn realisable(
     Ok(())
 }
 
-/// The safety envelope of the task of `p` (src/control/envelope.rs)
-/// against the stiffest body the scene permits.
-pub fn task_envelope(p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
-    Sections::check(p, &tasks::shipped())?.envelope(p)
-}
-
-/// The checked sections of the parameters that the task is built from.
-struct Sections<'t> {
-    skin: Checked<SkinParams>,
-    pd: Checked<PdParams>,
-    delays: Checked<LoopDelays>,
-    oscillation: Checked<OscillationParams>,
-    safety: Checked<SafetyParams>,
-    task: &'t crate::control::task::TaskEntry,
-}
-
-impl<'t> Sections<'t> {
-    fn check(p: &ControllerParams, tasks: &'t TaskRegistry) -> Result<Self, ParamsError> {
-        control_period(p.control_period_s)?;
-        p.check_sections(tasks)?;
-        let skin = p.skin.checked("skin")?;
-        let pd = p.pd.checked("pd")?;
-        let delays = p.loop_delays.checked("loop_delays")?;
-        let oscillation = p.oscillation.checked("oscillation")?;
-        let safety = p.safety.clone().checked("safety")?;
-        permitted_body(p, &safety, &p.object)?;
-        let task = tasks.get(&p.task)?;
-        p.raw_section(task.name())?;
-        Ok(Sections {
-            skin,
-            pd,
-            delays,
-            oscillation,
-            safety,
-            task,
-        })
-    }
-
-    fn task_loop<'a>(&'a self, p: &'a ControllerParams) -> TaskLoop<'a> {
-        TaskLoop {
-            skin: &self.skin,
-            pd: &self.pd,
-            delays: &self.delays,
-            oscillation: &self.oscillation,
-            period_s: p.control_period_s,
-            axes: &p.axes,
-        }
-    }
-
-    /// The task, its gains set for `body`.
-    fn build(&self, p: &ControllerParams, body: &BodyParams) -> Result<Box<dyn Task>, ParamsError> {
-        let raw = p.raw_section(self.task.name())?;
-        self.task.build(raw, &self.task_loop(p), body)
-    }
-
-    /// The task's envelope against the stiffest body the scene permits.
-    fn envelope(&self, p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
-        let (body, name) = stiffest_permitted(p, &self.safety)?;
-        let raw = p.raw_section(self.task.name())?;
-        self.task.envelope(raw, &self.task_loop(p), &body, &name)
-    }
-}
-
-/// The body named `name`, which the scene must permit (`safety.objects`).
-fn permitted_body(
-    p: &ControllerParams,
-    safety: &SafetyParams,
-    name: &str,
-) -> Result<BodyParams, ParamsError> {
-    if !safety.objects.iter().any(|o| o == name) {
-        return Err(ParamsError::Invalid {
-            key: "object".into(),
-            value: name.into(),
-            expected: format!(
-                "one of the bodies this scene may touch, safety.objects = {:?}",
-                safety.objects
-            ),
-        });
-    }
-    if name == UNKNOWN_OBJECT {
-        return Ok(BodyParams {
-            stiffness_n_per_m: safety.worst_case_stiffness_n_per_m,
-            damping_n_s_per_m: 0.0,
-            friction: 0.0,
-        });
-    }
-    Ok(*object_body(&p.objects, name)?)
-}
-
-/// The stiffest body the scene permits, and its name (`safety.objects` is
-/// not empty: checked).
-fn stiffest_permitted(
-    p: &ControllerParams,
-    safety: &SafetyParams,
-) -> Result<(BodyParams, String), ParamsError> {
-    let mut stiffest: Option<(BodyParams, String)> = None;
-    for name in &safety.objects {
-        let body = permitted_body(p, safety, name)?;
-        if stiffest
-            .as_ref()
-            .is_none_or(|(b, _)| body.stiffness_n_per_m > b.stiffness_n_per_m)
-        {
-            stiffest = Some((body, name.clone()));
-        }
-    }
-    stiffest.ok_or_else(|| ParamsError::Invalid {
-        key: "safety.objects".into(),
-        value: "[]".into(),
-        expected: "the bodies this scene may touch".into(),
-    })
-}
+mod sections;
 
 #[cfg(test)]
 mod tests;

@@ -310,7 +310,7 @@ pub fn describe_shared(name: &str) -> &'static str {
         "objects" => "Objects the arm may touch, by name (config/world.yaml).",
         "object" => "The object of this run (launch argument `object`).",
         "robot" => "The arm: the links of the robot description, the BioTac's mount, limits.",
-        "stale_periods" => "Estimates this many periods late beyond their usual age halt the arm.",
+        "stale_periods" => "Estimates this many of their own periods late (>= 2) halt the arm.",
         "autostart" => "Start the task at once; false: zero velocity until a goal or task set.",
         "axes" => "Wrench axes the task controls.",
         "task" => "The task (guarded, guided or calibrate); set while running: it starts (again).",

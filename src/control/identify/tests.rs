@@ -11,19 +11,6 @@ fn skin() -> SkinParams {
     }
 }
 
-#[test]
-fn a_ring_keeps_the_newest_in_order() {
-    let mut r: Ring<u32, 3> = Ring::new(0);
-    assert!(r.is_empty() && r.last().is_none());
-    for i in 1..=5 {
-        r.push(i);
-    }
-    assert_eq!(r.iter().collect::<Vec<_>>(), [3, 4, 5]);
-    assert_eq!((r.len(), r.get(0), r.last()), (3, 3, Some(5)));
-    r.clear();
-    assert!(r.is_empty());
-}
-
 /// An arm with latency `l` and lag `tau`, commanded every 10 ms along x by
 /// `speed(t)`, its positions measured every `every` s: the track.
 fn track(l: f64, tau: f64, every: f64, speed: impl Fn(f64) -> f64) -> ArmTrack {
@@ -91,19 +78,6 @@ fn a_position_is_read_at_any_recent_time() {
     assert!((t.position_at(1.005).unwrap().x - 0.5).abs() < 1e-9);
     assert_eq!(t.position_at(1.012).unwrap().x, 1.0, "just after the last");
     assert!(t.position_at(1.1).is_none() && t.position_at(0.9).is_none());
-}
-
-#[test]
-fn ages_give_their_quantiles() {
-    let mut a = AgeWindow::default();
-    assert_eq!(a.quantile(0.5), None);
-    for i in 0..100 {
-        a.push(i as f64 * 1e-3);
-    }
-    a.push(f64::NAN);
-    // The last 64: 36..99 ms.
-    assert!((a.quantile(0.5).unwrap() - 0.068).abs() < 1.1e-3);
-    assert!((a.quantile(1.0).unwrap() - 0.099).abs() < 1e-12);
 }
 
 #[test]

@@ -20,15 +20,16 @@ pub mod estimates;
 pub mod goals;
 pub mod tool_frame;
 
+mod diagnostics;
+
 use nalgebra::Vector3;
 
 use super::controller::task_envelope;
 use super::loop_delay::LoopDelayMonitor;
-use super::status::{Level, Status};
 use super::{joint_names, ControlOutput, ForceController, JointState};
 use crate::biotac::BioTacReading;
 use crate::calibration::{CalibrateGoal, CalibrateMove, CalibrationRecorder};
-use crate::control::{ControllerParams, Phase, TaskKind, TaskRegistry};
+use crate::control::{ControllerParams, Halt, Phase, TaskKind, TaskRegistry};
 use crate::kinematics::{Robot, RobotError};
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
 use crate::wrench::{FrameTransform, Wrench};
@@ -142,6 +143,8 @@ pub struct ForceControllerNode {
     last: Option<ControlOutput>,
     /// Messages refused: not finite, or not matching the arm.
     rejected: u64,
+    /// Halts for a stale estimate, each counted once however long.
+    stale_halts: u64,
     delays: LoopDelayMonitor,
     delay_warned: bool,
 }
@@ -192,6 +195,7 @@ impl ForceControllerNode {
             force: Vector3::zeros(),
             last: None,
             rejected: 0,
+            stale_halts: 0,
             delay_warned: false,
         })
     }
@@ -457,8 +461,13 @@ impl ForceControllerNode {
         Some(self.keep(out))
     }
 
-    /// Logs what changed and keeps `out` as the last output.
+    /// Logs what changed, counts a new stale-estimate halt and keeps `out`
+    /// as the last output.
     fn keep(&mut self, out: ControlOutput) -> &ControlOutput {
+        let stale = |o: &ControlOutput| matches!(o.halt, Some(Halt::Stale { what, .. }) if what == "wrench estimate");
+        if stale(&out) && !self.last.as_ref().is_some_and(stale) {
+            self.stale_halts += 1;
+        }
         let refusal = self.controller.as_ref().and_then(|c| c.refusal());
         log_change(self.last.as_ref(), &out, refusal);
         self.last.insert(out)
@@ -477,91 +486,6 @@ impl ForceControllerNode {
             envelope.max_speed_mps() * 1e3,
             envelope.stiffness_n_per_m,
         ))
-    }
-
-    /// The node's status: task, robot, phase, halt, the loop
-    /// delay it sees against what the gains assume (warned once when it
-    /// goes beyond, and once when it is back), messages refused.
-    pub fn status(&mut self) -> Status {
-        let mut s = Status::ok(self.task.clone());
-        s.value("task", &self.task);
-        if !self.asked {
-            s.raise(Level::Ok, ", waiting to be asked (a goal or task set)");
-        }
-        match &self.arm {
-            Some(a) => s.value("robot", &a.robot.name),
-            None => s.raise(Level::Warn, ", waiting for the robot description"),
-        }
-        if let Some(out) = &self.last {
-            s.value("phase", out.phase.name());
-            s.raise(Level::Ok, &format!(", {}", out.phase.name()));
-            if let Some(h) = &out.halt {
-                s.raise(Level::Warn, &format!(", halted: {h}"));
-                s.value("halt", h);
-            }
-        }
-        if let Some(c) = &self.controller {
-            let ms = |v: f64| format!("{:.1}", v * 1e3);
-            let t = c.timing();
-            s.value("transport_ms", ms(t.transport_s));
-            s.value("arm_latency_ms", ms(t.latency_s));
-            s.value("arm_lag_ms", ms(t.lag_s));
-            s.value("arm_fitted", c.arm_response().is_some());
-            s.value("stale_after_ms", ms(c.stale_after_s()));
-            let f = c.task().figures();
-            let axes = ["x", "y", "z"];
-            for (i, g) in c.gains().iter().enumerate() {
-                if let Some(g) = g {
-                    s.push(
-                        format!("gain_{}_mm_s_per_n", axes[i]),
-                        format!("{:.2}", g * 1e3),
-                    );
-                }
-            }
-            for (i, k) in f.stiffness_n_per_m.iter().enumerate() {
-                if let Some(k) = k {
-                    s.push(format!("stiffness_{}_n_per_m", axes[i]), format!("{k:.0}"));
-                }
-            }
-            if f.softened > 0 {
-                s.raise(
-                    Level::Warn,
-                    &format!(
-                        "; gain lowered {} time(s): the force oscillated",
-                        f.softened
-                    ),
-                );
-                s.value("gain_lowered", f.softened);
-            }
-        }
-        if let Some(r) = self.delays.take_report() {
-            let ms = |v: f64| format!("{:.2}", v * 1e3);
-            s.value("loop_delay_steps", r.steps);
-            s.value("loop_delay_p50_ms", ms(r.p50_s));
-            s.value("loop_delay_p99_ms", ms(r.p99_s));
-            s.value("loop_delay_max_ms", ms(r.max_s));
-            s.value("loop_delay_bound_ms", ms(r.assumed_s));
-            if r.exceeds_assumed() {
-                s.raise(Level::Warn, "; estimates older than loop_delays bounds");
-            }
-            if r.exceeds_assumed() != self.delay_warned {
-                self.delay_warned = r.exceeds_assumed();
-                if self.delay_warned {
-                    tracing::warn!(
-                        "estimates are {:.1} ms old (p99) when stepped on, beyond the {:.1} ms \
-                         bound the safety envelope assumes (loop_delays.transport_delay_s): an \
-                         approach slows by the share its loop is slower; raise the bound to \
-                         this deployment's delay",
-                        r.p99_s * 1e3,
-                        r.assumed_s * 1e3
-                    );
-                } else {
-                    tracing::info!("estimates back within the loop_delays bound");
-                }
-            }
-        }
-        s.value("rejected", self.rejected);
-        s
     }
 }
 

@@ -6,6 +6,7 @@ use crate::calibration::Ended;
 use crate::control::{Halt, StopReason};
 use crate::kinematics::{JointVector, ShippedRobot};
 use crate::nodes::guarded_goal::GuardedGoal;
+use crate::nodes::status::{Level, Status};
 use crate::nodes::tasks;
 use crate::params::from_flat_params;
 use crate::runtime::scene::Scene;
@@ -381,5 +382,147 @@ fn the_adapter_parameters_are_parsed_or_named() {
     assert!(
         s.contains("task guarded") && s.contains("speed limit"),
         "{s}"
+    );
+}
+
+/// A status value by name.
+fn status_value(s: &Status, name: &str) -> Option<String> {
+    s.values
+        .iter()
+        .find(|(k, _)| k == name)
+        .map(|(_, v)| v.clone())
+}
+
+/// The node's loop as src/ros/force_controller/stepping.rs runs it, the
+/// guarded move approaching nothing, on an arm that publishes its joint
+/// states and takes the command every `cycle_s` (acting a cycle later,
+/// through a first-order lag `lag_s`): estimates at 100 Hz, stamped every
+/// 10 ms until `stop_s`, each arriving 2 ms plus up to `jitter_s` after
+/// its stamp (`u^8 jitter_s`, u uniform and seeded: mostly little, with a
+/// tail, as over DDS; in order); the late timer at `until_stale_s`
+/// after each step. Runs `seconds`: the node and when it halted for a stale
+/// estimate (each halt once).
+fn stepping_loop(
+    cycle_s: f64,
+    lag_s: f64,
+    jitter_s: f64,
+    stop_s: f64,
+    seconds: f64,
+) -> (ForceControllerNode, Vec<f64>) {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(48);
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    n.set_task("guarded", true).unwrap();
+    let (mut q, mut v, mut acting) = (start_pose(), JointVector::zeros(7), JointVector::zeros(7));
+    let follow = if lag_s > 0.0 {
+        1.0 - (-cycle_s / lag_s).exp()
+    } else {
+        1.0
+    };
+    let (mut k, mut arrival, mut cycles) = (0_u32, 0.0_f64, 0_u32);
+    let (mut deadline, mut halts, mut halted) = (f64::INFINITY, Vec::new(), false);
+    loop {
+        let stamp = f64::from(k) * 0.01;
+        if arrival <= stamp {
+            arrival = arrival.max(stamp + 0.002 + jitter_s * rng.random::<f64>().powi(8));
+        }
+        let est_t = if stamp < stop_s {
+            arrival
+        } else {
+            f64::INFINITY
+        };
+        let js_t = f64::from(cycles) * cycle_s;
+        let now = est_t.min(js_t).min(deadline);
+        if now > seconds {
+            return (n, halts);
+        }
+        let out = if now == js_t {
+            cycles += 1;
+            q += &v * cycle_s;
+            v += (&acting - &v) * follow;
+            acting = n.controller().unwrap().command().clone();
+            n.on_joint_state(&JointState {
+                stamp_s: now,
+                q: q.clone(),
+            });
+            continue;
+        } else if now == est_t {
+            k += 1;
+            n.on_force(ForcePart::Mean, stamp, fz(0.0), now);
+            n.on_force(ForcePart::Std, stamp, fz(0.001), now).cloned()
+        } else {
+            n.on_late(now).cloned()
+        };
+        deadline = now + n.until_stale_s(now);
+        if let Some(out) = out {
+            let stale = matches!(out.halt, Some(Halt::Stale { .. }));
+            if stale && !halted {
+                halts.push(now);
+            }
+            halted = stale;
+        }
+    }
+}
+
+/// A status value as a number.
+fn status_f64(s: &Status, name: &str) -> f64 {
+    status_value(s, name).unwrap().parse().unwrap()
+}
+
+#[test]
+fn estimates_on_time_never_halt_at_any_arm_cycle_lag_or_jitter() {
+    // Issue 48: on a 2 ms arm, "stale: 0.012 s old, limit 0.012 s" halted
+    // it when fed at 100 Hz with 2 ms of jitter. The old bound (the usual
+    // age plus the loop's delay, at least a period) halted this grid 61
+    // times (3, 8 and 50 at a 2 ms cycle without lag), each run 40 s.
+    for cycle_ms in [2.0, 4.0, 8.0, 16.0] {
+        for lag_ms in [0.0, 10.0, 20.0, 30.0] {
+            for jitter_ms in [0.0, 2.0, 5.0] {
+                let (mut n, halts) =
+                    stepping_loop(cycle_ms * 1e-3, lag_ms * 1e-3, jitter_ms * 1e-3, 41.0, 40.0);
+                let s = n.status();
+                let case = format!("{cycle_ms} ms cycle, {lag_ms} ms lag, {jitter_ms} ms: {s:?}");
+                assert!(halts.is_empty(), "halted at {halts:?}: {case}");
+                assert_eq!(status_value(&s, "stale_halts").as_deref(), Some("0"));
+                let p50 = status_f64(&s, "estimate_interval_p50_ms");
+                let p99 = status_f64(&s, "estimate_interval_p99_ms");
+                assert!((p50 - 10.0).abs() <= jitter_ms / 2.0 + 0.05, "{case}");
+                assert!(p99 >= p50 && p99 <= 10.0 + jitter_ms + 0.05, "{case}");
+                // Due at 12 ms of age (the median jitter is ~0), then three
+                // periods, and twice the jitter's spread.
+                let bound = status_f64(&s, "stale_after_ms");
+                assert!((31.9..=32.1 + 2.0 * jitter_ms).contains(&bound), "{case}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_stream_that_stops_halts_three_periods_after_the_next_was_due() {
+    // 100 Hz, 2 ms of transport, a 2 ms arm: the last estimate, stamped
+    // 2.99 s, halts the arm once 2 + 3 x 10 = 32 ms old, or at the next
+    // look (a cycle).
+    let (mut n, halts) = stepping_loop(0.002, 0.0, 0.0, 3.0, 3.5);
+    assert_eq!(halts.len(), 1, "one halt, however long: {halts:?}");
+    assert!(
+        halts[0] >= 2.99 + 0.032 - 1e-9 && halts[0] <= 2.99 + 0.034 + 1e-9,
+        "{halts:?}"
+    );
+    let s = n.status();
+    assert_eq!(status_value(&s, "stale_after_ms").as_deref(), Some("32.0"));
+    assert_eq!(
+        status_value(&s, "estimate_interval_p50_ms").as_deref(),
+        Some("10.0")
+    );
+    assert_eq!(status_value(&s, "stale_halts").as_deref(), Some("1"));
+    // With up to 5 ms of jitter the bound widens by twice its spread.
+    let (mut n, halts) = stepping_loop(0.002, 0.0, 0.005, 3.0, 3.5);
+    let bound = status_f64(&n.status(), "stale_after_ms");
+    assert!((38.0..=43.0).contains(&bound), "{bound}");
+    let due = 2.99 + bound * 1e-3;
+    assert!(
+        halts.len() == 1 && (due - 1e-4..=due + 0.002 + 1e-4).contains(&halts[0]),
+        "{halts:?}"
     );
 }

@@ -1,0 +1,103 @@
+//! The `force_controller` node's status on `/diagnostics`: the task, the
+//! robot, the phase and a halt; the loop as measured (the estimates' age
+//! and arrival, the stale bound and the halts it caused, the arm's
+//! response, the gains); the loop delay against what the gains assume.
+
+use super::ForceControllerNode;
+use crate::nodes::status::{Level, Status};
+
+impl ForceControllerNode {
+    /// The node's status: task, robot, phase, halt, the loop
+    /// delay it sees against what the gains assume (warned once when it
+    /// goes beyond, and once when it is back), messages refused.
+    pub fn status(&mut self) -> Status {
+        let mut s = Status::ok(self.task.clone());
+        s.value("task", &self.task);
+        if !self.asked {
+            s.raise(Level::Ok, ", waiting to be asked (a goal or task set)");
+        }
+        match &self.arm {
+            Some(a) => s.value("robot", &a.robot.name),
+            None => s.raise(Level::Warn, ", waiting for the robot description"),
+        }
+        if let Some(out) = &self.last {
+            s.value("phase", out.phase.name());
+            s.raise(Level::Ok, &format!(", {}", out.phase.name()));
+            if let Some(h) = &out.halt {
+                s.raise(Level::Warn, &format!(", halted: {h}"));
+                s.value("halt", h);
+            }
+        }
+        if let Some(c) = &self.controller {
+            let ms = |v: f64| format!("{:.1}", v * 1e3);
+            let t = c.timing();
+            s.value("transport_ms", ms(t.transport_s));
+            s.value("arm_latency_ms", ms(t.latency_s));
+            s.value("arm_lag_ms", ms(t.lag_s));
+            s.value("arm_fitted", c.arm_response().is_some());
+            s.value("stale_after_ms", ms(c.stale_after_s()));
+            for (q, name) in [
+                (0.5, "estimate_interval_p50_ms"),
+                (0.99, "estimate_interval_p99_ms"),
+            ] {
+                if let Some(i) = c.arrivals().interval_s(q) {
+                    s.value(name, ms(i));
+                }
+            }
+            s.value("stale_halts", self.stale_halts);
+            let f = c.task().figures();
+            let axes = ["x", "y", "z"];
+            for (i, g) in c.gains().iter().enumerate() {
+                if let Some(g) = g {
+                    s.push(
+                        format!("gain_{}_mm_s_per_n", axes[i]),
+                        format!("{:.2}", g * 1e3),
+                    );
+                }
+            }
+            for (i, k) in f.stiffness_n_per_m.iter().enumerate() {
+                if let Some(k) = k {
+                    s.push(format!("stiffness_{}_n_per_m", axes[i]), format!("{k:.0}"));
+                }
+            }
+            if f.softened > 0 {
+                s.raise(
+                    Level::Warn,
+                    &format!(
+                        "; gain lowered {} time(s): the force oscillated",
+                        f.softened
+                    ),
+                );
+                s.value("gain_lowered", f.softened);
+            }
+        }
+        if let Some(r) = self.delays.take_report() {
+            let ms = |v: f64| format!("{:.2}", v * 1e3);
+            s.value("loop_delay_steps", r.steps);
+            s.value("loop_delay_p50_ms", ms(r.p50_s));
+            s.value("loop_delay_p99_ms", ms(r.p99_s));
+            s.value("loop_delay_max_ms", ms(r.max_s));
+            s.value("loop_delay_bound_ms", ms(r.assumed_s));
+            if r.exceeds_assumed() {
+                s.raise(Level::Warn, "; estimates older than loop_delays bounds");
+            }
+            if r.exceeds_assumed() != self.delay_warned {
+                self.delay_warned = r.exceeds_assumed();
+                if self.delay_warned {
+                    tracing::warn!(
+                        "estimates are {:.1} ms old (p99) when stepped on, beyond the {:.1} ms \
+                         bound the safety envelope assumes (loop_delays.transport_delay_s): an \
+                         approach slows by the share its loop is slower; raise the bound to \
+                         this deployment's delay",
+                        r.p99_s * 1e3,
+                        r.assumed_s * 1e3
+                    );
+                } else {
+                    tracing::info!("estimates back within the loop_delays bound");
+                }
+            }
+        }
+        s.value("rejected", self.rejected);
+        s
+    }
+}
