@@ -489,11 +489,11 @@ impl Cv<'_> {
 
 /// Held-out rows of a fold whose errors are compared with the standard
 /// deviation (evenly spread): its variance costs O(n^2) a row.
-const CALIBRATION_ROWS: usize = 100;
+const CALIBRATION_ROWS: usize = 50;
 
 /// Rows an estimate's latency is timed on, and passes over them (the median
 /// pass is taken).
-const LATENCY_ROWS: usize = 100;
+const LATENCY_ROWS: usize = 30;
 const LATENCY_PASSES: usize = 3;
 
 /// The median time (µs) of `model`'s estimate with its standard deviation,

@@ -5,6 +5,7 @@
 
 mod file;
 mod learner;
+mod observed;
 pub mod provenance;
 
 use ndarray::{Array2, ArrayView2};
@@ -18,7 +19,6 @@ use super::gp::{
 };
 use super::nn::{Mlp, NnError, NnParams};
 use super::scale::{InputScaling, Standardizer};
-use super::Prediction;
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
 use crate::params::{Check, Checked, ParamsError};
@@ -28,6 +28,7 @@ use file::{electrode_mask, AxisModel, ModelFile, Prior};
 
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
 pub use learner::GpLearner;
+pub use observed::std_scale;
 pub use provenance::{
     AdaptChoice, AdaptedFrom, CalibrationRecord, Choice, CvRow, DataFile, GpChoice, Selection,
     TrainedOn, Validation,
@@ -376,53 +377,6 @@ impl WrenchGp {
         self
     }
 
-    /// The model with each axis's standard deviation of a measured target
-    /// ([`WrenchGp::predict_observed`]) multiplied by its scale in `scales`
-    /// (in output order; positive and finite, or that axis is left as it
-    /// is): a GP's noise, fitted on its training rows, understates its
-    /// errors on another stretch of data, so the scales come from errors on
-    /// held-out rows ([`std_scale`]). The estimator's own standard
-    /// deviation stays the GP's: the controller's doubt stop compares it
-    /// with a limit set for it.
-    pub fn with_std_scales(mut self, scales: &[f64]) -> Self {
-        for (o, s) in self.0.outputs.iter_mut().zip(scales) {
-            if *s > 0.0 && s.is_finite() {
-                o.std_scale = *s;
-            }
-        }
-        self
-    }
-
-    /// Per axis, the errors on at most `rows` rows of `data` (tared, evenly
-    /// spread) over the observed standard deviation
-    /// ([`WrenchGp::predict_observed`]): what [`std_scale`] takes.
-    pub fn standardised_errors(
-        &self,
-        data: &Dataset,
-        rows: usize,
-    ) -> Result<Vec<Vec<f64>>, ModelError> {
-        let step = (data.len() / rows.max(1)).max(1);
-        let picked: Vec<usize> = (0..data.len()).step_by(step).collect();
-        let some = data.select(&picked);
-        let p = self.predict_observed(some.x.view(), true)?;
-        let Some(std) = p.std else {
-            return Ok(Vec::new());
-        };
-        let z = (0..some.y.ncols()).map(|j| {
-            let errors = some.y.column(j).into_iter().zip(p.mean.column(j));
-            errors
-                .zip(std.column(j))
-                .map(|((y, m), s)| (y - m) / s)
-                .collect()
-        });
-        Ok(z.collect())
-    }
-
-    /// Each axis's scale of its standard deviation (1: as fitted).
-    pub fn std_scales(&self) -> Vec<f64> {
-        self.0.outputs.iter().map(|o| o.std_scale).collect()
-    }
-
     /// The model, recording how its options were chosen.
     pub fn with_selection(mut self, selection: Selection) -> Self {
         self.0.selection = Some(selection);
@@ -570,53 +524,6 @@ impl WrenchGp {
         }
         Ok(self.0.predict(x, with_std))
     }
-
-    /// Means and, when `with_std`, the standard deviation of a measured
-    /// target: the GP's latent one ([`WrenchGp::predict`], what the
-    /// estimator publishes and the controller's doubt stop reads) with its
-    /// noise added in quadrature, times the axis's scale
-    /// ([`WrenchGp::with_std_scales`]). Held-out errors are judged against
-    /// it ([`crate::learn::models::metrics::coverage`]).
-    pub fn predict_observed(
-        &self,
-        x: ArrayView2<f64>,
-        with_std: bool,
-    ) -> Result<Prediction, ModelError> {
-        let (mean, mut std) = self.predict(x, with_std)?;
-        if !with_std {
-            return Ok(Prediction { mean, std: None });
-        }
-        for (mut col, o) in std.columns_mut().into_iter().zip(&self.0.outputs) {
-            let noise = o.gp.hyper().noise_var.sqrt() * o.target_scale;
-            col.mapv_inplace(|s| s.hypot(noise) * o.std_scale);
-        }
-        Ok(Prediction {
-            mean,
-            std: Some(std),
-        })
-    }
-}
-
-/// The scale that puts 95 % of held-out standardised errors `z` (error
-/// over the model's observed standard deviation) within two standard
-/// deviations: the 95th percentile of `|z|` over 1.96 (one scale of the
-/// standard deviation per axis, fitted on held-out errors), at least 1: a
-/// few held-out rows never make a model surer than its GPs are (on a
-/// simulated unit, a scale of 0.74 from its recording's last trial left
-/// another session's fz errors within two standard deviations 48 % of the
-/// time). None without a finite one.
-pub fn std_scale(z: &[f64]) -> Option<f64> {
-    let mut a: Vec<f64> = z
-        .iter()
-        .map(|v| v.abs())
-        .filter(|v| v.is_finite())
-        .collect();
-    if a.is_empty() {
-        return None;
-    }
-    a.sort_by(f64::total_cmp);
-    let q95 = a[((a.len() as f64 * 0.95).ceil() as usize).clamp(1, a.len()) - 1];
-    Some((q95 / 1.96).max(1.0)).filter(|s| s.is_finite())
 }
 
 /// The largest floor of a network mean's GP's signal variance, in units of
