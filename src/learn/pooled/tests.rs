@@ -206,9 +206,10 @@ fn adaptation_scores_every_candidate_on_the_held_out_rows_and_keeps_the_best() {
     assert_eq!(choice.held_out_rows, held_out(&new_tared).1.len());
     assert_eq!(model.adapted_from().is_some(), choice.chosen == "adapted");
     assert_eq!(model.adapt_choice(), Some(&choice));
-    // Its standard deviations were scaled on the held-out rows.
+    // Its standard deviations were scaled on the held-out rows, never down
+    // (std_scale's own test checks the scale).
     assert!(
-        model.std_scales().iter().all(|s| *s > 0.0 && *s != 1.0),
+        (model.std_scales().iter()).all(|s| *s >= 1.0 && s.is_finite()),
         "{:?}",
         model.std_scales()
     );
