@@ -37,7 +37,7 @@ PY
     said=$("$bin" adapt --model "$out/base.json" --data "$data" --out "$out/pool.json")
     "$bin" adapt --model "$out/base.json" --data "$data" --no-pool --out "$out/adapted.json" >/dev/null
     scores=$(echo "$said" | grep -E '^  (adapted|pooled) ' | sed -E 's/.*\(([0-9.]+)\).*/\1/' | paste -sd/ | sed 's#/# / #')
-    chosen=$(echo "$said" | grep -q 'retrained (pooled)' && echo pooled || echo adapted)
+    chosen=$(echo "$said" | grep -q '^pooled from ' && echo pooled || echo adapted)
     test="$out/u${u}s3.csv"
     echo "| $u | $label | $scores | $chosen | $(rmse "$out/base.json" "$test") | $(rmse "$out/adapted.json" "$test") | $(rmse "$out/pool.json" "$test") |"
   done

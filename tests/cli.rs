@@ -413,7 +413,7 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
         !table.is_empty() && json["selection"]["budget_s"] == 4.0,
         "{json}"
     );
-    assert_eq!(json["version"], 7);
+    assert_eq!(json["version"], 8);
     // The data it was trained on, by reference.
     let files = &json["trained_on"]["files"];
     assert_eq!(files[0]["path"], d, "{files}");
@@ -427,8 +427,8 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
         out.contains("chosen by `train --select`") && out.contains("--select: 2-fold"),
         "{out}"
     );
-    // A budget must be a time; one trial per set cannot be cross-validated
-    // by trials.
+    // A budget must be a time; one trial per set is cross-validated on
+    // contiguous blocks of it.
     let o = run(&[
         "train",
         "--select",
@@ -441,8 +441,22 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
     ]);
     refused_saying(&o, "--budget-s 0");
     let one = collect_short(dir.path(), "1", "3");
-    let o = run(&["train", "--select", "--data", &one, "--out", m]);
-    refused_saying(&o, "at least 2 needed");
+    let o = run(&[
+        "train",
+        "--select",
+        "--data",
+        &one,
+        "--budget-s",
+        "1",
+        "--out",
+        m,
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    for set in 1..=4 {
+        let cut = format!("set {set} is one trial: cross-validated on 5 contiguous blocks of it");
+        assert!(out.contains(&cut), "{out}");
+    }
 }
 
 #[test]
@@ -623,7 +637,7 @@ fn a_new_unit_is_adapted_to_and_sessions_are_left_out_in_turn() {
     assert!(o.status.success(), "{err}");
     assert!(out.contains("with 80 s of data (8000 rows)"), "{out}");
     assert!(
-        out.contains("pooled retraining not considered: pooling switched off"),
+        out.contains("pooled retraining: not considered: pooling switched off"),
         "{out}"
     );
     let file: serde_json::Value = serde_json::from_slice(&std::fs::read(adapted).unwrap()).unwrap();
@@ -722,7 +736,7 @@ fn pooling_wins_where_adapting_cannot_and_is_skipped_without_the_base_s_data(
     };
     let said = adapt(&[]);
     assert!(said.contains("pooled retraining: 16000 base rows of 2 file(s)\nheld out 2000 rows of the new data: RMSE (score)"), "{said}");
-    assert!(said.contains("retrained (pooled)"), "{said}");
+    assert!(said.contains("\npooled from "), "{said}");
     let file: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
     let choice = &file["adapt_choice"];
     assert_eq!(choice["chosen"], "pooled", "{choice}");
@@ -760,7 +774,7 @@ fn pooling_wins_where_adapting_cannot_and_is_skipped_without_the_base_s_data(
     std::fs::rename(base_data[1], &moved).unwrap();
     let said = adapt(&[]);
     let why = format!(
-        "pooled retraining not considered: its training data file {} is missing",
+        "pooled retraining: not considered: its training data file {} is missing",
         base_data[1]
     );
     assert_eq!(said.matches(&why).count(), 1, "{said}");
@@ -1181,7 +1195,9 @@ fn nail_camera_data_are_collected_trained_on_and_scored_with_the_cnn() {
     let o = run(&["train", "--data", d, "--mean", "affine", "--out", m]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        text(&o).1.contains("expected zero, linear or cubic"),
+        text(&o)
+            .1
+            .contains("expected zero, linear, cubic or network"),
         "{:?}",
         text(&o)
     );

@@ -93,7 +93,9 @@ pub async fn run() -> Result<(), RosError> {
         &skip,
         super::describe_shared,
     )?;
+    let loading = std::time::Instant::now();
     let (model, file) = load_model(&model_file, &params.default_model)?;
+    tracing::info!("model ready after {:.1} s", loading.elapsed().as_secs_f64());
     if let (true, Some(file)) = (model_file.is_empty(), &file) {
         // Says which file it estimates with (the calibration adapts it).
         let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
@@ -135,7 +137,7 @@ fn load_model(model_file: &str, recipe: &Recipe) -> Result<(WrenchGp, Option<Pat
     }
     let mut said = || {
         tracing::info!(
-            "training the default model ({}, about 10 s)",
+            "training the default model ({}): no estimate until it is ready",
             recipe.describe()
         )
     };
