@@ -5,9 +5,8 @@
 //! The search starts from the defaults within what the data hold
 //! ([`Space`]: the channels the data have, the options the user fixed) and
 //! changes one option at a time, going on from the candidate that would be
-//! chosen so far: the options
-//! that change the model's form first (input scaling, prior mean, the GP's
-//! kind and size), the channels last. Each candidate is trained as `train`
+//! chosen so far: the options that change the model's form first (input
+//! scaling, prior mean, the GP's kind and size), the channels last. Each candidate is trained as `train`
 //! trains it (every training row of a fold; the exact GP on its own
 //! subset; a sparse GP's search on fewer rows, `scoring`), its search
 //! started warm where the same form was fitted before
@@ -15,8 +14,8 @@
 //! wall and CPU seconds recorded, and its estimate's latency). The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. A set
-//! recorded as one trial is cut into contiguous blocks, each a trial. When the
-//! budget runs out the search stops, at the latest after the fold that
+//! recorded as one trial is cut into contiguous blocks, each a trial. When
+//! the budget runs out the search stops, at the latest after the fold that
 //! passed it, and says what it did not try. The defaults are scored
 //! whatever the budget: they are what every other candidate must beat.
 //! Among the candidates within noise of the best score, the simplest, then
