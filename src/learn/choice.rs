@@ -19,7 +19,7 @@
 //! passed it, and says what it did not try. The defaults are scored
 //! whatever the budget: they are what every other candidate must beat.
 //! Among the candidates within noise of the best score, the simplest, then
-//! the fastest, is chosen ([`pick`]).
+//! the fastest, is chosen (`pick.rs`).
 
 use std::collections::BTreeMap;
 use std::time::Instant;

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use ndarray::ArrayView2;
+use ndarray::{Array2, ArrayView2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -19,7 +19,7 @@ use super::models::metrics::{
 use super::models::nn::{NnLearner, NnParams};
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{GpLearner, ModelError, TareSpec, WrenchGp};
-use super::models::{LearnError, Learner, Prediction};
+use super::models::{Fitted, LearnError, Learner, Prediction};
 use crate::exit::{Classify, ExitClass};
 use crate::params::Checked;
 use crate::wrench::{Axis, AxisSet};
@@ -262,11 +262,36 @@ fn fit_and_predict(
         let fit_s = t0.elapsed().as_secs_f64();
         out.push(Predictions {
             name: l.name(),
-            pred: fitted.predict(test, true)?,
+            pred: with_sampled_std(fitted.as_ref(), test)?,
             fit_s,
         });
     }
     Ok((out, subset.len()))
+}
+
+/// Test rows a model's standard deviation is computed on at most, evenly
+/// spread (an exact GP's costs O(n^2) a row: on 16000 rows, as long as its
+/// fit).
+const COVERAGE_ROWS: usize = 2000;
+
+/// `fitted`'s means on every row of `test` and, for a model with a
+/// standard deviation, that on at most [`COVERAGE_ROWS`] of them (NaN on
+/// the others, which [`coverage`] leaves out).
+fn with_sampled_std(fitted: &dyn Fitted, test: &Dataset) -> Result<Prediction, LearnError> {
+    let mut pred = fitted.predict(test, false)?;
+    if !fitted.has_std() {
+        return Ok(pred);
+    }
+    let step = test.len().div_ceil(COVERAGE_ROWS).max(1);
+    let rows: Vec<usize> = (0..test.len()).step_by(step).collect();
+    if let Some(some) = fitted.predict(&test.select(&rows), true)?.std {
+        let mut std = Array2::from_elem(pred.mean.raw_dim(), f64::NAN);
+        for (r, &i) in some.rows().into_iter().zip(&rows) {
+            std.row_mut(i).assign(&r);
+        }
+        pred.std = Some(std);
+    }
+    Ok(pred)
 }
 
 /// Trial-wise k-fold cross-validation of the GP and the network on the same

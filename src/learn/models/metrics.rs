@@ -56,9 +56,9 @@ pub fn r2_columns(y: ArrayView2<f64>, yhat: ArrayView2<f64>) -> Array1<f64> {
 }
 
 /// Per column, the share of the errors `y - yhat` within `k` standard
-/// deviations `std` (the same shape): about 0.68 for `k = 1` and 0.95 for
-/// `k = 2` when the errors are Gaussian with that standard deviation; NaN
-/// for an empty column.
+/// deviations `std` (the same shape; rows whose `std` is NaN are left out):
+/// about 0.68 for `k = 1` and 0.95 for `k = 2` when the errors are Gaussian
+/// with that standard deviation; NaN for a column with no such row.
 ///
 /// # Panics
 /// If the shapes differ.
@@ -73,11 +73,11 @@ pub fn coverage(
         "coverage: shapes differ"
     );
     let within = |y: ArrayView1<f64>, yhat: ArrayView1<f64>, std: ArrayView1<f64>| {
-        let n = y.len() as f64;
-        let inside = (y.iter().zip(yhat).zip(std))
-            .filter(|((y, m), s)| (*y - *m).abs() <= k * **s)
-            .count();
-        inside as f64 / n
+        let rows = (y.iter().zip(yhat).zip(std)).filter(|(_, s)| !s.is_nan());
+        let (n, inside) = rows.fold((0usize, 0usize), |(n, i), ((y, m), s)| {
+            (n + 1, i + usize::from((y - m).abs() <= k * s))
+        });
+        inside as f64 / n as f64
     };
     let cols = y
         .columns()
@@ -190,6 +190,22 @@ pub fn direction_error_at_peaks(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn coverage_counts_errors_within_k_standard_deviations_where_there_is_one() {
+        let y = ndarray::array![[0.0], [0.0], [0.0], [0.0]];
+        let yhat = ndarray::array![[0.5], [-1.5], [2.5], [9.0]];
+        let std = ndarray::array![[1.0], [1.0], [1.0], [f64::NAN]];
+        let c1 = coverage(y.view(), yhat.view(), std.view(), 1.0);
+        let c2 = coverage(y.view(), yhat.view(), std.view(), 2.0);
+        assert!((c1[0] - 1.0 / 3.0).abs() < 1e-15 && (c2[0] - 2.0 / 3.0).abs() < 1e-15);
+        let (mean, se) = mean_and_error(&[1.0, 2.0, 3.0, 4.0]).unwrap();
+        assert!(
+            (mean - 2.5).abs() < 1e-15 && (se - (5.0f64 / 12.0).sqrt()).abs() < 1e-12,
+            "{se}"
+        );
+        assert_eq!(mean_and_error(&[1.0]), None);
+    }
     use ndarray::{array, Array1};
 
     #[test]

@@ -226,7 +226,7 @@ fn kernel_column(col: &mut [f64], qa: &[f64], qb: f64, signal_var: f64) {
 
 /// `tanh` of every value in place (the network's hidden units), as
 /// `sign(x) (1 - e) / (1 + e)` with `e = e^(-2|x|)` from the kernels'
-/// exponential, compiled as [`kernel_column`] is: within 1e-15 of
+/// exponential, compiled as the kernel's columns are: within 1e-15 of
 /// `f64::tanh`, which after the wide matrix products took most of a
 /// network's training.
 pub fn tanh_in_place(values: &mut [f64]) {
