@@ -15,9 +15,12 @@ use std::time::Instant;
 use super::choice::Choice;
 use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{training_fit, EvalError};
-use super::models::gp::{GpParams, MeanKind};
+use super::models::gp::GpParams;
 use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, TrainedOn, WrenchGp};
-use super::pooled::{base_data, best, data_file, lineage, spread, std_scales, validate};
+use super::pooled::{
+    base_data, best, data_file, lineage, spread, std_scales, validate, with_network_mean, BaseData,
+    Unavailable,
+};
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
 
@@ -165,12 +168,7 @@ pub fn fit(
         .gp_params(base)
         .validate()
         .map_err(ModelError::from)?;
-    let network_params = GpParams {
-        mean: MeanKind::Network,
-        ..GpParams::clone(&new_params)
-    }
-    .validate()
-    .map_err(ModelError::from)?;
+    let network_params = with_network_mean(&new_params)?;
     let scratch = |params| {
         WrenchGp::train_scaled(
             &train_new,
@@ -272,18 +270,23 @@ pub fn fit(
         compute_s: t0.elapsed().as_secs_f64(),
         peak_force_n: recorded.peak_force_n,
         session: recorded.session,
-        pooling: Some(match &pool {
-            Ok(b) if b.params.inducing.is_some() => format!(
-                "{}; the exact GP of the from-scratch candidate, not the base's sparse one \
-                 (its fit alone takes about 30 s)",
-                b.describe()
-            ),
-            Ok(b) => b.describe(),
-            Err(why) => format!("not considered: {why}"),
-        }),
+        pooling: Some(pooling_note(&pool)),
     };
     let model = model.with_trained_on(trained_on);
     Ok((model.with_calibration(record.clone()), record))
+}
+
+/// What pooling took, or why it was not a candidate.
+fn pooling_note(pool: &Result<BaseData, Unavailable>) -> String {
+    match pool {
+        Ok(b) if b.params.inducing.is_some() => format!(
+            "{}; the exact GP of the from-scratch candidate, not the base's sparse one \
+             (its fit alone takes about 30 s)",
+            b.describe()
+        ),
+        Ok(b) => b.describe(),
+        Err(why) => format!("not considered: {why}"),
+    }
 }
 
 /// The calibration's GP options: the defaults with one optimiser start

@@ -285,6 +285,16 @@ pub fn validate(
     })
 }
 
+/// `params` with the network as the GPs' prior mean: the candidate of the
+/// new data alone beside the GP (`adapt`, the calibration).
+pub fn with_network_mean(params: &GpParams) -> Result<Checked<GpParams>, ModelError> {
+    let p = GpParams {
+        mean: MeanKind::Network,
+        ..params.clone()
+    };
+    Ok(p.validate()?)
+}
+
 /// Held-out rows whose errors set a chosen model's standard deviation
 /// scale (evenly spread).
 const CALIBRATION_ROWS: usize = 500;
@@ -373,12 +383,7 @@ impl Adaptation<'_> {
             Ok(b) => Some((b, b.params.clone().validate().map_err(ModelError::from)?)),
             Err(_) => None,
         };
-        let network = GpParams {
-            mean: MeanKind::Network,
-            ..GpParams::clone(self.params)
-        }
-        .validate()
-        .map_err(ModelError::from)?;
+        let network = with_network_mean(self.params)?;
         let fit = |name: &str,
                    d: &Dataset,
                    p: &mut (dyn FnMut(Axis, FitProgress) + Send)|
