@@ -120,6 +120,18 @@ pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     estimates: u64,
     /// The last estimate's force magnitude (N).
     force_n: f64,
+    /// Seconds from the node's start to its model's being ready.
+    ready_after_s: Option<f64>,
+}
+
+/// The status while the model loads (the default model trains on first
+/// use): a warning, no estimate yet, and the seconds so far.
+pub fn loading_status(elapsed_s: f64) -> Status {
+    let mut status = Status::ok("loading the model: no estimate yet");
+    status.raise(Level::Warn, "");
+    status.value("model_ready", false);
+    status.value("model_loading_s", format!("{elapsed_s:.0}"));
+    status
 }
 
 impl<S: SensorInput> EstimatorNode<S> {
@@ -137,6 +149,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             dropped: Dropped::default(),
             refusal: None,
             estimates: 0,
+            ready_after_s: None,
             force_n: 0.0,
         })
     }
@@ -149,6 +162,13 @@ impl<S: SensorInput> EstimatorNode<S> {
         }
         self.stale_timeout_s = Some(seconds);
         Ok(self)
+    }
+
+    /// Says on its status that its model was ready `seconds` after the node
+    /// started (loaded, or trained on first use).
+    pub fn with_ready_after(mut self, seconds: f64) -> Self {
+        self.ready_after_s = Some(seconds);
+        self
     }
 
     /// The sensor's input (its baseline).
@@ -199,6 +219,10 @@ impl<S: SensorInput> EstimatorNode<S> {
                 Level::Warn,
                 &format!("; {} readings dropped so far", d.total()),
             );
+        }
+        status.value("model_ready", true);
+        if let Some(s) = self.ready_after_s {
+            status.value("model_ready_after_s", format!("{s:.1}"));
         }
         status.value("estimates", self.estimates);
         status.value("dropped_refused", d.refused);
@@ -419,13 +443,30 @@ mod tests {
     }
 
     #[test]
-    fn the_status_says_taring_then_estimating_then_what_was_dropped() {
-        let mut node = EstimatorNode::<BioTacInput>::new(electrode_model(), true).unwrap();
+    fn the_status_says_loading_then_taring_then_estimating_then_what_was_dropped() {
+        let status = loading_status(12.4);
+        assert_eq!(status.level, Level::Warn);
+        assert!(status.message.contains("no estimate yet"), "{status:?}");
+        assert!(status
+            .values
+            .contains(&("model_ready".into(), "false".into())));
+        assert!(status
+            .values
+            .contains(&("model_loading_s".into(), "12".into())));
+        let mut node = EstimatorNode::<BioTacInput>::new(electrode_model(), true)
+            .unwrap()
+            .with_ready_after(27.04);
         let status = node.status();
         assert_eq!(
             (status.level, status.message.as_str()),
             (Level::Warn, "taring")
         );
+        assert!(status
+            .values
+            .contains(&("model_ready".into(), "true".into())));
+        assert!(status
+            .values
+            .contains(&("model_ready_after_s".into(), "27.0".into())));
         for i in 0..4 {
             node.on_received(&reading(i as f64, 0), i as f64);
         }

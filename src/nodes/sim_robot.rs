@@ -110,6 +110,9 @@ pub struct SimRobot {
     contact: PlaneContact,
     biotac: BioTacSim,
     path: Option<FingerPath>,
+    /// When the finger's path began (s of simulated time); infinite while
+    /// it waits ([`SimRobot::hold_finger`]).
+    path_start_s: f64,
     contact_x_mm: f64,
     /// The contact point's angle about the BioTac's axis (rad), from its
     /// orientation to the body.
@@ -213,6 +216,7 @@ impl SimRobot {
             contact: PlaneContact::new(skin, body),
             biotac,
             path,
+            path_start_s: 0.0,
             contact_x_mm: p.contact_x_mm,
             contact_angle: 0.0,
             start,
@@ -233,6 +237,28 @@ impl SimRobot {
             last_offset: Vector3::zeros(),
             duration_s: p.duration_s,
         })
+    }
+
+    /// Keeps the finger at the start of its path until
+    /// [`SimRobot::start_finger`] (the scene over ROS waits for estimates:
+    /// a person pushes a finger that feels).
+    pub fn hold_finger(&mut self) {
+        self.path_start_s = f64::INFINITY;
+    }
+
+    /// Starts the finger's path now, if it was held; true when this call
+    /// started it.
+    pub fn start_finger(&mut self) -> bool {
+        let held = self.path.is_some() && self.path_start_s.is_infinite();
+        if held {
+            self.path_start_s = self.t;
+        }
+        held
+    }
+
+    /// The finger at simulated time `t`.
+    fn finger_at(&self, t: f64) -> Option<FingerState> {
+        self.path.as_ref().map(|p| p.at(t - self.path_start_s))
     }
 
     /// Simulated time (s).
@@ -293,8 +319,8 @@ impl SimRobot {
             self.contact_angle = (-n.y).atan2(n.z);
             let point = SurfacePoint::at(self.contact_x_mm, self.contact_angle).point_mm * 1e-3;
             let pad = (pose * nalgebra::Point3::from(point)).coords;
-            let plane = match &self.path {
-                Some(path) => self.plane0 + self.start.rotation * path.at(self.t).offset,
+            let plane = match self.finger_at(self.t) {
+                Some(finger) => self.plane0 + self.start.rotation * finger.offset,
                 None => self.plane0,
             };
             let f_world = self.contact.step(&pad, &plane, &self.normal, self.dt);
@@ -352,7 +378,7 @@ impl SimRobot {
             ft,
             offset,
             velocity,
-            finger: self.path.as_ref().map(|p| p.at(self.t)),
+            finger: self.finger_at(self.t),
         }
     }
 }
@@ -382,6 +408,39 @@ pub fn check_real_time_factor(speed: f64, sim_time: bool) -> Result<(), ParamsEr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control::TaskKind;
+    use crate::runtime::scene::Scene;
+
+    /// The guided scene's simulated robot after `held_s` of a held finger,
+    /// then `run_s` from its start; the finger's offset at each end (m).
+    fn finger_after(held_s: f64, run_s: f64) -> (f64, f64) {
+        let scene = Scene::builtin(TaskKind::Guided).unwrap();
+        let (_, mut sim, _) = scene
+            .controller_and_sim(&BioTacSimConfig::default(), 0)
+            .unwrap();
+        let period_s = sim.period_s();
+        let periods = |s: f64| (s / period_s).round() as usize;
+        let moved = |sim: &mut SimRobot| sim.sample().finger.unwrap().offset.norm();
+        sim.hold_finger();
+        for _ in 0..periods(held_s) {
+            sim.advance();
+        }
+        let held = moved(&mut sim);
+        assert!(sim.start_finger() && !sim.start_finger());
+        for _ in 0..periods(run_s) {
+            sim.advance();
+        }
+        (held, moved(&mut sim))
+    }
+
+    #[test]
+    fn a_held_finger_waits_and_then_runs_its_whole_path_from_its_start() {
+        // The guided scene's path: waits 2 s, then pushes 30 mm along x.
+        let (held, early) = finger_after(5.0, 1.9);
+        assert_eq!((held, early), (0.0, 0.0));
+        let (_, pushed) = finger_after(5.0, 3.2);
+        assert!((pushed - 0.030).abs() < 1e-3, "{pushed} m");
+    }
 
     #[test]
     fn a_real_time_factor_needs_simulated_time_and_stays_within_100() {

@@ -52,3 +52,30 @@ pub fn joint_names_param(node: &r2r::Node) -> Result<Vec<String>, RosError> {
         "The arm's joints on joint_states, in chain order; empty: the URDF's names.",
     )
 }
+
+/// The first description on `topic` that `build` takes (each refused one
+/// logged); any other published later is refused with a warning, the node
+/// keeping the arm it started with. None if the topic ends first.
+pub async fn first_taken<T>(
+    mut topic: BoxStream<'static, String>,
+    build: impl Fn(&str) -> Result<T, RosError>,
+) -> Option<T> {
+    let (built, used) = loop {
+        let text = topic.next().await?;
+        match build(&text) {
+            Ok(built) => break (built, text),
+            Err(e) => tracing::error!("robot description refused: {e}"),
+        }
+    };
+    tokio::spawn(async move {
+        while let Some(text) = topic.next().await {
+            if text != used {
+                tracing::warn!(
+                    "robot description refused: the node keeps the arm it started with; \
+                     restart it for another"
+                );
+            }
+        }
+    });
+    Some(built)
+}

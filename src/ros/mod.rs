@@ -141,6 +141,11 @@ pub fn create_node(name: &str) -> Result<r2r::Node, RosError> {
 pub struct RosClock(Arc<Mutex<r2r::Clock>>);
 
 impl RosClock {
+    /// The clock of `node` (it follows `/clock` under `use_sim_time:=true`).
+    pub fn of(node: &r2r::Node) -> Self {
+        RosClock(node.get_ros_clock())
+    }
+
     /// Seconds on the clock; NaN if it cannot be read (the controller's
     /// watchdog then halts) or if `/clock` has not ticked yet (0).
     pub fn now_s(&self) -> f64 {
@@ -158,7 +163,7 @@ impl RosClock {
 pub fn serve_parameters(node: &mut r2r::Node, live: RuntimeParams) -> Result<RosClock, RosError> {
     let (handler, _events) = node.make_derived_parameter_handler(Arc::new(Mutex::new(live)))?;
     tokio::spawn(handler);
-    Ok(RosClock(node.get_ros_clock()))
+    Ok(RosClock::of(node))
 }
 
 /// Declares the node's parameters with `defaults` (the shipped files'

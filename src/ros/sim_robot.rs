@@ -11,7 +11,8 @@
 //! Ground truth for tests and plots, in the BioTac frame at the start
 //! (frame_id `<frame_id>_start`): `~/biotac_twist`, the BioTac's velocity
 //! over the last period, and, when a finger moves the body, `~/finger_twist`
-//! (geometry_msgs/TwistStamped, linear part only).
+//! (geometry_msgs/TwistStamped, linear part only). A finger starts its
+//! path at the first estimate on `biotac/wrench`.
 //!
 //! With `use_sim_time:=true` it is the clock: it publishes its simulated
 //! time on `/clock` every period and stamps with it, and it may run
@@ -26,7 +27,7 @@ use r2r::std_msgs::msg::Float64MultiArray;
 use r2r::QosProfile;
 use std::sync::{Arc, Mutex};
 
-use super::description::{joint_names_param, robot_description, Description};
+use super::description::{first_taken, joint_names_param, robot_description, Description};
 use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
@@ -121,6 +122,13 @@ pub async fn run() -> Result<(), RosError> {
         node.create_publisher::<TwistStamped>("~/biotac_twist", QosProfile::default())?;
     let finger_twist =
         node.create_publisher::<TwistStamped>("~/finger_twist", QosProfile::default())?;
+    // A finger waits for the estimator's first estimate: a person pushes a
+    // finger that feels (while the default model trains, it would push a
+    // blind arm).
+    let estimates = match p.finger_path {
+        Some(_) => Some(node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?),
+        None => None,
+    };
     let start_frame = format!("{frame_id}_start");
     let clock_pub = node.create_publisher::<ClockMsg>("/clock", QosProfile::default())?;
     let clock = super::serve_parameters(&mut node, RuntimeParams::none())?;
@@ -134,24 +142,16 @@ pub async fn run() -> Result<(), RosError> {
         let sim = SimRobot::new(p.clone(), robot, &BioTacSimConfig::default(), seed)?;
         Ok((sim, names))
     };
-    let (mut sim, names, rest) = match description {
-        Description::Given(text) => {
-            let (sim, names) = build(&text)?;
-            (sim, names, None)
-        }
-        Description::Topic(mut topic) => {
+    let (mut sim, names) = match description {
+        Description::Given(text) => build(&text)?,
+        Description::Topic(topic) => {
             tracing::info!(
                 "waiting for the robot description on {}: simulating nothing until it comes",
                 super::description::DESCRIPTION_TOPIC
             );
-            loop {
-                let Some(text) = topic.next().await else {
-                    return Ok(());
-                };
-                match build(&text) {
-                    Ok((sim, names)) => break (sim, names, Some((topic, text))),
-                    Err(e) => tracing::error!("robot description refused: {e}"),
-                }
+            match first_taken(topic, build).await {
+                Some(built) => built,
+                None => return Ok(()),
             }
         }
     };
@@ -162,19 +162,17 @@ pub async fn run() -> Result<(), RosError> {
         robot.links.0,
         robot.links.1
     );
-    if let Some((mut topic, used)) = rest {
+    let estimating = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    if let Some(mut estimates) = estimates {
+        sim.hold_finger();
+        tracing::info!("the finger waits for the first estimate on biotac/wrench");
+        let flag = estimating.clone();
         tokio::spawn(async move {
-            while let Some(text) = topic.next().await {
-                if text != used {
-                    tracing::warn!(
-                        "robot description refused: sim_robot simulates the arm it started \
-                         with; restart it for another"
-                    );
-                }
+            if estimates.next().await.is_some() {
+                flag.store(true, std::sync::atomic::Ordering::Relaxed);
             }
         });
     }
-
     let dof = sim.robot().dof();
     let qdot = Arc::new(Mutex::new(JointVector::zeros(dof)));
     let q = qdot.clone();
@@ -197,6 +195,9 @@ pub async fn run() -> Result<(), RosError> {
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     for step in 1u64.. {
         ticker.tick().await;
+        if estimating.load(std::sync::atomic::Ordering::Relaxed) && sim.start_finger() {
+            tracing::info!("estimates flow: the finger starts its path");
+        }
         let now = if sim_time {
             let t = step as f64 * sim.period_s();
             let msg = ClockMsg {

@@ -35,7 +35,8 @@ use super::{convert, RosClock, RosError};
 use crate::control::TaskKind;
 use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::models::wrench_gp::WrenchGp;
-use crate::nodes::estimator::{Dropped, EstimatorParams};
+use crate::nodes::estimator::{loading_status, Dropped, EstimatorParams};
+use crate::nodes::status::Status;
 use crate::nodes::EstimatorNode;
 use crate::params::{layered_flat_params, WORLD_YAML};
 use crate::sensor::{SensorInput, SensorSpec};
@@ -43,7 +44,7 @@ use crate::wrench::WrenchEstimate;
 
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
-    let node = super::create_node("wrench_estimator")?;
+    let mut node = super::create_node("wrench_estimator")?;
     let model_file = super::own_string(
         &node,
         "model_file",
@@ -93,9 +94,10 @@ pub async fn run() -> Result<(), RosError> {
         &skip,
         super::describe_shared,
     )?;
+    let out = Outputs::new(&mut node, frame_id)?;
     let loading = std::time::Instant::now();
-    let (model, file) = load_model(&model_file, &params.default_model)?;
-    tracing::info!("model ready after {:.1} s", loading.elapsed().as_secs_f64());
+    let (model, file) = load_reporting(&model_file, &params.default_model, &out, &node).await?;
+    let ready_after_s = loading.elapsed().as_secs_f64();
     if let (true, Some(file)) = (model_file.is_empty(), &file) {
         // Says which file it estimates with (the calibration adapts it).
         let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
@@ -103,13 +105,10 @@ pub async fn run() -> Result<(), RosError> {
             param.value = r2r::ParameterValue::String(file.display().to_string());
         }
     }
-    let name = if model_file.is_empty() {
-        "default"
-    } else {
-        &model_file
-    };
+    let name = Some(model_file.as_str()).filter(|f| !f.is_empty());
+    let name = name.unwrap_or("default");
     tracing::info!(
-        "{}, with_std {}, stale after {stale_s} s",
+        "{}: ready after {ready_after_s:.1} s; with_std {}, stale after {stale_s} s",
         describe_model(name, &model),
         params.with_std,
     );
@@ -117,13 +116,35 @@ pub async fn run() -> Result<(), RosError> {
         default_model: params.default_model.clone(),
         with_std: params.with_std,
         stale_s,
-        frame_id,
+        ready_after_s,
         tare_file,
         tare_max_age_s,
     };
     match model.sensor() {
-        SensorSpec::Biotac { .. } => biotac::run(node, model, settings).await,
-        SensorSpec::Nail(_) => nail::run(node, model, settings).await,
+        SensorSpec::Biotac { .. } => biotac::run(node, model, settings, out).await,
+        SensorSpec::Nail(_) => nail::run(node, model, settings, out).await,
+    }
+}
+
+/// [`load_model`] on a blocking thread, saying on `/diagnostics` once a
+/// second that no estimate comes yet (training the default model takes
+/// tens of seconds on first use).
+async fn load_reporting(
+    model_file: &str,
+    recipe: &Recipe,
+    out: &Outputs,
+    node: &r2r::Node,
+) -> Result<(WrenchGp, Option<PathBuf>), RosError> {
+    let clock = RosClock::of(node);
+    let (file, recipe) = (model_file.to_string(), recipe.clone());
+    let start = std::time::Instant::now();
+    let mut loading = tokio::task::spawn_blocking(move || load_model(&file, &recipe));
+    let mut report = tokio::time::interval(REPORT);
+    loop {
+        tokio::select! {
+            loaded = &mut loading => return loaded?,
+            _ = report.tick() => out.publish_status(loading_status(start.elapsed().as_secs_f64()), &clock),
+        }
     }
 }
 
@@ -156,8 +177,9 @@ fn describe_model(name: &str, model: &WrenchGp) -> String {
         .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))
         .collect();
     format!(
-        "model {name} ({}; {} training samples), axes {}",
+        "model {name} ({}; prior mean {}; {} training samples), axes {}",
         gps.join(", "),
+        model.prior_mean(),
         model.n_train(),
         model.axes()
     )
@@ -169,7 +191,8 @@ struct Settings {
     default_model: Recipe,
     with_std: bool,
     stale_s: f64,
-    frame_id: String,
+    /// Seconds from the start to the model's being ready.
+    ready_after_s: f64,
     tare_file: String,
     tare_max_age_s: f64,
 }
@@ -225,7 +248,11 @@ impl Outputs {
             }
         }
         self.reported = d;
-        let status = estimator.status();
+        self.publish_status(estimator.status(), clock);
+    }
+
+    /// Publishes the node's status on `/diagnostics`.
+    fn publish_status(&self, status: Status, clock: &RosClock) {
         let msg = convert::status_msg(clock.now_s(), "wrench_estimator", "", status);
         if let Err(e) = self.diagnostics.publish(&msg) {
             tracing::warn!("diagnostics: {e}");

@@ -64,7 +64,12 @@ fn take_model(
 }
 
 /// Runs the BioTac estimator until the process ends.
-pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Result<(), RosError> {
+pub(super) async fn run(
+    mut node: r2r::Node,
+    model: WrenchGp,
+    s: Settings,
+    mut out: Outputs,
+) -> Result<(), RosError> {
     let input = crate::ros::own_string(
         &node,
         "input",
@@ -79,7 +84,8 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
     )?;
     let source = ReadingSource::from_params(&input, finger)?;
     let estimator = EstimatorNode::<BioTacInput>::new(model, s.with_std)
-        .and_then(|e| e.with_stale_timeout(s.stale_s))?;
+        .and_then(|e| e.with_stale_timeout(s.stale_s))?
+        .with_ready_after(s.ready_after_s);
     let tare_path = match s.tare_file.as_str() {
         "" => {
             crate::learn::default_model::cache_dir().map(|d| d.join("wrench_estimator_tare.json"))
@@ -107,7 +113,6 @@ pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Re
         subscribed => subscribed?,
     };
     tracing::info!("reading {} on {}", source.type_name(), source.topic());
-    let mut out = Outputs::new(&mut node, s.frame_id)?;
     let estimator = Arc::new(Mutex::new(estimator));
     let shared = estimator.clone();
     let recipe = s.default_model;

@@ -16,11 +16,16 @@ use crate::ros::{convert, RosError};
 use crate::sensor::nail::NailInput;
 
 /// Runs the nail-camera estimator until the process ends.
-pub(super) async fn run(mut node: r2r::Node, model: WrenchGp, s: Settings) -> Result<(), RosError> {
+pub(super) async fn run(
+    mut node: r2r::Node,
+    model: WrenchGp,
+    s: Settings,
+    mut out: Outputs,
+) -> Result<(), RosError> {
     let mut estimator = EstimatorNode::<NailInput>::new(model, s.with_std)
-        .and_then(|e| e.with_stale_timeout(s.stale_s))?;
+        .and_then(|e| e.with_stale_timeout(s.stale_s))?
+        .with_ready_after(s.ready_after_s);
     let mut images = node.subscribe::<Image>("camera/image", QosProfile::sensor_data())?;
-    let mut out = Outputs::new(&mut node, s.frame_id)?;
     let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none())?;
     crate::ros::spin(node);
 

@@ -395,6 +395,24 @@ impl WrenchGp {
         self
     }
 
+    /// The GPs' prior mean, for messages: `network`, `base model` (an
+    /// adapted model), `cubic`, `linear` (on some axis) or `zero`.
+    pub fn prior_mean(&self) -> &'static str {
+        let f = &self.0;
+        let linear = || f.outputs.iter().filter_map(|o| o.linear.as_ref());
+        if f.network.is_some() {
+            "network"
+        } else if f.prior.is_some() {
+            "base model"
+        } else if linear().any(|l| l.bend.is_some()) {
+            "cubic"
+        } else if linear().next().is_some() {
+            "linear"
+        } else {
+            "zero"
+        }
+    }
+
     /// The data it was trained on, by reference, when recorded.
     pub fn trained_on(&self) -> Option<&TrainedOn> {
         self.0.trained_on.as_ref()

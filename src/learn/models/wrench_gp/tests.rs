@@ -182,6 +182,7 @@ fn a_linear_mean_extrapolates_loads_back_and_is_checked() {
         2.0 * data.x[[i, 0]] - data.x[[i, 1]] + 0.5
     });
     let model = train_with_mean(&data, MeanKind::Linear);
+    assert_eq!(model.prior_mean(), "linear");
     let far = ndarray::aview2(&[[1000.0, -10.0, 0.0]]);
     let at = |m: &WrenchGp| m.predict(far, false).unwrap().0[[0, 0]];
     assert!((at(&model) - 2010.5).abs() < 1e-3, "{}", at(&model));
@@ -213,6 +214,7 @@ fn a_cubic_mean_round_trips_and_a_bad_bend_is_refused() {
         a + 0.3 * a.powi(3) - b
     });
     let model = train_with_mean(&data, MeanKind::Cubic);
+    assert_eq!(model.prior_mean(), "cubic");
     let fitted = model.predict(data.x.view(), false).unwrap().0;
     let worst = (&fitted - &data.y)
         .iter()
@@ -539,6 +541,7 @@ fn a_network_mean_carries_the_estimate_the_gps_its_doubt_and_the_file_both() {
         ..small_model_data()
     };
     let model = train_with_mean(&data, MeanKind::Network);
+    assert_eq!(model.prior_mean(), "network");
     let (mean, std) = model.predict(data.x.view(), true).unwrap();
     let worst = (&mean - &data.y).iter().fold(0.0f64, |m, e| m.max(e.abs()));
     assert!(worst < 0.3, "{worst}");

@@ -1,0 +1,98 @@
+"""The estimator over DDS on a model that is not a plain GP: the network as
+its GPs' prior mean (`train --mean network`, on the default model's
+simulated data). The guarded move holds on the wooden box with it, the
+published stddev of fz below the controller's `out_of_range.max_std_n`;
+then the peer publishes readings no press makes (every electrode 1500
+counts below its tare, the PDC as it is): the stddev rises past that limit
+and the controller's doubt stop ends the task `out_of_range`, the pad
+retracted out of contact.
+
+Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
+check, the figures, and "N passed, N failed".
+"""
+
+import copy
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+from rclpy.qos import qos_profile_sensor_data
+from geometry_msgs.msg import WrenchStamped
+from tactile_force_msgs.msg import BioTac
+
+import test_over_dds as dds
+from checks import check, summary
+
+MAX_STD_N = 0.05  # config/world.yaml, force_controller: out_of_range.max_std_n
+
+
+def network_model(work):
+    """A model with the network as its GPs' prior mean, on the data the
+    default model is trained on (collect --unit 1 --seed 1; fz, sparse GP
+    of 200 inducing points, as config/guarded_move.yaml's recipe)."""
+    tf = os.path.join(os.environ.get("TACTILE_FORCE_ROS2_BIN", os.path.join(dds.REPO, "target", "release")),
+                      "tactile_force")
+    data, model = os.path.join(work, "data"), os.path.join(work, "network.json")
+    subprocess.run([tf, "collect", "--unit", "1", "--seed", "1", "--out", data], check=True, capture_output=True)
+    subprocess.run([tf, "train", "--data", data, "--axes", "fz", "--inducing", "200", "--mean", "network",
+                    "--out", model], check=True, capture_output=True)
+    return model
+
+
+def doubt(peer, stds):
+    """Holding on the network-mean model, then readings no press makes."""
+    t0 = next(t for t, f in peer.ft_stamped if abs(f) > dds.CONTACT_N)
+    dds.check_hold("network mean, wooden_box", peer, t0, 6.0, 30)
+    holding = max(s for _, s in stds[-200:])
+    check(f"holding: stddev of fz below {MAX_STD_N} N", holding < MAX_STD_N, f"at most {holding:.4f} N")
+    # For 1 s among sim_robot's readings (the peer hears its own too: the
+    # reading copied is the one before).
+    pub = peer.node.create_publisher(BioTac, "biotac/readings", qos_profile_sensor_data)
+    pressed, t_odd = copy.deepcopy(peer.latest), time.monotonic()
+    for _ in range(100):
+        m = copy.deepcopy(pressed)
+        m.electrodes = [max(0, e - 1500) for e in m.electrodes]
+        m.header.stamp = peer.node.get_clock().now().to_msg()
+        pub.publish(m)
+        peer.spin(0.01)
+    odd = max((s for t, s in stds if t >= t_odd), default=0.0)
+    check(f"readings outside the model: stddev of fz above {MAX_STD_N} N", odd > MAX_STD_N, f"{odd:.3f} N")
+    stopped = peer.spin(10, lambda: any(name == "force_controller" and m.endswith(": out_of_range")
+                                        for name, _, m in peer.logs))
+    said = next((m for name, _, m in reversed(peer.logs) if name == "force_controller"), "")
+    check("the controller's doubt stop: the task ends out_of_range", stopped, said[:120])
+    peer.spin(5)
+    last = max(abs(f) for _, f in peer.ft_stamped[-50:])
+    check("retracted out of contact", last < dds.CONTACT_N, f"|fz| at most {last:.3f} N over the last 0.5 s")
+
+
+def main():
+    work = tempfile.mkdtemp(prefix="tactile_force_doubt_")
+    n = dds.Nodes("guarded_move.yaml", "wooden_box", estimator={"model_file": network_model(work)})
+    peer = dds.Peer(n.domain)
+    stds = []  # (receive time, std of fz)
+    peer.node.create_subscription(WrenchStamped, "biotac/wrench_stddev",
+                                  lambda m: stds.append((time.monotonic(), m.wrench.force.z)), 100)
+    ok = False
+    try:
+        runs = lambda: next((m for name, _, m in peer.logs if "prior mean" in m), None)  # noqa: E731
+        peer.spin(5, runs)
+        check("the estimator runs the network-mean model", "prior mean network" in (runs() or ""),
+              (runs() or "nothing on /rosout")[:120])
+        touched = peer.spin(60, lambda: any(abs(f) > dds.CONTACT_N for _, f in peer.ft_stamped))
+        check("contact", touched, f"{len(peer.forces)} ft_sensor/wrench messages")
+        if touched:
+            doubt(peer, stds)
+        ok = summary() == 0
+    finally:
+        peer.destroy()
+        n.stop(keep_logs=not ok)
+        shutil.rmtree(work, ignore_errors=True)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
