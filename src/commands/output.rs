@@ -93,19 +93,33 @@ pub(crate) fn print_selection(s: &Selection) {
         "    score  ± s.e. {} seconds  CPU s  est. µs  options",
         heads.join(" ")
     );
+    let cells = |rmse: &BTreeMap<Axis, f64>| {
+        let cells: Vec<String> = axes.iter().map(|a| format!("{:>8.4}", rmse[a])).collect();
+        cells.join(" ")
+    };
+    let error =
+        |folds: &[f64]| mean_and_error(folds).map_or("-".into(), |(_, e)| format!("{e:.4}"));
     for (i, r) in s.table.iter().enumerate() {
         let mark = if i == s.chosen { '*' } else { ' ' };
-        let cells: Vec<String> = axes.iter().map(|a| format!("{:>8.4}", r.rmse[a])).collect();
         let cpu = r.cpu_s.map_or("-".into(), |c| format!("{c:.1}"));
         let latency = r.latency_us.map_or("-".into(), |l| format!("{l:.0}"));
         println!(
             "  {mark} {:.4} {:>6} {} {:>7.1} {cpu:>6} {latency:>8}  {}",
             r.score,
-            mean_and_error(&r.fold_scores).map_or("-".into(), |(_, e)| format!("{e:.4}")),
-            cells.join(" "),
+            error(&r.fold_scores),
+            cells(&r.rmse),
             r.seconds,
             r.choice
         );
+        if let Some(a) = &r.network_alone {
+            println!(
+                "    {:.4} {:>6} {} {:>25}the network above alone: no standard deviation, not a candidate",
+                a.score,
+                error(&a.fold_scores),
+                cells(&a.rmse),
+                ""
+            );
+        }
     }
     if !s.why.is_empty() {
         println!("    chosen: {}", s.why);

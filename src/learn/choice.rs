@@ -25,20 +25,23 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use ndarray::{Array2, Axis as NdAxis};
+use rayon::prelude::*;
 
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind, SeHyper};
 use super::models::metrics::rmse_columns;
+use super::models::nn::Mlp;
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{std_scale, Estimate, EstimatorWorkspace};
-use super::models::wrench_gp::{ModelError, TareSpec, WrenchGp};
+use super::models::wrench_gp::{ModelError, TareSpec, WarmStart, WrenchGp};
 use super::tradeoff::{median_latency_us, timed_rows};
 use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};
+use crate::params::Checked;
 
-pub use super::models::wrench_gp::{Choice, CvRow, GpChoice, Selection};
+pub use super::models::wrench_gp::{AloneScore, Choice, CvRow, GpChoice, Selection};
 
 impl Choice {
     /// The defaults of `train`: electrodes and PDC, standardised, the
@@ -349,31 +352,80 @@ pub fn select(
 }
 
 /// Hyperparameters fitted so far, per axis, by the model's form (channels,
-/// input scaling, prior mean: what the hyperparameters depend on) and fold.
+/// input scaling, prior mean: what the hyperparameters depend on) and fold;
+/// and the networks of network means, by channels, input scaling and fold
+/// (what a network depends on).
 ///
 /// A candidate's fold starts its search warm from the same form's fit on
 /// the same fold (another GP size) or on the fold before; only a form's
-/// first fold runs the full multistart. Measured in docs/results.md ("`train
-/// --select` within its budget").
+/// first fold runs the full multistart. A network mean's fold takes the
+/// network fitted on the same rows, if any (another GP). Measured in
+/// docs/results.md ("`train --select` within its budget").
 #[derive(Default)]
-struct WarmStarts(BTreeMap<(String, usize), Vec<SeHyper>>);
+struct WarmStarts {
+    hypers: BTreeMap<(String, usize), Vec<SeHyper>>,
+    networks: BTreeMap<(String, usize), Mlp>,
+}
 
 impl WarmStarts {
     fn key(choice: &Choice) -> String {
-        format!(
-            "{:?} {} {}",
-            choice.channels,
-            choice.input.name(),
-            choice.mean.name()
-        )
+        format!("{} {}", Self::rows_key(choice), choice.mean.name())
     }
 
-    /// The warm start of `choice`'s fold `fold`, if any.
-    fn get(&self, choice: &Choice, fold: usize) -> Option<&[SeHyper]> {
+    /// What a network depends on: the rows and their scaling.
+    fn rows_key(choice: &Choice) -> String {
+        format!("{:?} {}", choice.channels, choice.input.name())
+    }
+
+    /// The warm start of `choice`'s fold `fold`.
+    fn get(&self, choice: &Choice, fold: usize) -> WarmStart<'_> {
         let key = Self::key(choice);
-        let same = self.0.get(&(key.clone(), fold));
-        let before = (0..fold).rev().find_map(|f| self.0.get(&(key.clone(), f)));
-        same.or(before).map(Vec::as_slice)
+        let same = self.hypers.get(&(key.clone(), fold));
+        let before = (0..fold)
+            .rev()
+            .find_map(|f| self.hypers.get(&(key.clone(), f)));
+        WarmStart {
+            hypers: same.or(before).map(Vec::as_slice),
+            network: self.networks.get(&(Self::rows_key(choice), fold)),
+        }
+    }
+
+    /// Fits the networks of `choice`'s folds not kept yet, all at once (a
+    /// network trains on one thread); nothing for another mean.
+    fn fit_networks(
+        &mut self,
+        choice: &Choice,
+        sub: &Dataset,
+        splits: &[(Vec<usize>, Vec<usize>)],
+        params: &Checked<GpParams>,
+    ) -> Result<(), String> {
+        if choice.mean != MeanKind::Network {
+            return Ok(());
+        }
+        let key = Self::rows_key(choice);
+        let missing: Vec<usize> = (0..splits.len())
+            .filter(|&f| !self.networks.contains_key(&(key.clone(), f)))
+            .collect();
+        let fitted: Vec<Option<Mlp>> = (missing.par_iter())
+            .map(|&f| WrenchGp::fit_network(&sub.select(&splits[f].0), choice.input, params))
+            .collect::<Result<_, _>>()
+            .map_err(|e| e.to_string())?;
+        for (f, net) in missing.into_iter().zip(fitted) {
+            if let Some(net) = net {
+                self.networks.insert((key.clone(), f), net);
+            }
+        }
+        Ok(())
+    }
+
+    /// Keeps what `model` of `choice`'s fold `fold` can start others from.
+    fn keep(&mut self, choice: &Choice, fold: usize, model: &WrenchGp) {
+        self.hypers
+            .insert((Self::key(choice), fold), model.hypers());
+        if let Some(net) = model.network() {
+            self.networks
+                .insert((Self::rows_key(choice), fold), net.clone());
+        }
     }
 }
 
@@ -427,8 +479,9 @@ impl Cv<'_> {
             .validate()
             .map_err(|e| e.to_string())?;
         let (t0, cpu0) = (Instant::now(), cpu_seconds());
-        let mut pred = Array2::zeros(self.data.y.raw_dim());
-        let mut fold_scores = Vec::with_capacity(self.splits.len());
+        warm.fit_networks(choice, &sub, self.splits, &params)?;
+        let mut pooled = Pooled::new(self.data);
+        let mut alone = (choice.mean == MeanKind::Network).then(|| Pooled::new(self.data));
         let mut latency_us = None;
         let mut z: Vec<Vec<f64>> = vec![Vec::new(); self.sd.len()];
         for (fold, (train, test)) in self.splits.iter().enumerate() {
@@ -441,18 +494,19 @@ impl Cv<'_> {
                 &mut |_, p| progress(choice, p),
             )
             .map_err(|e| e.to_string())?;
-            warm.0
-                .insert((WarmStarts::key(choice), fold), model.hypers());
+            warm.keep(choice, fold, &model);
             let held_out = sub.select(test);
-            let (p, _) = model
-                .predict(held_out.x.view(), false)
-                .map_err(|e| e.to_string())?;
-            for (row, &i) in p.rows().into_iter().zip(test) {
-                pred.row_mut(i).assign(&row);
+            let failed = |e: ModelError| e.to_string();
+            let (p, _) = model.predict(held_out.x.view(), false).map_err(failed)?;
+            pooled.add(self, test, &held_out, p);
+            if let (Some(alone), Some(p)) = (
+                &mut alone,
+                model.network_estimate(held_out.x.view()).map_err(failed)?,
+            ) {
+                alone.add(self, test, &held_out, p);
             }
-            fold_scores.push(self.score(held_out.y.view(), p.view()));
-            let errors = (model.standardised_errors(&held_out, CALIBRATION_ROWS))
-                .map_err(|e| e.to_string())?;
+            let errors =
+                (model.standardised_errors(&held_out, CALIBRATION_ROWS)).map_err(failed)?;
             z.iter_mut().zip(errors).for_each(|(z, e)| z.extend(e));
             if fold + 1 == self.splits.len() {
                 latency_us = Some(latency(&model, &held_out));
@@ -461,12 +515,15 @@ impl Cv<'_> {
                 return Ok(None);
             }
         }
-        let rmse = rmse_columns(self.data.y.view(), pred.view());
         let axes = self.data.axes.axes();
-        let score = self.score(self.data.y.view(), pred.view());
+        let AloneScore {
+            rmse,
+            score,
+            fold_scores,
+        } = pooled.scores(self);
         Ok(Some(CvRow {
             choice: choice.clone(),
-            rmse: axes.iter().copied().zip(rmse.iter().copied()).collect(),
+            rmse,
             score,
             seconds: t0.elapsed().as_secs_f64(),
             cpu_s: cpu_seconds().zip(cpu0).map(|(now, then)| now - then),
@@ -475,6 +532,7 @@ impl Cv<'_> {
             std_scale: (axes.iter().zip(&z))
                 .filter_map(|(&a, z)| std_scale(z).map(|s| (a, s)))
                 .collect(),
+            network_alone: alone.map(|a| a.scores(self)),
         }))
     }
 
@@ -483,6 +541,39 @@ impl Cv<'_> {
     fn score(&self, y: ndarray::ArrayView2<f64>, pred: ndarray::ArrayView2<f64>) -> f64 {
         let rmse = rmse_columns(y, pred);
         rmse.iter().zip(self.sd).map(|(e, s)| e / s).sum::<f64>() / self.sd.len() as f64
+    }
+}
+
+/// One model's held-out estimates over the folds.
+struct Pooled {
+    pred: Array2<f64>,
+    fold_scores: Vec<f64>,
+}
+
+impl Pooled {
+    fn new(data: &Dataset) -> Self {
+        Pooled {
+            pred: Array2::zeros(data.y.raw_dim()),
+            fold_scores: Vec::new(),
+        }
+    }
+
+    /// Takes a fold's estimates `p` of its held-out rows `test`.
+    fn add(&mut self, cv: &Cv, test: &[usize], held_out: &Dataset, p: Array2<f64>) {
+        for (row, &i) in p.rows().into_iter().zip(test) {
+            self.pred.row_mut(i).assign(&row);
+        }
+        self.fold_scores.push(cv.score(held_out.y.view(), p.view()));
+    }
+
+    /// The RMSE per axis and the score over every fold, and each fold's.
+    fn scores(self, cv: &Cv) -> AloneScore {
+        let rmse = rmse_columns(cv.data.y.view(), self.pred.view());
+        AloneScore {
+            rmse: cv.data.axes.axes().iter().copied().zip(rmse).collect(),
+            score: cv.score(cv.data.y.view(), self.pred.view()),
+            fold_scores: self.fold_scores,
+        }
     }
 }
 

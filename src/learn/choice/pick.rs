@@ -102,6 +102,7 @@ mod tests {
             fold_scores: folds.to_vec(),
             latency_us: Some(latency_us),
             std_scale: Default::default(),
+            network_alone: None,
         }
     }
 

@@ -100,7 +100,19 @@ fn the_search_keeps_the_best_score_and_records_every_candidate() {
             r.score.is_finite() && r.score > 0.0 && r.rmse[&Axis::Fz] > 0.0,
             "{r:?}"
         );
+        // The network of a network mean is scored alone too, on the same
+        // folds; no other mean has one.
+        let alone = r.network_alone.as_ref();
+        assert_eq!(alone.is_some(), r.choice.mean == MeanKind::Network, "{r:?}");
+        if let Some(a) = alone {
+            assert!(
+                a.score.is_finite() && a.score > 0.0 && a.score != r.score,
+                "{a:?}"
+            );
+            assert_eq!(a.fold_scores.len(), s.folds);
+        }
     }
+    assert!(tried(&|c| c.mean == MeanKind::Network));
     // The record survives JSON.
     let back: Selection = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
     assert_eq!(back, s);

@@ -178,15 +178,24 @@ impl ModelFile<Gp> {
         }
     }
 
+    /// The GPs' standardised inputs of the rows of `x`, row after row.
+    fn inputs(&self, x: ArrayView2<f64>) -> Vec<f64> {
+        let represented = self.scaling.represent(&self.electrode, x);
+        let z = self.input.transform(represented.view());
+        z.iter().copied().collect()
+    }
+
+    /// The network mean's own estimate of the rows of `x` (None without one).
+    pub(super) fn network_estimate(&self, x: ArrayView2<f64>) -> Option<Array2<f64>> {
+        let net = self.network.as_ref()?;
+        let z = self.inputs(x);
+        let inputs = ArrayView2::from_shape((x.nrows(), self.input.dim()), &z).ok()?;
+        Some(net.predict(inputs))
+    }
+
     /// [`WrenchGp::predict`] once the feature count is checked.
     pub(super) fn predict(&self, x: ArrayView2<f64>, with_std: bool) -> (Array2<f64>, Array2<f64>) {
-        let represented = self.scaling.represent(&self.electrode, x);
-        let z: Vec<f64> = self
-            .input
-            .transform(represented.view())
-            .iter()
-            .copied()
-            .collect();
+        let z = self.inputs(x);
         let (n, k) = (x.nrows(), self.outputs.len());
         let mut mean = Array2::zeros((n, k));
         let mut std = Array2::zeros((n, k));

@@ -30,8 +30,8 @@ pub use file::{MODEL_FORMAT, MODEL_VERSION};
 pub use learner::GpLearner;
 pub use observed::std_scale;
 pub use provenance::{
-    AdaptChoice, AdaptedFrom, CalibrationRecord, Choice, CvRow, DataFile, GpChoice, Selection,
-    TrainedOn, Validation,
+    AdaptChoice, AdaptedFrom, AloneScore, CalibrationRecord, Choice, CvRow, DataFile, GpChoice,
+    Selection, TrainedOn, Validation,
 };
 
 /// Errors saving, loading or using a model.
@@ -201,45 +201,28 @@ impl WrenchGp {
         params: &Checked<GpParams>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
-        Self::train_from(data, tare, scaling, params, None, progress)
+        Self::train_from(data, tare, scaling, params, WarmStart::default(), progress)
     }
 
-    /// [`WrenchGp::train_scaled`], each axis's hyperparameter search
-    /// started warm at `warm`'s hyperparameters for it (from a model of the
-    /// same features, axes, scaling and mean on similar data) when given.
+    /// [`WrenchGp::train_scaled`], started from what `warm` gives.
     pub fn train_from(
         data: &Dataset,
         tare: TareSpec,
         scaling: InputScaling,
         params: &Checked<GpParams>,
-        warm: Option<&[SeHyper]>,
+        warm: WarmStart,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<Self, ModelError> {
-        // Check before standardising: one infinity would spoil every row.
-        let d = data.features.len();
-        for (name, m) in [("features", &data.x), ("targets", &data.y)] {
-            if let Some(i) = m.iter().position(|v| !v.is_finite()) {
-                let cols = m.ncols();
-                return Err(GpError::NonFinite {
-                    row: i / cols,
-                    column: if name == "features" {
-                        i % cols
-                    } else {
-                        d + i % cols
-                    },
-                }
-                .into());
-            }
-        }
-        let electrode = electrode_mask(&data.features);
-        let represented = scaling.represent(&electrode, data.x.view());
-        let input = scaling.fit(represented.view());
-        let z = input.transform(represented.view());
-        let x: Vec<f64> = z.iter().copied().collect();
+        let (electrode, input, x) = standardised_inputs(data, scaling)?;
         let d = input.dim();
         let means = params.mean.fit(&x, d, data.y.view())?;
         let inputs = ArrayView2::from_shape((data.len(), d), &x).expect("n rows of d inputs");
-        let network = network_mean(inputs, data.y.view(), params)?;
+        let network = match warm.network {
+            Some(net) if params.mean == MeanKind::Network && net.n_inputs() == d => {
+                Some(net.clone())
+            }
+            _ => network_mean(inputs, data.y.view(), params)?,
+        };
         let mut residual = data.y.clone();
         if let Some(net) = &network {
             residual -= &net.predict(inputs);
@@ -259,7 +242,8 @@ impl WrenchGp {
             })
             .collect();
         let start = |j: usize| {
-            warm.and_then(|w| w.get(j))
+            warm.hypers
+                .and_then(|w| w.get(j))
                 .filter(|h| h.lengthscales.len() == d)
                 .map_or(Start::Multistart, |h| Start::Warm(h.clone()))
         };
@@ -534,14 +518,89 @@ impl WrenchGp {
         x: ArrayView2<f64>,
         with_std: bool,
     ) -> Result<(Array2<f64>, Array2<f64>), ModelError> {
+        self.check_features(x)?;
+        Ok(self.0.predict(x, with_std))
+    }
+
+    fn check_features(&self, x: ArrayView2<f64>) -> Result<(), ModelError> {
         if x.ncols() != self.0.features.len() {
             return Err(ModelError::FeatureCount {
                 expected: self.0.features.len(),
                 found: x.ncols(),
             });
         }
-        Ok(self.0.predict(x, with_std))
+        Ok(())
     }
+
+    /// The network a network mean would be on `data` with `scaling` (None
+    /// for another mean): what [`WrenchGp::train_from`] fits first, for a
+    /// caller that fits several at once ([`WarmStart::network`]).
+    pub fn fit_network(
+        data: &Dataset,
+        scaling: InputScaling,
+        params: &Checked<GpParams>,
+    ) -> Result<Option<Mlp>, ModelError> {
+        if params.mean != MeanKind::Network {
+            return Ok(None);
+        }
+        let (_, input, x) = standardised_inputs(data, scaling)?;
+        let inputs = ArrayView2::from_shape((data.len(), input.dim()), &x).expect("n rows");
+        network_mean(inputs, data.y.view(), params)
+    }
+
+    /// The network of a network mean, if it has one.
+    pub fn network(&self) -> Option<&Mlp> {
+        self.0.network.as_ref()
+    }
+
+    /// What the network of a network mean estimates alone, without its
+    /// GPs (so without a standard deviation): for comparison. None for
+    /// another mean.
+    pub fn network_estimate(&self, x: ArrayView2<f64>) -> Result<Option<Array2<f64>>, ModelError> {
+        self.check_features(x)?;
+        Ok(self.0.network_estimate(x))
+    }
+}
+
+/// The data's electrode mask, the standardiser of its inputs as `scaling`
+/// represents them, and the standardised inputs row after row; refused when
+/// a feature or target is not finite (one would spoil every row).
+fn standardised_inputs(
+    data: &Dataset,
+    scaling: InputScaling,
+) -> Result<(Vec<bool>, Standardizer, Vec<f64>), ModelError> {
+    let d = data.features.len();
+    for (name, m) in [("features", &data.x), ("targets", &data.y)] {
+        if let Some(i) = m.iter().position(|v| !v.is_finite()) {
+            let cols = m.ncols();
+            let column = if name == "features" {
+                i % cols
+            } else {
+                d + i % cols
+            };
+            return Err(GpError::NonFinite {
+                row: i / cols,
+                column,
+            }
+            .into());
+        }
+    }
+    let electrode = electrode_mask(&data.features);
+    let represented = scaling.represent(&electrode, data.x.view());
+    let input = scaling.fit(represented.view());
+    let z = input.transform(represented.view());
+    Ok((electrode, input, z.iter().copied().collect()))
+}
+
+/// What a fit may start from ([`WrenchGp::train_from`]; default: nothing).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct WarmStart<'a> {
+    /// Each axis's hyperparameters, where its search starts, from a model
+    /// of the same features, axes, scaling and mean on similar data.
+    pub hypers: Option<&'a [SeHyper]>,
+    /// A network mean's network, fitted on the same rows with the same
+    /// scaling: taken as it is.
+    pub network: Option<&'a Mlp>,
 }
 
 /// The largest floor of a network mean's GP's signal variance, in units of

@@ -101,6 +101,23 @@ pub struct CvRow {
     /// files written before).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub std_scale: BTreeMap<Axis, f64>,
+    /// A network mean's network alone, on the same folds, without its GPs:
+    /// it has no standard deviation, so the estimator does not run it and
+    /// it is not a candidate; shown for comparison (None for other means).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub network_alone: Option<AloneScore>,
+}
+
+/// The cross-validation of a model that is shown, not chosen.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AloneScore {
+    /// RMSE per axis on the held-out trials, pooled.
+    pub rmse: BTreeMap<Axis, f64>,
+    /// As [`CvRow::score`].
+    pub score: f64,
+    /// The score of each fold alone.
+    pub fold_scores: Vec<f64>,
 }
 
 /// What `select` did: every candidate's cross-validation, the one chosen,

@@ -575,6 +575,32 @@ fn a_network_mean_carries_the_estimate_the_gps_its_doubt_and_the_file_both() {
         one.iter().all(|e| e.std > 3.0 * inside),
         "{one:?} vs {inside}"
     );
+    // Given that network (another GP on the same rows, as `--select` does),
+    // a fit takes it as it is, and estimates as the first did.
+    let params = super::super::gp::GpParams {
+        restarts: 1,
+        mean: MeanKind::Network,
+        ..Default::default()
+    };
+    let warm = WarmStart {
+        hypers: None,
+        network: model.network(),
+    };
+    let again = WrenchGp::train_from(
+        &data,
+        model.tare().clone(),
+        model.scaling(),
+        &params.validate().unwrap(),
+        warm,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert_eq!(again.network(), model.network());
+    let (again_mean, _) = again.predict(data.x.view(), false).unwrap();
+    let apart = (&again_mean - &mean)
+        .iter()
+        .fold(0.0f64, |m, e| m.max(e.abs()));
+    assert!(apart < 1e-3, "{apart}");
     // The observed std adds each GP's noise to its doubt.
     let observed = model.predict_observed(data.x.view(), true).unwrap();
     let s = observed.std.unwrap();
