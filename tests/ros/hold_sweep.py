@@ -20,9 +20,13 @@ config/guided_move.yaml, RMS error per axis <= 0.3 N from contact on,
 off-axis speed <= 10 % of the finger's.
 
     python tests/ros/hold_sweep.py [--plants ours,mujoco] [--moves guarded,guided] [--grid full|ci]
-        [--cycles 2,4] [--lags 0,10] [--bodies 50,rigid]
+        [--cycles 2,4] [--lags 0,10] [--bodies 50,rigid] [--fingers default,issue48,...]
 
-`--cycles`, `--lags` and `--bodies` run only those rows of the grid.
+`--cycles`, `--lags` and `--bodies` run only those rows of the grid;
+`--fingers` the MuJoCo guided runs' fingers (FINGERS below: stiffness
+along the pad's normal and across it, damping, mass, friction, and the
+estimates' averaging, noise and jitter). A guided run also misses when the
+task stopped by itself or halted on a stale estimate.
 
 Prints one row per run and a summary; exits 1 when a run misses a bound.
 Run after scripts/ros2-jazzy.sh, with `. target/ros2/env.sh`.
@@ -41,6 +45,7 @@ import rclpy
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from action_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from std_msgs.msg import Float64MultiArray
 from tactile_force_msgs.action import GuardedMove
@@ -49,6 +54,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import test_over_dds as dds  # noqa: E402
 
 CONTACT_N = 0.05
+ESTIMATE_PERIOD_S = 0.01
 GRIDS = {
     # cycle (ms), lag (ms), stiffness (N/m; None: rigid)
     "full": ([2, 4, 8, 16], [0, 10, 20, 30], [50, 100, 300, 3700, 1e5, None]),
@@ -224,26 +230,68 @@ def guided_ours(cycle_ms, lag_ms):
         n.stop(keep_logs=False)
 
 
-def guided_mujoco(cycle_ms, lag_ms):
+# Fingers of the MuJoCo guided runs: (mujoco_ur5.Finger's, mujoco_ur5.Estimates'
+# arguments). `default`: the grid's own; `issue48`: the finger a new user
+# tried (3 g, estimates as a BioTac estimator's, 2 ms of jitter).
+FINGERS = {
+    "default": ({}, {}),
+    "issue48": ({"mass": 0.003}, {"averaged": True, "noise_n": 0.007, "jitter_s": 0.002}),
+    "soft": ({"normal": 100.0, "shear": 100.0, "damping": 1.0, "mass": 0.002, "friction": 0.5},
+             {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
+    "stiff": ({"normal": 1000.0, "shear": 1000.0, "damping": 10.0, "mass": 0.02, "friction": 1.5},
+              {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
+    "stiff-across": ({"normal": 100.0, "shear": 1000.0, "damping": 3.0, "mass": 0.003},
+                     {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
+    "stiff-along": ({"normal": 1000.0, "shear": 100.0, "damping": 3.0, "mass": 0.003},
+                    {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
+}
+
+
+class Watch:
+    """force_controller's /diagnostics during a run: every phase it
+    reported and its latest count of stale halts."""
+
+    def __init__(self, node):
+        self.phases, self.stale_halts = set(), 0
+        node.create_subscription(DiagnosticArray, "/diagnostics", self._on, 10)
+
+    def _on(self, m):
+        for st in m.status:
+            if st.name == "force_controller":
+                values = {kv.key: kv.value for kv in st.values}
+                self.phases.add(values.get("phase", ""))
+                self.stale_halts = int(values.get("stale_halts", self.stale_halts))
+
+
+def guided_mujoco(cycle_ms, lag_ms, finger="default"):
     import mujoco_ur5
     with open(os.path.join(dds.REPO, "config", "guided_move.yaml")) as f:
         path = [line.strip().strip("-").strip() for line in f if line.strip().startswith("- ")
                 and line.strip()[2:].split()[0] in ("wait", "push", "circle")]
     n = mujoco_nodes("guided_move.yaml")
     rclpy.init(domain_id=n.domain)
-    plant = mujoco_ur5.Ur5Plant(("finger", path), cycle_ms / 1e3, lag_ms / 1e3)
-    spinner = Spinner(plant)
+    spec, estimates = FINGERS[finger]
+    plant = mujoco_ur5.Ur5Plant(("finger", path, mujoco_ur5.Finger(**spec)), cycle_ms / 1e3, lag_ms / 1e3,
+                                estimates=mujoco_ur5.Estimates(**estimates))
+    node = rclpy.create_node("hold_sweep")
+    watch = Watch(node)
+    spinner = Spinner(plant, node)
     try:
         plant.run(plant.path.duration + 2.0)
-        return dict(guided_figures(*plant.guided_record()), behind=plant.behind_s)
+        return dict(guided_figures(*plant.guided_record(), watch, plant.longest_gap_s), behind=plant.behind_s)
     finally:
         spinner.stop()
+        node.destroy_node()
         plant.destroy_node()
         rclpy.shutdown()
         n.stop(keep_logs=False)
 
 
-def guided_figures(forces, arm, finger):
+def guided_figures(forces, arm, finger, watch=None, longest_gap_s=0.0):
+    """RMS error per axis from contact on, the off-axis ratio and, with the
+    controller's `watch`, whether the task stopped itself and its stale
+    halts, which miss only when no estimate was missing for two periods
+    (`longest_gap_s`: the longest time between two estimates sent)."""
     t0 = next((t for t, f in forces if abs(f[2]) > CONTACT_N), None)
     if t0 is None:
         return {"ok": False, "why": "no contact"}
@@ -251,7 +299,11 @@ def guided_figures(forces, arm, finger):
     target = (0.0, 0.0, 1.0)
     rms = [(sum((f[i] - target[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
     off, _ = dds.off_axis_ratio(arm, finger, t0 + 1.0)
-    return {"ok": max(rms) <= 0.3 and off <= 0.1, "rms": rms, "off": off}
+    stopped = watch is not None and bool(watch.phases & {"retract", "stopped"})
+    halts = watch.stale_halts if watch is not None else 0
+    missing = longest_gap_s >= 2 * ESTIMATE_PERIOD_S
+    return {"ok": max(rms) <= 0.3 and off <= 0.1 and not stopped and (halts == 0 or missing), "rms": rms,
+            "off": off, "stopped": stopped, "halts": halts, "gap": longest_gap_s}
 
 
 def late(r):
@@ -267,6 +319,8 @@ def main():
     ap.add_argument("--cycles", help="only these cycles (ms), comma-separated")
     ap.add_argument("--lags", help="only these servo lags (ms), comma-separated")
     ap.add_argument("--bodies", help="only these bodies (N/m or rigid), comma-separated")
+    ap.add_argument("--fingers", default="default",
+                    help=f"MuJoCo's guided fingers, comma-separated, of {', '.join(FINGERS)}")
     a = ap.parse_args()
     os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(dds.REPO, "target", "ros-test-cache"))
     cycles, lags, bodies = GRIDS[a.grid]
@@ -281,7 +335,8 @@ def main():
         if "guarded" in a.moves.split(","):
             failed += sweep_guarded(guarded, plant, cycles, lags, bodies)
         if "guided" in a.moves.split(","):
-            failed += sweep_guided(guided, plant, cycles, lags)
+            fingers = only(list(FINGERS), a.fingers, str, "--fingers") if plant == "mujoco" else ["default"]
+            failed += sweep_guided(guided, plant, cycles, lags, fingers)
     print(f"{failed} runs missed a bound", flush=True)
     return 1 if failed else 0
 
@@ -325,20 +380,25 @@ def sweep_guarded(guarded, plant, cycles, lags, bodies):
     return failed
 
 
-def sweep_guided(guided, plant, cycles, lags):
+def sweep_guided(guided, plant, cycles, lags, fingers):
     """Prints the guided rows; how many missed a bound."""
     failed = 0
-    print(f"== {plant}: guided move, the finger of config/guided_move.yaml", flush=True)
-    print("cycle ms  lag ms   RMS fx, fy, fz N        off-axis", flush=True)
-    for c in cycles:
-        for lag in lags:
-            r = guided(c, lag)
-            failed += not r["ok"]
-            if "rms" in r:
-                print(f"{c:8d}  {lag:6d}   {r['rms'][0]:.3f} {r['rms'][1]:.3f} {r['rms'][2]:.3f}"
-                      f"      {100 * r['off']:.1f} %{late(r)}{'' if r['ok'] else '  MISSED'}", flush=True)
-            else:
-                print(f"{c:8d}  {lag:6d}   {r.get('why')}{late(r)}  MISSED", flush=True)
+    print(f"== {plant}: guided move, the finger's path of config/guided_move.yaml", flush=True)
+    print("finger        cycle ms  lag ms   RMS fx, fy, fz N        off-axis  stopped  stale halts  "
+          "longest gap ms", flush=True)
+    for finger in fingers:
+        for c in cycles:
+            for lag in lags:
+                r = guided(c, lag, finger) if plant == "mujoco" else guided(c, lag)
+                failed += not r["ok"]
+                head = f"{finger:<12}  {c:8d}  {lag:6d}"
+                if "rms" in r:
+                    print(f"{head}   {r['rms'][0]:.3f} {r['rms'][1]:.3f} {r['rms'][2]:.3f}"
+                          f"      {100 * r['off']:5.1f} %   {str(r['stopped']):<7}  {r['halts']:5d}"
+                          f"        {1e3 * r.get('gap', 0.0):5.0f}{late(r)}{'' if r['ok'] else '  MISSED'}",
+                          flush=True)
+                else:
+                    print(f"{head}   {r.get('why')}{late(r)}  MISSED", flush=True)
     return failed
 
 

@@ -20,11 +20,16 @@ pad touches, through MuJoCo's contacts (friction 1):
   critical damping (a soft body does not ring), or fixed (`rigid`);
 - `finger`: a fingertip (flat, 30 mm square) under the pad that follows the guided scene's path
   (config/guided_move.yaml: waits, minimum-jerk pushes and circles, in the
-  BioTac frame at the start) on position servos of 300 N/m (a person's
-  finger and hand, config/world.yaml's fingertip).
+  BioTac frame at the start) on position servos ([`Finger`]: by default
+  300 N/m along the pad's normal and across it, a person's finger and hand
+  as config/world.yaml's fingertip, 3 N s/m, 20 g, friction 1).
 
 The truth for the figures is the pad's spring force at each physics step;
-the plant records it, stamped, every 10 ms.
+the plant records it, stamped, every 10 ms. The estimate it publishes is
+that force with noise (`Estimates`): by default the force at the frame's
+end with 5 mN; or, as a BioTac's estimator gives it, the force averaged
+over the 10 ms frame with 7 mN, sent after a random delay of up to
+`jitter_s` (an ordinary process's timing) and stamped when sent.
 """
 
 import math
@@ -64,8 +69,6 @@ SERVO_OMEGA = 200.0
 # (MuJoCo's noslip iterations).
 CONTACT_SOLREF = [0.002, 1.0]
 NOSLIP_ITERATIONS = 10
-FINGER_STIFFNESS = 300.0
-FINGER_DAMPING = 3.0
 PHYSICS_DT = 0.0005
 # The object's plate (kg) and its damping ratio on its spring.
 PLATE_MASS = 0.05
@@ -74,6 +77,27 @@ PLATE_DAMPING_RATIO = 0.5
 TICK = 0.001
 ESTIMATE_PERIOD = 0.01
 NOISE_N = 0.005
+
+
+class Finger:
+    """A person's fingertip: its servos' stiffness along the pad's normal and
+    across it (N/m), damping (N s/m), mass (kg) and friction."""
+
+    def __init__(self, normal=300.0, shear=300.0, damping=3.0, mass=0.02, friction=1.0):
+        self.normal, self.shear, self.damping, self.mass, self.friction = normal, shear, damping, mass, friction
+
+    def __str__(self):
+        return (f"{self.normal:g}/{self.shear:g} N/m, {self.damping:g} N s/m, {1e3 * self.mass:g} g, "
+                f"friction {self.friction:g}")
+
+
+class Estimates:
+    """How the plant's force becomes the published estimate: `averaged` over
+    the 10 ms frame (else the force at its end), Gaussian noise `noise_n`,
+    sent after a uniform delay of up to `jitter_s`."""
+
+    def __init__(self, averaged=False, noise_n=NOISE_N, jitter_s=0.0):
+        self.averaged, self.noise_n, self.jitter_s = averaged, noise_n, jitter_s
 
 
 def erd_urdf():
@@ -143,12 +167,18 @@ class FingerPath:
 
 class Ur5Plant(Node):
     """The UR5 in MuJoCo as a ROS 2 node; `body`: ("object", stiffness N/m
-    or None for rigid) or ("finger", path lines); `cycle_s`, `lag_s`: the
-    arm's command cycle and servo lag."""
+    or None for rigid) or ("finger", path lines[, Finger]); `cycle_s`,
+    `lag_s`: the arm's command cycle and servo lag; `estimates`: how the
+    force is published (Estimates)."""
 
-    def __init__(self, body, cycle_s, lag_s, seed=1):
+    def __init__(self, body, cycle_s, lag_s, seed=1, estimates=None):
         super().__init__("ur5_mujoco")
         self.cycle_s, self.lag_s = cycle_s, lag_s
+        self.estimates = estimates or Estimates()
+        self.frame = []  # the pad's force at each tick of the current frame
+        self.pending = []  # (due tick, force) estimates not sent yet
+        self.sent_at = None  # wall-clock time of the last estimate sent
+        self.longest_gap_s = 0.0  # the longest wall-clock time between two
         self.rng = np.random.default_rng(seed)
         self.model, self.data = self._build(body)
         self.lock = threading.Lock()
@@ -220,7 +250,7 @@ class Ur5Plant(Node):
         self.start_rot = rot.copy()
         normal = rot @ np.array([0, 0, -1.0])
         bottom = data.body("pad").xpos + normal * PAD_RADIUS
-        kind, arg = body
+        kind, arg = body[:2]
         world = spec.worldbody
         if kind == "object":
             plate_half = 0.005
@@ -238,20 +268,23 @@ class Ur5Plant(Node):
             self.path = None
         else:
             self.path = FingerPath(arg)
+            spec_f = body[2] if len(body) > 2 else Finger()
             half = 0.004  # the finger's pad: flat where it meets the BioTac's
             centre = bottom + normal * (0.002 + half)
             finger = world.add_body(name="finger", pos=centre, quat=quat(rot))
-            for i, axis in enumerate(([1, 0, 0], [0, 1, 0], [0, 0, 1])):
+            # Its x and y lie across the pad, z along its normal.
+            for i, (axis, k) in enumerate((([1, 0, 0], spec_f.shear), ([0, 1, 0], spec_f.shear),
+                                           ([0, 0, 1], spec_f.normal))):
                 finger.add_joint(name=f"finger_{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis,
-                                 damping=FINGER_DAMPING)
+                                 damping=spec_f.damping)
                 a = spec.add_actuator()
                 a.name, a.target = f"finger_{i}", f"finger_{i}"
                 a.trntype = mujoco.mjtTrn.mjTRN_JOINT
-                a.gainprm[0] = FINGER_STIFFNESS
+                a.gainprm[0] = k
                 a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
-                a.biasprm[1] = -FINGER_STIFFNESS
-            finger.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.015, 0.015, half], mass=0.02,
-                            friction=[1.0, 0.005, 0.0001], condim=3, solref=CONTACT_SOLREF)
+                a.biasprm[1] = -k
+            finger.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.015, 0.015, half], mass=spec_f.mass,
+                            friction=[spec_f.friction, 0.005, 0.0001], condim=3, solref=CONTACT_SOLREF)
         model = spec.compile()
         data = mujoco.MjData(model)
         for name, deg in zip(JOINTS, START_DEG):
@@ -334,21 +367,37 @@ class Ur5Plant(Node):
             self.servo += (self.acting - self.servo) * alpha
             self.data.ctrl[arm] = self.servo
             mujoco.mj_step(self.model, self.data, steps)
+            self.frame.append(self.pad_force())
             if tick % ticks_per_estimate == 0:
-                self.publish_estimate()
+                self.end_frame(tick)
+            while self.pending and self.pending[0][0] <= tick:
+                self.publish_estimate(self.pending.pop(0)[1])
             tick += 1
 
-    def publish_estimate(self):
-        """The pad's force, stamped now, with noise, as the estimator's."""
+    def end_frame(self, tick):
+        """Records the pad's force (the truth) and queues its estimate: due
+        now, or after the jitter's random delay."""
         f = self.pad_force()
         t = self.now()
         self.truth.append((t, f))
         self.record_motion(t)
+        e = self.estimates
+        seen = np.mean(self.frame, axis=0) if e.averaged else f
+        self.frame = []
+        delay = round(self.rng.uniform(0.0, e.jitter_s) / TICK) if e.jitter_s > 0 else 0
+        self.pending.append((tick + delay, seen + self.rng.normal(0, e.noise_n, 3)))
+
+    def publish_estimate(self, force):
+        """An estimate of the pad's force, stamped now, as the estimator's."""
+        t = self.now()
+        sent = time.monotonic()
+        if self.sent_at is not None:
+            self.longest_gap_s = max(self.longest_gap_s, sent - self.sent_at)
+        self.sent_at = sent
         mean, std = WrenchStamped(), WrenchStamped()
         self.stamp(mean, t)
         self.stamp(std, t)
-        noisy = f + self.rng.normal(0, NOISE_N, 3)
-        mean.wrench.force.x, mean.wrench.force.y, mean.wrench.force.z = (float(v) for v in noisy)
-        std.wrench.force.x = std.wrench.force.y = std.wrench.force.z = NOISE_N
+        mean.wrench.force.x, mean.wrench.force.y, mean.wrench.force.z = (float(v) for v in force)
+        std.wrench.force.x = std.wrench.force.y = std.wrench.force.z = self.estimates.noise_n
         self.mean.publish(mean)
         self.std.publish(std)
