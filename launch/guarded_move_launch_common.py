@@ -52,6 +52,9 @@ def make(scene=SCENE):
                 name=executable,
                 output="screen",
                 parameters=[os.path.join(config, name) for name in files] + [overrides],
+                # Its enclave of config/sros2/tactile_force.policy.xml (read
+                # only with ROS_SECURITY_ENABLE=true).
+                ros_arguments=["--enclave", f"/tactile_force/{executable}"],
             )
             for executable, files, overrides in started
         ]

@@ -161,7 +161,8 @@ class Nodes:
                 # quotes and line breaks escaped).
                 value = str(v).lower() if isinstance(v, bool) else v if isinstance(v, (int, float)) else json.dumps(v)
                 f.write(f"    {k}: {value}\n")
-        cmd = [exe, "--ros-args", "-r", f"__node:={exe}"]
+        # As the launch files start it: its SROS2 enclave named.
+        cmd = [exe, "--ros-args", "--enclave", f"/tactile_force/{exe}", "-r", f"__node:={exe}"]
         for name in files:
             cmd += ["--params-file", os.path.join(REPO, "config", name)]
         cmd += ["--params-file", extra]
