@@ -581,21 +581,28 @@ impl Pooled {
 /// deviation (evenly spread): its variance costs O(n^2) a row.
 const CALIBRATION_ROWS: usize = 50;
 
-/// Rows an estimate's latency is timed on, and passes over them (the median
-/// pass is taken).
+/// Rows an estimate's latency is timed on (at most; at least 3), and passes
+/// over them (the median pass is taken).
 const LATENCY_ROWS: usize = 30;
 const LATENCY_PASSES: usize = 3;
+/// About the time of one pass (s): a slow model is timed on fewer rows (an
+/// exact GP on 4000 rows takes 24 ms an estimate with its standard
+/// deviation: 30 rows, three passes, took 2.2 s of the table).
+const LATENCY_PASS_S: f64 = 0.03;
 
 /// The median time (µs) of `model`'s estimate with its standard deviation,
-/// as the estimator makes one, on rows of `data`.
+/// as the estimator makes one, on rows of `data`: one estimate first (it
+/// also warms the caches), then as many rows as fit in [`LATENCY_PASS_S`].
 fn latency(model: &WrenchGp, data: &Dataset) -> f64 {
-    let rows = timed_rows(data, LATENCY_ROWS);
     let mut ws: EstimatorWorkspace = model.workspace();
     let mut out = vec![Estimate::default(); model.axes().len()];
-    median_latency_us(&rows, LATENCY_PASSES, |x| {
+    let mut estimate = |x: &[f64]| {
         // The rows have the model's features, so this cannot fail.
         let _ = model.predict_one(x, &mut ws, true, &mut out);
-    })
+    };
+    let one_s = 1e-6 * median_latency_us(&timed_rows(data, 1), 1, &mut estimate);
+    let rows = (LATENCY_PASS_S / one_s.max(1e-9)).clamp(3.0, LATENCY_ROWS as f64) as usize;
+    median_latency_us(&timed_rows(data, rows), LATENCY_PASSES, estimate)
 }
 
 /// The process's CPU time so far (user + system, every thread, s), from
