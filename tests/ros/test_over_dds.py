@@ -108,7 +108,7 @@ class Nodes:
     takes 10-20 s), so that the others start with estimates flowing."""
 
     def __init__(self, scene, object_name, port=None, only=None, speed=None, robot="pa10",
-                 description_topic=False, controller=None, sim=None, domain=None):
+                 description_topic=False, controller=None, sim=None, domain=None, estimator=None):
         self.domain = domain or int(os.environ.get("TACTILE_FORCE_ROS_DOMAIN") or random.randint(10, 200))
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
@@ -122,6 +122,7 @@ class Nodes:
         self.robot = robot
         self.specs = {exe: (files, overrides) for exe, files, overrides in started}
         self.specs["force_controller"][1].update(controller or {})
+        self.specs["wrench_estimator"][1].update(estimator or {})
         if "sim_robot" in self.specs:
             self.specs["sim_robot"][1].update(sim or {})
         # Each scenario tares anew: its own tare file.
@@ -737,7 +738,7 @@ def calibration():
     peer = Peer(n.domain)
     client = ActionClient(peer.node, Calibrate, "force_controller/calibrate")
     feedback = []
-    ok = False
+    ok, model = False, None
     try:
         before = peer.get_param("wrench_estimator", "model_file")
         check("calibration: the estimator says its model file", bool(before) and before.endswith(".json"),
@@ -745,8 +746,10 @@ def calibration():
         if not client.wait_for_server(timeout_sec=10):
             check("calibration: action server", False, "force_controller/calibrate")
             return
-        model = os.path.join(n.logs, "unit2.json")
-        goal = Calibrate.Goal(model_file=model)
+        # A name in models_dir, the model cache folder by default.
+        name = f"unit2_{os.getpid()}.json"
+        model = os.path.join(os.path.realpath(os.environ["TACTILE_FORCE_CACHE"]), name)
+        goal = Calibrate.Goal(model_file=name)
         peer.forces.clear()
         sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback))
         peer.spin(10, sent.done)
@@ -792,6 +795,9 @@ def calibration():
         client.destroy()
         peer.destroy()
         n.stop(keep_logs=not ok)
+        for written in (model, model and model[:-len(".json")] + ".mcap"):
+            if written and os.path.exists(written):
+                os.remove(written)
 
 
 def twist_interface():

@@ -1,13 +1,16 @@
 //! The `~/calibrate` action server of `force_controller` (needs r2r's
 //! generated types for tactile_force_msgs, so a real ROS build only).
 //!
-//! A goal's outputs are checked and its session file opened before the
-//! arm moves ([`open_outputs`]: a model file or session that cannot be
-//! written refuses the goal); it then starts the calibration task on its
+//! A goal's outputs are resolved in the node's `models_dir`
+//! ([`CalibrateGoal::outputs`]: a name leading out of it, or naming a file
+//! that exists without `overwrite`, refuses the goal), checked and its
+//! session file opened before the arm moves ([`open_outputs`]: a model
+//! file or session that cannot be written refuses the goal); it then starts the calibration task on its
 //! surface ([`CalibrateGoal`]); while it runs the node steps on the F/T
 //! wrench and records it with the BioTac's readings, written to the
 //! session as they come and flushed at each push's end
 //! ([`CalibrationRecorder`]; the life cycle is [`ForceControllerNode`]'s).
+//! A cancel ends the goal once the pad has withdrawn out of contact.
 //! When the arm has stopped: the session file is ended, the estimator's model
 //! (its `model_file` parameter, asked through its parameter service) is
 //! adapted or a model trained from scratch, whichever validates better
@@ -23,11 +26,13 @@ use r2r::tactile_force_msgs::action::Calibrate;
 use futures::StreamExt;
 
 use super::estimator_link::EstimatorLink;
+use super::guarded_move_action::canceled_reason;
 use super::*;
 use crate::calibration::{open_outputs, CalibrateGoal, CalibrationRecorder, Ended, SessionEnd};
 use crate::learn::calibration::{fit_and_save, CalibrationRecord};
 use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::force_controller::goals::CalibrationProgress;
+use crate::outputs::models_dir::ModelsDir;
 use crate::record::Record;
 use crate::ros::RosClock;
 
@@ -57,14 +62,17 @@ pub(super) async fn serve(
     period: Duration,
     clock: RosClock,
     estimator: EstimatorLink,
+    models: ModelsDir,
 ) {
     while let Some(req) = goals.next().await {
         let goal = CalibrateGoal {
             surface: req.goal.surface.clone(),
             model_file: req.goal.model_file.clone(),
             session_file: req.goal.session_file.clone(),
+            overwrite: req.goal.overwrite,
         };
-        let started = goal.outputs().and_then(|(model, session)| {
+        let outputs = goal.outputs(&models).map_err(|e| e.to_string());
+        let started = outputs.and_then(|(model, session)| {
             let writer = open_outputs(&model, &session).map_err(|e| e.to_string())?;
             let now = clock.now_s();
             if let Err(e) = lock(&shared).start_calibration(&goal, now, Some(writer)) {
@@ -87,15 +95,29 @@ pub(super) async fn serve(
             }
         };
         let mut ticker = tokio::time::interval(period);
+        let mut canceled = None;
         let ended = loop {
             ticker.tick().await;
+            let now = clock.now_s();
             let mut n = lock(&shared);
-            if let Some(Some(request)) = futures::FutureExt::now_or_never(cancel.next()) {
-                n.cancel_goal();
-                request.accept();
-                break Ended::Canceled;
+            if canceled.is_none() {
+                if let Some(Some(request)) = futures::FutureExt::now_or_never(cancel.next()) {
+                    // The pad withdraws out of contact before the goal ends.
+                    n.cancel_goal(now);
+                    request.accept();
+                    canceled = Some(String::new());
+                }
             }
-            match n.calibration_progress(clock.now_s()) {
+            if canceled.is_some() {
+                match n.withdrawn(now) {
+                    None => continue,
+                    Some(withdrawn) => {
+                        canceled = Some(canceled_reason(withdrawn));
+                        break Ended::Canceled;
+                    }
+                }
+            }
+            match n.calibration_progress(now) {
                 CalibrationProgress::Starting => {}
                 CalibrationProgress::Ended(e) => break e,
                 CalibrationProgress::Running {
@@ -117,8 +139,8 @@ pub(super) async fn serve(
             lock(&shared).end_goal();
             continue;
         };
-        let session = session_kept(rec.finish_session());
-        if let Some(why) = ended.failure() {
+        let session = SessionEnd::said(rec.finish_session());
+        if let Some(why) = canceled.or_else(|| ended.failure()) {
             let why = format!("{why}; no model written; {}", session.0);
             tracing::warn!("calibration: {why}");
             let result = failed(why, Some(&rec));
@@ -138,30 +160,6 @@ pub(super) async fn serve(
             };
         }
         lock(&shared).end_goal();
-    }
-}
-
-/// What to say of the session file once ended, and its path when whole.
-fn session_kept(end: Option<SessionEnd>) -> (String, Option<PathBuf>) {
-    match end {
-        Some(SessionEnd {
-            path,
-            written: Ok(n),
-        }) => (
-            format!("the session ({n} records) is kept at {}", path.display()),
-            Some(path),
-        ),
-        Some(SessionEnd {
-            path,
-            written: Err(e),
-        }) => (
-            format!(
-                "{e}; {} holds only the pushes flushed before that",
-                path.display()
-            ),
-            None,
-        ),
-        None => ("no session was written".into(), None),
     }
 }
 

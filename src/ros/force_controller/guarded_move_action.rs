@@ -1,18 +1,21 @@
 //! The `~/guarded_move` action server of `force_controller` (needs r2r's
 //! generated types for tactile_force_msgs, so a real ROS build only): the
 //! goal's life cycle is the node's ([`ForceControllerNode`]); this moves
-//! its messages.
+//! its messages. A canceled goal ends once the pad has withdrawn out of
+//! contact ([`ForceControllerNode::withdrawn`]).
 
 use futures::StreamExt;
 
 use super::*;
 use crate::nodes::guarded_goal::GuardedGoal;
+use crate::ros::RosClock;
 use r2r::tactile_force_msgs::action::GuardedMove;
 
 pub(super) async fn serve(
     mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<GuardedMove::Action>> + Unpin,
     shared: Arc<Mutex<ForceControllerNode>>,
     period: Duration,
+    clock: RosClock,
 ) {
     while let Some(req) = goals.next().await {
         let d = &req.goal.direction;
@@ -36,13 +39,26 @@ pub(super) async fn serve(
             continue;
         }
         let mut ticker = tokio::time::interval(period);
+        let mut canceled = false;
         loop {
             ticker.tick().await;
-            if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
-                lock(&shared).cancel_goal();
-                c.accept();
+            let now = clock.now_s();
+            if !canceled {
+                if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
+                    // The pad withdraws out of contact before the goal ends.
+                    lock(&shared).cancel_goal(now);
+                    c.accept();
+                    canceled = true;
+                }
+            }
+            if canceled {
+                let Some(withdrawn) = lock(&shared).withdrawn(now) else {
+                    continue;
+                };
+                let force_n = lock(&shared).guarded_progress().map_or(0.0, |p| p.force_n);
                 let _ = handle.cancel(GuardedMove::Result {
-                    reason: "canceled".into(),
+                    reason: canceled_reason(withdrawn),
+                    force_n,
                     ..Default::default()
                 });
                 break;
@@ -76,5 +92,14 @@ pub(super) async fn serve(
             }
         }
         lock(&shared).end_goal();
+    }
+}
+
+/// The reason of a canceled goal: "canceled", with why the pad was
+/// stopped where it was if it could not withdraw.
+pub(super) fn canceled_reason(withdrawn: Result<(), String>) -> String {
+    match withdrawn {
+        Ok(()) => "canceled".into(),
+        Err(why) => format!("canceled; {why}"),
     }
 }
