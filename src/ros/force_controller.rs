@@ -56,6 +56,8 @@
 #[cfg(not(feature = "ros2-doc-only"))]
 mod calibrate_action;
 #[cfg(not(feature = "ros2-doc-only"))]
+mod cancel;
+#[cfg(not(feature = "ros2-doc-only"))]
 mod estimator_link;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod guarded_move_action;

@@ -6,6 +6,7 @@
 
 use futures::StreamExt;
 
+use super::cancel::{CancelWatch, Canceling};
 use super::*;
 use crate::nodes::guarded_goal::GuardedGoal;
 use crate::ros::RosClock;
@@ -26,7 +27,7 @@ pub(super) async fn serve(
             max_distance_m: req.goal.max_distance_m,
         };
         let started = lock(&shared).start_guarded(&goal);
-        let Ok((mut handle, mut cancel)) = req.accept() else {
+        let Ok((mut handle, cancel)) = req.accept() else {
             lock(&shared).end_goal();
             continue;
         };
@@ -39,34 +40,29 @@ pub(super) async fn serve(
             continue;
         }
         let mut ticker = tokio::time::interval(period);
-        let mut canceled = false;
+        let mut cancel = CancelWatch::new(cancel);
         loop {
             ticker.tick().await;
-            let now = clock.now_s();
-            if !canceled {
-                if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
-                    // The pad withdraws out of contact before the goal ends.
-                    lock(&shared).cancel_goal(now);
-                    c.accept();
-                    canceled = true;
+            let progress = {
+                let mut n = lock(&shared);
+                match cancel.poll(&mut n, clock.now_s()) {
+                    Canceling::No => n.guarded_progress(),
+                    Canceling::Withdrawing => continue,
+                    Canceling::Done(reason) => {
+                        let force_n = n.guarded_progress().map_or(0.0, |p| p.force_n);
+                        let _ = handle.cancel(GuardedMove::Result {
+                            reason,
+                            force_n,
+                            ..Default::default()
+                        });
+                        break;
+                    }
                 }
-            }
-            if canceled {
-                let Some(withdrawn) = lock(&shared).withdrawn(now) else {
-                    continue;
-                };
-                let force_n = lock(&shared).guarded_progress().map_or(0.0, |p| p.force_n);
-                let _ = handle.cancel(GuardedMove::Result {
-                    reason: canceled_reason(withdrawn),
-                    force_n,
-                    ..Default::default()
-                });
-                break;
-            }
+            };
             // A halt (inputs missing or stale, e.g. right after the goal
             // rebuilt the controller) pauses the move; the goal ends on the
             // task's own outcome.
-            let Some(p) = lock(&shared).guarded_progress() else {
+            let Some(p) = progress else {
                 continue;
             };
             let _ = handle.publish_feedback(GuardedMove::Feedback {
@@ -92,14 +88,5 @@ pub(super) async fn serve(
             }
         }
         lock(&shared).end_goal();
-    }
-}
-
-/// The reason of a canceled goal: "canceled", with why the pad was
-/// stopped where it was if it could not withdraw.
-pub(super) fn canceled_reason(withdrawn: Result<(), String>) -> String {
-    match withdrawn {
-        Ok(()) => "canceled".into(),
-        Err(why) => format!("canceled; {why}"),
     }
 }
