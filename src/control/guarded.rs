@@ -292,16 +292,18 @@ impl GuardedMove {
         self.retract_from_m = travelled_m;
     }
 
-    /// A withdrawal at `travelled_m`: out of contact already (still
-    /// approaching), it stops; in contact it retracts to `retract_distance_m`
-    /// short of where contact was first felt, then stops.
-    fn withdraw_from(&mut self, travelled_m: f64) -> f64 {
-        let Some(touched) = self.touched_m else {
+    /// A withdrawal: pressed along the approach (the object ahead, the
+    /// force at least `contact_force_n`), it retracts to
+    /// `retract_distance_m` short of where contact was first felt, then
+    /// stops; otherwise (still approaching, or an object behind the pad,
+    /// which a retract would drive it into) it stops where it is.
+    fn withdraw_from(&mut self, i: &GuardedInput) -> f64 {
+        if i.force_n < self.p.contact_force_n {
             self.phase = Phase::Stopped;
             return 0.0;
-        };
+        }
         self.phase = Phase::Retract;
-        self.retract_from_m = touched.min(travelled_m);
+        self.retract_from_m = self.touched_m.unwrap_or(i.travelled_m).min(i.travelled_m);
         -self.p.retract_speed_mps
     }
 
@@ -322,7 +324,7 @@ impl GuardedMove {
         self.since_fresh_s += i.dt;
         let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
         if std::mem::take(&mut self.withdrawing) && active {
-            return self.withdraw_from(i.travelled_m);
+            return self.withdraw_from(i);
         }
         // An estimate outside what the GP knows says nothing about the
         // force, so it is not read as over the limit.
@@ -545,7 +547,7 @@ impl Task for GuardedMove {
     }
 
     /// Out of contact: at the next cycle, a retract from where contact was
-    /// first felt ([`GuardedMove::withdraw_from`]).
+    /// first felt, or a stop ([`GuardedMove::withdraw_from`]).
     fn withdraw(&mut self) {
         self.withdrawing = true;
     }

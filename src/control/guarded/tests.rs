@@ -369,7 +369,7 @@ fn a_settle_window_beyond_a_minute_is_refused_before_it_is_allocated() {
 }
 
 #[test]
-fn a_withdrawal_retracts_past_the_first_touch_in_contact_and_stops_when_approaching() {
+fn a_withdrawal_retracts_past_the_first_touch_when_pressed_and_else_stops() {
     // Approaching: out of contact already, it stops at once.
     let mut g = guarded();
     g.speed(&input(0.0, 0.004));
@@ -395,6 +395,19 @@ fn a_withdrawal_retracts_past_the_first_touch_in_contact_and_stops_when_approach
     g.withdraw();
     assert_eq!(
         (g.speed(&input(0.0, 0.005)), g.phase()),
+        (0.0, Phase::Stopped)
+    );
+    // Moving away from a held object (PDC said contact, the force pushes
+    // along the direction): a retract would press it, so it stops.
+    let mut g = guarded();
+    g.speed(&GuardedInput {
+        pdc_rise: 100.0,
+        ..input(-1.0, 0.0)
+    });
+    assert_eq!(g.phase(), Phase::Regulate);
+    g.withdraw();
+    assert_eq!(
+        (g.speed(&input(-1.0, 0.001)), g.phase()),
         (0.0, Phase::Stopped)
     );
 }
