@@ -8,6 +8,8 @@ use std::path::{Path, PathBuf};
 
 use crate::exit::{Classify, ExitClass};
 
+pub mod models_dir;
+
 /// An output that cannot be written, refused before any work.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{role} {}: {reason}", path.display())]
@@ -95,6 +97,31 @@ pub fn check_format(path: &Path, role: &'static str, formats: &[&str]) -> Result
         });
     }
     check_writable(path, role)
+}
+
+/// Writes `bytes` to `path` whole or not at all: into a new temporary
+/// file in the same folder (flushed to disk), then renamed over `path`. An
+/// existing `path` is replaced, never written through (a symlink there is
+/// replaced, not followed); a reader sees the old file or the new one.
+pub fn write_whole(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".tmp-{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let written = OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
+        .and_then(|()| std::fs::rename(&tmp, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }
 
 #[cfg(test)]

@@ -3,16 +3,22 @@
 //! Its guarded move stops out of range with the default model; calibrated,
 //! it holds 1 N on every object and estimates a thesis-protocol session of
 //! the unit, mounted as on the arm, as well as the thesis' GP. No press passes the force limit on the
-//! F/T sensor; a calibration that cannot succeed stops the arm and says why.
+//! F/T sensor; a calibration that cannot succeed stops the arm and says why;
+//! one canceled while pressing backs off out of contact, and the next one
+//! starts clean.
 
 use tactile_force::biotac::sim::BioTacSimConfig;
-use tactile_force::calibration::{pattern, CalibrateParams, Ended};
-use tactile_force::control::{StopReason, TaskKind};
+use tactile_force::calibration::{
+    pattern, CalibrateMove, CalibrateParams, CalibrationRecorder, Ended,
+};
+use tactile_force::control::{Phase, StopReason, TaskKind};
 use tactile_force::kinematics::ShippedRobot;
 use tactile_force::learn::calibration::{fit, gp_params, CalibrationError, Recorded};
 use tactile_force::learn::data::Dataset;
 use tactile_force::learn::evaluate::score_model;
 use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::nodes::sim_robot::SimRobot;
+use tactile_force::nodes::{ControlOutput, ForceController};
 use tactile_force::runtime::calibrate::{record, Recording};
 use tactile_force::runtime::demo::run_scene;
 use tactile_force::runtime::{Pacing, Scene};
@@ -175,4 +181,65 @@ fn a_calibration_that_cannot_succeed_stops_the_arm_and_says_why() {
         matches!(e, CalibrationError::TooFew { pushes: 3, .. }),
         "{e}"
     );
+}
+
+/// One period of a calibration on the simulated arm, the F/T wrench as
+/// the force (as `runtime::calibrate` steps it): the output and the F/T
+/// force's magnitude (N).
+fn step(
+    c: &mut ForceController,
+    sim: &mut SimRobot,
+    rec: &mut CalibrationRecorder,
+) -> (ControlOutput, f64) {
+    let s = sim.sample();
+    let label = CalibrateMove::of(c.task()).and_then(CalibrateMove::label);
+    let _ = c.on_estimate(rec.on_ft(s.t, s.ft, label));
+    let _ = c.on_joint_state(&s.joints);
+    let out = c.tick(s.t);
+    sim.command(c.command());
+    sim.advance();
+    (out, s.ft.force.norm())
+}
+
+#[test]
+fn a_canceled_calibration_backs_off_out_of_contact_and_the_next_one_starts_clean() {
+    let scene = calibration(2);
+    let sensor = BioTacSimConfig::default();
+    let (mut c, mut sim, _) = scene.controller_and_sim(&sensor, 3).unwrap();
+    let mut rec = CalibrationRecorder::new(0.0);
+    let pressed = (0..3000).any(|_| step(&mut c, &mut sim, &mut rec).0.phase == Phase::Hold);
+    assert!(pressed, "the first press never held");
+    c.withdraw();
+    let (k, f) = (0..1000)
+        .map(|k| (k, step(&mut c, &mut sim, &mut rec)))
+        .find(|(_, (out, _))| out.phase == Phase::Stopped)
+        .map(|(k, (_, f))| (k, f))
+        .expect("never stopped");
+    let contact_n = scene
+        .controller
+        .section::<CalibrateParams>()
+        .unwrap()
+        .contact_force_n;
+    assert!(
+        f < contact_n,
+        "{f} N on the F/T sensor when stopped, {k} periods on"
+    );
+    assert_eq!(c.task().reason(), None, "a cancel is no failure");
+    // A new calibration from where it stopped: its first rest is out of
+    // contact (a cancel used to leave the pad pressed: in_contact), and it
+    // presses again.
+    let (mut next, _, _) = scene.controller_and_sim(&sensor, 4).unwrap();
+    let mut rec = CalibrationRecorder::new(sim.time());
+    let mut phases = Vec::new();
+    for _ in 0..3000 {
+        let (out, _) = step(&mut next, &mut sim, &mut rec);
+        assert_ne!(out.reason, Some(StopReason::InContact));
+        if phases.last() != Some(&out.phase) {
+            phases.push(out.phase);
+        }
+        if out.phase == Phase::Hold {
+            break;
+        }
+    }
+    assert_eq!(phases.last(), Some(&Phase::Hold), "{phases:?}");
 }

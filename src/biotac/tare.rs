@@ -219,13 +219,11 @@ impl SavedTare {
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(io)?;
         }
-        let tmp = path.with_extension("tmp");
         let text = serde_json::to_string(self).map_err(|source| SavedTareError::Format {
             path: path.into(),
             source,
         })?;
-        std::fs::write(&tmp, text).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        crate::outputs::write_whole(path, text.as_bytes()).map_err(io)
     }
 }
 

@@ -10,6 +10,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use super::pattern::CalibrateParams;
 use crate::control::{ControllerParams, Goal, TaskSection};
 use crate::learn::data::bag::{BagError, BagTopics, SessionWriter};
+use crate::outputs::models_dir::{ModelsDir, NameRefused};
 use crate::outputs::{check_writable, OutputError};
 use crate::params::ParamsError;
 use crate::wrench::AxisSet;
@@ -53,38 +54,41 @@ pub fn open_outputs(model: &Path, session: &Path) -> Result<SessionWriter, Outpu
 pub const DEFAULT_SURFACE: &str = "calibration_block";
 
 /// A calibration goal: the surface to press (empty: [`DEFAULT_SURFACE`])
-/// and where the model and the recording go.
+/// and where the model and the recording go, names inside the node's
+/// models folder ([`ModelsDir`]).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct CalibrateGoal {
     /// An object of the world file.
     pub surface: String,
-    /// The model file to write (empty: a new file in the model cache).
+    /// The model file to write (empty: a new file in the models folder).
     pub model_file: String,
     /// The recording, a rosbag2 MCAP file (empty: the model file's path
     /// with the extension .mcap).
     pub session_file: String,
+    /// Replace a model file or recording that exists.
+    pub overwrite: bool,
 }
 
 impl CalibrateGoal {
-    /// Where the goal writes the model and the recording.
-    pub fn outputs(&self) -> Result<(PathBuf, PathBuf), String> {
+    /// Where the goal writes the model and the recording, both in `dir`
+    /// ([`ModelsDir::output`]: a name leading out of it, or naming a file
+    /// that exists without `overwrite`, is refused with the reason).
+    pub fn outputs(&self, dir: &ModelsDir) -> Result<(PathBuf, PathBuf), NameRefused> {
         let model = match self.model_file.as_str() {
             "" => {
-                let dir = crate::learn::default_model::cache_dir()
-                    .ok_or("no model cache folder ($HOME unset): give model_file")?;
-                std::fs::create_dir_all(&dir)
-                    .map_err(|e| format!("model cache folder {}: {e}", dir.display()))?;
                 let unix = SystemTime::now()
                     .duration_since(UNIX_EPOCH)
                     .map_or(0, |d| d.as_secs());
-                dir.join(format!("calibration_{unix}.json"))
+                format!("calibration_{unix}.json")
             }
-            f => PathBuf::from(f),
+            f => f.to_string(),
         };
+        let model = dir.output("model_file", &model, self.overwrite)?;
         let session = match self.session_file.as_str() {
-            "" => model.with_extension("mcap"),
-            f => PathBuf::from(f),
+            "" => model.with_extension("mcap").display().to_string(),
+            f => f.to_string(),
         };
+        let session = dir.output("session_file", &session, self.overwrite)?;
         Ok((model, session))
     }
 }
@@ -114,6 +118,7 @@ mod tests {
     use crate::control::TaskKind;
     use crate::kinematics::Robot;
     use crate::nodes::ForceController;
+    use crate::outputs::models_dir::Refusal;
     use crate::runtime::scene::Scene;
 
     #[test]
@@ -147,24 +152,57 @@ mod tests {
     }
 
     #[test]
-    fn the_outputs_default_to_the_model_cache_and_the_model_s_name() {
+    fn the_outputs_default_to_the_models_folder_and_the_model_s_name() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = ModelsDir::new(tmp.path()).unwrap();
         let goal = CalibrateGoal {
-            model_file: "/tmp/u2.json".into(),
+            model_file: "u2.json".into(),
             ..Default::default()
         };
-        let (model, session) = goal.outputs().unwrap();
-        assert_eq!(model, PathBuf::from("/tmp/u2.json"));
-        assert_eq!(session, PathBuf::from("/tmp/u2.mcap"));
+        let (model, session) = goal.outputs(&dir).unwrap();
+        assert_eq!(model, dir.path().join("u2.json"));
+        assert_eq!(session, dir.path().join("u2.mcap"));
         let goal = CalibrateGoal {
-            session_file: "/data/s.mcap".into(),
+            session_file: "s.mcap".into(),
             ..Default::default()
         };
-        let (model, session) = goal.outputs().unwrap();
+        let (model, session) = goal.outputs(&dir).unwrap();
         let name = model.file_name().unwrap().to_str().unwrap();
         assert!(
             name.starts_with("calibration_") && name.ends_with(".json"),
             "{name}"
         );
-        assert_eq!(session, PathBuf::from("/data/s.mcap"));
+        assert_eq!(session, dir.path().join("s.mcap"));
+    }
+
+    #[test]
+    fn outputs_out_of_the_folder_or_existing_are_refused_by_role() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = ModelsDir::new(&tmp.path().join("models")).unwrap();
+        let goal = |model: &str, session: &str, overwrite| CalibrateGoal {
+            model_file: model.into(),
+            session_file: session.into(),
+            overwrite,
+            ..Default::default()
+        };
+        let e = goal("/tmp/outside/x.json", "", false).outputs(&dir);
+        assert!(e
+            .unwrap_err()
+            .to_string()
+            .starts_with("model_file \"/tmp/outside/x.json\": is outside"));
+        let e = goal("u2.json", "../s.mcap", false)
+            .outputs(&dir)
+            .unwrap_err();
+        assert_eq!(e.role, "session_file");
+        // The session named after the model exists: refused, unless asked.
+        std::fs::write(dir.path().join("u2.mcap"), "old").unwrap();
+        let e = goal("u2.json", "", false).outputs(&dir).unwrap_err();
+        assert_eq!((e.role, e.why), ("session_file", Refusal::Exists));
+        goal("u2.json", "", true).outputs(&dir).unwrap();
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "nothing written"
+        );
     }
 }

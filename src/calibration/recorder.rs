@@ -90,6 +90,33 @@ pub struct SessionEnd {
     pub written: Result<usize, BagError>,
 }
 
+impl SessionEnd {
+    /// What to say of the session file `end` (None: none was written), and
+    /// its path when it holds every record.
+    pub fn said(end: Option<SessionEnd>) -> (String, Option<PathBuf>) {
+        match end {
+            Some(SessionEnd {
+                path,
+                written: Ok(n),
+            }) => (
+                format!("the session ({n} records) is kept at {}", path.display()),
+                Some(path),
+            ),
+            Some(SessionEnd {
+                path,
+                written: Err(e),
+            }) => (
+                format!(
+                    "{e}; {} holds only the pushes flushed before that",
+                    path.display()
+                ),
+                None,
+            ),
+            None => ("no session was written".into(), None),
+        }
+    }
+}
+
 /// The records of a calibration, as they come.
 #[derive(Debug, Default)]
 pub struct CalibrationRecorder {

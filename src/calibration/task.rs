@@ -72,6 +72,8 @@ pub struct CalibrateMove {
     elapsed_s: f64,
     stage_s: f64,
     stopped: Option<Option<StopReason>>,
+    /// Canceled: the retract running is the last, then the turn back.
+    withdrawn: bool,
 }
 
 /// Tolerance of a turn (rad): 0.2 deg.
@@ -96,6 +98,7 @@ impl CalibrateMove {
             elapsed_s: 0.0,
             stage_s: 0.0,
             stopped: None,
+            withdrawn: false,
         }
     }
 
@@ -364,7 +367,7 @@ impl Task for CalibrateMove {
                 Stage::Retract(to),
                 linear(-into * self.p.approach_speed_mps),
             ),
-            Stage::Retract(_) if self.push + 1 < self.pushes.len() => {
+            Stage::Retract(_) if !self.withdrawn && self.push + 1 < self.pushes.len() => {
                 self.push += 1;
                 self.from = Some(here);
                 (Stage::Rest(self.p.rest_s), Twist::zeros())
@@ -428,6 +431,24 @@ impl Task for CalibrateMove {
 
     fn stop(&mut self) {
         self.finish(None);
+    }
+
+    /// Pressed (past the approach, or sliding): backs off to `clearance_m`
+    /// short of where it touched; then, as when out of contact, turns back
+    /// to the start's roll and finishes, no push after.
+    fn withdraw(&mut self) {
+        if self.stopped.is_some() {
+            return;
+        }
+        self.withdrawn = true;
+        let back = Stage::Retract(self.touched_m - self.p.clearance_m);
+        self.stage = match std::mem::replace(&mut self.stage, Stage::Done) {
+            Stage::Press(g, _) if g.phase() == Phase::Approach => Stage::Untilt,
+            Stage::Press(..) | Stage::Shear(..) => back,
+            Stage::Rest(_) | Stage::Tilt(_) => Stage::Untilt,
+            s @ (Stage::Retract(_) | Stage::Untilt | Stage::Done) => s,
+        };
+        self.stage_s = 0.0;
     }
 
     fn stop_on(&mut self, reason: StopReason) {

@@ -221,6 +221,10 @@ pub struct GuardedMove {
     retract_from_m: f64,
     /// True once the feedforward has brought the force near the target.
     pressed: bool,
+    /// Where along the approach contact was first felt (m).
+    touched_m: Option<f64>,
+    /// A withdrawal asked for, begun at the next cycle.
+    withdrawing: bool,
 }
 
 /// The feedforward's time constant, in reaction times.
@@ -250,6 +254,8 @@ impl GuardedMove {
             approach_s: 0.0,
             retract_from_m: 0.0,
             pressed: false,
+            touched_m: None,
+            withdrawing: false,
         }
     }
 
@@ -286,6 +292,21 @@ impl GuardedMove {
         self.retract_from_m = travelled_m;
     }
 
+    /// A withdrawal: pressed along the approach (the object ahead, the
+    /// force at least `contact_force_n`), it retracts to
+    /// `retract_distance_m` short of where contact was first felt, then
+    /// stops; otherwise (still approaching, or an object behind the pad,
+    /// which a retract would drive it into) it stops where it is.
+    fn withdraw_from(&mut self, i: &GuardedInput) -> f64 {
+        if i.force_n < self.p.contact_force_n {
+            self.phase = Phase::Stopped;
+            return 0.0;
+        }
+        self.phase = Phase::Retract;
+        self.retract_from_m = self.touched_m.unwrap_or(i.travelled_m).min(i.travelled_m);
+        -self.p.retract_speed_mps
+    }
+
     fn stop_with(&mut self, reason: StopReason) -> f64 {
         self.phase = Phase::Stopped;
         self.reason = Some(reason);
@@ -302,6 +323,9 @@ impl GuardedMove {
         let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
         self.since_fresh_s += i.dt;
         let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
+        if std::mem::take(&mut self.withdrawing) && active {
+            return self.withdraw_from(i);
+        }
         // An estimate outside what the GP knows says nothing about the
         // force, so it is not read as over the limit.
         let abort = if i.out_of_range {
@@ -318,6 +342,7 @@ impl GuardedMove {
                 self.approach_s += i.dt;
                 if i.force_n >= p.contact_force_n || i.pdc_rise >= p.contact_pdc_counts {
                     self.phase = Phase::Regulate;
+                    self.touched_m = Some(i.travelled_m);
                     return self.regulate(u, i, reaction_s);
                 }
                 if i.travelled_m >= p.max_distance_m {
@@ -519,6 +544,12 @@ impl Task for GuardedMove {
 
     fn stop(&mut self) {
         self.phase = Phase::Stopped;
+    }
+
+    /// Out of contact: at the next cycle, a retract from where contact was
+    /// first felt, or a stop ([`GuardedMove::withdraw_from`]).
+    fn withdraw(&mut self) {
+        self.withdrawing = true;
     }
 
     fn stop_on(&mut self, reason: StopReason) {

@@ -56,8 +56,14 @@ pub trait Task: fmt::Debug + Send + Any + BoxedClone {
     /// Forgets the force history after a pause in the inputs.
     fn pause(&mut self);
 
-    /// Stops where it is (a canceled goal): no motion any more.
+    /// Stops where it is: no motion any more.
     fn stop(&mut self);
+
+    /// A canceled goal: leaves contact, then stops, so that the next goal
+    /// starts out of contact. By default it stops where it is.
+    fn withdraw(&mut self) {
+        self.stop();
+    }
 
     /// Stops for good with `reason`.
     fn stop_on(&mut self, reason: StopReason);

@@ -341,10 +341,15 @@ impl ForceController {
         self.meter.arrivals()
     }
 
-    /// Stops the task where it is (a canceled goal): every later tick
-    /// commands zero velocity.
+    /// Stops the task where it is: every later tick commands zero velocity.
     pub fn stop(&mut self) {
         self.task.stop();
+    }
+
+    /// A canceled goal: the task leaves contact, then stops
+    /// ([`Task::withdraw`]).
+    pub fn withdraw(&mut self) {
+        self.task.withdraw();
     }
 
     /// One control cycle at time `now` (s).

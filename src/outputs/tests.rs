@@ -38,3 +38,35 @@ fn a_missing_folder_a_folder_and_a_bad_format_are_refused_by_role_and_path() {
     // A file name alone is in the working folder.
     check_writable(Path::new("Cargo.toml.never-written"), "plot").unwrap();
 }
+
+#[test]
+fn a_file_written_whole_replaces_the_old_one_and_leaves_no_temporary() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.json");
+    write_whole(&path, b"one").unwrap();
+    // A hard link to the old file keeps its content: no write in place.
+    let old = dir.path().join("old.json");
+    std::fs::hard_link(&path, &old).unwrap();
+    write_whole(&path, b"two").unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), b"two");
+    assert_eq!(std::fs::read(&old).unwrap(), b"one");
+    // A symlink at the path is replaced, its target not written.
+    let target = dir.path().join("target");
+    std::fs::write(&target, "kept").unwrap();
+    let link = dir.path().join("link.json");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    write_whole(&link, b"new").unwrap();
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), "kept");
+    assert!(!std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let e = write_whole(&dir.path().join("none/m.json"), b"x").unwrap_err();
+    assert_eq!(e.kind(), std::io::ErrorKind::NotFound);
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(
+        names.len(),
+        4,
+        "m.json, old.json, target, link.json: {names:?}"
+    );
+}

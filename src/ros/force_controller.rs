@@ -34,7 +34,9 @@
 //! arm still, for a calibration goal). Every other parameter is read at
 //! start-up.
 //!
-//! The calibration is an action, `~/calibrate`
+//! The files a calibration goal names stay in `models_dir` (default: the
+//! model cache folder; [`crate::outputs::models_dir`]). The calibration is
+//! an action, `~/calibrate`
 //! (tactile_force_msgs/action/Calibrate): while it runs, the force is the
 //! F/T sensor's (`ft_sensor/wrench`, moved to the BioTac frame by
 //! `ft_to_biotac`), not the estimate, and each wrench is recorded with the
@@ -46,12 +48,15 @@
 //! controller refuses (a value out of range, a speed beyond the safety
 //! envelope, no robot description yet) is accepted and aborted at once with
 //! `reason` "refused: ..." naming the limit, so that a client can read why.
+//! A canceled goal ends once the pad has withdrawn out of contact.
 //! r2r has no untyped action server and, under its `doc-only` build, no
 //! types for our interface package, so the action server is compiled only
 //! in a real ROS build (`cfg(not(feature = "ros2-doc-only"))`).
 
 #[cfg(not(feature = "ros2-doc-only"))]
 mod calibrate_action;
+#[cfg(not(feature = "ros2-doc-only"))]
+mod cancel;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod estimator_link;
 #[cfg(not(feature = "ros2-doc-only"))]
@@ -104,6 +109,7 @@ pub async fn run() -> Result<(), RosError> {
         "wrench_estimator",
         "The estimator whose model the calibration adapts and then sets (its model_file parameter).",
     )?;
+    let models = super::models_dir(&node)?;
     let child = biotac_frame(&super::own_string(
         &node,
         "biotac_frame",
@@ -117,6 +123,7 @@ pub async fn run() -> Result<(), RosError> {
         "command_interface",
         "ft_to_biotac",
         "estimator_node",
+        "models_dir",
     ];
     let base: ControllerParams = super::node_params(
         &node,
@@ -163,7 +170,7 @@ pub async fn run() -> Result<(), RosError> {
     #[cfg(not(feature = "ros2-doc-only"))]
     let link = estimator_link::EstimatorLink::new(&mut node, &estimator)?;
     #[cfg(feature = "ros2-doc-only")]
-    let _ = estimator;
+    let _ = (estimator, models);
     let s = shared.clone();
     let live = RuntimeParams::new(
         &["task"],
@@ -223,7 +230,12 @@ pub async fn run() -> Result<(), RosError> {
         }
     });
     #[cfg(not(feature = "ros2-doc-only"))]
-    tokio::spawn(guarded_move_action::serve(goals, shared.clone(), period));
+    tokio::spawn(guarded_move_action::serve(
+        goals,
+        shared.clone(),
+        period,
+        clock.clone(),
+    ));
     #[cfg(not(feature = "ros2-doc-only"))]
     tokio::spawn(calibrate_action::serve(
         calibrations,
@@ -231,6 +243,7 @@ pub async fn run() -> Result<(), RosError> {
         period,
         clock.clone(),
         link,
+        models,
     ));
 
     stepping::run(shared, forces, commands, diagnostics, clock, period).await

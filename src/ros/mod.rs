@@ -30,6 +30,7 @@ use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
 use crate::learn::models::wrench_gp::ModelError;
 use crate::nodes::estimator::EstimatorError;
+use crate::outputs::models_dir::ModelsDir;
 #[cfg(doc)]
 use crate::params::layered_flat_params;
 use crate::params::{FlatParams, ParamsError};
@@ -213,6 +214,30 @@ pub fn own_string(
         r2r::ParameterValue::String(s) => Ok(s),
         other => Err(wrong_type(name, "a string", &other)),
     }
+}
+
+/// The `models_dir` parameter (default: the model cache folder): the
+/// folder that the files a goal or a run-time parameter set names stay in
+/// ([`ModelsDir`]); made if missing.
+pub fn models_dir(node: &r2r::Node) -> Result<ModelsDir, RosError> {
+    let cache = crate::learn::default_model::cache_dir().unwrap_or_default();
+    let dir = own_string(
+        node,
+        "models_dir",
+        &cache.display().to_string(),
+        "The folder of the files a calibration goal writes and of a model_file set while running: names inside it, nothing outside, no `..`, no symlink leading out; default: the model cache folder.",
+    )?;
+    let refuse = |expected: String| ParamsError::Invalid {
+        key: "models_dir".into(),
+        value: dir.clone(),
+        expected,
+    };
+    if dir.is_empty() {
+        return Err(refuse("a folder (no model cache folder: $HOME unset)".into()).into());
+    }
+    let models = ModelsDir::new(std::path::Path::new(&dir)).map_err(refuse)?;
+    tracing::info!("models_dir {}", models.path().display());
+    Ok(models)
 }
 
 /// A floating-point parameter of the adapter (integers accepted).

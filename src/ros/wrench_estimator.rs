@@ -11,8 +11,9 @@
 //! - a nail-camera model reads `camera/image` (sensor_msgs/Image, mono8,
 //!   rgb8 or bgr8): `wrench_estimator/nail.rs`.
 //!
-//! `model_file` may be set while the node runs: see
-//! `wrench_estimator/biotac.rs`. With none
+//! `model_file` may be set while the node runs, to a file in `models_dir`
+//! (default: the model cache folder): see `wrench_estimator/biotac.rs`; a
+//! `model_file` given at launch may be anywhere. With none
 //! given the node estimates with the default model and sets `model_file` to
 //! its cache file, so that `ros2 param get` (and the calibration) read which.
 //!
@@ -75,7 +76,9 @@ pub async fn run() -> Result<(), RosError> {
         60.0,
         "A saved tare younger than this is taken up at start (s); 0: always tare anew.",
     )?;
+    let models = super::models_dir(&node)?;
     let skip = [
+        "models_dir",
         "model_file",
         "frame_id",
         "stale_timeout_s",
@@ -119,6 +122,7 @@ pub async fn run() -> Result<(), RosError> {
         ready_after_s,
         tare_file,
         tare_max_age_s,
+        models,
     };
     match model.sensor() {
         SensorSpec::Biotac { .. } => biotac::run(node, model, settings, out).await,
@@ -195,6 +199,8 @@ struct Settings {
     ready_after_s: f64,
     tare_file: String,
     tare_max_age_s: f64,
+    /// Where a `model_file` set while running must be.
+    models: crate::outputs::models_dir::ModelsDir,
 }
 
 /// The estimator's topics and its once-a-second report.

@@ -763,7 +763,7 @@ def calibration():
     peer = Peer(n.domain)
     client = ActionClient(peer.node, Calibrate, "force_controller/calibrate")
     feedback = []
-    ok = False
+    ok, model = False, None
     try:
         before = peer.get_param("wrench_estimator", "model_file")
         check("calibration: the estimator says its model file", bool(before) and before.endswith(".json"),
@@ -771,8 +771,10 @@ def calibration():
         if not client.wait_for_server(timeout_sec=10):
             check("calibration: action server", False, "force_controller/calibrate")
             return
-        model = os.path.join(n.logs, "unit2.json")
-        goal = Calibrate.Goal(model_file=model)
+        # A name in models_dir, the model cache folder by default.
+        name = f"unit2_{os.getpid()}.json"
+        model = os.path.join(os.path.realpath(os.environ["TACTILE_FORCE_CACHE"]), name)
+        goal = Calibrate.Goal(model_file=name)
         peer.forces.clear()
         sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback))
         peer.spin(10, sent.done)
@@ -818,6 +820,9 @@ def calibration():
         client.destroy()
         peer.destroy()
         n.stop(keep_logs=not ok)
+        for written in (model, model and model[:-len(".json")] + ".mcap"):
+            if written and os.path.exists(written):
+                os.remove(written)
 
 
 def twist_interface():

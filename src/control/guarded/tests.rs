@@ -367,3 +367,47 @@ fn a_settle_window_beyond_a_minute_is_refused_before_it_is_allocated() {
         }
     }
 }
+
+#[test]
+fn a_withdrawal_retracts_past_the_first_touch_when_pressed_and_else_stops() {
+    // Approaching: out of contact already, it stops at once.
+    let mut g = guarded();
+    g.speed(&input(0.0, 0.004));
+    g.withdraw();
+    assert_eq!(
+        (g.speed(&input(0.0, 0.005)), g.phase()),
+        (0.0, Phase::Stopped)
+    );
+    assert_eq!(g.reason(), None, "a cancel is no stop reason");
+    // Touched at 10 mm, holding at 12 mm: back to 5 mm short of the touch.
+    let mut g = guarded();
+    g.speed(&input(0.5, 0.010));
+    g.speed(&input(1.0, 0.012));
+    g.withdraw();
+    assert_eq!(
+        (g.speed(&input(1.0, 0.012)), g.phase()),
+        (-0.01, Phase::Retract)
+    );
+    assert_eq!(g.speed(&input(0.0, 0.0051)), -0.01, "not clear yet");
+    assert_eq!(g.speed(&input(0.0, 0.0049)), 0.0);
+    assert_eq!((g.phase(), g.reason()), (Phase::Stopped, None));
+    // Stopped already: nothing more.
+    g.withdraw();
+    assert_eq!(
+        (g.speed(&input(0.0, 0.005)), g.phase()),
+        (0.0, Phase::Stopped)
+    );
+    // Moving away from a held object (PDC said contact, the force pushes
+    // along the direction): a retract would press it, so it stops.
+    let mut g = guarded();
+    g.speed(&GuardedInput {
+        pdc_rise: 100.0,
+        ..input(-1.0, 0.0)
+    });
+    assert_eq!(g.phase(), Phase::Regulate);
+    g.withdraw();
+    assert_eq!(
+        (g.speed(&input(-1.0, 0.001)), g.phase()),
+        (0.0, Phase::Stopped)
+    );
+}

@@ -3,8 +3,9 @@
 //! controller of its task, or is refused with the reason (no robot
 //! description yet, another goal running, a value out of range, a speed
 //! beyond the safety envelope); while it runs, its feedback; when the task
-//! holds or stops, its outcome; a cancel stops the arm where it is; once
-//! ended, a task switch or a new goal may come.
+//! holds or stops, its outcome; a cancel withdraws the pad out of contact
+//! before the goal ends ([`ForceControllerNode::withdrawn`]), so that the
+//! next goal starts clean; once ended, a task switch or a new goal may come.
 
 use super::ForceControllerNode;
 use crate::calibration::{CalibrateGoal, CalibrateMove, CalibrationRecorder, Ended};
@@ -12,6 +13,11 @@ use crate::control::{Phase, TaskKind};
 use crate::learn::data::bag::SessionWriter;
 use crate::nodes::guarded_goal::{guarded_outcome, GuardedGoal};
 use crate::nodes::ForceController;
+
+/// How long a canceled goal's pad may take to leave contact before it is
+/// stopped where it is (s): a retract of a few millimetres and a turn back
+/// take 1-3 s.
+pub const WITHDRAW_S: f64 = 10.0;
 
 /// The goal running.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -122,6 +128,7 @@ impl ForceControllerNode {
         self.task = task.name().into();
         self.goal = Some(goal);
         self.last = None;
+        self.withdrawing_since = None;
     }
 
     /// The guarded move's feedback and outcome, with what it measured;
@@ -170,11 +177,33 @@ impl ForceControllerNode {
         }
     }
 
-    /// A goal canceled: the arm stops where it is.
-    pub fn cancel_goal(&mut self) {
+    /// A goal canceled at `now`: the task leaves contact, then stops
+    /// ([`crate::control::Task::withdraw`]); [`ForceControllerNode::withdrawn`]
+    /// says when.
+    pub fn cancel_goal(&mut self, now: f64) {
         if let Some(c) = self.controller.as_mut() {
-            c.stop();
+            c.withdraw();
+            self.withdrawing_since.get_or_insert(now);
         }
+    }
+
+    /// After a cancel: None while the pad withdraws; Ok once the task has
+    /// stopped; Err when it has not within [`WITHDRAW_S`] of the cancel
+    /// (inputs stale, an arm that does not follow): it then stops where
+    /// it is, and the reason says so.
+    pub fn withdrawn(&mut self, now: f64) -> Option<Result<(), String>> {
+        let since = self.withdrawing_since?;
+        let c = self.controller.as_mut()?;
+        if c.task().phase() == Phase::Stopped {
+            return Some(Ok(()));
+        }
+        if now - since < WITHDRAW_S {
+            return None;
+        }
+        c.stop();
+        Some(Err(format!(
+            "the pad did not leave contact within {WITHDRAW_S} s: stopped where it is"
+        )))
     }
 
     /// The calibration's recording, once its arm has stopped: estimates
@@ -189,5 +218,6 @@ impl ForceControllerNode {
     pub fn end_goal(&mut self) {
         self.goal = None;
         self.calibration = None;
+        self.withdrawing_since = None;
     }
 }

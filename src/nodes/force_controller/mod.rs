@@ -133,6 +133,8 @@ pub struct ForceControllerNode {
     /// start with `autostart`): until then the controller commands zero.
     asked: bool,
     goal: Option<Running>,
+    /// When the goal running was canceled: its pad withdraws.
+    withdrawing_since: Option<f64>,
     /// While a calibration runs, its recording: the F/T wrench, not the
     /// estimate, is then the force.
     calibration: Option<CalibrationRecorder>,
@@ -189,6 +191,7 @@ impl ForceControllerNode {
             arm: None,
             controller: None,
             goal: None,
+            withdrawing_since: None,
             calibration: None,
             pairing: EstimatePairing::default(),
             pdc_rise: 0.0,

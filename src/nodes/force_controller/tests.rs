@@ -1,6 +1,6 @@
 use nalgebra::Vector3;
 
-use super::goals::CalibrationProgress;
+use super::goals::{CalibrationProgress, WITHDRAW_S};
 use super::*;
 use crate::calibration::Ended;
 use crate::control::{Halt, StopReason};
@@ -84,7 +84,7 @@ fn a_description_is_taken_once_and_refused_while_a_task_runs() {
     assert!(matches!(e, DescriptionError::Running), "{e}");
     assert_eq!(n.joint_names().len(), 7, "the PA10 stays");
     // Once the task has stopped, the other arm is taken.
-    n.cancel_goal();
+    n.cancel_goal(0.005);
     estimate(&mut n, 0.01, 0.0);
     assert!(!n.running());
     assert!(n.take_description(five).unwrap());
@@ -137,7 +137,7 @@ fn launched_with_estimates_flowing_it_commands_zero_until_asked_and_a_set_restar
     let e = n.set_task("guarded", true).unwrap_err();
     assert!(e.contains("is running"), "{e}");
     // Stopped, a set starts it again.
-    n.cancel_goal();
+    n.cancel_goal(0.105);
     estimate(&mut n, 0.11, 0.0);
     assert!(!n.running());
     n.set_task("guarded", true).unwrap();
@@ -226,8 +226,21 @@ fn a_guarded_goal_runs_reports_and_ends_and_only_one_goal_at_a_time() {
     assert!((p.loop_delay_s - 0.066).abs() < 1e-9, "{p:?}");
     assert!(p.stiffness_n_per_m.is_some() && p.gain_m_per_s_per_n.is_some());
     assert_eq!(p.settled_sd_n, None, "the window is not full");
-    n.cancel_goal();
+    // Canceled in contact: it retracts; an arm that does not follow
+    // (these joints stay) is stopped where it is once the bound has passed.
+    n.cancel_goal(0.005);
+    assert_eq!(n.withdrawn(0.005), None);
     estimate(&mut n, 0.01, 0.2);
+    let p = n.guarded_progress().unwrap();
+    assert_eq!((p.phase, p.outcome), (Phase::Retract, None));
+    assert!(
+        n.controller().unwrap().command().norm() > 0.0,
+        "moving away"
+    );
+    assert_eq!(n.withdrawn(0.005 + WITHDRAW_S - 0.01), None);
+    let e = n.withdrawn(0.005 + WITHDRAW_S).unwrap().unwrap_err();
+    assert!(e.contains("did not leave contact"), "{e}");
+    estimate(&mut n, 0.02, 0.2);
     let p = n.guarded_progress().unwrap();
     assert_eq!(
         (p.force_n, p.phase, p.outcome),

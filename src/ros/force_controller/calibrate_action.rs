@@ -1,13 +1,16 @@
 //! The `~/calibrate` action server of `force_controller` (needs r2r's
 //! generated types for tactile_force_msgs, so a real ROS build only).
 //!
-//! A goal's outputs are checked and its session file opened before the
-//! arm moves ([`open_outputs`]: a model file or session that cannot be
-//! written refuses the goal); it then starts the calibration task on its
+//! A goal's outputs are resolved in the node's `models_dir`
+//! ([`CalibrateGoal::outputs`]: a name leading out of it, or naming a file
+//! that exists without `overwrite`, refuses the goal), checked and its
+//! session file opened before the arm moves ([`open_outputs`]: a model
+//! file or session that cannot be written refuses the goal); it then starts the calibration task on its
 //! surface ([`CalibrateGoal`]); while it runs the node steps on the F/T
 //! wrench and records it with the BioTac's readings, written to the
 //! session as they come and flushed at each push's end
 //! ([`CalibrationRecorder`]; the life cycle is [`ForceControllerNode`]'s).
+//! A cancel ends the goal once the pad has withdrawn out of contact.
 //! When the arm has stopped: the session file is ended, the estimator's model
 //! (its `model_file` parameter, asked through its parameter service) is
 //! adapted or a model trained from scratch, whichever validates better
@@ -16,18 +19,20 @@
 //! that cannot succeed ends aborted with the reason, the arm stopped, and no
 //! model written or handed on.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use r2r::tactile_force_msgs::action::Calibrate;
 
 use futures::StreamExt;
 
+use super::cancel::{CancelWatch, Canceling};
 use super::estimator_link::EstimatorLink;
 use super::*;
 use crate::calibration::{open_outputs, CalibrateGoal, CalibrationRecorder, Ended, SessionEnd};
-use crate::learn::calibration::{fit_and_save, CalibrationRecord};
+use crate::learn::calibration::fit_and_save;
 use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::force_controller::goals::CalibrationProgress;
+use crate::outputs::models_dir::ModelsDir;
 use crate::record::Record;
 use crate::ros::RosClock;
 
@@ -42,87 +47,52 @@ fn failed(reason: String, rec: Option<&CalibrationRecorder>) -> Calibrate::Resul
     }
 }
 
-/// The RMSE of fx, fy, fz of the validation row `name`.
-fn rmse(r: &CalibrationRecord, name: &str) -> Vec<f64> {
-    r.validation
-        .iter()
-        .find(|v| v.model == name)
-        .map(|v| v.rmse.values().copied().collect())
-        .unwrap_or_default()
-}
-
 pub(super) async fn serve(
     mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<Calibrate::Action>> + Unpin,
     shared: Arc<Mutex<ForceControllerNode>>,
     period: Duration,
     clock: RosClock,
     estimator: EstimatorLink,
+    models: ModelsDir,
 ) {
     while let Some(req) = goals.next().await {
         let goal = CalibrateGoal {
             surface: req.goal.surface.clone(),
             model_file: req.goal.model_file.clone(),
             session_file: req.goal.session_file.clone(),
+            overwrite: req.goal.overwrite,
         };
-        let started = goal.outputs().and_then(|(model, session)| {
-            let writer = open_outputs(&model, &session).map_err(|e| e.to_string())?;
-            let now = clock.now_s();
-            if let Err(e) = lock(&shared).start_calibration(&goal, now, Some(writer)) {
-                // Refused with the arm still: no session to keep.
-                let _ = std::fs::remove_file(&session);
-                return Err(e);
-            }
-            Ok((model, session))
-        });
-        let Ok((mut handle, mut cancel)) = req.accept() else {
+        let started = start(&goal, &models, &shared, &clock);
+        let Ok((mut handle, cancel)) = req.accept() else {
             lock(&shared).end_goal();
             continue;
         };
-        let (model_path, _) = match started {
-            Ok(paths) => paths,
+        let model_path = match started {
+            Ok(path) => path,
             Err(e) => {
                 tracing::warn!("calibrate goal refused: {e}");
                 let _ = handle.abort(failed(format!("refused: {e}"), None));
                 continue;
             }
         };
-        let mut ticker = tokio::time::interval(period);
-        let ended = loop {
-            ticker.tick().await;
-            let mut n = lock(&shared);
-            if let Some(Some(request)) = futures::FutureExt::now_or_never(cancel.next()) {
-                n.cancel_goal();
-                request.accept();
-                break Ended::Canceled;
-            }
-            match n.calibration_progress(clock.now_s()) {
-                CalibrationProgress::Starting => {}
-                CalibrationProgress::Ended(e) => break e,
-                CalibrationProgress::Running {
-                    push,
-                    pushes,
-                    phase,
-                    force_n,
-                } => {
-                    let _ = handle.publish_feedback(Calibrate::Feedback {
-                        push,
-                        pushes,
-                        phase: phase.name().into(),
-                        force_n,
-                    });
-                }
-            }
-        };
+        let why = motion(
+            &mut handle,
+            CancelWatch::new(cancel),
+            &shared,
+            period,
+            &clock,
+        )
+        .await;
         let Some(mut rec) = lock(&shared).take_recording() else {
             lock(&shared).end_goal();
             continue;
         };
-        let session = session_kept(rec.finish_session());
-        if let Some(why) = ended.failure() {
+        let session = SessionEnd::said(rec.finish_session());
+        if let Some((why, canceled)) = why {
             let why = format!("{why}; no model written; {}", session.0);
             tracing::warn!("calibration: {why}");
             let result = failed(why, Some(&rec));
-            let _ = if ended == Ended::Canceled {
+            let _ = if canceled {
                 handle.cancel(result)
             } else {
                 handle.abort(result)
@@ -141,27 +111,65 @@ pub(super) async fn serve(
     }
 }
 
-/// What to say of the session file once ended, and its path when whole.
-fn session_kept(end: Option<SessionEnd>) -> (String, Option<PathBuf>) {
-    match end {
-        Some(SessionEnd {
-            path,
-            written: Ok(n),
-        }) => (
-            format!("the session ({n} records) is kept at {}", path.display()),
-            Some(path),
-        ),
-        Some(SessionEnd {
-            path,
-            written: Err(e),
-        }) => (
-            format!(
-                "{e}; {} holds only the pushes flushed before that",
-                path.display()
-            ),
-            None,
-        ),
-        None => ("no session was written".into(), None),
+/// The goal's files resolved in `models`, checked and the session opened,
+/// then the calibration started, or why not (nothing left written): the
+/// model file's path.
+fn start(
+    goal: &CalibrateGoal,
+    models: &ModelsDir,
+    shared: &Mutex<ForceControllerNode>,
+    clock: &RosClock,
+) -> Result<PathBuf, String> {
+    let (model, session) = goal.outputs(models).map_err(|e| e.to_string())?;
+    let writer = open_outputs(&model, &session).map_err(|e| e.to_string())?;
+    if let Err(e) = lock(shared).start_calibration(goal, clock.now_s(), Some(writer)) {
+        // Refused with the arm still: no session to keep.
+        let _ = std::fs::remove_file(&session);
+        return Err(e);
+    }
+    Ok(model)
+}
+
+/// The calibration's motion, its feedback each period, until the arm has
+/// stopped: None when the pattern ended, else why not and whether the goal
+/// was canceled.
+async fn motion(
+    handle: &mut r2r::ActionServerGoal<Calibrate::Action>,
+    mut cancel: CancelWatch<impl futures::Stream<Item = r2r::ActionServerCancelRequest> + Unpin>,
+    shared: &Mutex<ForceControllerNode>,
+    period: Duration,
+    clock: &RosClock,
+) -> Option<(String, bool)> {
+    let mut ticker = tokio::time::interval(period);
+    loop {
+        ticker.tick().await;
+        let now = clock.now_s();
+        let mut n = lock(shared);
+        match cancel.poll(&mut n, now) {
+            Canceling::No => {}
+            Canceling::Withdrawing => continue,
+            Canceling::Done(reason) => return Some((reason, true)),
+        }
+        match n.calibration_progress(now) {
+            CalibrationProgress::Starting => {}
+            CalibrationProgress::Ended(e) => {
+                let canceled = e == Ended::Canceled;
+                return e.failure().map(|why| (why, canceled));
+            }
+            CalibrationProgress::Running {
+                push,
+                pushes,
+                phase,
+                force_n,
+            } => {
+                let _ = handle.publish_feedback(Calibrate::Feedback {
+                    push,
+                    pushes,
+                    phase: phase.name().into(),
+                    force_n,
+                });
+            }
+        }
     }
 }
 
@@ -196,8 +204,7 @@ async fn fit(
     let (motion_s, peak) = (recorded.motion_s, recorded.peak_force_n);
     let (model, session) = (model_path.clone(), session_path.clone());
     let fitted = tokio::task::spawn_blocking(move || {
-        let current =
-            WrenchGp::load(std::path::Path::new(&current_file)).map_err(|e| e.to_string())?;
+        let current = WrenchGp::load(Path::new(&current_file)).map_err(|e| e.to_string())?;
         fit_and_save(
             &records,
             &current,
@@ -231,8 +238,8 @@ async fn fit(
         reason: "calibrated".into(),
         model_file: path,
         session_file: session_path.map_or(String::new(), |p| p.display().to_string()),
-        current_rmse_n: rmse(&fitted, "current"),
-        chosen_rmse_n: rmse(&fitted, &fitted.chosen),
+        current_rmse_n: fitted.rmse_of("current"),
+        chosen_rmse_n: fitted.rmse_of(&fitted.chosen),
         chosen: fitted.chosen,
         pushes: fitted.pushes,
         motion_s: fitted.motion_s,

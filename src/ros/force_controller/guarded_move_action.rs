@@ -1,18 +1,22 @@
 //! The `~/guarded_move` action server of `force_controller` (needs r2r's
 //! generated types for tactile_force_msgs, so a real ROS build only): the
 //! goal's life cycle is the node's ([`ForceControllerNode`]); this moves
-//! its messages.
+//! its messages. A canceled goal ends once the pad has withdrawn out of
+//! contact ([`ForceControllerNode::withdrawn`]).
 
 use futures::StreamExt;
 
+use super::cancel::{CancelWatch, Canceling};
 use super::*;
 use crate::nodes::guarded_goal::GuardedGoal;
+use crate::ros::RosClock;
 use r2r::tactile_force_msgs::action::GuardedMove;
 
 pub(super) async fn serve(
     mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<GuardedMove::Action>> + Unpin,
     shared: Arc<Mutex<ForceControllerNode>>,
     period: Duration,
+    clock: RosClock,
 ) {
     while let Some(req) = goals.next().await {
         let d = &req.goal.direction;
@@ -23,7 +27,7 @@ pub(super) async fn serve(
             max_distance_m: req.goal.max_distance_m,
         };
         let started = lock(&shared).start_guarded(&goal);
-        let Ok((mut handle, mut cancel)) = req.accept() else {
+        let Ok((mut handle, cancel)) = req.accept() else {
             lock(&shared).end_goal();
             continue;
         };
@@ -36,21 +40,29 @@ pub(super) async fn serve(
             continue;
         }
         let mut ticker = tokio::time::interval(period);
+        let mut cancel = CancelWatch::new(cancel);
         loop {
             ticker.tick().await;
-            if let Some(Some(c)) = futures::FutureExt::now_or_never(cancel.next()) {
-                lock(&shared).cancel_goal();
-                c.accept();
-                let _ = handle.cancel(GuardedMove::Result {
-                    reason: "canceled".into(),
-                    ..Default::default()
-                });
-                break;
-            }
+            let progress = {
+                let mut n = lock(&shared);
+                match cancel.poll(&mut n, clock.now_s()) {
+                    Canceling::No => n.guarded_progress(),
+                    Canceling::Withdrawing => continue,
+                    Canceling::Done(reason) => {
+                        let force_n = n.guarded_progress().map_or(0.0, |p| p.force_n);
+                        let _ = handle.cancel(GuardedMove::Result {
+                            reason,
+                            force_n,
+                            ..Default::default()
+                        });
+                        break;
+                    }
+                }
+            };
             // A halt (inputs missing or stale, e.g. right after the goal
             // rebuilt the controller) pauses the move; the goal ends on the
             // task's own outcome.
-            let Some(p) = lock(&shared).guarded_progress() else {
+            let Some(p) = progress else {
                 continue;
             };
             let _ = handle.publish_feedback(GuardedMove::Feedback {

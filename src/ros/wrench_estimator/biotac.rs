@@ -6,7 +6,8 @@
 //! finger may be pressed (a hold) when it comes back.
 //!
 //! `model_file` may be set while the node runs (the calibration action
-//! does): the model is loaded and checked, and estimates come from it from
+//! does): a file in `models_dir` (a path outside it, `..` or a symlink
+//! leading out is refused), loaded and checked, and estimates come from it from
 //! the next reading on, on the same tare; refused, with the reason, when it
 //! does not load or fit the BioTac, and while the finger is pressed
 //! ([`crate::nodes::estimator::PRESSED_N`]).
@@ -23,6 +24,7 @@ use crate::biotac::tare::SavedTare;
 use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable, INPUTS};
 use crate::nodes::EstimatorNode;
+use crate::outputs::models_dir::ModelsDir;
 use crate::ros::params::RuntimeParams;
 use crate::ros::RosError;
 use crate::sensor::biotac::BioTacInput;
@@ -39,10 +41,12 @@ fn lock(
     e.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Checks (or, `apply`, takes) the model of a new `model_file` value.
+/// Checks (or, `apply`, takes) the model of a new `model_file` value: a
+/// file in `models` ([`ModelsDir::input`]), or "" for the default model.
 fn take_model(
     estimator: &Mutex<EstimatorNode<BioTacInput>>,
     recipe: &crate::learn::default_model::Recipe,
+    models: &ModelsDir,
     value: &r2r::ParameterValue,
     apply: bool,
 ) -> Result<(), String> {
@@ -51,7 +55,15 @@ fn take_model(
             "{value:?}: expected a model file's path (a string)"
         ));
     };
-    let (model, _) = load_model(file, recipe).map_err(|e| e.to_string())?;
+    let path = match file.as_str() {
+        "" => String::new(),
+        f => models
+            .input("model_file", f)
+            .map_err(|e| e.to_string())?
+            .display()
+            .to_string(),
+    };
+    let (model, _) = load_model(&path, recipe).map_err(|e| e.to_string())?;
     let said = describe_model(if file.is_empty() { "default" } else { file }, &model);
     let mut e = lock(estimator);
     if !apply {
@@ -115,11 +127,11 @@ pub(super) async fn run(
     tracing::info!("reading {} on {}", source.type_name(), source.topic());
     let estimator = Arc::new(Mutex::new(estimator));
     let shared = estimator.clone();
-    let recipe = s.default_model;
+    let (recipe, models) = (s.default_model, s.models);
     let live = RuntimeParams::new(
         &["model_file"],
         Box::new(move |_, value, apply| {
-            take_model(&shared, &recipe, value, apply)
+            take_model(&shared, &recipe, &models, value, apply)
                 .inspect_err(|e| tracing::warn!("model_file refused: {e}"))
         }),
     );

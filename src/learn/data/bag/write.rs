@@ -85,16 +85,26 @@ impl std::fmt::Debug for SessionWriter {
 }
 
 impl SessionWriter {
-    /// Creates the file at `path` (replacing one there) with the schemas
-    /// and channels of `topics`; each reading and wrench is stamped
-    /// `t0_s + t` and its wrench framed `frame_id`.
+    /// Creates the file at `path` with the schemas and channels of
+    /// `topics`; each reading and wrench is stamped `t0_s + t` and its
+    /// wrench framed `frame_id`. A file (or symlink) there is removed
+    /// first: the session is a new file, never one written through.
     pub fn create(
         path: &Path,
         topics: &BagTopics,
         frame_id: &str,
         t0_s: f64,
     ) -> Result<Self, BagError> {
-        let file = File::create(path).map_err(|e| write_error(path, e.to_string()))?;
+        let io = |e: std::io::Error| write_error(path, e.to_string());
+        match std::fs::remove_file(path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(e)),
+            _ => {}
+        }
+        let file = File::options()
+            .write(true)
+            .create_new(true)
+            .open(path)
+            .map_err(io)?;
         // Chunks built in memory (no seeking back): a chunk is on disk whole
         // or cut at the file's end, never with a length still to patch.
         let options = mcap::WriteOptions::new().disable_seeking(true);

@@ -222,14 +222,15 @@ impl ModelFile<Gp> {
 }
 
 impl WrenchGp {
-    /// Writes the model file.
+    /// Writes the model file, whole or not at all
+    /// ([`crate::outputs::write_whole`]).
     pub fn save(&self, path: &Path) -> Result<(), ModelError> {
         let io = |source| ModelError::Write {
             path: path.display().to_string(),
             source,
         };
         let json = serde_json::to_vec(self).map_err(|e| io(e.into()))?;
-        std::fs::write(path, json).map_err(io)
+        crate::outputs::write_whole(path, &json).map_err(io)
     }
 
     /// Reads and validates a model file.

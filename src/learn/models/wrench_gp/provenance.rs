@@ -200,6 +200,18 @@ pub struct CalibrationRecord {
     pub pooling: Option<String>,
 }
 
+impl CalibrationRecord {
+    /// The held-out RMSE per axis of the validation row of `model`
+    /// ("current", or a candidate); empty when there is none.
+    pub fn rmse_of(&self, model: &str) -> Vec<f64> {
+        self.validation
+            .iter()
+            .find(|v| v.model == model)
+            .map(|v| v.rmse.values().copied().collect())
+            .unwrap_or_default()
+    }
+}
+
 /// A training data file as a model records it: where it was, and enough of
 /// its content to tell the same file from a changed one.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

@@ -1,0 +1,216 @@
+"""What a peer on the DDS domain may name and cancel, over DDS: our nodes as
+processes (test_over_dds.Nodes) and an rclpy peer.
+
+- Calibration scene, `models_dir` a fresh folder for force_controller and
+  wrench_estimator, beside a folder outside it: calibrate goals naming a
+  model file outside (an absolute path), `../x.json`, a symlink to the
+  outside folder, a symlinked file leading out, an existing file (no
+  `overwrite`) and a session file outside are each aborted with
+  `refused: ...` and its reason, no command but zero velocity sent from the
+  goal to 0.5 s after its result, no file created or changed in either
+  folder.
+- The estimator's `model_file` set to /etc/hostname while running: refused
+  (outside models_dir), the parameter and the model unchanged.
+- A calibrate goal canceled while the pad presses the block: it ends
+  `canceled` with the F/T force back under the contact threshold, no model
+  written; the next calibrate goal ends `calibrated` (a cancel used to leave
+  the pad pressed: "the pad was pressed during a rest").
+- Guarded scene on the stuffed animal: a GuardedMove goal canceled while it
+  regulates in contact ends `canceled` out of contact; the next goal holds.
+
+Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
+check and "N passed, N failed".
+"""
+
+import os
+import shutil
+import sys
+import tempfile
+import time
+
+from action_msgs.msg import GoalStatus
+from rclpy.action import ActionClient
+from tactile_force_msgs.action import Calibrate, GuardedMove
+from checks import RESULTS, check, summary
+from test_over_dds import CONTACT_N, Nodes, Peer
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def run_goal(peer, client, goal, timeout, cancel_if=None):
+    """Sends `goal`; with `cancel_if`, cancels it at the first feedback
+    for which it is true. (result or None, that feedback or None)."""
+    feedback = []
+    sent = client.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback))
+    if not peer.spin(10, sent.done) or not sent.result().accepted:
+        return None, None
+    handle, at = sent.result(), None
+    if cancel_if is not None and peer.spin(timeout, lambda: bool(feedback) and cancel_if(feedback[-1])):
+        at = feedback[-1]
+        handle.cancel_goal_async()
+    result = handle.get_result_async()
+    if not peer.spin(timeout, result.done):
+        return None, at
+    return result.result(), at
+
+
+def files(*dirs):
+    """Every entry under `dirs` (symlinks not followed), with its size and
+    modification time."""
+    out = {}
+    for d in dirs:
+        for root, subdirs, names in os.walk(d):
+            for name in subdirs + names:
+                path = os.path.join(root, name)
+                st = os.lstat(path)
+                out[path] = (st.st_size, st.st_mtime_ns)
+    return out
+
+
+def out_of_contact(peer, after):
+    """The largest F/T force (N) received between `after` and 0.3 s on:
+    under the contact threshold when the pad is clear."""
+    peer.spin(0.3)
+    recent = [f for t, f in peer.forces if t >= after]
+    return max((sum(v * v for v in f) ** 0.5 for f in recent), default=float("nan"))
+
+
+def refused_goals(n, peer, client, models, outside):
+    """Each goal naming a path out of models_dir, or an existing file, is
+    refused with its reason before the arm moves; nothing is written."""
+    cases = [
+        ("an absolute path outside", dict(model_file=os.path.join(outside, "x.json")), "is outside models_dir"),
+        ("../x.json", dict(model_file="../x.json"), "`..` is not allowed"),
+        ("a symlinked folder leading out", dict(model_file="out/x.json"), "leads out of models_dir through a symlink"),
+        ("a symlinked file leading out", dict(model_file="link.json", overwrite=True),
+         "leads out of models_dir through a symlink"),
+        ("an existing file", dict(model_file="old.json"), "exists (the goal's overwrite: true replaces it)"),
+        ("a session outside", dict(model_file="new.json", session_file=os.path.join(outside, "s.mcap")),
+         "session_file"),
+    ]
+    for label, fields, why in cases:
+        before = files(models, outside)
+        t0 = time.monotonic()
+        res, _ = run_goal(peer, client, Calibrate.Goal(**fields), 20)
+        peer.spin(0.5)
+        moved = sum(1 for t, zero in peer.commands if t > t0 and not zero)
+        reason = res.result.reason if res else "no result"
+        same = files(models, outside) == before
+        check(f"calibrate goal naming {label}: refused before the arm moves, nothing written",
+              res is not None and res.status == GoalStatus.STATUS_ABORTED and reason.startswith("refused:")
+              and why in reason and moved == 0 and same,
+              f"{reason!r}; {moved} non-zero commands; folders unchanged: {same}")
+    with open(os.path.join(models, "old.json")) as f:
+        check("the existing model file is untouched", f.read() == "old", "old.json still says 'old'")
+
+
+def estimator_model_outside(n, peer):
+    """model_file set to /etc/hostname: refused, the model kept."""
+    before = peer.get_param("wrench_estimator", "model_file")
+    since = len(n.log("wrench_estimator"))
+    # The service found again if a loaded machine's discovery misses it once.
+    for _ in range(3):
+        ok, why = peer.set_param("wrench_estimator", "model_file", "/etc/hostname")
+        if why not in ("no set_parameters service", "no answer"):
+            break
+    after = peer.get_param("wrench_estimator", "model_file")
+    took = "estimating with it" in n.log("wrench_estimator")[since:]
+    check("estimator model_file /etc/hostname: refused, its model kept",
+          not ok and "is outside models_dir" in why and after == before and not took,
+          f"{why[:110]!r}; model_file {after!r}")
+
+
+def calibration_canceled_then_done(peer, client, models):
+    """A calibration canceled while pressing ends out of contact; the next
+    one succeeds."""
+    pressing = lambda f: f.phase in ("regulate", "hold") and f.force_n > 0.3  # noqa: E731
+    res, at = run_goal(peer, client, Calibrate.Goal(model_file="c1.json"), 120, cancel_if=pressing)
+    t_end = time.monotonic()
+    clear = out_of_contact(peer, t_end)
+    reason = res.result.reason if res else "no result"
+    check("calibrate goal canceled while pressing: ends canceled, out of contact, no model",
+          at is not None and res is not None and res.status == GoalStatus.STATUS_CANCELED
+          and reason.startswith("canceled") and clear < CONTACT_N
+          and not os.path.exists(os.path.join(models, "c1.json")),
+          f"canceled in {at.phase if at else None} at {at.force_n if at else 0:.2f} N; {reason[:90]!r}; "
+          f"F/T {clear:.3f} N after")
+    res, _ = run_goal(peer, client, Calibrate.Goal(model_file="c2.json"), 240)
+    reason = res.result.reason if res else "no result"
+    check("the next calibrate goal ends calibrated",
+          res is not None and res.status == GoalStatus.STATUS_SUCCEEDED and reason == "calibrated"
+          and os.path.exists(os.path.join(models, "c2.json")),
+          f"{reason[:120]!r}")
+
+
+def calibration():
+    tmp = tempfile.mkdtemp(prefix="tactile_force_wire_")
+    models, outside = os.path.join(tmp, "models"), os.path.join(tmp, "outside")
+    os.makedirs(models)
+    os.makedirs(outside)
+    with open(os.path.join(outside, "secret.json"), "w") as f:
+        f.write("{}")
+    os.symlink(outside, os.path.join(models, "out"))
+    os.symlink(os.path.join(outside, "secret.json"), os.path.join(models, "link.json"))
+    with open(os.path.join(models, "old.json"), "w") as f:
+        f.write("old")
+    where = {"models_dir": models}
+    n = Nodes("calibrate.yaml", "calibration_block", sim={"sensor_unit": 2}, controller=where, estimator=where)
+    peer = Peer(n.domain)
+    client = ActionClient(peer.node, Calibrate, "force_controller/calibrate")
+    ok = False
+    try:
+        if not client.wait_for_server(timeout_sec=10):
+            check("calibrate action server", False, "force_controller/calibrate")
+            return
+        peer.spin(30, lambda: len(peer.commands) > 10)
+        refused_goals(n, peer, client, models, outside)
+        estimator_model_outside(n, peer)
+        calibration_canceled_then_done(peer, client, models)
+        ok = all(RESULTS)
+    finally:
+        client.destroy()
+        peer.destroy()
+        n.stop(keep_logs=not ok)
+        shutil.rmtree(tmp)
+
+
+def guarded():
+    n = Nodes("guarded_move.yaml", "stuffed_animal")
+    peer = Peer(n.domain)
+    ok = False
+    try:
+        touched = peer.spin(60, lambda: any(abs(f) > CONTACT_N for _, f in peer.ft_stamped))
+        if not touched or not peer.client.wait_for_server(timeout_sec=10):
+            check("guarded: contact and action server", False, f"touched: {touched}")
+            return
+        away = GuardedMove.Goal(max_distance_m=0.01)
+        away.direction.z = 1.0  # the pad faces -z
+        run_goal(peer, peer.client, away, 20)
+        in_contact = lambda f: f.phase == "regulate" and f.force_n > 0.3  # noqa: E731
+        res, at = run_goal(peer, peer.client, GuardedMove.Goal(), 30, cancel_if=in_contact)
+        clear = out_of_contact(peer, time.monotonic())
+        reason = res.result.reason if res else "no result"
+        check("guarded goal canceled in contact: ends canceled, out of contact",
+              at is not None and res is not None and res.status == GoalStatus.STATUS_CANCELED
+              and reason == "canceled" and clear < CONTACT_N,
+              f"canceled in {at.phase if at else None} at {at.force_n if at else 0:.2f} N; {reason!r}; "
+              f"F/T {clear:.3f} N after")
+        res, _ = run_goal(peer, peer.client, GuardedMove.Goal(), 30)
+        reason = res.result.reason if res else "no result"
+        check("the next guarded goal holds", res is not None and res.status == GoalStatus.STATUS_SUCCEEDED
+              and reason == "hold", reason)
+        ok = all(RESULTS)
+    finally:
+        peer.destroy()
+        n.stop(keep_logs=not ok)
+
+
+def main():
+    os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(REPO, "target", "ros-test-cache"))
+    calibration()
+    guarded()
+    return summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
