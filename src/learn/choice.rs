@@ -24,22 +24,16 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use ndarray::{Array2, Axis as NdAxis};
-use rayon::prelude::*;
+use ndarray::Axis as NdAxis;
 
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::gp::fit::FitProgress;
-use super::models::gp::{GpParams, MeanKind, SeHyper};
-use super::models::metrics::rmse_columns;
-use super::models::nn::Mlp;
+use super::models::gp::{GpParams, MeanKind};
 use super::models::scale::InputScaling;
-use super::models::wrench_gp::{std_scale, Estimate, EstimatorWorkspace};
-use super::models::wrench_gp::{ModelError, TareSpec, WarmStart, WrenchGp};
-use super::tradeoff::{median_latency_us, timed_rows};
+use super::models::wrench_gp::{ModelError, TareSpec};
 use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};
-use crate::params::Checked;
 
 pub use super::models::wrench_gp::{AloneScore, Choice, CvRow, GpChoice, Selection};
 
@@ -351,277 +345,6 @@ pub fn select(
     })
 }
 
-/// Hyperparameters fitted so far, per axis, by the model's form (channels,
-/// input scaling, prior mean: what the hyperparameters depend on) and fold;
-/// and the networks of network means, by channels, input scaling and fold
-/// (what a network depends on).
-///
-/// A candidate's fold starts its search warm from the same form's fit on
-/// the same fold (another GP size) or on the fold before; only a form's
-/// first fold runs the full multistart. A network mean's fold takes the
-/// network fitted on the same rows, if any (another GP). Measured in
-/// docs/results.md ("`train --select` within its budget").
-#[derive(Default)]
-struct WarmStarts {
-    hypers: BTreeMap<(String, usize), Vec<SeHyper>>,
-    networks: BTreeMap<(String, usize), Mlp>,
-}
-
-impl WarmStarts {
-    fn key(choice: &Choice) -> String {
-        format!("{} {}", Self::rows_key(choice), choice.mean.name())
-    }
-
-    /// What a network depends on: the rows and their scaling.
-    fn rows_key(choice: &Choice) -> String {
-        format!("{:?} {}", choice.channels, choice.input.name())
-    }
-
-    /// The warm start of `choice`'s fold `fold`.
-    fn get(&self, choice: &Choice, fold: usize) -> WarmStart<'_> {
-        let key = Self::key(choice);
-        let same = self.hypers.get(&(key.clone(), fold));
-        let before = (0..fold)
-            .rev()
-            .find_map(|f| self.hypers.get(&(key.clone(), f)));
-        WarmStart {
-            hypers: same.or(before).map(Vec::as_slice),
-            network: self.networks.get(&(Self::rows_key(choice), fold)),
-        }
-    }
-
-    /// Fits the networks of `choice`'s folds not kept yet, all at once (a
-    /// network trains on one thread); nothing for another mean.
-    fn fit_networks(
-        &mut self,
-        choice: &Choice,
-        sub: &Dataset,
-        splits: &[(Vec<usize>, Vec<usize>)],
-        params: &Checked<GpParams>,
-    ) -> Result<(), String> {
-        if choice.mean != MeanKind::Network {
-            return Ok(());
-        }
-        let key = Self::rows_key(choice);
-        let missing: Vec<usize> = (0..splits.len())
-            .filter(|&f| !self.networks.contains_key(&(key.clone(), f)))
-            .collect();
-        let fitted: Vec<Option<Mlp>> = (missing.par_iter())
-            .map(|&f| WrenchGp::fit_network(&sub.select(&splits[f].0), choice.input, params))
-            .collect::<Result<_, _>>()
-            .map_err(|e| e.to_string())?;
-        for (f, net) in missing.into_iter().zip(fitted) {
-            if let Some(net) = net {
-                self.networks.insert((key.clone(), f), net);
-            }
-        }
-        Ok(())
-    }
-
-    /// Keeps what `model` of `choice`'s fold `fold` can start others from.
-    fn keep(&mut self, choice: &Choice, fold: usize, model: &WrenchGp) {
-        self.hypers
-            .insert((Self::key(choice), fold), model.hypers());
-        if let Some(net) = model.network() {
-            self.networks
-                .insert((Self::rows_key(choice), fold), net.clone());
-        }
-    }
-}
-
-/// Rows a sparse candidate's inducing points are chosen from, and its VFE
-/// bound optimised on, while it is scored.
-const SCORING_SPARSE_ROWS: usize = 2000;
-/// L-BFGS iterations of a sparse candidate's VFE bound while it is scored.
-const SCORING_SPARSE_ITERS: u64 = 10;
-
-/// The options a candidate is scored with: `params` with the sparse GP's
-/// inducing points and VFE search on at most [`SCORING_SPARSE_ROWS`] rows
-/// (no fewer than its inducing points) for at most
-/// [`SCORING_SPARSE_ITERS`] iterations (q(u) still conditioned
-/// on every training row). The chosen options are then trained in full.
-/// Why: on every row the two sparse candidates took 84 % of the whole
-/// table's time on 20000 rows; the
-/// scores' change is measured in docs/results.md ("`train --select` within
-/// its budget").
-fn scoring(params: GpParams) -> GpParams {
-    GpParams {
-        sparse_candidates: (params.sparse_candidates.min(SCORING_SPARSE_ROWS))
-            .max(params.inducing.unwrap_or(0)),
-        sparse_fit_subset: params.sparse_fit_subset.min(SCORING_SPARSE_ROWS),
-        sparse_iters: params.sparse_iters.min(SCORING_SPARSE_ITERS),
-        ..params
-    }
-}
-
-/// What every candidate's cross-validation shares.
-struct Cv<'a> {
-    data: &'a Dataset,
-    tare: &'a TareSpec,
-    splits: &'a [(Vec<usize>, Vec<usize>)],
-    base: &'a GpParams,
-    /// The targets' standard deviations, per axis.
-    sd: &'a [f64],
-}
-
-impl Cv<'_> {
-    /// One candidate's folds; None when the budget ran out in them; Err
-    /// when the data cannot serve it (the reason).
-    fn run(
-        &self,
-        choice: &Choice,
-        warm: &mut WarmStarts,
-        over: &dyn Fn() -> bool,
-        progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
-    ) -> Result<Option<CvRow>, String> {
-        let (sub, sub_tare) = choice.cut(self.data, self.tare)?;
-        let params = scoring(choice.gp_params(self.base))
-            .validate()
-            .map_err(|e| e.to_string())?;
-        let (t0, cpu0) = (Instant::now(), cpu_seconds());
-        warm.fit_networks(choice, &sub, self.splits, &params)?;
-        let mut pooled = Pooled::new(self.data);
-        let mut alone = (choice.mean == MeanKind::Network).then(|| Pooled::new(self.data));
-        let mut latency_us = None;
-        let mut z: Vec<Vec<f64>> = vec![Vec::new(); self.sd.len()];
-        for (fold, (train, test)) in self.splits.iter().enumerate() {
-            let model = WrenchGp::train_from(
-                &sub.select(train),
-                sub_tare.clone(),
-                choice.input,
-                &params,
-                warm.get(choice, fold),
-                &mut |_, p| progress(choice, p),
-            )
-            .map_err(|e| e.to_string())?;
-            warm.keep(choice, fold, &model);
-            let held_out = sub.select(test);
-            let failed = |e: ModelError| e.to_string();
-            let (p, _) = model.predict(held_out.x.view(), false).map_err(failed)?;
-            pooled.add(self, test, &held_out, p);
-            if let (Some(alone), Some(p)) = (
-                &mut alone,
-                model.network_estimate(held_out.x.view()).map_err(failed)?,
-            ) {
-                alone.add(self, test, &held_out, p);
-            }
-            let errors =
-                (model.standardised_errors(&held_out, CALIBRATION_ROWS)).map_err(failed)?;
-            z.iter_mut().zip(errors).for_each(|(z, e)| z.extend(e));
-            if fold + 1 == self.splits.len() {
-                latency_us = Some(latency(&model, &held_out));
-            }
-            if over() {
-                return Ok(None);
-            }
-        }
-        let axes = self.data.axes.axes();
-        let AloneScore {
-            rmse,
-            score,
-            fold_scores,
-        } = pooled.scores(self);
-        Ok(Some(CvRow {
-            choice: choice.clone(),
-            rmse,
-            score,
-            seconds: t0.elapsed().as_secs_f64(),
-            cpu_s: cpu_seconds().zip(cpu0).map(|(now, then)| now - then),
-            fold_scores,
-            latency_us,
-            std_scale: (axes.iter().zip(&z))
-                .filter_map(|(&a, z)| std_scale(z).map(|s| (a, s)))
-                .collect(),
-            network_alone: alone.map(|a| a.scores(self)),
-        }))
-    }
-
-    /// The mean over axes of the RMSE of `pred` over the targets' standard
-    /// deviation.
-    fn score(&self, y: ndarray::ArrayView2<f64>, pred: ndarray::ArrayView2<f64>) -> f64 {
-        let rmse = rmse_columns(y, pred);
-        rmse.iter().zip(self.sd).map(|(e, s)| e / s).sum::<f64>() / self.sd.len() as f64
-    }
-}
-
-/// One model's held-out estimates over the folds.
-struct Pooled {
-    pred: Array2<f64>,
-    fold_scores: Vec<f64>,
-}
-
-impl Pooled {
-    fn new(data: &Dataset) -> Self {
-        Pooled {
-            pred: Array2::zeros(data.y.raw_dim()),
-            fold_scores: Vec::new(),
-        }
-    }
-
-    /// Takes a fold's estimates `p` of its held-out rows `test`.
-    fn add(&mut self, cv: &Cv, test: &[usize], held_out: &Dataset, p: Array2<f64>) {
-        for (row, &i) in p.rows().into_iter().zip(test) {
-            self.pred.row_mut(i).assign(&row);
-        }
-        self.fold_scores.push(cv.score(held_out.y.view(), p.view()));
-    }
-
-    /// The RMSE per axis and the score over every fold, and each fold's.
-    fn scores(self, cv: &Cv) -> AloneScore {
-        let rmse = rmse_columns(cv.data.y.view(), self.pred.view());
-        AloneScore {
-            rmse: cv.data.axes.axes().iter().copied().zip(rmse).collect(),
-            score: cv.score(cv.data.y.view(), self.pred.view()),
-            fold_scores: self.fold_scores,
-        }
-    }
-}
-
-/// Held-out rows of a fold whose errors are compared with the standard
-/// deviation (evenly spread): its variance costs O(n^2) a row.
-const CALIBRATION_ROWS: usize = 50;
-
-/// Rows an estimate's latency is timed on (at most; at least 3), and passes
-/// over them (the median pass is taken).
-const LATENCY_ROWS: usize = 30;
-const LATENCY_PASSES: usize = 3;
-/// About the time of one pass (s): a slow model is timed on fewer rows (an
-/// exact GP on 4000 rows takes 24 ms an estimate with its standard
-/// deviation: 30 rows, three passes, took 2.2 s of the table).
-const LATENCY_PASS_S: f64 = 0.03;
-
-/// The median time (µs) of `model`'s estimate with its standard deviation,
-/// as the estimator makes one, on rows of `data`: one estimate first (it
-/// also warms the caches), then as many rows as fit in [`LATENCY_PASS_S`].
-fn latency(model: &WrenchGp, data: &Dataset) -> f64 {
-    let mut ws: EstimatorWorkspace = model.workspace();
-    let mut out = vec![Estimate::default(); model.axes().len()];
-    let mut estimate = |x: &[f64]| {
-        // The rows have the model's features, so this cannot fail.
-        let _ = model.predict_one(x, &mut ws, true, &mut out);
-    };
-    let one_s = 1e-6 * median_latency_us(&timed_rows(data, 1), 1, &mut estimate);
-    let rows = (LATENCY_PASS_S / one_s.max(1e-9)).clamp(3.0, LATENCY_ROWS as f64) as usize;
-    median_latency_us(&timed_rows(data, rows), LATENCY_PASSES, estimate)
-}
-
-/// The process's CPU time so far (user + system, every thread, s), from
-/// Linux's `/proc/self/stat`; None elsewhere. Load-independent, unlike the
-/// wall time, on shared cores.
-fn cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    parse_cpu_seconds(&stat, 100.0)
-}
-
-/// utime + stime (fields 14 and 15, in clock ticks of `hz`: USER_HZ, 100
-/// on Linux) of a `/proc/<pid>/stat` line, in seconds.
-fn parse_cpu_seconds(stat: &str, hz: f64) -> Option<f64> {
-    // The command name (field 2) may hold spaces: count after its ')'.
-    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
-    let ticks = |i: usize| fields.get(i)?.parse::<f64>().ok();
-    Some((ticks(11)? + ticks(12)?) / hz)
-}
-
 /// `data` and `tare` cut to the columns `features`; the name of one that is
 /// missing.
 pub(crate) fn columns(
@@ -650,6 +373,9 @@ pub(crate) fn columns(
     Ok((sub, tare))
 }
 
+mod cv;
 mod pick;
+
+use cv::{Cv, WarmStarts};
 #[cfg(test)]
 mod tests;

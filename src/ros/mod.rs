@@ -198,6 +198,16 @@ pub fn own_param(
     Ok(entry.value.clone())
 }
 
+/// Sets the node's own string parameter `name` to `value` (one the node
+/// chose itself, such as the file it loaded), so that `ros2 param get`
+/// says it.
+pub fn set_own_string(node: &r2r::Node, name: &str, value: &str) {
+    let mut params = node.params.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(param) = params.get_mut(name) {
+        param.value = r2r::ParameterValue::String(value.to_string());
+    }
+}
+
 /// A string parameter of the adapter.
 pub fn own_string(
     node: &r2r::Node,

@@ -103,16 +103,11 @@ pub async fn run() -> Result<(), RosError> {
     let ready_after_s = loading.elapsed().as_secs_f64();
     if let (true, Some(file)) = (model_file.is_empty(), &file) {
         // Says which file it estimates with (the calibration adapts it).
-        let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(param) = p.get_mut("model_file") {
-            param.value = r2r::ParameterValue::String(file.display().to_string());
-        }
+        super::set_own_string(&node, "model_file", &file.display().to_string());
     }
-    let name = Some(model_file.as_str()).filter(|f| !f.is_empty());
-    let name = name.unwrap_or("default");
     tracing::info!(
         "{}: ready after {ready_after_s:.1} s; with_std {}, stale after {stale_s} s",
-        describe_model(name, &model),
+        describe_model(&model_file, &model),
         params.with_std,
     );
     let settings = Settings {
@@ -174,8 +169,10 @@ fn load_model(model_file: &str, recipe: &Recipe) -> Result<(WrenchGp, Option<Pat
     Ok((model, path))
 }
 
-/// One line on a model: its GPs, training size and axes.
-fn describe_model(name: &str, model: &WrenchGp) -> String {
+/// One line on the model of `file` (empty: the default model): its GPs,
+/// prior mean, training size and axes.
+fn describe_model(file: &str, model: &WrenchGp) -> String {
+    let name = if file.is_empty() { "default" } else { file };
     let gps: Vec<String> = model
         .fits()
         .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))

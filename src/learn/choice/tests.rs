@@ -1,5 +1,6 @@
 //! Tests of choice.rs.
 
+use super::cv::{parse_cpu_seconds, scoring, SCORING_SPARSE_ITERS, SCORING_SPARSE_ROWS};
 use super::*;
 use crate::biotac::sim::BioTacSimConfig;
 use crate::sim::collect::{collect, CollectConfig};

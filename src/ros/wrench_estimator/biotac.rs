@@ -64,7 +64,7 @@ fn take_model(
             .to_string(),
     };
     let (model, _) = load_model(&path, recipe).map_err(|e| e.to_string())?;
-    let said = describe_model(if file.is_empty() { "default" } else { file }, &model);
+    let said = describe_model(file, &model);
     let mut e = lock(estimator);
     if !apply {
         // Checked on a copy: the running node is left as it is.

@@ -5,6 +5,7 @@
 
 mod file;
 mod learner;
+mod network;
 mod observed;
 pub mod provenance;
 
@@ -17,14 +18,15 @@ use super::gp::fit::FitProgress;
 use super::gp::{
     fit_gp_shared, FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, MeanKind, SeHyper, Start,
 };
-use super::nn::{Mlp, NnError, NnParams};
+use super::nn::{Mlp, NnError};
 use super::scale::{InputScaling, Standardizer};
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
-use crate::params::{Check, Checked, ParamsError};
+use crate::params::{Checked, ParamsError};
 use crate::sensor::{ModelInput, SensorSpec};
 use crate::wrench::{Axis, AxisSet};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
+use network::{network_mean, MAX_SIGNAL_FLOOR};
 
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
 pub use learner::GpLearner;
@@ -531,35 +533,6 @@ impl WrenchGp {
         }
         Ok(())
     }
-
-    /// The network a network mean would be on `data` with `scaling` (None
-    /// for another mean): what [`WrenchGp::train_from`] fits first, for a
-    /// caller that fits several at once ([`WarmStart::network`]).
-    pub fn fit_network(
-        data: &Dataset,
-        scaling: InputScaling,
-        params: &Checked<GpParams>,
-    ) -> Result<Option<Mlp>, ModelError> {
-        if params.mean != MeanKind::Network {
-            return Ok(None);
-        }
-        let (_, input, x) = standardised_inputs(data, scaling)?;
-        let inputs = ArrayView2::from_shape((data.len(), input.dim()), &x).expect("n rows");
-        network_mean(inputs, data.y.view(), params)
-    }
-
-    /// The network of a network mean, if it has one.
-    pub fn network(&self) -> Option<&Mlp> {
-        self.0.network.as_ref()
-    }
-
-    /// What the network of a network mean estimates alone, without its
-    /// GPs (so without a standard deviation): for comparison. None for
-    /// another mean.
-    pub fn network_estimate(&self, x: ArrayView2<f64>) -> Result<Option<Array2<f64>>, ModelError> {
-        self.check_features(x)?;
-        Ok(self.0.network_estimate(x))
-    }
 }
 
 /// The data's electrode mask, the standardiser of its inputs as `scaling`
@@ -601,30 +574,6 @@ pub struct WarmStart<'a> {
     /// A network mean's network, fitted on the same rows with the same
     /// scaling: taken as it is.
     pub network: Option<&'a Mlp>,
-}
-
-/// The largest floor of a network mean's GP's signal variance, in units of
-/// its residuals' variance (a network that leaves 1 % of the targets'
-/// spread): below the bound on the search's signal variance.
-const MAX_SIGNAL_FLOOR: f64 = 1e3;
-
-/// The network of a network mean ([`MeanKind::Network`]): the baseline
-/// network's defaults, seeded as the GP is, from the GPs' inputs `z` to the
-/// targets `y` of every axis; None for the other means.
-fn network_mean(
-    z: ArrayView2<f64>,
-    y: ArrayView2<f64>,
-    params: &GpParams,
-) -> Result<Option<Mlp>, ModelError> {
-    if params.mean != MeanKind::Network {
-        return Ok(None);
-    }
-    let nn = NnParams {
-        seed: params.seed,
-        ..NnParams::default()
-    }
-    .checked("nn")?;
-    Ok(Some(Mlp::fit(&nn, z, y)?))
 }
 
 #[cfg(test)]
