@@ -464,10 +464,14 @@ impl ForceControllerNode {
         Some(self.keep(out))
     }
 
-    /// Logs what changed, counts a new stale-estimate halt and keeps `out`
-    /// as the last output.
+    /// Logs what changed, counts a new stale-estimate halt (estimates that
+    /// stopped coming; not the wait for the first) and keeps `out` as the
+    /// last output.
     fn keep(&mut self, out: ControlOutput) -> &ControlOutput {
-        let stale = |o: &ControlOutput| matches!(o.halt, Some(Halt::Stale { what, .. }) if what == "wrench estimate");
+        let stale = |o: &ControlOutput| {
+            matches!(o.halt, Some(Halt::Stale { what, age_s, .. })
+                if what == "wrench estimate" && age_s.is_finite())
+        };
         if stale(&out) && !self.last.as_ref().is_some_and(stale) {
             self.stale_halts += 1;
         }

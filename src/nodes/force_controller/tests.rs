@@ -512,6 +512,22 @@ fn estimates_on_time_never_halt_at_any_arm_cycle_lag_or_jitter() {
 }
 
 #[test]
+fn waiting_for_the_first_estimate_halts_but_is_no_stale_halt() {
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    n.set_task("guarded", true).unwrap();
+    let out = n.on_late(0.5).cloned().unwrap();
+    assert!(
+        matches!(out.halt, Some(Halt::Stale { age_s, .. }) if age_s.is_infinite()),
+        "{out:?}"
+    );
+    assert_eq!(
+        status_value(&n.status(), "stale_halts").as_deref(),
+        Some("0")
+    );
+}
+
+#[test]
 fn a_stream_that_stops_halts_three_periods_after_the_next_was_due() {
     // 100 Hz, 2 ms of transport, a 2 ms arm: the last estimate, stamped
     // 2.99 s, halts the arm once 2 + 3 x 10 = 32 ms old, or at the next
