@@ -547,7 +547,7 @@ impl Task for GuardedMove {
     }
 
     /// Out of contact: at the next cycle, a retract from where contact was
-    /// first felt, or a stop ([`GuardedMove::withdraw_from`]).
+    /// first felt, or a stop (`GuardedMove::withdraw_from`).
     fn withdraw(&mut self) {
         self.withdrawing = true;
     }

@@ -13,7 +13,7 @@ use crate::params::{Check, Checked};
 impl WrenchGp {
     /// The network a network mean would be on `data` with `scaling` (None
     /// for another mean): what [`WrenchGp::train_from`] fits first, for a
-    /// caller that fits several at once ([`WarmStart::network`]).
+    /// caller that fits several at once ([`super::WarmStart::network`]).
     pub fn fit_network(
         data: &Dataset,
         scaling: InputScaling,
