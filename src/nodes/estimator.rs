@@ -444,15 +444,12 @@ mod tests {
 
     #[test]
     fn the_status_says_loading_then_taring_then_estimating_then_what_was_dropped() {
+        let has =
+            |s: &Status, key: &str, value: &str| s.values.contains(&(key.into(), value.into()));
         let status = loading_status(12.4);
         assert_eq!(status.level, Level::Warn);
         assert!(status.message.contains("no estimate yet"), "{status:?}");
-        assert!(status
-            .values
-            .contains(&("model_ready".into(), "false".into())));
-        assert!(status
-            .values
-            .contains(&("model_loading_s".into(), "12".into())));
+        assert!(has(&status, "model_ready", "false") && has(&status, "model_loading_s", "12"));
         let mut node = EstimatorNode::<BioTacInput>::new(electrode_model(), true)
             .unwrap()
             .with_ready_after(27.04);
@@ -461,12 +458,7 @@ mod tests {
             (status.level, status.message.as_str()),
             (Level::Warn, "taring")
         );
-        assert!(status
-            .values
-            .contains(&("model_ready".into(), "true".into())));
-        assert!(status
-            .values
-            .contains(&("model_ready_after_s".into(), "27.0".into())));
+        assert!(has(&status, "model_ready", "true") && has(&status, "model_ready_after_s", "27.0"));
         for i in 0..4 {
             node.on_received(&reading(i as f64, 0), i as f64);
         }
