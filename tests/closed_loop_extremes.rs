@@ -443,3 +443,20 @@ fn the_force_limit_hit_during_the_approach_retracts_in_the_same_cycle() {
     assert_eq!(s.final_phase, "stopped");
     assert!(r.rows.last().unwrap().measured.z < 0.1, "off the object");
 }
+#[test]
+fn zz_debug() {
+    let r = drop_readings_for_half_a_second(&short_guided(), 1.0);
+    for row in r.rows.iter().step_by(5) {
+        println!(
+            "{:.2} m {:.3} {:.3} {:.3} cmd {:.4} {:.4} {:.4} h {}",
+            row.t,
+            row.measured.x,
+            row.measured.y,
+            row.measured.z,
+            row.commanded.x,
+            row.commanded.y,
+            row.commanded.z,
+            row.halted
+        );
+    }
+}

@@ -8,14 +8,22 @@
 //! `v = -u`: along -z to press harder on a finger under the pad, along +x to
 //! give way to a finger pushing the skin towards +x.
 //!
-//! The gains come from the same measurements as the guarded move's: the
-//! finger's stiffness, fitted from the normal force against the pad's
-//! position while the pad first presses it (the finger moves by itself
-//! afterwards; until then the stiffest body the scene permits), sets the
-//! normal gain and, through the skin's shear stiffness in series with it
-//! (src/contact.rs), the tangential ones; the loop's measured timing sets
-//! all three. A sustained oscillation on an axis halves that
-//! axis's gain; a second one retracts the pad along its normal.
+//! The gains come from the contact as measured and the loop's measured
+//! timing. Along the normal, the finger's stiffness is fitted from the
+//! force against the pad's position while the pad first presses it (until
+//! then the stiffest body the scene permits); across the pad, until
+//! measured, the contact is taken as stiff as the skin's shear spring alone
+//! (src/contact.rs), the stiffest it can be. Once the first press holds,
+//! the pad probes the contact on every axis for half a second (a 0.2 mm
+//! dither, src/control/probe.rs), and the stiffness it shows sets each
+//! axis's gain (along the normal, the larger of it and the fit): a
+//! fingertip may be far stiffer across the pad than along it. Until then
+//! the follow across the pad is slow.
+//!
+//! A sustained oscillation on an axis halves that axis's gain, up to three
+//! times, a slower follow rather than a
+//! stop; a fourth retracts the pad along its normal, naming the axis and
+//! the frequency.
 //!
 //! Across the pad the arm adds most of the finger's velocity to its PD's:
 //! the arm's measured velocity and the force's rate through the contact's
@@ -39,6 +47,7 @@ use serde::{Deserialize, Serialize};
 use super::identify::ContactStiffness;
 use super::oscillation::OscillationDetector;
 use super::pd::PdAxis;
+use super::probe::Probe;
 use super::task::{
     missing_axis, translation, ForceLaw, Task, TaskEnvelope, TaskFigures, TaskInput, TaskLoop,
     TaskSection,
@@ -54,6 +63,10 @@ use crate::wrench::Axis;
 const FEEDFORWARD_SHARE: f64 = 0.8;
 /// The finger's estimated speed below which the arm adds none (m/s).
 const FEEDFORWARD_DEADBAND_MPS: f64 = 0.01;
+/// Probes a contact may take before its gains stay those for the stiffest.
+const PROBES: u32 = 3;
+/// Times the watchdog may lower one axis's gain before the pad retracts.
+const SOFTENINGS: u32 = 3;
 
 /// Guided-move settings (`force_controller.guided` in the scene files).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
@@ -120,14 +133,12 @@ pub struct GuidedInput {
     pub dt: f64,
     /// True when the force is a new estimate.
     pub fresh: bool,
-    /// Position along the pressing direction (-z of the BioTac frame) when
-    /// the force's reading was taken (m), when known.
-    pub pressed_m: Option<f64>,
-    /// Distance from the start (m).
-    pub travelled_m: f64,
-    /// Position along the pad's normal (+z of the BioTac frame at the
-    /// start) now (m).
-    pub normal_m: f64,
+    /// The pad's position when the force's reading was taken, BioTac frame
+    /// (m), when known.
+    pub position: Option<Vector3<f64>>,
+    /// The pad's displacement from the start now, in the BioTac frame at
+    /// the start (m): z along the pad's normal.
+    pub moved: Vector3<f64>,
     /// The BioTac's velocity when the force's reading was taken, BioTac
     /// frame (m/s), when known.
     pub arm_velocity: Option<Vector3<f64>>,
@@ -145,11 +156,19 @@ pub struct GuidedMove {
     /// The finger's stiffness assumed until fitted (N/m).
     prior_body: f64,
     watchdogs: [OscillationDetector; 3],
+    /// The probe under way, the probes left and the dynamic stiffness each
+    /// axis showed (N/m; src/control/probe.rs).
+    probe: Option<Probe>,
+    probes_left: u32,
+    probed: [Option<f64>; 3],
+    /// The times the watchdog lowered each axis's gain.
+    lowered: [u32; 3],
+    /// The factor the watchdog raised each axis's stiffness by.
+    stiffer: [f64; 3],
     /// The finger's velocity across the pad, x and y, low-passed (m/s).
     finger: [f64; 2],
     /// The arm's velocity last measured, BioTac frame (m/s).
     arm: Option<Vector3<f64>>,
-    softened: u32,
     since_fresh_s: f64,
     without_contact_s: f64,
     /// True once the first press reached the normal target: the finger
@@ -179,9 +198,13 @@ impl GuidedMove {
             stiffness: ContactStiffness::new(law.skin, 0.0),
             prior_body,
             watchdogs: [watchdog(), watchdog(), watchdog()],
+            probe: None,
+            probes_left: PROBES,
+            probed: [None; 3],
+            lowered: [0; 3],
+            stiffer: [1.0; 3],
             finger: [0.0; 2],
             arm: None,
-            softened: 0,
             since_fresh_s: 0.0,
             without_contact_s: 0.0,
             pressed: false,
@@ -193,19 +216,23 @@ impl GuidedMove {
         }
     }
 
-    /// The contact's stiffness per axis (N/m): the skin in series with the
-    /// finger, along the pad's normal (z) and across it (x, y).
+    /// The contact's stiffness per axis (N/m): across the pad what the
+    /// probe measured, until then the stiffest the contact can be, the
+    /// skin's shear spring alone; along the normal the skin in series with
+    /// the finger fitted on the first press, or the probe's if larger;
+    /// times what the watchdog added.
     fn stiffness(&self) -> [f64; 3] {
         let normal = self
             .stiffness
             .effective(self.p.target_force_n[2], self.prior_body);
-        let body = BodyParams {
-            stiffness_n_per_m: self.stiffness.body().unwrap_or(self.prior_body),
-            damping_n_s_per_m: 0.0,
-            friction: 0.0,
-        };
-        let shear = shear_stiffness(&self.law.skin, &body);
-        [shear, shear, normal]
+        let across = self.law.skin.shear_stiffness_n_per_m;
+        let probed = self.probed;
+        let measured = [
+            probed[0].unwrap_or(across),
+            probed[1].unwrap_or(across),
+            probed[2].map_or(normal, |k| k.max(normal)),
+        ];
+        std::array::from_fn(|j| measured[j] * self.stiffer[j])
     }
 
     fn stop_with(&mut self, reason: StopReason) {
@@ -227,6 +254,10 @@ impl GuidedMove {
         // the arm's last velocity stands, so the feedforward does not
         // switch off and on.
         self.arm = i.arm_velocity.or(self.arm);
+        // Only on an axis whose contact is measured: with a stiffness
+        // taken too high, the force's rate leaves the arm's own velocity
+        // in the finger's.
+        let feeds = [0, 1, 2].map(|j| j < 2 && self.probe.is_none() && self.probed[j].is_some());
         let mut v = Vector3::zeros();
         for (j, pd) in self.pd.iter_mut().enumerate() {
             if let Some(pd) = pd {
@@ -235,7 +266,7 @@ impl GuidedMove {
                 // force's rate through the contact's stiffness
                 // (F = k (x_finger - x_arm)), low-passed over the loop's
                 // delay and lag (the module's doc).
-                if let (Some(arm), true) = (self.arm, j < 2) {
+                if let (Some(arm), true) = (self.arm, feeds[j]) {
                     let raw = arm[j] + pd.force_rate() / k[j];
                     self.finger[j] += (raw - self.finger[j]) * i.dt / (smooth_s + i.dt);
                     let finger = self.finger[j];
@@ -249,7 +280,7 @@ impl GuidedMove {
         self.since_fresh_s += i.dt;
         match self.phase {
             Phase::Follow => self.follow(i, v),
-            Phase::Retract if i.normal_m < self.retract_from_m + p.retract_distance_m => {
+            Phase::Retract if i.moved.z < self.retract_from_m + p.retract_distance_m => {
                 Vector3::new(0.0, 0.0, p.retract_speed_mps)
             }
             Phase::Retract => {
@@ -270,7 +301,7 @@ impl GuidedMove {
             Some(StopReason::OutOfRange)
         } else if i.force.norm() > p.force_limit_n {
             Some(StopReason::ForceLimit)
-        } else if i.travelled_m >= p.max_travel_m {
+        } else if i.moved.norm() >= p.max_travel_m {
             Some(StopReason::TravelLimit)
         } else if self.without_contact_s >= p.contact_timeout_s {
             Some(StopReason::Timeout)
@@ -287,40 +318,97 @@ impl GuidedMove {
         } else {
             self.without_contact_s + i.dt
         };
+        let controlled = Vector3::from_fn(|j, _| f64::from(u8::from(self.pd[j].is_some())));
+        let probing = self.probe.as_mut().map_or(Vector3::zeros(), |probe| {
+            probe.push_position(&i.moved);
+            probe.step(i.dt).component_mul(&controlled)
+        });
         if !i.fresh {
-            return v;
+            return v + probing;
         }
         self.pressed |= i.force.z >= p.target_force_n[2] - p.deadband_n;
         let dt = std::mem::take(&mut self.since_fresh_s);
-        if let (Some(x), true, false) = (i.pressed_m, i.force.z >= p.contact_force_n, self.pressed)
-        {
-            self.stiffness.push(dt, x, i.force.z);
+        if let (Some(x), true, false) = (i.position, i.force.z >= p.contact_force_n, self.pressed) {
+            self.stiffness.push(dt, -x.z, i.force.z);
+        }
+        self.run_probe(i);
+        if self.probe.is_some() {
+            // The probe's swings are the pad's own: no watchdog counts them.
+            return v + probing;
         }
         for j in 0..3 {
             if self.pd[j].is_none() || !self.watchdogs[j].step(i.force[j], dt) {
                 continue;
             }
-            let hz = self.watchdogs[j].frequency_hz();
-            if self.softened > 0 {
-                tracing::warn!(
-                    "the force oscillates again at {hz:.1} Hz with a gain lowered: retracting"
-                );
-                self.phase = Phase::Retract;
-                self.reason = Some(StopReason::Oscillating);
-                self.retract_from_m = i.normal_m;
-                return Vector3::new(0.0, 0.0, p.retract_speed_mps);
+            if let Some(v) = self.on_oscillation(j, i.moved.z) {
+                return v;
             }
-            self.softened += 1;
-            if let Some(pd) = self.pd[j].as_mut() {
-                pd.soften(self.law.oscillation.gain_factor);
-            }
-            tracing::warn!(
-                "the force along {} oscillates at {hz:.1} Hz: its gain lowered by a factor {}",
-                ["x", "y", "z"][j],
-                self.law.oscillation.gain_factor
-            );
         }
         v
+    }
+
+    /// Once the first press holds, probes the contact (src/control/probe.rs)
+    /// until every controlled axis is measured or [`PROBES`] were tried; a
+    /// probe that loses the contact is dropped.
+    fn run_probe(&mut self, i: &GuidedInput) {
+        let controlled = |j: usize| self.pd[j].is_some();
+        let in_contact = i.force.z >= self.p.contact_force_n;
+        let missing = (0..3).any(|j| controlled(j) && self.probed[j].is_none());
+        let Some(probe) = self.probe.as_mut() else {
+            if self.pressed && in_contact && missing && self.probes_left > 0 {
+                self.probes_left -= 1;
+                self.probe = Some(Probe::default());
+            }
+            return;
+        };
+        if !in_contact {
+            tracing::warn!("the contact was lost while probing it");
+            self.probe = None;
+            return;
+        }
+        probe.push_force(&i.force);
+        if !probe.done() {
+            return;
+        }
+        for (j, k) in probe.stiffness().into_iter().enumerate() {
+            if controlled(j) {
+                self.probed[j] = self.probed[j].or(k);
+            }
+        }
+        self.probe = None;
+        self.watchdogs
+            .iter_mut()
+            .for_each(OscillationDetector::reset);
+        let [x, y, z] = self.probed.map(|k| k.map(f64::round));
+        tracing::info!("the contact measured (N/m; None: not measured): x {x:?}, y {y:?}, z {z:?}");
+    }
+
+    /// The watchdog saw axis `j` oscillate: the contact is stiffer than
+    /// taken, so its stiffness is raised by the inverse of the gain factor
+    /// (which lowers the gain by that factor, and the finger's velocity
+    /// the feedforward reads from the force's rate), up to [`SOFTENINGS`]
+    /// times; then the pad retracts along its normal from `normal_m`, the
+    /// retract's velocity returned.
+    fn on_oscillation(&mut self, j: usize, normal_m: f64) -> Option<Vector3<f64>> {
+        let hz = self.watchdogs[j].frequency_hz();
+        let axis = ["x", "y", "z"][j];
+        if self.lowered[j] >= SOFTENINGS {
+            tracing::warn!(
+                "the force along {axis} oscillates at {hz:.1} Hz with its gain lowered \
+                 {SOFTENINGS} times: retracting"
+            );
+            self.phase = Phase::Retract;
+            self.reason = Some(StopReason::Oscillating);
+            self.retract_from_m = normal_m;
+            return Some(Vector3::new(0.0, 0.0, self.p.retract_speed_mps));
+        }
+        self.lowered[j] += 1;
+        let factor = self.law.oscillation.gain_factor;
+        self.stiffer[j] /= factor;
+        tracing::warn!(
+            "the force along {axis} oscillates at {hz:.1} Hz: its gain lowered by a factor {factor}"
+        );
+        None
     }
 }
 
@@ -381,16 +469,14 @@ impl TaskSection for GuidedParams {
 /// turns, the orientation held.
 impl Task for GuidedMove {
     fn step(&mut self, i: &TaskInput) -> Twist {
-        let press = i.pose.rotation * -Vector3::z();
         let moved = i.pose.translation.vector - i.start.translation.vector;
         let input = GuidedInput {
             force: *i.force,
             out_of_range: i.out_of_range,
             dt: i.dt,
             fresh: i.fresh,
-            pressed_m: i.force_position.map(|x| x.dot(&press)),
-            travelled_m: moved.norm(),
-            normal_m: moved.dot(&(i.start.rotation * Vector3::z())),
+            position: i.force_position.map(|x| i.pose.rotation.inverse() * x),
+            moved: i.start.rotation.inverse() * moved,
             arm_velocity: i.force_velocity.map(|v| i.pose.rotation.inverse() * v),
             timing: *i.timing,
         };
@@ -439,6 +525,7 @@ impl Task for GuidedMove {
             .iter_mut()
             .for_each(OscillationDetector::reset);
         self.since_fresh_s = 0.0;
+        self.probe = None;
     }
 
     fn stop(&mut self) {
@@ -455,7 +542,7 @@ impl Task for GuidedMove {
             stiffness_n_per_m: std::array::from_fn(|j| self.pd[j].as_ref().map(|_| k[j])),
             body_n_per_m: self.stiffness.body(),
             settled_sd_n: None,
-            softened: self.softened,
+            softened: self.lowered.iter().sum(),
         }
     }
 }

@@ -11,6 +11,7 @@ pub mod identify;
 pub mod oscillation;
 pub mod params;
 pub mod pd;
+pub mod probe;
 pub mod safety;
 pub mod task;
 pub mod tuning;

@@ -20,13 +20,15 @@ config/guided_move.yaml, RMS error per axis <= 0.3 N from contact on,
 off-axis speed <= 10 % of the finger's.
 
     python tests/ros/hold_sweep.py [--plants ours,mujoco] [--moves guarded,guided] [--grid full|ci]
-        [--cycles 2,4] [--lags 0,10] [--bodies 50,rigid] [--fingers default,issue48,...]
+        [--cycles 2,4] [--lags 0,10] [--bodies 50,rigid] [--fingers default,issue48,...] [--logs]
 
 `--cycles`, `--lags` and `--bodies` run only those rows of the grid;
 `--fingers` the MuJoCo guided runs' fingers (FINGERS below: stiffness
 along the pad's normal and across it, damping, mass, friction, and the
 estimates' averaging, noise and jitter). A guided run also misses when the
-task stopped by itself or halted on a stale estimate.
+task stopped by itself or halted on a stale estimate. `--logs` prints the
+nodes' last log lines after each run (the contact the guided move
+measured, the watchdog's answers).
 
 Prints one row per run and a summary; exits 1 when a run misses a bound.
 Run after scripts/ros2-jazzy.sh, with `. target/ros2/env.sh`.
@@ -54,6 +56,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import test_over_dds as dds  # noqa: E402
 
 CONTACT_N = 0.05
+# --logs: print the nodes' last log lines after each run.
+LOGS = False
 ESTIMATE_PERIOD_S = 0.01
 GRIDS = {
     # cycle (ms), lag (ms), stiffness (N/m; None: rigid)
@@ -140,7 +144,7 @@ def guarded_ours(cycle_ms, lag_ms, k):
         client.destroy()
         node.destroy_node()
         rclpy.shutdown()
-        n.stop(keep_logs=False)
+        n.stop(keep_logs=LOGS)
 
 
 def mujoco_nodes(scene):
@@ -178,7 +182,7 @@ def mujoco_guarded(cycle_ms, lag_ms, k):
         node.destroy_node()
         plant.destroy_node()
         rclpy.shutdown()
-        n.stop(keep_logs=False)
+        n.stop(keep_logs=LOGS)
 
 
 def guarded_mujoco(cycle_ms, lag_ms, k):
@@ -227,7 +231,7 @@ def guided_ours(cycle_ms, lag_ms):
         spinner.stop()
         node.destroy_node()
         rclpy.shutdown()
-        n.stop(keep_logs=False)
+        n.stop(keep_logs=LOGS)
 
 
 # Fingers of the MuJoCo guided runs: (mujoco_ur5.Finger's, mujoco_ur5.Estimates'
@@ -284,7 +288,7 @@ def guided_mujoco(cycle_ms, lag_ms, finger="default"):
         node.destroy_node()
         plant.destroy_node()
         rclpy.shutdown()
-        n.stop(keep_logs=False)
+        n.stop(keep_logs=LOGS)
 
 
 def guided_figures(forces, arm, finger, watch=None, longest_gap_s=0.0):
@@ -321,7 +325,10 @@ def main():
     ap.add_argument("--bodies", help="only these bodies (N/m or rigid), comma-separated")
     ap.add_argument("--fingers", default="default",
                     help=f"MuJoCo's guided fingers, comma-separated, of {', '.join(FINGERS)}")
+    ap.add_argument("--logs", action="store_true", help="print the nodes' last log lines after each run")
     a = ap.parse_args()
+    global LOGS
+    LOGS = a.logs
     os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(dds.REPO, "target", "ros-test-cache"))
     cycles, lags, bodies = GRIDS[a.grid]
     body = lambda v: None if v == "rigid" else float(v)  # noqa: E731
