@@ -254,10 +254,12 @@ impl GuidedMove {
         // the arm's last velocity stands, so the feedforward does not
         // switch off and on.
         self.arm = i.arm_velocity.or(self.arm);
-        // Only on an axis whose contact is measured: with a stiffness
-        // taken too high, the force's rate leaves the arm's own velocity
-        // in the finger's.
-        let feeds = [0, 1, 2].map(|j| j < 2 && self.probe.is_none() && self.probed[j].is_some());
+        // Only in contact, on an axis whose contact is measured: with no
+        // contact or a stiffness taken too high, the force's rate leaves
+        // the arm's own velocity in the finger's.
+        let touched = i.force.norm() >= p.contact_force_n;
+        let feeds =
+            [0, 1, 2].map(|j| j < 2 && touched && self.probe.is_none() && self.probed[j].is_some());
         let mut v = Vector3::zeros();
         for (j, pd) in self.pd.iter_mut().enumerate() {
             if let Some(pd) = pd {
