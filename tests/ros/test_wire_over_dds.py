@@ -254,8 +254,10 @@ def goal_burst(peer):
     count = peer.diagnostic("force_controller", "refused_goals_over_rate")
     said = any(name == "force_controller" and "over the rate: at most 5 goals at once and 2 a second" in m
                for name, _, m in peer.logs)
-    check("20 goals in a burst: 5 answered, 15 rejected at the request and counted, the reason logged",
-          len(accepted) == 5 and rejected == 15 and count == "15" and said and len(reasons) == 5
+    # The burst's 5, and one more for each half second the burst took.
+    rate = 5 <= len(accepted) <= 5 + int(2 * wall) and rejected == 20 - len(accepted)
+    check("20 goals in a burst: 5 answered, the rest rejected at the request and counted, the reason logged",
+          rate and count == str(rejected) and said and len(reasons) == len(accepted)
           and all(r.startswith("refused: ") for r in reasons) and holding_on(peer),
           f"in {wall:.2f} s: {len(accepted)} accepted ({reasons[0][:60] if reasons else None}...), "
           f"{rejected} rejected; refused_goals_over_rate {count}; reason on /rosout: {said}")
