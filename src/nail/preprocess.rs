@@ -144,6 +144,11 @@ impl NailPreprocess {
         Ok(())
     }
 
+    /// The camera's frame size (px, width and height): every frame's.
+    pub fn frame_size(&self) -> (usize, usize) {
+        self.frame_size
+    }
+
     /// Number of values a frame becomes (the nail pixels).
     pub fn n_pixels(&self) -> usize {
         self.mask.iter().filter(|&&m| m).count()

@@ -2,10 +2,14 @@
 //! wrench estimate with the GP, the reading made into the model's features
 //! by the sensor's input ([`SensorInput`]: the BioTac tares itself on its
 //! first readings out of contact first). Over ROS, readings that arrive too
-//! late are dropped and counted ([`EstimatorNode::on_received`]).
+//! late are dropped and counted ([`EstimatorNode::on_received`]); input over
+//! its bounds is refused before it reaches the node ([`EstimatorNode::guard`]).
+
+use std::sync::Arc;
 
 use serde::Deserialize;
 
+use super::bounds::InputGuard;
 use super::status::{Level, Status};
 use crate::biotac::Tare;
 use crate::exit::{Classify, ExitClass};
@@ -122,6 +126,8 @@ pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     force_n: f64,
     /// Seconds from the node's start to its model's being ready.
     ready_after_s: Option<f64>,
+    /// The bounds of its input, shared with the adapter that asks them.
+    guard: Arc<InputGuard>,
 }
 
 /// The status while the model loads (the default model trains on first
@@ -151,6 +157,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             estimates: 0,
             ready_after_s: None,
             force_n: 0.0,
+            guard: Arc::new(InputGuard::new()),
         })
     }
 
@@ -169,6 +176,12 @@ impl<S: SensorInput> EstimatorNode<S> {
     pub fn with_ready_after(mut self, seconds: f64) -> Self {
         self.ready_after_s = Some(seconds);
         self
+    }
+
+    /// The bounds of its input: what a transport asks before it hands the
+    /// node a message or a parameter set.
+    pub fn guard(&self) -> &Arc<InputGuard> {
+        &self.guard
     }
 
     /// The sensor's input (its baseline).
@@ -230,6 +243,7 @@ impl<S: SensorInput> EstimatorNode<S> {
         status.value("dropped_stale", d.stale);
         status.value("dropped_layout", d.layout);
         status.value("dropped_non_finite", d.non_finite);
+        self.guard.report(&mut status);
         status
     }
 

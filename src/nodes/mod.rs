@@ -9,8 +9,11 @@
 //!   description, task switch, goals, the estimate's halves, status);
 //!   [`guarded_goal`]: a guarded-move goal applied to it, and its outcome;
 //!   [`loop_delay`]: the delay it actually sees, from header stamps;
+//! - [`bounds`]: what a peer may send a node (message sizes, goal and
+//!   parameter-set rates), refused before any work and counted;
 //! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac.
 
+pub mod bounds;
 pub mod controller;
 pub mod estimator;
 pub mod force_controller;

@@ -112,7 +112,8 @@ pub async fn run() -> Result<(), RosError> {
         "~/tare",
         QosProfile::services_default(),
     )?;
-    let clock = super::serve_parameters(&mut node, RuntimeParams::none())?;
+    let guard = std::sync::Arc::new(crate::nodes::bounds::InputGuard::new());
+    let clock = super::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
     super::spin(node);
 
     let (tare_tx, tare_rx) = std::sync::mpsc::channel::<()>();

@@ -1,14 +1,19 @@
 //! The robot description (URDF) as ROS users give it: the
 //! `robot_description` parameter, or else the `/robot_description` topic
 //! (std_msgs/String, transient local: robot_state_publisher's), and the
-//! names the arm's joints go by on `joint_states`.
+//! names the arm's joints go by on `joint_states`. A description over
+//! [`DESCRIPTION_MAX_BYTES`] is refused before it is decoded and counted
+//! by the node's [`InputGuard`].
+
+use std::sync::Arc;
 
 use futures::stream::BoxStream;
 use futures::StreamExt;
 use r2r::std_msgs::msg::String as StringMsg;
 use r2r::QosProfile;
 
-use super::RosError;
+use super::{bounded, RosError};
+use crate::nodes::bounds::{InputGuard, DESCRIPTION_MAX_BYTES};
 
 /// The topic robot_state_publisher publishes the description on.
 pub const DESCRIPTION_TOPIC: &str = "/robot_description";
@@ -23,8 +28,12 @@ pub enum Description {
 
 /// The `robot_description` parameter, or, when it is empty, a subscription
 /// to `/robot_description` with robot_state_publisher's QoS (reliable,
-/// transient local: a late subscriber gets the latest description).
-pub fn robot_description(node: &mut r2r::Node) -> Result<Description, RosError> {
+/// transient local: a late subscriber gets the latest description), its
+/// messages bounded by `guard`.
+pub fn robot_description(
+    node: &mut r2r::Node,
+    guard: &Arc<InputGuard>,
+) -> Result<Description, RosError> {
     let text = super::own_string(
         node,
         "robot_description",
@@ -38,7 +47,14 @@ pub fn robot_description(node: &mut r2r::Node) -> Result<Description, RosError> 
         .keep_last(1)
         .reliable()
         .transient_local();
-    let topic = node.subscribe::<StringMsg>(DESCRIPTION_TOPIC, qos)?;
+    let topic = bounded::typed::<StringMsg>(
+        node,
+        DESCRIPTION_TOPIC,
+        "std_msgs/msg/String",
+        qos,
+        DESCRIPTION_MAX_BYTES,
+        guard,
+    )?;
     Ok(Description::Topic(topic.map(|m| m.data).boxed()))
 }
 

@@ -49,6 +49,11 @@
 //! envelope, no robot description yet) is accepted and aborted at once with
 //! `reason` "refused: ..." naming the limit, so that a client can read why.
 //! A canceled goal ends once the pad has withdrawn out of contact.
+//! Every input is bounded ([`crate::nodes::bounds`], through
+//! [`super::bounded`]): a message over its size is dropped before it is
+//! decoded, goals and parameter sets beyond their rates are refused, each
+//! counted on `/diagnostics`; the control loop (`force_controller/stepping.rs`)
+//! takes only the force topics, on a thread of its own.
 //! r2r has no untyped action server and, under its `doc-only` build, no
 //! types for our interface package, so the action server is compiled only
 //! in a real ROS build (`cfg(not(feature = "ros2-doc-only"))`).
@@ -73,8 +78,9 @@ use r2r::QosProfile;
 
 use super::description::{joint_names_param, robot_description, Description};
 use super::params::RuntimeParams;
-use super::{convert, RosError};
+use super::{bounded, convert, RosError};
 use crate::control::ControllerParams;
+use crate::nodes::bounds::MESSAGE_MAX_BYTES;
 use crate::nodes::force_controller::{
     ft_to_biotac, shipped_defaults, tool_frame::biotac_frame, tool_frame::BIOTAC_FRAME,
     CommandInterface, ForceControllerNode, ForcePart,
@@ -135,26 +141,39 @@ pub async fn run() -> Result<(), RosError> {
     let host = ForceControllerNode::new(base, tasks::shipped(), remap, ft_to_biotac)?;
     let period = Duration::from_secs_f64(host.params().control_period_s);
     tracing::info!("{}, commands: {interface:?}", host.summary()?);
+    let guard = host.guard().clone();
     let shared = Arc::new(Mutex::new(host));
-    let description = robot_description(&mut node)?;
+    let description = robot_description(&mut node, &guard)?;
 
-    let qos = QosProfile::default;
-    let joints = node.subscribe::<JointStateMsg>("joint_states", qos())?;
-    let pdc = node.subscribe::<FluidPressure>("biotac/pdc_rise", qos())?;
+    // Every input bounded in size, refused before it is decoded.
+    let (qos, max) = (QosProfile::default, MESSAGE_MAX_BYTES);
+    let joint_type = "sensor_msgs/msg/JointState";
+    let joints = bounded::typed(&mut node, "joint_states", joint_type, qos(), max, &guard)?;
+    let pdc_type = "sensor_msgs/msg/FluidPressure";
+    let pdc = bounded::typed(&mut node, "biotac/pdc_rise", pdc_type, qos(), max, &guard)?;
+    let wrench_type = "geometry_msgs/msg/WrenchStamped";
     let forces = futures::stream::select_all(
         [
             ("biotac/wrench", ForcePart::Mean),
             ("biotac/wrench_stddev", ForcePart::Std),
             ("ft_sensor/wrench", ForcePart::Ft),
         ]
-        .map(|(name, part)| Ok(force(node.subscribe(name, qos())?, part, name)))
+        .map(|(name, part)| {
+            let topic = bounded::typed(&mut node, name, wrench_type, qos(), max, &guard)?;
+            Ok(force(topic, part, name))
+        })
         .into_iter()
         .collect::<Result<Vec<_>, RosError>>()?,
     );
-    let readings = node.subscribe_raw(
+    let reading_type = crate::biotac::msg::BIOTAC_MSG_TYPE;
+    let sensor_qos = QosProfile::sensor_data();
+    let readings = bounded::raw(
+        &mut node,
         "biotac/readings",
-        crate::biotac::msg::BIOTAC_MSG_TYPE,
-        QosProfile::sensor_data(),
+        reading_type,
+        sensor_qos,
+        max,
+        &guard,
     )?;
     let commands = Commands {
         interface,
@@ -164,9 +183,9 @@ pub async fn run() -> Result<(), RosError> {
     let diagnostics =
         node.create_publisher::<DiagnosticArray>("/diagnostics", QosProfile::default())?;
     #[cfg(not(feature = "ros2-doc-only"))]
-    let goals = node.create_action_server("~/guarded_move")?;
+    let goals = bounded::goals(node.create_action_server("~/guarded_move")?, &guard);
     #[cfg(not(feature = "ros2-doc-only"))]
-    let calibrations = node.create_action_server("~/calibrate")?;
+    let calibrations = bounded::goals(node.create_action_server("~/calibrate")?, &guard);
     #[cfg(not(feature = "ros2-doc-only"))]
     let link = estimator_link::EstimatorLink::new(&mut node, &estimator)?;
     #[cfg(feature = "ros2-doc-only")]
@@ -182,6 +201,7 @@ pub async fn run() -> Result<(), RosError> {
                 .set_task(name, apply)
                 .inspect_err(|e| tracing::warn!("task refused: {e}"))
         }),
+        &guard,
     );
     let clock = super::serve_parameters(&mut node, live)?;
     let tf = tool_frame::ToolFrame::new(&mut node, child, clock.clone())?;

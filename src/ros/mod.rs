@@ -13,6 +13,7 @@
 //! - [`sim_robot`]: simulated arm, object or finger, F/T sensor and BioTac.
 
 pub mod biotac_driver;
+pub mod bounded;
 pub mod convert;
 pub mod description;
 pub mod force_controller;
@@ -266,6 +267,20 @@ pub fn own_f64(
         r2r::ParameterValue::Double(d) if d.is_finite() => Ok(d),
         r2r::ParameterValue::Integer(i) => Ok(i as f64),
         other => Err(wrong_type(name, "a finite number", &other)),
+    }
+}
+
+/// A non-negative integer parameter of the adapter.
+pub fn own_u64(
+    node: &r2r::Node,
+    name: &str,
+    default: u32,
+    description: &'static str,
+) -> Result<u64, RosError> {
+    let default = r2r::ParameterValue::Integer(i64::from(default));
+    match own_param(node, name, default, description)? {
+        r2r::ParameterValue::Integer(i) if i >= 0 => Ok(i.unsigned_abs()),
+        other => Err(wrong_type(name, "an integer >= 0", &other)),
     }
 }
 

@@ -6,11 +6,17 @@
 //! so one code path checks both. Parameters are read once, at start-up;
 //! a set while the node runs is refused, except for those the node names
 //! live ([`RuntimeParams`]), which it applies or refuses with a reason.
+//! Sets beyond the rate of [`PARAMETER_SETS`] are refused first.
+
+use std::sync::Arc;
 
 use r2r::{Parameter, ParameterValue};
 use serde::de::DeserializeOwned;
 use serde_yaml_ng::Value;
 
+use crate::nodes::bounds::InputGuard;
+#[cfg(doc)]
+use crate::nodes::bounds::PARAMETER_SETS;
 use crate::params::{from_flat_params, FlatParams, ParamsError};
 
 /// A ROS parameter value as YAML; None for an unset parameter.
@@ -115,23 +121,29 @@ pub fn read<T: DeserializeOwned>(
 /// parameter; an error refuses it, with the reason.
 pub type ApplyParam = Box<dyn Fn(&str, &ParameterValue, bool) -> Result<(), String> + Send>;
 
-/// How a running node answers `set_parameters`: the parameters named live
+/// How a running node answers `set_parameters`: a set beyond the rate
+/// its `guard` admits is refused with the rate; the parameters named live
 /// go to the node, which applies or refuses them; every other is refused
 /// with "read at start-up only".
 pub struct RuntimeParams {
     live: &'static [&'static str],
     apply: ApplyParam,
+    guard: Arc<InputGuard>,
 }
 
 impl RuntimeParams {
-    /// `live` parameters go to `apply`.
-    pub fn new(live: &'static [&'static str], apply: ApplyParam) -> Self {
-        RuntimeParams { live, apply }
+    /// `live` parameters go to `apply`, as `guard` admits them.
+    pub fn new(live: &'static [&'static str], apply: ApplyParam, guard: &Arc<InputGuard>) -> Self {
+        RuntimeParams {
+            live,
+            apply,
+            guard: guard.clone(),
+        }
     }
 
     /// No parameter may change while the node runs.
-    pub fn none() -> Self {
-        RuntimeParams::new(&[], Box::new(|_, _, _| Ok(())))
+    pub fn none(guard: &Arc<InputGuard>) -> Self {
+        RuntimeParams::new(&[], Box::new(|_, _, _| Ok(())), guard)
     }
 
     fn answer(&self, name: &str, value: &ParameterValue, apply: bool) -> r2r::Result<()> {
@@ -139,6 +151,9 @@ impl RuntimeParams {
             name: name.into(),
             msg,
         };
+        self.guard
+            .admit_parameter_set()
+            .map_err(|e| refused(format!("refused: {e}")))?;
         if !self.live.contains(&name) {
             let live = match self.live {
                 [] => "none".to_string(),
@@ -256,6 +271,10 @@ mod tests {
         assert_eq!(p.pd.derivative_filter_s, 1.0);
     }
 
+    fn guard() -> Arc<InputGuard> {
+        Arc::new(InputGuard::new())
+    }
+
     #[test]
     fn only_live_parameters_change_while_running_and_a_refusal_says_why() {
         use r2r::RosParams;
@@ -265,6 +284,7 @@ mod tests {
                 ParameterValue::String(s) if s == "guided" => Ok(()),
                 other => Err(format!("{other:?}: expected guided")),
             }),
+            &guard(),
         );
         let guided = ParameterValue::String("guided".into());
         assert!(p.set_parameter("task", &guided).is_ok());
@@ -278,10 +298,40 @@ mod tests {
         );
         let err = p.check_parameter("pd.max_speed_mps", &guided).unwrap_err();
         assert!(err.to_string().contains("read at start-up only"), "{err}");
-        let err = RuntimeParams::none().check_parameter("task", &guided);
+        let err = RuntimeParams::none(&guard()).check_parameter("task", &guided);
         assert!(err
             .unwrap_err()
             .to_string()
             .contains("(may change while running: none)"));
+    }
+
+    #[test]
+    fn sets_beyond_the_rate_are_refused_with_it_before_the_node_sees_them() {
+        use r2r::RosParams;
+        let seen = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let counter = seen.clone();
+        let g = guard();
+        let mut p = RuntimeParams::new(
+            &["task"],
+            Box::new(move |_, _, _| {
+                counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                Ok(())
+            }),
+            &g,
+        );
+        let guided = ParameterValue::String("guided".into());
+        let answers: Vec<_> = (0..25).map(|_| p.set_parameter("task", &guided)).collect();
+        assert_eq!(answers.iter().filter(|a| a.is_ok()).count(), 10);
+        assert_eq!(seen.load(std::sync::atomic::Ordering::Relaxed), 10);
+        let why = answers[24].as_ref().unwrap_err().to_string();
+        assert!(
+            why.contains(
+                "refused: over the rate: at most 10 parameter sets at once and 5 a second"
+            ),
+            "{why}"
+        );
+        // Start-up-only parameters count too, checked or set.
+        assert!(p.check_parameter("pd.max_speed_mps", &guided).is_err());
+        assert_eq!(g.refused().parameter_sets, 16);
     }
 }

@@ -18,6 +18,10 @@
 //! time on `/clock` every period and stamps with it, and it may run
 //! `real_time_factor` times faster than the wall clock (the other nodes,
 //! started with `use_sim_time:=true` too, follow `/clock`).
+//!
+//! Its input is bounded as the other nodes' ([`crate::nodes::bounds`]): a
+//! description over 10 MiB or another message over 64 KiB is dropped
+//! before it is decoded, and logged.
 
 use futures::StreamExt;
 use r2r::geometry_msgs::msg::{TwistStamped, WrenchStamped};
@@ -29,15 +33,16 @@ use std::sync::{Arc, Mutex};
 
 use super::description::{first_taken, joint_names_param, robot_description, Description};
 use super::params::RuntimeParams;
-use super::{convert, RosError};
+use super::{bounded, convert, RosError};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 use crate::biotac::BioTacSimConfig;
 use crate::control::TaskKind;
 use crate::kinematics::{JointVector, Robot};
+use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
 use crate::nodes::sim_robot::check_real_time_factor;
 use crate::nodes::{joint_names, JointState, SimRobot, SimRobotParams};
 use crate::params::layered_flat_params;
-use crate::params::{ParamsError, WORLD_YAML};
+use crate::params::WORLD_YAML;
 
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
@@ -49,22 +54,7 @@ pub async fn run() -> Result<(), RosError> {
         "biotac",
         "The BioTac frame (F/T wrench and readings).",
     )?;
-    let seed = super::own_param(
-        &node,
-        "seed",
-        r2r::ParameterValue::Integer(1),
-        "Seed of the simulated noise.",
-    )?;
-    let seed = match seed {
-        r2r::ParameterValue::Integer(i) if i >= 0 => i as u64,
-        other => {
-            return Err(RosError::Params(ParamsError::Invalid {
-                key: "seed".into(),
-                value: format!("{other:?}"),
-                expected: "an integer >= 0".into(),
-            }))
-        }
-    };
+    let seed = super::own_u64(&node, "seed", 1, "Seed of the simulated noise.")?;
     let sim_time = matches!(
         super::own_param(
             &node,
@@ -95,7 +85,8 @@ pub async fn run() -> Result<(), RosError> {
         ],
         super::describe_shared,
     )?;
-    let description = robot_description(&mut node)?;
+    let guard = Arc::new(InputGuard::new());
+    let description = robot_description(&mut node, &guard)?;
     tracing::info!(
         "object {}, BioTac unit {}, noise seed {seed}, period {} s, {}",
         p.object,
@@ -116,8 +107,11 @@ pub async fn run() -> Result<(), RosError> {
         BIOTAC_MSG_TYPE,
         QosProfile::sensor_data(),
     )?;
+    let (qos, max) = (QosProfile::default(), MESSAGE_MAX_BYTES);
+    let command_type = "std_msgs/msg/Float64MultiArray";
+    let topic = "velocity_controller/commands";
     let mut commands =
-        node.subscribe::<Float64MultiArray>("velocity_controller/commands", QosProfile::default())?;
+        bounded::typed::<Float64MultiArray>(&mut node, topic, command_type, qos, max, &guard)?;
     let biotac_twist =
         node.create_publisher::<TwistStamped>("~/biotac_twist", QosProfile::default())?;
     let finger_twist =
@@ -126,12 +120,23 @@ pub async fn run() -> Result<(), RosError> {
     // finger that feels (while the default model trains, it would push a
     // blind arm).
     let estimates = match p.finger_path {
-        Some(_) => Some(node.subscribe::<WrenchStamped>("biotac/wrench", QosProfile::default())?),
+        Some(_) => {
+            let wrench_type = "geometry_msgs/msg/WrenchStamped";
+            let qos = QosProfile::default();
+            Some(bounded::typed::<WrenchStamped>(
+                &mut node,
+                "biotac/wrench",
+                wrench_type,
+                qos,
+                max,
+                &guard,
+            )?)
+        }
         None => None,
     };
     let start_frame = format!("{frame_id}_start");
     let clock_pub = node.create_publisher::<ClockMsg>("/clock", QosProfile::default())?;
-    let clock = super::serve_parameters(&mut node, RuntimeParams::none())?;
+    let clock = super::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
     super::spin(node);
 
     // The arm: from the parameter, or the first valid description on the

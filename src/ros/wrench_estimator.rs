@@ -206,6 +206,8 @@ struct Outputs {
     stddev: r2r::Publisher<WrenchStamped>,
     pdc: r2r::Publisher<FluidPressure>,
     diagnostics: r2r::Publisher<DiagnosticArray>,
+    /// The node's name, its status's (`nail_estimator` when renamed so).
+    name: String,
     frame_id: String,
     reported: Dropped,
 }
@@ -218,6 +220,7 @@ impl Outputs {
             stddev: node.create_publisher("biotac/wrench_stddev", qos())?,
             pdc: node.create_publisher("biotac/pdc_rise", qos())?,
             diagnostics: node.create_publisher("/diagnostics", qos())?,
+            name: node.name()?,
             frame_id,
             reported: Dropped::default(),
         })
@@ -256,7 +259,7 @@ impl Outputs {
 
     /// Publishes the node's status on `/diagnostics`.
     fn publish_status(&self, status: Status, clock: &RosClock) {
-        let msg = convert::status_msg(clock.now_s(), "wrench_estimator", "", status);
+        let msg = convert::status_msg(clock.now_s(), &self.name, "", status);
         if let Err(e) = self.diagnostics.publish(&msg) {
             tracing::warn!("diagnostics: {e}");
         }

@@ -189,6 +189,14 @@ pub struct NailInput {
     baseline: Vec<f64>,
 }
 
+impl NailInput {
+    /// The camera's frame size (px, width and height) the model was
+    /// trained on: every frame must have it.
+    pub fn frame_size(&self) -> (usize, usize) {
+        self.spec.preprocess.frame_size()
+    }
+}
+
 impl SensorInput for NailInput {
     type Reading = NailFrame;
 
@@ -334,6 +342,9 @@ mod tests {
             assert!(node.on_reading(&frame).unwrap().is_none());
         }
         assert!(node.is_tared());
+        // Its frames' size, the camera's, as the node bounds its images by.
+        let first = read_frame(dir.path(), &labels[0]).unwrap();
+        assert_eq!(node.sensor().frame_size(), (first.width(), first.height()));
         // A model of untared data (tare 0) takes no baseline.
         let untared = NailInput::for_model(ModelInput {
             features: model.features(),

@@ -12,6 +12,10 @@ the node publishes biotac/wrench for each.
   the model's accuracy (docs/results.md, "Nail camera").
 - 20 frames are sent as 16UC1 (not a nail image): they are counted as
   refused on /diagnostics, and the node goes on estimating.
+- 10 rgb8 frames of twice the camera's width and height (over the bound
+  of its size in the widest encoding, src/nodes/bounds.rs) are refused
+  before they are decoded: counted as `refused_oversized` on /diagnostics,
+  no other count moves, and the node goes on estimating.
 
 Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
 check and "N passed, N failed".
@@ -162,6 +166,30 @@ def main():
         check("16UC1 images refused and counted, the node goes on", refused >= 20 and
               len(estimates) >= before + 25 and proc.poll() is None,
               f"{refused} refused on /diagnostics, {len(estimates) - before} estimates after")
+
+        def figures():
+            diagnostics.clear()
+            end = time.monotonic() + 3
+            while "refused_oversized" not in diagnostics.get("wrench_estimator", {}) and time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.05)
+            return diagnostics.get("wrench_estimator", {})
+        before, estimated = figures(), len(estimates)
+        w, h, pixels = read_grey_png(os.path.join(data, pressing[0]["frame"]))
+        for _ in range(10):
+            send(2 * w, 2 * h, bytes(12 * w * h), encoding="rgb8")
+            rclpy.spin_once(node, timeout_sec=0.03)
+        for row in pressing[:30]:
+            w, h, pixels = read_grey_png(os.path.join(data, row["frame"]))
+            send(w, h, pixels)
+            rclpy.spin_once(node, timeout_sec=0.03)
+        after = figures()
+        moved = lambda k: int(after.get(k, "0")) - int(before.get(k, "0"))  # noqa: E731
+        others = {k: moved(k) for k in ("dropped_refused", "dropped_non_finite")}
+        check("images of twice the camera's size refused before decoding and counted, the node goes on",
+              moved("refused_oversized") >= 9 and not any(others.values())
+              and len(estimates) >= estimated + 25 and proc.poll() is None,
+              f"{moved('refused_oversized')} of 10 counted as refused_oversized, {others}; "
+              f"{len(estimates) - estimated} estimates after")
         node.destroy_node()
         rclpy.shutdown()
     finally:

@@ -17,22 +17,34 @@ processes (test_over_dds.Nodes) and an rclpy peer.
   the pad pressed: "the pad was pressed during a rest").
 - Guarded scene on the stuffed animal: a GuardedMove goal canceled while it
   regulates in contact ends `canceled` out of contact; the next goal holds.
+- Bounded input (src/nodes/bounds.rs), guarded scene on the wooden box, the
+  PA10's description published on /robot_description: a 50 MB description
+  is refused and counted (`refused_oversized` on /diagnostics) while the
+  controller goes on commanding at 100 Hz; a burst of 20 goals: the 5 of
+  the rate are answered (refused by the safety envelope), the other 15
+  rejected at the request and counted, the reason on /rosout; a burst of
+  30 parameter sets: those beyond the rate refused with it, and counted;
+  the hold kept through all of it.
 
 Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
 check and "N passed, N failed".
 """
 
 import os
+import re
 import shutil
 import sys
 import tempfile
 import time
 
 from action_msgs.msg import GoalStatus
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
 from rclpy.action import ActionClient
+from std_msgs.msg import String
 from tactile_force_msgs.action import Calibrate, GuardedMove
 from checks import RESULTS, check, summary
-from test_over_dds import CONTACT_N, Nodes, Peer
+from test_over_dds import CONTACT_N, Nodes, Peer, holding_on
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -205,10 +217,99 @@ def guarded():
         n.stop(keep_logs=not ok)
 
 
+def big_description(peer, n):
+    """50 MB on /robot_description: refused before it is decoded and
+    counted by both nodes that take it; the controller goes on commanding."""
+    big = "<robot name='big'>" + " " * (50 << 20) + "</robot>"
+    before = len(peer.commands)
+    t0 = time.monotonic()
+    peer.description.publish(String(data=big))
+    counted = lambda: peer.diagnostics.get("force_controller", {}).get("refused_oversized") == "1"  # noqa: E731
+    peer.spin(30, counted)
+    wall = time.monotonic() - t0
+    peer.spin(1.0)
+    rate = (len(peer.commands) - before) / (time.monotonic() - t0)
+    said = re.compile(r"refused /robot_description: a message of 524288\d\d bytes, over its bound of 10485760 bytes")
+    logged = [exe for exe in ("force_controller", "sim_robot") if said.search(n.log(exe))]
+    check("a 50 MB robot_description: refused, counted, the controller still commands",
+          counted() and rate >= 90 and len(logged) == 2 and holding_on(peer),
+          f"counted after {wall:.1f} s; {rate:.0f} commands per s meanwhile; refused in the log of {logged}")
+
+
+def goal_burst(peer):
+    """20 goals in a row, each sent as the last is answered: the rate's 5
+    answered (refused by the safety envelope), the rest rejected at the
+    request, counted, and said on /rosout."""
+    t0, answers = time.monotonic(), []
+    for _ in range(20):
+        sent = peer.client.send_goal_async(GuardedMove.Goal(speed_mps=0.2))
+        peer.spin(5, sent.done)
+        answers.append(sent.result() if sent.done() else None)
+    wall = time.monotonic() - t0
+    accepted = [h for h in answers if h is not None and h.accepted]
+    rejected = sum(1 for h in answers if h is not None and not h.accepted)
+    results = [h.get_result_async() for h in accepted]
+    peer.spin(10, lambda: all(r.done() for r in results))
+    reasons = [r.result().result.reason for r in results if r.done()]
+    count = peer.diagnostic("force_controller", "refused_goals_over_rate")
+    said = any(name == "force_controller" and "over the rate: at most 5 goals at once and 2 a second" in m
+               for name, _, m in peer.logs)
+    # The burst's 5, and one more for each half second the burst took.
+    rate = 5 <= len(accepted) <= 5 + int(2 * wall) and rejected == 20 - len(accepted)
+    check("20 goals in a burst: 5 answered, the rest rejected at the request and counted, the reason logged",
+          rate and count == str(rejected) and said and len(reasons) == len(accepted)
+          and all(r.startswith("refused: ") for r in reasons) and holding_on(peer),
+          f"in {wall:.2f} s: {len(accepted)} accepted ({reasons[0][:60] if reasons else None}...), "
+          f"{rejected} rejected; refused_goals_over_rate {count}; reason on /rosout: {said}")
+
+
+def parameter_burst(peer):
+    """30 parameter sets in a row: those beyond the rate refused with it
+    and counted; the others answered on their own merits."""
+    client = peer.node.create_client(SetParameters, "force_controller/set_parameters")
+    client.wait_for_service(timeout_sec=10)
+    value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="fast")
+    request = SetParameters.Request(parameters=[Parameter(name="task", value=value)])
+    t0, answers = time.monotonic(), []
+    for _ in range(30):
+        answer = client.call_async(request)
+        peer.spin(5, answer.done)
+        answers.append(answer.result().results[0].reason if answer.done() else "no answer")
+    wall = time.monotonic() - t0
+    peer.node.destroy_client(client)
+    over = sum(1 for r in answers if "refused: over the rate: at most 10 parameter sets at once" in r)
+    merits = sum(1 for r in answers if "expected guarded, guided or calibrate" in r)
+    count = peer.diagnostic("force_controller", "refused_parameter_sets_over_rate")
+    check("30 parameter sets in a burst: those beyond the rate refused with it and counted",
+          over >= 15 and over + merits == 30 and count == str(over),
+          f"in {wall:.2f} s: {merits} refused on their merits (unknown task), {over} over the rate; "
+          f"refused_parameter_sets_over_rate {count}")
+
+
+def bounded():
+    n = Nodes("guarded_move.yaml", "wooden_box", description_topic=True)
+    peer = Peer(n.domain)
+    ok = False
+    try:
+        peer.publish_description("pa10")
+        touched = peer.spin(60, lambda: any(abs(f) > CONTACT_N for _, f in peer.ft_stamped))
+        if not touched or not peer.client.wait_for_server(timeout_sec=10) or not holding_on(peer, 8):
+            check("bounded: the hold and the action server", False, f"touched: {touched}")
+            return
+        big_description(peer, n)
+        goal_burst(peer)
+        parameter_burst(peer)
+        ok = all(RESULTS)
+    finally:
+        peer.destroy()
+        n.stop(keep_logs=not ok)
+
+
 def main():
     os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(REPO, "target", "ros-test-cache"))
     calibration()
     guarded()
+    bounded()
     return summary()
 
 

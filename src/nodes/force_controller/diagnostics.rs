@@ -1,7 +1,8 @@
 //! The `force_controller` node's status on `/diagnostics`: the task, the
 //! robot, the phase and a halt; the loop as measured (the estimates' age
 //! and arrival, the stale bound and the halts it caused, the arm's
-//! response, the gains); the loop delay against what the gains assume.
+//! response, the gains); the loop delay against what the gains assume;
+//! what its input guard refused.
 
 use super::ForceControllerNode;
 use crate::nodes::status::{Level, Status};
@@ -98,6 +99,7 @@ impl ForceControllerNode {
             }
         }
         s.value("rejected", self.rejected);
+        self.guard.report(&mut s);
         s
     }
 }

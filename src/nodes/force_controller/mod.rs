@@ -14,7 +14,9 @@
 //!   (moved to the BioTac frame), each paired with its BioTac reading;
 //! - stepping: on each complete estimate, or, with none for a while, a
 //!   halt ([`ForceController::estimate_late`]);
-//! - what changed (logged) and its status (`/diagnostics`).
+//! - what changed (logged) and its status (`/diagnostics`), with what its
+//!   [`InputGuard`] refused: messages over their size, goals and parameter
+//!   sets over their rates.
 
 pub mod estimates;
 pub mod goals;
@@ -24,6 +26,9 @@ mod diagnostics;
 
 use nalgebra::Vector3;
 
+use std::sync::Arc;
+
+use super::bounds::InputGuard;
 use super::controller::task_envelope;
 use super::loop_delay::LoopDelayMonitor;
 use super::{joint_names, ControlOutput, ForceController, JointState};
@@ -149,6 +154,8 @@ pub struct ForceControllerNode {
     stale_halts: u64,
     delays: LoopDelayMonitor,
     delay_warned: bool,
+    /// The bounds of its input, shared with the adapter that asks them.
+    guard: Arc<InputGuard>,
 }
 
 /// The shipped defaults of the `force_controller` parameters: the guarded
@@ -200,12 +207,19 @@ impl ForceControllerNode {
             rejected: 0,
             stale_halts: 0,
             delay_warned: false,
+            guard: Arc::new(InputGuard::with_goals()),
         })
     }
 
     /// The start-up parameters.
     pub fn params(&self) -> &ControllerParams {
         &self.base
+    }
+
+    /// The bounds of its input: what a transport asks before it hands the
+    /// node a message, a goal or a parameter set.
+    pub fn guard(&self) -> &Arc<InputGuard> {
+        &self.guard
     }
 
     /// The controller, once a robot description has come.

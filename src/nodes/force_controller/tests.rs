@@ -168,7 +168,28 @@ fn an_estimate_steps_once_both_halves_are_in_and_a_late_one_halts() {
     assert!(n.on_force(ForcePart::Std, 0.02, fz(0.0), 0.021).is_none());
     n.on_pdc_rise(f64::INFINITY);
     let s = n.status();
-    assert_eq!(s.values.last().unwrap(), &("rejected".into(), "2".into()));
+    assert!(s.values.contains(&("rejected".into(), "2".into())), "{s:?}");
+}
+
+#[test]
+fn the_status_says_what_its_guard_refused() {
+    let mut n = node(None);
+    let refused = (0..8).filter(|_| n.guard().admit_goal().is_err()).count();
+    assert_eq!(refused, 3, "the burst of 5 admitted");
+    let s = n.status();
+    assert!(
+        s.values
+            .contains(&("refused_goals_over_rate".into(), "3".into())),
+        "{s:?}"
+    );
+    assert!(
+        s.values.contains(&("refused_oversized".into(), "0".into())),
+        "{s:?}"
+    );
+    assert!(
+        s.message.ends_with("; 3 inputs refused by their bounds"),
+        "{s:?}"
+    );
 }
 
 #[test]

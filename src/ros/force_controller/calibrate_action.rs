@@ -14,12 +14,15 @@
 //! When the arm has stopped: the session file is ended, the estimator's model
 //! (its `model_file` parameter, asked through its parameter service) is
 //! adapted or a model trained from scratch, whichever validates better
-//! ([`fit_and_save`], on a blocking thread: the loop keeps commanding zero
-//! velocity), and the estimator is given the new model file. A calibration
-//! that cannot succeed ends aborted with the reason, the arm stopped, and no
-//! model written or handed on.
+//! (`calibrate_action/fit.rs`), and the estimator is given the new model
+//! file. A calibration that cannot succeed ends aborted with the reason,
+//! the arm stopped, and no model written or handed on. Each goal runs on a
+//! task of its own, so that one that comes while it runs is refused at
+//! once.
 
-use std::path::{Path, PathBuf};
+mod fit;
+
+use std::path::PathBuf;
 
 use r2r::tactile_force_msgs::action::Calibrate;
 
@@ -29,12 +32,10 @@ use super::cancel::{CancelWatch, Canceling};
 use super::estimator_link::EstimatorLink;
 use super::*;
 use crate::calibration::{open_outputs, CalibrateGoal, CalibrationRecorder, Ended, SessionEnd};
-use crate::learn::calibration::fit_and_save;
-use crate::learn::models::wrench_gp::WrenchGp;
 use crate::nodes::force_controller::goals::CalibrationProgress;
 use crate::outputs::models_dir::ModelsDir;
-use crate::record::Record;
 use crate::ros::RosClock;
+use fit::fit;
 
 /// The result of a calibration that made no model.
 fn failed(reason: String, rec: Option<&CalibrationRecorder>) -> Calibrate::Result {
@@ -47,6 +48,9 @@ fn failed(reason: String, rec: Option<&CalibrationRecorder>) -> Calibrate::Resul
     }
 }
 
+/// Serves the goals: each is started, or refused with the reason, as it
+/// comes, and then run on a task of its own, so that a goal that comes
+/// while one runs is refused at once.
 pub(super) async fn serve(
     mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<Calibrate::Action>> + Unpin,
     shared: Arc<Mutex<ForceControllerNode>>,
@@ -55,6 +59,7 @@ pub(super) async fn serve(
     estimator: EstimatorLink,
     models: ModelsDir,
 ) {
+    let estimator = Arc::new(estimator);
     while let Some(req) = goals.next().await {
         let goal = CalibrateGoal {
             surface: req.goal.surface.clone(),
@@ -64,7 +69,9 @@ pub(super) async fn serve(
         };
         let started = start(&goal, &models, &shared, &clock);
         let Ok((mut handle, cancel)) = req.accept() else {
-            lock(&shared).end_goal();
+            if started.is_ok() {
+                lock(&shared).end_goal();
+            }
             continue;
         };
         let model_path = match started {
@@ -75,40 +82,48 @@ pub(super) async fn serve(
                 continue;
             }
         };
-        let why = motion(
-            &mut handle,
-            CancelWatch::new(cancel),
-            &shared,
-            period,
-            &clock,
-        )
-        .await;
-        let Some(mut rec) = lock(&shared).take_recording() else {
+        let (shared, clock, estimator) = (shared.clone(), clock.clone(), estimator.clone());
+        tokio::spawn(async move {
+            let cancel = CancelWatch::new(cancel);
+            let why = motion(&mut handle, cancel, &shared, period, &clock).await;
+            end(handle, why, &shared, &estimator, model_path).await;
             lock(&shared).end_goal();
-            continue;
-        };
-        let session = SessionEnd::said(rec.finish_session());
-        if let Some((why, canceled)) = why {
-            let why = format!("{why}; no model written; {}", session.0);
-            tracing::warn!("calibration: {why}");
-            let result = failed(why, Some(&rec));
-            let _ = if canceled {
-                handle.cancel(result)
-            } else {
-                handle.abort(result)
-            };
-        } else {
-            // What the fit needs, taken out: the session writer the
-            // recording holds may not be borrowed across an await.
-            let recorded = failed(String::new(), Some(&rec));
-            let records = rec.records().to_vec();
-            let _ = match fit(recorded, records, &estimator, model_path, session).await {
-                Ok(r) => handle.succeed(r),
-                Err(r) => handle.abort(r),
-            };
-        }
-        lock(&shared).end_goal();
+        });
     }
+}
+
+/// The end of a calibration whose arm has stopped (`why` not, if it did
+/// not end its pattern): its session ended, the fit and its result.
+async fn end(
+    mut handle: r2r::ActionServerGoal<Calibrate::Action>,
+    why: Option<(String, bool)>,
+    shared: &Mutex<ForceControllerNode>,
+    estimator: &EstimatorLink,
+    model_path: PathBuf,
+) {
+    let Some(mut rec) = lock(shared).take_recording() else {
+        return;
+    };
+    let session = SessionEnd::said(rec.finish_session());
+    if let Some((why, canceled)) = why {
+        let why = format!("{why}; no model written; {}", session.0);
+        tracing::warn!("calibration: {why}");
+        let result = failed(why, Some(&rec));
+        let _ = if canceled {
+            handle.cancel(result)
+        } else {
+            handle.abort(result)
+        };
+        return;
+    }
+    // What the fit needs, taken out: the session writer the recording
+    // holds may not be borrowed across an await.
+    let recorded = failed(String::new(), Some(&rec));
+    let records = rec.records().to_vec();
+    let _ = match fit(recorded, records, estimator, model_path, session).await {
+        Ok(r) => handle.succeed(r),
+        Err(r) => handle.abort(r),
+    };
 }
 
 /// The goal's files resolved in `models`, checked and the session opened,
@@ -171,81 +186,4 @@ async fn motion(
             }
         }
     }
-}
-
-/// The fit once the arm has stopped, and the estimator given the model.
-/// `recorded`: the result's figures of the recording.
-async fn fit(
-    recorded: Calibrate::Result,
-    records: Vec<Record>,
-    estimator: &EstimatorLink,
-    model_path: PathBuf,
-    (kept, session_path): (String, Option<PathBuf>),
-) -> Result<Calibrate::Result, Calibrate::Result> {
-    let refuse = |why: String| {
-        let why = format!("{why}; {kept}");
-        tracing::warn!("calibration: {why}");
-        Calibrate::Result {
-            reason: why,
-            ..recorded.clone()
-        }
-    };
-    let current_file = estimator.model_file().await.map_err(refuse)?;
-    if current_file.is_empty() {
-        return Err(refuse(format!(
-            "{} does not say its model file (model_file is empty)",
-            estimator.name()
-        )));
-    }
-    tracing::info!(
-        "calibration: {} pushes recorded; fitting (the estimator's model {current_file}, adapted, or a new one)",
-        recorded.pushes
-    );
-    let (motion_s, peak) = (recorded.motion_s, recorded.peak_force_n);
-    let (model, session) = (model_path.clone(), session_path.clone());
-    let fitted = tokio::task::spawn_blocking(move || {
-        let current = WrenchGp::load(Path::new(&current_file)).map_err(|e| e.to_string())?;
-        fit_and_save(
-            &records,
-            &current,
-            motion_s,
-            peak,
-            session.as_deref(),
-            &model,
-        )
-        .map_err(|e| e.to_string())
-    })
-    .await
-    .map_err(|e| e.to_string())
-    .and_then(|r| r)
-    .map_err(|e| {
-        refuse(format!(
-            "{e}; no model written (the estimator keeps its own)"
-        ))
-    })?;
-    let path = model_path.display().to_string();
-    let (updated, message) = match estimator.set_model_file(&path).await {
-        Ok((true, _)) => (true, format!("{} estimates with {path}", estimator.name())),
-        Ok((false, why)) => (false, why),
-        Err(e) => (false, e),
-    };
-    tracing::info!(
-        "calibration: chose the model {}, {:.1} s of compute, written to {path}; {message}",
-        fitted.chosen,
-        fitted.compute_s
-    );
-    Ok(Calibrate::Result {
-        reason: "calibrated".into(),
-        model_file: path,
-        session_file: session_path.map_or(String::new(), |p| p.display().to_string()),
-        current_rmse_n: fitted.rmse_of("current"),
-        chosen_rmse_n: fitted.rmse_of(&fitted.chosen),
-        chosen: fitted.chosen,
-        pushes: fitted.pushes,
-        motion_s: fitted.motion_s,
-        compute_s: fitted.compute_s,
-        peak_force_n: fitted.peak_force_n,
-        estimator_updated: updated,
-        estimator_message: message,
-    })
 }

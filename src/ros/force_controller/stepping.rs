@@ -2,6 +2,14 @@
 //! and publishes the command; when no estimate comes before the newest goes
 //! stale (as the node judges from the delay it measures), it halts the arm,
 //! every period; once a second it publishes the node's status.
+//!
+//! It runs on the thread the node started on (tokio's `block_on`), apart
+//! from every other input: r2r takes messages off DDS on a thread of its
+//! own (`spin`), and joint states, the PDC rise, the robot description,
+//! goals and parameter sets are handled on tokio's worker threads. Those
+//! share the node with this loop only for the moment they hand it a
+//! message; an input over its bound ([`crate::nodes::bounds`]) never
+//! reaches it.
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -22,11 +22,12 @@ use r2r::QosProfile;
 use super::{describe_model, load_model, Outputs, Settings, REPORT};
 use crate::biotac::tare::SavedTare;
 use crate::learn::models::wrench_gp::WrenchGp;
+use crate::nodes::bounds::MESSAGE_MAX_BYTES;
 use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable, INPUTS};
 use crate::nodes::EstimatorNode;
 use crate::outputs::models_dir::ModelsDir;
 use crate::ros::params::RuntimeParams;
-use crate::ros::RosError;
+use crate::ros::{bounded, RosError};
 use crate::sensor::biotac::BioTacInput;
 
 fn unix_s() -> f64 {
@@ -117,9 +118,10 @@ pub(super) async fn run(
         None => None,
     };
 
-    let qos = QosProfile::sensor_data();
-    let mut readings = match node.subscribe_raw(source.topic(), source.type_name(), qos) {
-        Err(r2r::Error::InvalidMessageType { .. }) => {
+    let (qos, guard) = (QosProfile::sensor_data(), estimator.guard().clone());
+    let (topic, kind) = (source.topic(), source.type_name());
+    let mut readings = match bounded::raw(&mut node, topic, kind, qos, MESSAGE_MAX_BYTES, &guard) {
+        Err(RosError::R2r(r2r::Error::InvalidMessageType { .. })) => {
             return Err(SourceError::NotBuilt(source.type_name()).into())
         }
         subscribed => subscribed?,
@@ -134,6 +136,7 @@ pub(super) async fn run(
             take_model(&shared, &recipe, &models, value, apply)
                 .inspect_err(|e| tracing::warn!("model_file refused: {e}"))
         }),
+        &guard,
     );
     let clock = crate::ros::serve_parameters(&mut node, live)?;
     crate::ros::spin(node);

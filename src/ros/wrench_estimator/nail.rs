@@ -3,6 +3,9 @@
 //! (crate::nail::preprocess); a frame without its four markers is dropped
 //! and counted. The first frames (the model's tare, 30 by default: the
 //! finger out of contact) make the baseline, as the BioTac's readings do.
+//! An image over the camera's size (the model's frames, in the widest
+//! encoding read: [`image_max_bytes`]) is refused before it is decoded,
+//! and counted.
 
 use futures::StreamExt;
 use r2r::sensor_msgs::msg::Image;
@@ -10,9 +13,10 @@ use r2r::QosProfile;
 
 use super::{Outputs, Settings, REPORT};
 use crate::learn::models::wrench_gp::WrenchGp;
+use crate::nodes::bounds::image_max_bytes;
 use crate::nodes::EstimatorNode;
 use crate::ros::params::RuntimeParams;
-use crate::ros::{convert, RosError};
+use crate::ros::{bounded, convert, RosError};
 use crate::sensor::nail::NailInput;
 
 /// Runs the nail-camera estimator until the process ends.
@@ -25,8 +29,13 @@ pub(super) async fn run(
     let mut estimator = EstimatorNode::<NailInput>::new(model, s.with_std)
         .and_then(|e| e.with_stale_timeout(s.stale_s))?
         .with_ready_after(s.ready_after_s);
-    let mut images = node.subscribe::<Image>("camera/image", QosProfile::sensor_data())?;
-    let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none())?;
+    let guard = estimator.guard().clone();
+    let (width, height) = estimator.sensor().frame_size();
+    let (qos, max) = (QosProfile::sensor_data(), image_max_bytes(width, height));
+    let image_type = "sensor_msgs/msg/Image";
+    let mut images =
+        bounded::typed::<Image>(&mut node, "camera/image", image_type, qos, max, &guard)?;
+    let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
     crate::ros::spin(node);
 
     let mut report = tokio::time::interval(REPORT);
