@@ -15,10 +15,11 @@
 //!
 //! The stiffness taken is two standard errors above the measured one (the
 //! gains' margin against noise: about 20 % on a 100 N/m contact with 7 mN
-//! of noise on the estimate). A fit is refused when its force is within five standard errors of zero
-//! (the pad slid, or the contact is too soft to tell), when the pad moved
-//! less than [`MIN_MOTION_SHARE`] of the probe (the arm did not follow it),
-//! or when the force does not oppose the motion. Nothing allocates.
+//! of noise on the estimate). A fit is refused when its force is within
+//! five standard errors of zero (the pad slid, or the contact is too soft
+//! to tell), when the pad moved less than 30 % of the probe (the arm did
+//! not follow it), or when the force does not oppose the motion. Nothing
+//! allocates.
 
 use std::f64::consts::PI;
 
