@@ -207,27 +207,31 @@ impl InputGuard {
 
     /// Admits a goal within [`GOALS`].
     pub fn admit_goal(&self) -> Result<(), Refusal> {
-        let now = self.start.elapsed().as_secs_f64();
-        let mut s = self.state();
-        let retry_s = match s.goals.admit(now) {
-            Ok(()) => return Ok(()),
-            Err(retry_s) => retry_s,
-        };
-        s.refused.goals += 1;
-        let rate = GOALS;
-        Err(self.said(&mut s, Refusal::OverRate { rate, retry_s }))
+        self.admit_within(GOALS, |s| (&mut s.goals, &mut s.refused.goals))
     }
 
     /// Admits a parameter set within [`PARAMETER_SETS`].
     pub fn admit_parameter_set(&self) -> Result<(), Refusal> {
+        self.admit_within(PARAMETER_SETS, |s| {
+            (&mut s.parameter_sets, &mut s.refused.parameter_sets)
+        })
+    }
+
+    /// Admits one within `rate`, on the limit and the refusal count `pick`
+    /// takes from the state.
+    fn admit_within(
+        &self,
+        rate: Rate,
+        pick: fn(&mut GuardState) -> (&mut RateLimit, &mut u64),
+    ) -> Result<(), Refusal> {
         let now = self.start.elapsed().as_secs_f64();
         let mut s = self.state();
-        let retry_s = match s.parameter_sets.admit(now) {
+        let (limit, refused) = pick(&mut s);
+        let retry_s = match limit.admit(now) {
             Ok(()) => return Ok(()),
             Err(retry_s) => retry_s,
         };
-        s.refused.parameter_sets += 1;
-        let rate = PARAMETER_SETS;
+        *refused += 1;
         Err(self.said(&mut s, Refusal::OverRate { rate, retry_s }))
     }
 
