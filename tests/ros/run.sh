@@ -16,11 +16,15 @@ fi
 status=0
 for t in tests/ros/test_*.py; do
   echo "== $t"
+  start=$SECONDS
   python "$t" || status=1
+  echo "== $t: $((SECONDS - start)) s"
 done
 # Both moves with the shipped parameters, nothing declared, on an arm with
 # an 8 ms command cycle and bodies the controller is not told about, on our
 # simulator and on MuJoCo's UR5.
 echo "== tests/ros/hold_sweep.py --grid ci"
+start=$SECONDS
 python tests/ros/hold_sweep.py --grid ci || status=1
+echo "== tests/ros/hold_sweep.py: $((SECONDS - start)) s"
 exit "$status"

@@ -608,15 +608,23 @@ def faults(n, peer):
     burst_on[0] = False
     sent = copied[0]
     rate = sent / (time.monotonic() - t0)
-    peer.spin(2)
-    p99_after, rss_after = delay(), n.rss_kib()
+    t1, p99_after = time.monotonic(), []
+    while time.monotonic() - t1 < 3.0:
+        rclpy.spin_once(peer.node, timeout_sec=0.01)
+        if "loop_delay_p99_ms" in peer.diagnostics.get("force_controller", {}):
+            p99_after.append(float(peer.diagnostics["force_controller"].pop("loop_delay_p99_ms")))
+    rss_after = n.rss_kib()
     # Growth is a queue that builds up: it shows in most seconds of the
     # burst and after it. One slow second is the scheduler of a loaded
-    # 2-core machine (the peer's own copying shares it): reported, not judged.
+    # 2-core machine (the peer's own copying shares it; once, with the
+    # machine otherwise idle, 16.8 ms in the second after a burst whose
+    # median was 7.5 ms): reported, not judged.
     typical = statistics.median(p99_during or [float("nan")])
-    check("burst: loop delay p99 within one period", rate >= 800 and typical < 10.0 and p99_after < 10.0,
+    after = statistics.median(p99_after or [float("nan")])
+    per_s = lambda ds: ", ".join(f"{d:.2f}" for d in ds)  # noqa: E731
+    check("burst: loop delay p99 within one period", rate >= 800 and typical < 10.0 and after < 10.0,
           f"{rate:.0f} extra readings per s for 3 s; p99 {p99_before:.2f} ms before, "
-          f"per second during {', '.join(f'{d:.2f}' for d in p99_during)} ms, {p99_after:.2f} ms after")
+          f"per second during {per_s(p99_during)} ms, after {per_s(p99_after)} ms")
     growth = {exe: rss_after[exe] - rss_before[exe] for exe in rss_after}
     check("burst: no memory growth (< 1 MiB per node)", max(growth.values()) < 1024,
           ", ".join(f"{exe} {g:+d} KiB" for exe, g in growth.items()))

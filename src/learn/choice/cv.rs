@@ -14,7 +14,7 @@ use crate::learn::models::gp::fit::FitProgress;
 use crate::learn::models::gp::{GpParams, MeanKind, SeHyper};
 use crate::learn::models::metrics::rmse_columns;
 use crate::learn::models::nn::Mlp;
-use crate::learn::models::wrench_gp::{std_scale, Estimate, EstimatorWorkspace};
+use crate::learn::models::wrench_gp::{std_scale_over_folds, Estimate, EstimatorWorkspace};
 use crate::learn::models::wrench_gp::{ModelError, TareSpec, WarmStart, WrenchGp};
 use crate::learn::tradeoff::{median_latency_us, timed_rows};
 use crate::params::Checked;
@@ -151,7 +151,7 @@ impl Cv<'_> {
         let mut pooled = Pooled::new(self.data);
         let mut alone = (choice.mean == MeanKind::Network).then(|| Pooled::new(self.data));
         let mut latency_us = None;
-        let mut z: Vec<Vec<f64>> = vec![Vec::new(); self.sd.len()];
+        let mut z: Vec<Vec<Vec<f64>>> = vec![Vec::new(); self.sd.len()];
         for (fold, (train, test)) in self.splits.iter().enumerate() {
             let model = WrenchGp::train_from(
                 &sub.select(train),
@@ -175,7 +175,7 @@ impl Cv<'_> {
             }
             let errors =
                 (model.standardised_errors(&held_out, CALIBRATION_ROWS)).map_err(failed)?;
-            z.iter_mut().zip(errors).for_each(|(z, e)| z.extend(e));
+            z.iter_mut().zip(errors).for_each(|(z, e)| z.push(e));
             if fold + 1 == self.splits.len() {
                 latency_us = Some(latency(&model, &held_out));
             }
@@ -198,7 +198,7 @@ impl Cv<'_> {
             fold_scores,
             latency_us,
             std_scale: (axes.iter().zip(&z))
-                .filter_map(|(&a, z)| std_scale(z).map(|s| (a, s)))
+                .filter_map(|(&a, z)| std_scale_over_folds(z).map(|s| (a, s)))
                 .collect(),
             network_alone: alone.map(|a| a.scores(self)),
         }))

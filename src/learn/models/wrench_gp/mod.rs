@@ -30,7 +30,7 @@ use network::{network_mean, MAX_SIGNAL_FLOOR};
 
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
 pub use learner::GpLearner;
-pub use observed::std_scale;
+pub use observed::{std_scale, std_scale_over_folds};
 pub use provenance::{
     AdaptChoice, AdaptedFrom, AloneScore, CalibrationRecord, Choice, CvRow, DataFile, GpChoice,
     Selection, TrainedOn, Validation,
