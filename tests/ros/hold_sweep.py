@@ -248,6 +248,15 @@ FINGERS = {
                      {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
     "stiff-along": ({"normal": 1000.0, "shear": 100.0, "damping": 3.0, "mass": 0.003},
                     {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
+    # The corners of issue 48's grid the fingers above leave: a stiff light
+    # finger barely damped, a soft heavy one barely damped (11 Hz, damping
+    # ratio 0.35) and one heavily damped; friction 0.5 and 1.5.
+    "stiff-light": ({"normal": 1000.0, "shear": 1000.0, "damping": 1.0, "mass": 0.002, "friction": 0.5},
+                    {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
+    "soft-heavy": ({"normal": 100.0, "shear": 100.0, "damping": 1.0, "mass": 0.02, "friction": 1.5},
+                   {"averaged": True, "noise_n": 0.007, "jitter_s": 0.005}),
+    "soft-damped": ({"normal": 100.0, "shear": 300.0, "damping": 10.0, "mass": 0.02, "friction": 0.5},
+                    {"averaged": True, "noise_n": 0.007, "jitter_s": 0.0}),
 }
 
 
