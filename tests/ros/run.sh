@@ -14,17 +14,18 @@ if ! python -c 'import mujoco' 2>/dev/null ||
     "mujoco==4.0.0" "example-robot-data==6.0.0"
 fi
 status=0
+# Runs one test script with its arguments, then says how long it took.
+timed() {
+  echo "== $*"
+  local start=$SECONDS
+  python "$@" || status=1
+  echo "== $1: $((SECONDS - start)) s"
+}
 for t in tests/ros/test_*.py; do
-  echo "== $t"
-  start=$SECONDS
-  python "$t" || status=1
-  echo "== $t: $((SECONDS - start)) s"
+  timed "$t"
 done
 # Both moves with the shipped parameters, nothing declared, on an arm with
 # an 8 ms command cycle and bodies the controller is not told about, on our
 # simulator and on MuJoCo's UR5.
-echo "== tests/ros/hold_sweep.py --grid ci"
-start=$SECONDS
-python tests/ros/hold_sweep.py --grid ci || status=1
-echo "== tests/ros/hold_sweep.py: $((SECONDS - start)) s"
+timed tests/ros/hold_sweep.py --grid ci
 exit "$status"
