@@ -65,7 +65,7 @@ impl Run {
         ready: fn(&SimSample, &ControlOutput) -> bool,
     ) -> Self {
         let mut nodes = scene
-            .build(model, &BioTacSimConfig::default(), SEED)
+            .build(Box::new(model), &BioTacSimConfig::default(), SEED)
             .expect("shipped scene");
         let mut readings = Vec::new();
         loop {
@@ -103,7 +103,8 @@ impl Run {
 
 /// An estimator for `model`, tared on the first of `readings`.
 fn tared(model: WrenchGp, with_std: bool, readings: &[BioTacReading]) -> EstimatorNode {
-    let mut e: EstimatorNode = EstimatorNode::new(model, with_std).expect("electrode model");
+    let mut e: EstimatorNode =
+        EstimatorNode::new(Box::new(model), with_std).expect("electrode model");
     for r in &readings[..e.tare_samples()] {
         e.on_reading(r).expect("tare reading");
     }

@@ -70,7 +70,14 @@ fn main() -> Result<ExitCode, Box<dyn std::error::Error>> {
                 s.sim.object = "sweep".into();
                 s.sim.duration_s = 12.0;
                 at(&mut s, cycle, lag);
-                let m = run_scene(&s, model.clone(), 1, Pacing::Lockstep, &mut |_| {})?.summary;
+                let m = run_scene(
+                    &s,
+                    Box::new(model.clone()),
+                    1,
+                    Pacing::Lockstep,
+                    &mut |_| {},
+                )?
+                .summary;
                 let ok = m.final_phase == "hold"
                     && m.peak_force_n <= 1.1
                     && m.steady_state_error_n.is_some_and(|e| e <= 0.05)
@@ -98,7 +105,14 @@ fn main() -> Result<ExitCode, Box<dyn std::error::Error>> {
         for (cycle, lag) in grid() {
             let mut s = guided.clone();
             at(&mut s, cycle, lag);
-            let m = run_scene(&s, model.clone(), 1, Pacing::Lockstep, &mut |_| {})?.summary;
+            let m = run_scene(
+                &s,
+                Box::new(model.clone()),
+                1,
+                Pacing::Lockstep,
+                &mut |_| {},
+            )?
+            .summary;
             let ok = guided_ok(&m);
             missed += usize::from(!ok);
             let rms: Vec<String> = m

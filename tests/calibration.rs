@@ -47,7 +47,7 @@ fn guarded(unit: u64, object: &str, m: &WrenchGp) -> tactile_force::report::summ
         .unwrap()
         .with_object(object);
     s.sim.sensor_unit = unit;
-    run_scene(&s, m.clone(), 1, Pacing::Lockstep, &mut |_| {})
+    run_scene(&s, Box::new(m.clone()), 1, Pacing::Lockstep, &mut |_| {})
         .unwrap()
         .summary
 }

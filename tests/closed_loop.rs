@@ -24,12 +24,19 @@ fn guarded(object: &str, speed: f64) -> Scene {
 }
 
 fn run(scene: &Scene, seed: u64) -> DemoRun {
-    run_scene(scene, model(), seed, Pacing::Lockstep, &mut |_| {}).unwrap()
+    run_scene(
+        scene,
+        Box::new(model()),
+        seed,
+        Pacing::Lockstep,
+        &mut |_| {},
+    )
+    .unwrap()
 }
 
 fn nodes(scene: &Scene) -> Nodes {
     scene
-        .build(model(), &Default::default(), 1)
+        .build(Box::new(model()), &Default::default(), 1)
         .expect("the scene builds")
 }
 
@@ -292,7 +299,7 @@ fn realtime_pacing_keeps_pace_with_the_wall_clock() {
     let mut short = guarded("wooden_box", 0.01);
     short.sim.duration_s = 0.3;
     let t0 = std::time::Instant::now();
-    let run = run_scene(&short, model(), 1, Pacing::Realtime, &mut |_| {}).unwrap();
+    let run = run_scene(&short, Box::new(model()), 1, Pacing::Realtime, &mut |_| {}).unwrap();
     assert!(t0.elapsed().as_secs_f64() >= 0.29, "{:?}", t0.elapsed());
     assert_eq!(run.rows.len(), 31);
 }
@@ -303,13 +310,13 @@ fn a_model_without_the_axes_the_task_controls_is_refused() {
     assert_eq!(fz.axes().to_string(), "fz");
     let err = Scene::builtin(TaskKind::Guided)
         .unwrap()
-        .build(fz.clone(), &Default::default(), 1)
+        .build(Box::new(fz.clone()), &Default::default(), 1)
         .unwrap_err()
         .to_string();
     assert!(err.contains("fz") && err.contains("fx,fy,fz"), "{err}");
     // The guarded scene needs fz only.
     assert!(Scene::builtin(TaskKind::Guarded)
         .unwrap()
-        .build(fz, &Default::default(), 1)
+        .build(Box::new(fz), &Default::default(), 1)
         .is_ok());
 }

@@ -20,14 +20,15 @@ mod common;
 use common::model;
 
 fn run(scene: Scene) -> DemoRun {
-    run_scene(&scene, model(), 1, Pacing::Lockstep, &mut |_| {}).expect("the run completes")
+    run_scene(&scene, Box::new(model()), 1, Pacing::Lockstep, &mut |_| {})
+        .expect("the run completes")
 }
 
 /// Runs `scene` for its whole duration, each BioTac reading passing through
 /// `fault` on its way to the estimator.
 fn run_faulty(scene: &Scene, fault: ReadingTamper) -> DemoRun {
     let mut nodes = scene
-        .build(model(), &Default::default(), 1)
+        .build(Box::new(model()), &Default::default(), 1)
         .expect("the scene builds");
     let periods = (nodes.sim.duration_s() / nodes.sim.period_s()).round() as usize;
     let rows: Vec<TraceRow> = (0..=periods)
@@ -370,7 +371,9 @@ fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
 fn a_single_saturated_reading_gives_a_finite_doubtful_estimate() {
     let scene = Scene::builtin(TaskKind::Guarded).unwrap();
     let limits = scene.controller.clone().out_of_range;
-    let mut n = scene.build(model(), &Default::default(), 1).unwrap();
+    let mut n = scene
+        .build(Box::new(model()), &Default::default(), 1)
+        .unwrap();
     // Out of contact: the estimator tares on its first readings.
     while !n.estimator.is_tared() {
         n.step_period(&mut |_, _| {}, &mut |_, _| {}).unwrap();

@@ -1,10 +1,14 @@
-//! The single-sample prediction path allocates nothing per call (counted by a
+//! The single-sample prediction path of each model family allocates nothing per call (counted by a
 //! global allocator; this binary holds one test so nothing else allocates).
 
 use ndarray::Array2;
 use tactile_force::learn::data::Dataset;
+use tactile_force::learn::models::ensemble::{WrenchEnsemble, DEFAULT_MEMBERS};
 use tactile_force::learn::models::gp::{Gp, GpParams};
+use tactile_force::learn::models::nn::NnParams;
 use tactile_force::learn::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
+use tactile_force::learn::models::wrench_model::WrenchModel;
+use tactile_force::params::Check;
 
 #[path = "common/counting_alloc.rs"]
 mod counting_alloc;
@@ -37,25 +41,25 @@ fn predict_one_allocates_nothing_after_warm_up() {
     }
     .validate()
     .unwrap();
-    let model = WrenchGp::train(&data, tare, &params, &mut |_, _| {}).unwrap();
-    let mut ws = model.workspace();
+    let gp = WrenchGp::train(&data, tare.clone(), &params, &mut |_, _| {}).unwrap();
+    let nn = NnParams::default().checked("nn").unwrap();
+    let ensemble = WrenchEnsemble::train(&data, tare, &nn, DEFAULT_MEMBERS).unwrap();
+    // Each family through the estimator's interface.
+    let models: [Box<dyn WrenchModel>; 2] = [Box::new(gp), Box::new(ensemble)];
     let mut out = [Estimate::default(); 3];
     let input = [3.0, 5.0, 7.0, 11.0];
-    for with_std in [true, false] {
+    for (model, with_std) in models.iter().flat_map(|m| [(m, true), (m, false)]) {
+        let mut ws = model.workspace();
         // Warm-up: the thread pool and its thread-locals start on first use.
         for _ in 0..50 {
-            model
-                .predict_one(&input, &mut ws, with_std, &mut out)
-                .unwrap();
+            model.estimate(&input, &mut ws, with_std, &mut out).unwrap();
         }
         let before = allocations();
         for _ in 0..100 {
-            model
-                .predict_one(&input, &mut ws, with_std, &mut out)
-                .unwrap();
+            model.estimate(&input, &mut ws, with_std, &mut out).unwrap();
         }
         let allocated = allocations() - before;
-        assert_eq!(allocated, 0, "with_std = {with_std}");
+        assert_eq!(allocated, 0, "{}, with_std = {with_std}", model.family());
         assert!(out.iter().all(|e| e.mean.is_finite()));
     }
 

@@ -66,6 +66,7 @@ fn leave_one_press_out(choice: &Choice) -> (Vec<(f64, f64)>, (f64, f64)) {
         max_train: 2000,
         gp: choice.gp_params(&GpParams::default()).validate().unwrap(),
         nn: None,
+        ensemble: None,
         cnn: None,
         seed: 0,
         min_peak_n: 1.0,

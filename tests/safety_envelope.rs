@@ -21,9 +21,15 @@ mod common;
 use common::model;
 
 fn run(scene: &Scene, seed: u64) -> Summary {
-    run_scene(scene, model(), seed, Pacing::Lockstep, &mut |_| {})
-        .expect("the run completes")
-        .summary
+    run_scene(
+        scene,
+        Box::new(model()),
+        seed,
+        Pacing::Lockstep,
+        &mut |_| {},
+    )
+    .expect("the run completes")
+    .summary
 }
 
 /// Estimates reach the controller in the `periods`-th period after their

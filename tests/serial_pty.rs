@@ -265,7 +265,7 @@ fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
     let mut controller = ForceController::new(scene.controller.clone(), robot).unwrap();
     let recipe = scene.estimator.clone().default_model;
     let model = default_model::train(&recipe).unwrap();
-    let mut estimator: EstimatorNode = EstimatorNode::new(model, false).unwrap();
+    let mut estimator: EstimatorNode = EstimatorNode::new(Box::new(model), false).unwrap();
 
     let p = pty();
     let mut driver = Driver::new(DriverConfig::new(p.path.clone()));

@@ -133,7 +133,9 @@ fn hold_still_scene() -> Scene {
 #[test]
 fn a_task_defined_outside_runs_in_the_closed_loop_through_its_registration_alone() {
     let scene = hold_still_scene().with_tasks(tasks::shipped().with::<HoldStillParams>());
-    let mut nodes = scene.build(model(), &Default::default(), 1).unwrap();
+    let mut nodes = scene
+        .build(Box::new(model()), &Default::default(), 1)
+        .unwrap();
     let rows = run(&mut nodes, Pacing::Lockstep, &mut |_| {}).unwrap();
     // It holds from its first fresh inputs (the estimator's tare first),
     // for a second, then stops; the arm never moves.

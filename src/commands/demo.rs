@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model::{self, Origin, Recipe};
 use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::learn::models::wrench_model::{self, WrenchModel};
 use tactile_force::report::plot::{self, SweepSeries};
 use tactile_force::report::summary::Summary;
 use tactile_force::report::TraceRow;
@@ -159,8 +160,13 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     }
     // Check the scene before a possibly long training.
     scene.check()?;
-    let model = demo_model(a.model.as_deref(), &scene.estimator.default_model)?;
+    let recipe = &scene.estimator.default_model;
     if task == TaskKind::Calibrate {
+        // The calibration adapts the current model: a GP.
+        let model = match a.model.as_deref() {
+            Some(p) => WrenchGp::load(p)?,
+            None => scene_default_model(recipe)?,
+        };
         let (out, session) =
             session.ok_or_else(|| BadArgument("demo calibrate needs --out".into()))?;
         let run = CalibrateRun {
@@ -174,8 +180,12 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
         };
         return run_calibrate(&run, &scene, model);
     }
+    let model = match a.model.as_deref() {
+        Some(p) => wrench_model::load(p)?,
+        None => Box::new(scene_default_model(recipe)?),
+    };
     if a.sweep_speed {
-        return run_sweep(&a, &scene, &model);
+        return run_sweep(&a, &scene, model.as_ref());
     }
     let bar = status_line(&scene);
     let pacing = if a.realtime {
@@ -202,11 +212,8 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     Ok(run.held()?)
 }
 
-/// The model of `--model`, or the scene's cached default (trained on first use).
-fn demo_model(path: Option<&Path>, recipe: &Recipe) -> Result<WrenchGp> {
-    if let Some(p) = path {
-        return Ok(WrenchGp::load(p)?);
-    }
+/// The scene's cached default model (trained on first use).
+fn scene_default_model(recipe: &Recipe) -> Result<WrenchGp> {
     let (model, origin) = default_model::load_or_train(recipe, &mut || {
         eprintln!(
             "no --model given: training the default model of the scene ({}) on \
@@ -309,7 +316,7 @@ fn print_summary(s: &Summary, gains: &[Option<f64>; 3]) {
     );
 }
 
-fn run_sweep(a: &DemoArgs, scene: &Scene, model: &WrenchGp) -> Result<()> {
+fn run_sweep(a: &DemoArgs, scene: &Scene, model: &dyn WrenchModel) -> Result<()> {
     let speeds: Vec<f64> = a.speeds_mm_s.iter().map(|v| v * 1e-3).collect();
     if let Some(bad) = speeds.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
         let msg = format!("--speeds-mm-s: {} is not a positive speed", bad * 1e3);

@@ -13,7 +13,7 @@ use tactile_force::learn::evaluate::{
 use tactile_force::learn::models::cnn::CnnParams;
 use tactile_force::learn::models::metrics::DEFAULT_PEAK_MIN_N;
 use tactile_force::learn::models::nn::NnParams;
-use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::learn::models::wrench_model;
 use tactile_force::params::Check;
 use tactile_force::sensor::SensorSpec;
 
@@ -43,12 +43,16 @@ pub(crate) struct EvalArgs {
     /// trained on the others.
     #[arg(long, value_delimiter = ',', conflicts_with_all = ["test", "model"])]
     sessions: Vec<PathBuf>,
-    /// A trained model file to score on --test (no training; GP only).
+    /// A trained model file (of any family) to score on --test (no training).
     #[arg(long, requires = "test")]
     model: Option<PathBuf>,
     /// Skip the baseline network.
     #[arg(long)]
     no_nn: bool,
+    /// Also train an ensemble of 5 baseline networks (each seeded apart)
+    /// and score it with its standard deviation (their spread).
+    #[arg(long)]
+    ensemble: bool,
     /// Skip the CNN (trained on nail-camera data only).
     #[arg(long)]
     no_cnn: bool,
@@ -113,7 +117,7 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
         .into());
     };
     bar.finish_and_clear();
-    print_table(&a.fit.axes, &eval, &labels);
+    print_table(&a.fit.axes, &eval, &labels, "GP");
     if a.json {
         println!("{}", serde_json::to_string(&eval)?);
     }
@@ -148,6 +152,10 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
         } else {
             Some(nn_params(sensor).checked("nn")?)
         },
+        ensemble: a
+            .ensemble
+            .then(|| nn_params(sensor).checked("nn"))
+            .transpose()?,
         cnn: match sensor {
             SensorSpec::Nail(_) if !a.no_cnn => Some(
                 CnnParams {
@@ -179,7 +187,9 @@ pub(crate) fn run_score(
     min_peak_n: f64,
     json: bool,
 ) -> Result<()> {
-    let model = WrenchGp::load(model)?;
+    let model = wrench_model::load(model)?;
+    let model = model.as_ref();
+    println!("{}", model.describe());
     if let Some(s) = model.selection() {
         println!("the model's options were chosen by `train --select`:");
         print_selection(s);
@@ -196,9 +206,9 @@ pub(crate) fn run_score(
         tests,
         Features::Model(model.features()),
         model.axes(),
-        Some(model.tare().samples),
+        Some(model.input().tare_samples),
         source,
-        Some(model.sensor()),
+        Some(model.input().sensor),
     )?;
     let pooled = sessions.pooled().context("give --test FILES")?;
     let sessions = sessions.sets;
@@ -207,16 +217,17 @@ pub(crate) fn run_score(
         folds.push(FoldScores {
             fold: i + 1,
             n_test: ds.len(),
-            gp: score_model(&model, ds, min_peak_n, true)?,
+            gp: score_model(model, ds, min_peak_n, true)?,
             baselines: BTreeMap::new(),
         });
     }
     let eval = Evaluation {
         folds,
-        gp: score_model(&model, &pooled, min_peak_n, true)?,
+        gp: score_model(model, &pooled, min_peak_n, true)?,
         baselines: BTreeMap::new(),
     };
-    print_table(model.axes(), &eval, &file_labels(tests));
+    let family = model.family().to_uppercase();
+    print_table(model.axes(), &eval, &file_labels(tests), &family);
     if json {
         println!("{}", serde_json::to_string(&eval)?);
     }

@@ -167,11 +167,13 @@ pub(crate) fn file_labels(paths: &[PathBuf]) -> Vec<String> {
         .collect()
 }
 
-/// The scores per fold (labelled by `labels`, e.g. session files) and overall.
-pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) {
+/// The scores per fold (labelled by `labels`, e.g. session files) and
+/// overall; `main` names the model of [`Evaluation::gp`] (`GP`, or a model
+/// file's family).
+pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String], main: &str) {
     let width = labels.iter().map(String::len).max().unwrap_or(0).max(8);
     println!(
-        "{:<width$} {:<5} {}  {:>8} {:>7}",
+        "{:<width$} {:<8} {}  {:>8} {:>7}",
         "fold",
         "model",
         axis_headers(axes),
@@ -180,7 +182,7 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
     );
     let row = |fold: &str, model: &str, s: &Scores| {
         println!(
-            "{fold:<width$} {model:<5} {}  {:>8.2} {:>7}",
+            "{fold:<width$} {model:<8} {}  {:>8.2} {:>7}",
             axis_scores(axes, &s.rmse, &s.r2),
             s.fit_s,
             s.n_train
@@ -188,19 +190,19 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
     };
     if eval.folds.len() > 1 {
         for (f, label) in eval.folds.iter().zip(labels) {
-            row(label, "GP", &f.gp);
+            row(label, main, &f.gp);
             for (name, s) in &f.baselines {
                 row(label, &name.to_uppercase(), s);
             }
         }
     }
-    row("overall", "GP", &eval.gp);
+    row("overall", main, &eval.gp);
     for (name, s) in &eval.baselines {
         row("overall", &name.to_uppercase(), s);
     }
     println!("RMSE in N (forces) and Nm (torques); overall = all test rows pooled; fit s = mean per fold.");
     let baselines = eval.baselines.iter().map(|(n, s)| (n.to_uppercase(), s));
-    for (name, s) in std::iter::once(("GP".to_string(), &eval.gp)).chain(baselines) {
+    for (name, s) in std::iter::once((main.to_string(), &eval.gp)).chain(baselines) {
         if let Some(d) = &s.direction_deg {
             print_direction(&name, d);
         }
@@ -209,7 +211,7 @@ pub(crate) fn print_table(axes: &AxisSet, eval: &Evaluation, labels: &[String]) 
     if eval.folds.len() > 1 {
         for (f, label) in eval.folds.iter().zip(labels) {
             if let Some(d) = &f.gp.direction_deg {
-                print_direction(&format!("GP, {label}"), d);
+                print_direction(&format!("{main}, {label}"), d);
             }
         }
     }

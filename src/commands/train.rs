@@ -6,11 +6,15 @@ use clap::Args;
 
 use tactile_force::learn::choice::{select, Choice, GpChoice, Space};
 use tactile_force::learn::data::{Channel, DatasetError};
-use tactile_force::learn::evaluate::{training_fit, Progress};
+use tactile_force::learn::evaluate::{training_fit, Progress, Scores};
+use tactile_force::learn::models::ensemble::{WrenchEnsemble, DEFAULT_MEMBERS};
 use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
+use tactile_force::learn::models::nn::NnParams;
 use tactile_force::learn::models::scale::InputScaling;
 use tactile_force::learn::models::wrench_gp::{TrainedOn, WrenchGp};
+use tactile_force::learn::models::wrench_model::WrenchModel;
 use tactile_force::learn::pooled::{data_file, readable};
+use tactile_force::params::Check;
 use tactile_force::params::Checked;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
@@ -137,6 +141,11 @@ pub(crate) struct TrainArgs {
     /// --inducing or --max-train given with it fix those. BioTac data only.
     #[arg(long)]
     select: bool,
+    /// The model's family: gp (a GP per axis, the default), or ensemble (5
+    /// baseline networks seeded apart, their mean the estimate and their
+    /// spread its standard deviation; the GP options do not apply).
+    #[arg(long, default_value = "gp", conflicts_with = "select")]
+    family: Family,
     /// Time budget of --select (s): the search stops when it is spent.
     #[arg(long, default_value_t = 60.0, requires = "select")]
     budget_s: f64,
@@ -187,6 +196,9 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
         None,
     )?;
     let ds = sessions.pooled()?;
+    if a.family == Family::Ensemble {
+        return run_ensemble(&a, &sessions, &ds);
+    }
     let scaling = a.fit.scaling(&sessions.sensor)?;
     let params = gp_params(&a.fit, &sessions.sensor)?;
     let bar = progress_bar();
@@ -201,6 +213,56 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     .with_sensor(sessions.sensor.clone());
     bar.finish_and_clear();
     save_checked(&a, model, &ds, t0, (&sessions, &params))
+}
+
+/// The model families `train` makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Family {
+    Gp,
+    Ensemble,
+}
+
+/// `train --family ensemble`: the ensemble on `ds` (read as `sessions`),
+/// checked on it.
+fn run_ensemble(
+    a: &TrainArgs,
+    sessions: &Sessions,
+    ds: &tactile_force::learn::data::Dataset,
+) -> Result<()> {
+    let params = NnParams {
+        seed: a.fit.seed,
+        ..NnParams::default()
+    }
+    .checked("nn")?;
+    let t0 = std::time::Instant::now();
+    let model = WrenchEnsemble::train(ds, sessions.tare.clone(), &params, DEFAULT_MEMBERS)?
+        .with_sensor(sessions.sensor.clone());
+    let fit_s = t0.elapsed().as_secs_f64();
+    let fit = training_fit(&model, ds)?;
+    model
+        .save(&a.out)
+        .with_context(|| format!("saving the model to {}", a.out.display()))?;
+    println!("{}", model.describe());
+    say_trained(&fit, &model, fit_s, a);
+    Ok(())
+}
+
+/// Says how the model fits its own training data, and where it went.
+fn say_trained(fit: &Scores, model: &dyn WrenchModel, fit_s: f64, a: &TrainArgs) {
+    let on_own: Vec<String> = fit
+        .rmse
+        .iter()
+        .map(|(axis, e)| format!("{axis} RMSE {e:.4}, R2 {:.4}", fit.r2[axis]))
+        .collect();
+    println!("fit on its own training data: {}", on_own.join("; "));
+    println!(
+        "trained {} axes ({}) on {} samples in {:.2} s; model written to {}",
+        model.axes().len(),
+        model.axes(),
+        model.n_train(),
+        fit_s,
+        a.out.display()
+    );
 }
 
 /// The reference to `paths` (read as `sessions`) a model trained on them
@@ -338,19 +400,6 @@ fn save_checked(
             gp.describe(), info.evaluations, info.full_evaluations, info.neg_lml_per_sample, h.signal_var, h.noise_var
         );
     }
-    let on_own: Vec<String> = fit
-        .rmse
-        .iter()
-        .map(|(axis, e)| format!("{axis} RMSE {e:.4}, R2 {:.4}", fit.r2[axis]))
-        .collect();
-    println!("fit on its own training data: {}", on_own.join("; "));
-    println!(
-        "trained {} axes ({}) on {} samples in {:.2} s; model written to {}",
-        model.axes().len(),
-        model.axes(),
-        model.n_train(),
-        fit_s,
-        a.out.display()
-    );
+    say_trained(&fit, &model, fit_s, a);
     Ok(())
 }

@@ -12,13 +12,15 @@ use serde::Serialize;
 
 use super::data::{trialwise_folds, Dataset};
 use super::models::cnn::{CnnLearner, CnnParams};
+use super::models::ensemble::{EnsembleLearner, DEFAULT_MEMBERS};
 use super::models::gp::{FitProgress, GpParams};
 use super::models::metrics::{
     coverage, direction_error_at_peaks, r2_columns, rmse_columns, DirectionError,
 };
 use super::models::nn::{NnLearner, NnParams};
 use super::models::scale::InputScaling;
-use super::models::wrench_gp::{GpLearner, ModelError, TareSpec, WrenchGp};
+use super::models::wrench_gp::{GpLearner, ModelError, TareSpec};
+use super::models::wrench_model::WrenchModel;
 use super::models::{Fitted, LearnError, Learner, Prediction};
 use crate::exit::{Classify, ExitClass};
 use crate::params::Checked;
@@ -94,6 +96,9 @@ pub struct EvalOptions {
     pub scaling: InputScaling,
     /// Network options; `None` skips the network.
     pub nn: Option<Checked<NnParams>>,
+    /// Each network's options of an ensemble of
+    /// [`crate::learn::models::ensemble::DEFAULT_MEMBERS`]; `None` skips it.
+    pub ensemble: Option<Checked<NnParams>>,
     /// CNN options, for data with images (the nail camera); `None` skips it.
     pub cnn: Option<Checked<CnnParams>>,
     /// Seed of the training subsets.
@@ -113,6 +118,13 @@ impl EvalOptions {
         let mut learners: Vec<Box<dyn Learner>> = vec![Box::new(gp)];
         if let Some(p) = &self.nn {
             learners.push(Box::new(NnLearner(p.clone())));
+        }
+        if let Some(p) = &self.ensemble {
+            learners.push(Box::new(EnsembleLearner {
+                params: p.clone(),
+                members: DEFAULT_MEMBERS,
+                tare: tare.clone(),
+            }));
         }
         if let Some(p) = &self.cnn {
             learners.push(Box::new(CnnLearner(p.clone())));
@@ -457,7 +469,7 @@ const TRAINING_FIT_ROWS: usize = 5000;
 /// The model's fit on its own training data `data` (at most 5000 rows,
 /// evenly spread), refused ([`EvalError::ExplainsNothing`]) when an axis's
 /// R2 is below [`MIN_TRAINING_R2`].
-pub fn training_fit(model: &WrenchGp, data: &Dataset) -> Result<Scores, EvalError> {
+pub fn training_fit(model: &dyn WrenchModel, data: &Dataset) -> Result<Scores, EvalError> {
     let step = data.len().div_ceil(TRAINING_FIT_ROWS).max(1);
     let rows: Vec<usize> = (0..data.len()).step_by(step).collect();
     let s = score_model(model, &data.select(&rows), f64::INFINITY, false)?;
@@ -476,7 +488,7 @@ pub fn training_fit(model: &WrenchGp, data: &Dataset) -> Result<Scores, EvalErro
 /// Directions are scored at peaks of at least `min_peak_n`; the coverage of
 /// its standard deviation when `with_std`.
 pub fn score_model(
-    model: &WrenchGp,
+    model: &dyn WrenchModel,
     test: &Dataset,
     min_peak_n: f64,
     with_std: bool,

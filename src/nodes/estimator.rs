@@ -1,5 +1,5 @@
 //! The wrench estimator node: turns every reading of a sensor into a
-//! wrench estimate with the GP, the reading made into the model's features
+//! wrench estimate with its model (of any family, [`WrenchModel`]), the reading made into the model's features
 //! by the sensor's input ([`SensorInput`]: the BioTac tares itself on its
 //! first readings out of contact first). Over ROS, readings that arrive too
 //! late are dropped and counted ([`EstimatorNode::on_received`]); input over
@@ -14,7 +14,8 @@ use super::status::{Level, Status};
 use crate::biotac::Tare;
 use crate::exit::{Classify, ExitClass};
 use crate::learn::default_model::Recipe;
-use crate::learn::models::wrench_gp::{Estimate, EstimatorWorkspace, ModelError, WrenchGp};
+use crate::learn::models::wrench_gp::ModelError;
+use crate::learn::models::wrench_model::{Estimate, Workspace, WrenchModel};
 use crate::sensor::biotac::BioTacInput;
 use crate::sensor::{SensorError, SensorInput};
 use crate::wrench::{Wrench, WrenchEstimate};
@@ -109,12 +110,12 @@ impl Classify for EstimatorError {
 pub const PRESSED_N: f64 = 0.3;
 
 /// The estimator node, for the sensor `S` (the BioTac by default).
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct EstimatorNode<S: SensorInput = BioTacInput> {
-    model: WrenchGp,
+    model: Box<dyn WrenchModel>,
     sensor: S,
     features: Vec<f64>,
-    ws: EstimatorWorkspace,
+    ws: Workspace,
     with_std: bool,
     out: Vec<Estimate>,
     stale_timeout_s: Option<f64>,
@@ -130,6 +131,27 @@ pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     guard: Arc<InputGuard>,
 }
 
+/// A copy with scratch of its own.
+impl<S: SensorInput + Clone> Clone for EstimatorNode<S> {
+    fn clone(&self) -> Self {
+        EstimatorNode {
+            model: self.model.clone(),
+            sensor: self.sensor.clone(),
+            features: self.features.clone(),
+            ws: self.model.workspace(),
+            with_std: self.with_std,
+            out: self.out.clone(),
+            stale_timeout_s: self.stale_timeout_s,
+            dropped: self.dropped,
+            refusal: self.refusal.clone(),
+            estimates: self.estimates,
+            force_n: self.force_n,
+            ready_after_s: self.ready_after_s,
+            guard: self.guard.clone(),
+        }
+    }
+}
+
 /// The status while the model loads (the default model trains on first
 /// use): a warning, no estimate yet, and the seconds so far.
 pub fn loading_status(elapsed_s: f64) -> Status {
@@ -142,7 +164,7 @@ pub fn loading_status(elapsed_s: f64) -> Status {
 
 impl<S: SensorInput> EstimatorNode<S> {
     /// A node for `model`; `with_std = false` skips the variance (cheaper).
-    pub fn new(model: WrenchGp, with_std: bool) -> Result<Self, EstimatorError> {
+    pub fn new(model: Box<dyn WrenchModel>, with_std: bool) -> Result<Self, EstimatorError> {
         let sensor = S::for_model(model.input())?;
         Ok(EstimatorNode {
             sensor,
@@ -281,8 +303,8 @@ impl<S: SensorInput> EstimatorNode<S> {
     }
 
     /// The model.
-    pub fn model(&self) -> &WrenchGp {
-        &self.model
+    pub fn model(&self) -> &dyn WrenchModel {
+        self.model.as_ref()
     }
 
     /// True once the baseline is taken.
@@ -301,7 +323,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             return Ok(None);
         };
         self.model
-            .predict_one(&self.features, &mut self.ws, self.with_std, &mut self.out)?;
+            .estimate(&self.features, &mut self.ws, self.with_std, &mut self.out)?;
         let mut mean = Wrench::default();
         let mut std = Wrench::default();
         let mut estimated = [false; 6];
@@ -335,16 +357,24 @@ impl EstimatorNode<BioTacInput> {
         self.sensor.set_tare(tare);
     }
 
-    /// Estimates with `model` from the next reading on, keeping the tare
-    /// (it holds every channel, so it serves a model of other channels)
-    /// and the counts; refused when `model` is not a BioTac model, and
-    /// while the last estimate says the finger is pressed ([`PRESSED_N`]).
-    pub fn take_model(&mut self, model: WrenchGp) -> Result<(), EstimatorError> {
+    /// Why [`EstimatorNode::take_model`] would refuse `model` now, if it
+    /// would: not a model of this BioTac's readings, or the finger pressed.
+    pub fn check_model(&self, model: &dyn WrenchModel) -> Result<(), EstimatorError> {
         if self.force_n > PRESSED_N {
             return Err(EstimatorError::Pressed {
                 force_n: self.force_n,
             });
         }
+        BioTacInput::for_model(model.input())?;
+        Ok(())
+    }
+
+    /// Estimates with `model` from the next reading on, keeping the tare
+    /// (it holds every channel, so it serves a model of other channels)
+    /// and the counts; refused when `model` is not a BioTac model, and
+    /// while the last estimate says the finger is pressed ([`PRESSED_N`]).
+    pub fn take_model(&mut self, model: Box<dyn WrenchModel>) -> Result<(), EstimatorError> {
+        self.check_model(model.as_ref())?;
         let mut next = EstimatorNode::new(model, self.with_std)?;
         if let Some(tare) = self.tare() {
             next.set_tare(tare.clone());
@@ -365,25 +395,35 @@ mod tests {
     use crate::learn::models::wrench_gp::TareSpec;
     use ndarray::Array2;
 
-    /// A model on the 19 electrodes, fz = minus the mean tared electrode.
-    fn electrode_model() -> WrenchGp {
-        let n = 30;
-        let x = Array2::from_shape_fn((n, 19), |(i, j)| -(((i * 7 + j * 3) % 11) as f64));
-        let y = Array2::from_shape_fn((n, 1), |(i, _)| -x.row(i).sum() / 19.0);
-        let data = Dataset {
-            features: electrode_columns(crate::biotac::ElectrodeLayout::Biotac),
+    /// One trial of features `features`, rows `x`, targets fz `y`.
+    fn fz_data(features: Vec<String>, x: Array2<f64>, y: Array2<f64>) -> Dataset {
+        let n = x.nrows();
+        Dataset {
+            features,
             x,
             axes: "fz".parse().unwrap(),
             y,
             set: vec![1; n],
             trial: vec![1; n],
             images: None,
-        };
+        }
+    }
+
+    /// A model on the 19 electrodes, fz = minus the mean tared electrode.
+    fn electrode_model() -> Box<dyn WrenchModel> {
+        let n = 30;
+        let x = Array2::from_shape_fn((n, 19), |(i, j)| -(((i * 7 + j * 3) % 11) as f64));
+        let y = Array2::from_shape_fn((n, 1), |(i, _)| -x.row(i).sum() / 19.0);
+        let data = fz_data(
+            electrode_columns(crate::biotac::ElectrodeLayout::Biotac),
+            x,
+            y,
+        );
         let tare = TareSpec {
             samples: 3,
             mean_baseline: vec![2000.0; 19],
         };
-        crate::learn::models::wrench_gp::quick_fit(&data, tare)
+        Box::new(crate::learn::models::wrench_gp::quick_fit(&data, tare))
     }
 
     fn reading(stamp_s: f64, pressed: u16) -> BioTacReading {
@@ -507,25 +547,60 @@ mod tests {
     }
 
     /// A model on `features`, fz = the first feature / 100.
-    fn model_on(features: &[&str]) -> WrenchGp {
+    fn model_on(features: &[&str]) -> Box<dyn WrenchModel> {
         let n = 30;
         let d = features.len();
         let x = Array2::from_shape_fn((n, d), |(i, j)| ((i * 7 + j * 3) % 11) as f64 * 10.0);
         let y = Array2::from_shape_fn((n, 1), |(i, _)| x[[i, 0]] / 100.0);
-        let data = Dataset {
-            features: features.iter().map(|f| f.to_string()).collect(),
-            x,
-            axes: "fz".parse().unwrap(),
-            y,
-            set: vec![1; n],
-            trial: vec![1; n],
-            images: None,
-        };
+        let data = fz_data(features.iter().map(|f| f.to_string()).collect(), x, y);
         let tare = TareSpec {
             samples: 3,
             mean_baseline: vec![0.0; d],
         };
-        crate::learn::models::wrench_gp::quick_fit(&data, tare)
+        Box::new(crate::learn::models::wrench_gp::quick_fit(&data, tare))
+    }
+
+    /// An ensemble of networks on the 19 electrodes: fz = the mean press
+    /// (counts) / 50, trained on presses of 0 to 100 counts.
+    fn electrode_ensemble() -> Box<dyn WrenchModel> {
+        use crate::learn::models::ensemble::{WrenchEnsemble, DEFAULT_MEMBERS};
+        use crate::learn::models::nn::NnParams;
+        use crate::params::Check;
+        let n = 500;
+        let x = Array2::from_shape_fn((n, 19), |(i, j)| {
+            -((i * 37 % 101) as f64) * (1.0 + 0.02 * ((i + j) % 5) as f64)
+        });
+        let y = Array2::from_shape_fn((n, 1), |(i, _)| -x.row(i).sum() / 19.0 / 50.0);
+        let data = fz_data(
+            electrode_columns(crate::biotac::ElectrodeLayout::Biotac),
+            x,
+            y,
+        );
+        let tare = TareSpec {
+            samples: 3,
+            mean_baseline: vec![2000.0; 19],
+        };
+        let params = NnParams::default().checked("nn").unwrap();
+        Box::new(WrenchEnsemble::train(&data, tare, &params, DEFAULT_MEMBERS).unwrap())
+    }
+
+    #[test]
+    fn an_ensemble_estimates_and_doubts_a_press_far_beyond_its_training() {
+        let mut node = EstimatorNode::<BioTacInput>::new(electrode_ensemble(), true).unwrap();
+        for i in 0..3 {
+            node.on_received(&reading(i as f64, 0), i as f64);
+        }
+        let known = node.on_received(&reading(3.0, 50), 3.0).unwrap();
+        assert!((known.mean.force.z - 1.0).abs() < 0.1, "{:?}", known.mean);
+        // Ten times the deepest press it learnt: its networks disagree,
+        // beyond the controller's out-of-range limit (config/world.yaml,
+        // max_std_n 0.05 N), which they are well within on a known press.
+        let beyond = node.on_received(&reading(4.0, 1000), 4.0).unwrap();
+        let (inside, outside) = (known.std.force.z, beyond.std.force.z);
+        assert!(
+            inside < 0.02 && outside > 0.05,
+            "std {inside} N, then {outside} N"
+        );
     }
 
     #[test]

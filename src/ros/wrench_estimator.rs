@@ -35,7 +35,7 @@ use r2r::QosProfile;
 use super::{convert, RosClock, RosError};
 use crate::control::TaskKind;
 use crate::learn::default_model::{Origin, Recipe};
-use crate::learn::models::wrench_gp::WrenchGp;
+use crate::learn::models::wrench_model::{self, WrenchModel};
 use crate::nodes::estimator::{loading_status, Dropped, EstimatorParams};
 use crate::nodes::status::Status;
 use crate::nodes::EstimatorNode;
@@ -50,7 +50,7 @@ pub async fn run() -> Result<(), RosError> {
         &node,
         "model_file",
         "",
-        "GP model file from `tactile_force train`; empty: the demos' default model (trained on first use, cached), and the node then sets it to that model's cache file. May be set while running (BioTac, out of contact): estimates come from the new model from the next reading.",
+        "Model file from `tactile_force train` (a GP, or with --family ensemble an ensemble of networks); empty: the demos' default model (trained on first use, cached), and the node then sets it to that model's cache file. May be set while running (BioTac, out of contact): estimates come from the new model from the next reading.",
     )?;
     let frame_id = super::own_string(
         &node,
@@ -107,7 +107,7 @@ pub async fn run() -> Result<(), RosError> {
     }
     tracing::info!(
         "{}: ready after {ready_after_s:.1} s; with_std {}, stale after {stale_s} s",
-        describe_model(&model_file, &model),
+        describe_model(&model_file, model.as_ref()),
         params.with_std,
     );
     let settings = Settings {
@@ -119,7 +119,7 @@ pub async fn run() -> Result<(), RosError> {
         tare_max_age_s,
         models,
     };
-    match model.sensor() {
+    match model.input().sensor {
         SensorSpec::Biotac { .. } => biotac::run(node, model, settings, out).await,
         SensorSpec::Nail(_) => nail::run(node, model, settings, out).await,
     }
@@ -133,7 +133,7 @@ async fn load_reporting(
     recipe: &Recipe,
     out: &Outputs,
     node: &r2r::Node,
-) -> Result<(WrenchGp, Option<PathBuf>), RosError> {
+) -> Result<(Box<dyn WrenchModel>, Option<PathBuf>), RosError> {
     let clock = RosClock::of(node);
     let (file, recipe) = (model_file.to_string(), recipe.clone());
     let start = std::time::Instant::now();
@@ -150,10 +150,13 @@ async fn load_reporting(
 /// The model of `model_file`, or with none the demos' default model of
 /// `recipe` (trained on first use, cached), and the file it is in (none for
 /// a default model the cache could not keep).
-fn load_model(model_file: &str, recipe: &Recipe) -> Result<(WrenchGp, Option<PathBuf>), RosError> {
+fn load_model(
+    model_file: &str,
+    recipe: &Recipe,
+) -> Result<(Box<dyn WrenchModel>, Option<PathBuf>), RosError> {
     if !model_file.is_empty() {
         let path = PathBuf::from(model_file);
-        return Ok((WrenchGp::load(&path)?, Some(path)));
+        return Ok((wrench_model::load(&path)?, Some(path)));
     }
     let mut said = || {
         tracing::info!(
@@ -166,24 +169,13 @@ fn load_model(model_file: &str, recipe: &Recipe) -> Result<(WrenchGp, Option<Pat
         Origin::Cached(p) | Origin::TrainedAndCached(p) => Some(p),
         Origin::TrainedNotCached(_) => None,
     };
-    Ok((model, path))
+    Ok((Box::new(model), path))
 }
 
-/// One line on the model of `file` (empty: the default model): its GPs,
-/// prior mean, training size and axes.
-fn describe_model(file: &str, model: &WrenchGp) -> String {
+/// One line on the model of `file` (empty: the default model).
+fn describe_model(file: &str, model: &dyn WrenchModel) -> String {
     let name = if file.is_empty() { "default" } else { file };
-    let gps: Vec<String> = model
-        .fits()
-        .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))
-        .collect();
-    format!(
-        "model {name} ({}; prior mean {}; {} training samples), axes {}",
-        gps.join(", "),
-        model.prior_mean(),
-        model.n_train(),
-        model.axes()
-    )
+    format!("model {name}: {}", model.describe())
 }
 
 /// The node's own parameters that the sensor loops read.

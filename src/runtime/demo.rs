@@ -10,7 +10,7 @@ use super::{run, Pacing};
 use crate::biotac::BioTacSimConfig;
 use crate::control::Envelope;
 use crate::exit::{Classify, ExitClass};
-use crate::learn::models::wrench_gp::WrenchGp;
+use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::controller::task_envelope;
 use crate::report::summary::{summarize, Identified, RunInfo, Summary};
 use crate::report::TraceRow;
@@ -61,13 +61,13 @@ impl DemoRun {
 /// Runs `scene` with `model`; `seed` drives the noise.
 pub fn run_scene(
     scene: &Scene,
-    model: WrenchGp,
+    model: Box<dyn WrenchModel>,
     seed: u64,
     pacing: Pacing,
     on_row: &mut dyn FnMut(&TraceRow),
 ) -> Result<DemoRun, SceneError> {
     // The simulated BioTac has the electrodes the model was trained on.
-    let sensor = match model.sensor() {
+    let sensor = match model.input().sensor {
         &SensorSpec::Biotac { electrodes } => BioTacSimConfig::default().with_layout(electrodes),
         _ => BioTacSimConfig::default(),
     };
@@ -130,7 +130,7 @@ pub struct SweepPoint {
 /// it accepts, the runs in parallel; points come back by object, then speed.
 pub fn sweep_speeds(
     scene: &Scene,
-    model: &WrenchGp,
+    model: &dyn WrenchModel,
     objects: &[String],
     speeds: &[f64],
     seed: u64,
@@ -160,7 +160,8 @@ pub fn sweep_speeds(
                     .clone()
                     .with_only_object(&o.object)
                     .with_approach_speed(speed)?;
-                let s = run_scene(&s, model.clone(), seed, Pacing::Lockstep, &mut |_| {})?.summary;
+                let s = run_scene(&s, model.boxed_clone(), seed, Pacing::Lockstep, &mut |_| {})?
+                    .summary;
                 Some(SweepRun {
                     peak_force_n: s.peak_force_n,
                     overshoot_n: s.overshoot_n,

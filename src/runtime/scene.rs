@@ -14,7 +14,7 @@ use crate::contact::BodyParams;
 use crate::control::{ControllerParams, GuardedParams, TaskKind, TaskRegistry};
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{Robot, RobotError, ShippedRobot};
-use crate::learn::models::wrench_gp::WrenchGp;
+use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{tasks, EstimatorNode, ForceController, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError, WORLD_YAML};
@@ -284,7 +284,7 @@ impl Scene {
     /// Builds the nodes of a run with `model`; `seed` drives the noise.
     pub fn build(
         &self,
-        model: WrenchGp,
+        model: Box<dyn WrenchModel>,
         sensor: &BioTacSimConfig,
         seed: u64,
     ) -> Result<Nodes, SceneError> {

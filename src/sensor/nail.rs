@@ -334,7 +334,7 @@ mod tests {
         .with_sensor(SensorSpec::Nail(Box::new(spec)));
         // The first trial's rest frames make the node's baseline, then frames
         // the model was not trained on give estimates.
-        let mut node = EstimatorNode::<NailInput>::new(model.clone(), true).unwrap();
+        let mut node = EstimatorNode::<NailInput>::new(Box::new(model.clone()), true).unwrap();
         let labels = read_labels(dir.path()).unwrap();
         for l in &labels[..TARE_FRAMES] {
             assert!(!node.is_tared());
@@ -367,7 +367,7 @@ mod tests {
         let rmse = (sq / held_out.len() as f64).sqrt();
         assert!(rmse < 0.8, "fz RMSE {rmse} N on held-out frames");
         // A BioTac node refuses the nail model, and the nail node a BioTac one.
-        let e = EstimatorNode::<BioTacInput>::new(model, true).unwrap_err();
+        let e = EstimatorNode::<BioTacInput>::new(Box::new(model), true).unwrap_err();
         assert!(e.to_string().contains("trained on the nail sensor"), "{e}");
     }
 }

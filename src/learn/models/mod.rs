@@ -1,7 +1,8 @@
 //! The models and their numerics: Gaussian processes ([`gp`]), the baseline
 //! network ([`nn`]), the nail camera's CNN ([`cnn`]), input and target
-//! scaling ([`scale`]), error metrics ([`metrics`]), and the wrench
-//! estimator with its model file ([`wrench_gp`]: a GP per axis).
+//! scaling ([`scale`]), error metrics ([`metrics`]), and the wrench models
+//! the estimator runs ([`wrench_model`]), each family with its model file:
+//! a GP per axis ([`wrench_gp`]) and an ensemble of networks ([`ensemble`]).
 //!
 //! Every model sits behind one interface, as linfa's `Fit` and `Predict`
 //! do: a [`Learner`] (a model kind with its options) fits on a data set and
@@ -9,11 +10,13 @@
 //! trade-off and their tables loop over learners without naming them.
 
 pub mod cnn;
+pub mod ensemble;
 pub mod gp;
 pub mod metrics;
 pub mod nn;
 pub mod scale;
 pub mod wrench_gp;
+pub mod wrench_model;
 
 use ndarray::Array2;
 use serde::{Deserialize, Serialize};

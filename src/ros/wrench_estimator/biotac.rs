@@ -21,7 +21,7 @@ use r2r::QosProfile;
 
 use super::{describe_model, load_model, Outputs, Settings, REPORT};
 use crate::biotac::tare::SavedTare;
-use crate::learn::models::wrench_gp::WrenchGp;
+use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::bounds::MESSAGE_MAX_BYTES;
 use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable, INPUTS};
 use crate::nodes::EstimatorNode;
@@ -65,11 +65,10 @@ fn take_model(
             .to_string(),
     };
     let (model, _) = load_model(&path, recipe).map_err(|e| e.to_string())?;
-    let said = describe_model(file, &model);
+    let said = describe_model(file, model.as_ref());
     let mut e = lock(estimator);
     if !apply {
-        // Checked on a copy: the running node is left as it is.
-        return e.clone().take_model(model).map_err(|e| e.to_string());
+        return e.check_model(model.as_ref()).map_err(|e| e.to_string());
     }
     e.take_model(model).map_err(|e| e.to_string())?;
     tracing::info!("{said}: estimating with it from the next reading, on the same tare");
@@ -79,7 +78,7 @@ fn take_model(
 /// Runs the BioTac estimator until the process ends.
 pub(super) async fn run(
     mut node: r2r::Node,
-    model: WrenchGp,
+    model: Box<dyn WrenchModel>,
     s: Settings,
     mut out: Outputs,
 ) -> Result<(), RosError> {

@@ -12,7 +12,7 @@ use r2r::sensor_msgs::msg::Image;
 use r2r::QosProfile;
 
 use super::{Outputs, Settings, REPORT};
-use crate::learn::models::wrench_gp::WrenchGp;
+use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::bounds::image_max_bytes;
 use crate::nodes::EstimatorNode;
 use crate::ros::params::RuntimeParams;
@@ -22,7 +22,7 @@ use crate::sensor::nail::NailInput;
 /// Runs the nail-camera estimator until the process ends.
 pub(super) async fn run(
     mut node: r2r::Node,
-    model: WrenchGp,
+    model: Box<dyn WrenchModel>,
     s: Settings,
     mut out: Outputs,
 ) -> Result<(), RosError> {

@@ -140,16 +140,34 @@ impl Mlp {
         x: ArrayView2<f64>,
         y: ArrayView2<f64>,
     ) -> Result<Mlp, NnError> {
-        check_data(x, y)?;
         let p: &NnParams = params;
         let (train_rows, val_rows) = split_rows(x.nrows(), p.validation_fraction, p.seed);
-        let x_train = x.select(Axis(0), &train_rows);
-        let y_train = y.select(Axis(0), &train_rows);
+        Self::fit_on(params, x, y, (&train_rows, &val_rows))
+    }
+
+    /// [`Mlp::fit`] on the rows `train_rows`, stopped early on `val_rows`
+    /// (neither empty) rather than on a random fraction.
+    pub fn fit_on(
+        params: &Checked<NnParams>,
+        x: ArrayView2<f64>,
+        y: ArrayView2<f64>,
+        (train_rows, val_rows): (&[usize], &[usize]),
+    ) -> Result<Mlp, NnError> {
+        check_data(x, y)?;
+        if train_rows.is_empty() || val_rows.is_empty() {
+            return Err(NnError::TooFewSamples {
+                got: train_rows.len().min(val_rows.len()),
+                need: 1,
+            });
+        }
+        let p: &NnParams = params;
+        let x_train = x.select(Axis(0), train_rows);
+        let y_train = y.select(Axis(0), train_rows);
         let x_scale = Standardizer::fit(x_train.view());
         let y_scale = Standardizer::fit(y_train.view());
         let val = (
-            x_scale.transform(x.select(Axis(0), &val_rows).view()),
-            y_scale.transform(y.select(Axis(0), &val_rows).view()),
+            x_scale.transform(x.select(Axis(0), val_rows).view()),
+            y_scale.transform(y.select(Axis(0), val_rows).view()),
         );
         let train = (
             x_scale.transform(x_train.view()),

@@ -20,6 +20,7 @@ use crate::biotac::reading::Column;
 use crate::learn::models::gp::{FitInfo, Gp, GpData, GpWorkspace, LinearMean};
 use crate::learn::models::nn::Mlp;
 use crate::learn::models::scale::{InputScaling, Standardizer};
+use crate::learn::models::wrench_model::{read_json, write_json};
 use crate::sensor::SensorSpec;
 use crate::wrench::{Axis, AxisSet};
 
@@ -225,38 +226,32 @@ impl WrenchGp {
     /// Writes the model file, whole or not at all
     /// ([`crate::outputs::write_whole`]).
     pub fn save(&self, path: &Path) -> Result<(), ModelError> {
-        let io = |source| ModelError::Write {
-            path: path.display().to_string(),
-            source,
-        };
-        let json = serde_json::to_vec(self).map_err(|e| io(e.into()))?;
-        crate::outputs::write_whole(path, &json).map_err(io)
+        write_json(path, self)
     }
 
-    /// Reads and validates a model file.
+    /// Reads and validates a model file of the GP family.
     pub fn load(path: &Path) -> Result<Self, ModelError> {
-        let p = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
-            path: p.clone(),
-            source,
-        })?;
-        let value: serde_json::Value =
-            serde_json::from_slice(&bytes).map_err(|source| ModelError::Corrupt {
-                path: p.clone(),
-                source,
-            })?;
-        let format = value.get("format").and_then(|f| f.as_str()).unwrap_or("");
+        let (value, format) = read_json(path)?;
         if format != MODEL_FORMAT {
             return Err(ModelError::WrongFormat {
-                path: p,
-                found: format.into(),
+                path: path.display().to_string(),
+                found: format,
+                expected: MODEL_FORMAT,
             });
         }
+        Self::from_json(value, path)
+    }
+
+    /// Validates the JSON of a model file of the GP family read from `path`.
+    pub(crate) fn from_json(value: serde_json::Value, path: &Path) -> Result<Self, ModelError> {
+        let p = path.display().to_string();
         let version = value.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
         if !(2..=u64::from(MODEL_VERSION)).contains(&version) {
             return Err(ModelError::UnsupportedVersion {
                 path: p,
                 found: version,
+                first: 2,
+                last: MODEL_VERSION,
             });
         }
         let file: ModelFile<GpData> =

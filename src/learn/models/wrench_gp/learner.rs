@@ -1,12 +1,19 @@
-//! The wrench GP behind the shared interface ([`crate::learn::models::Learner`]).
+//! The wrench GP behind the shared interfaces: a [`Learner`] for
+//! evaluations, and a [`WrenchModel`] for the estimator.
 
-use super::{Estimate, EstimatorWorkspace, TareSpec, WrenchGp};
+use ndarray::ArrayView2;
+
+use super::{
+    CalibrationRecord, Estimate, EstimatorWorkspace, ModelError, Selection, TareSpec, WrenchGp,
+};
 use crate::learn::data::Dataset;
 use crate::learn::models::gp::{FitProgress, GpParams, MeanKind};
 use crate::learn::models::scale::InputScaling;
+use crate::learn::models::wrench_model::{Workspace, WrenchModel};
 use crate::learn::models::{Fitted, LearnError, Learner, Prediction};
 use crate::params::Checked;
-use crate::wrench::Axis;
+use crate::sensor::ModelInput;
+use crate::wrench::{Axis, AxisSet};
 
 /// A GP per axis with these options, its inputs presented as `scaling`
 /// says and tared as `tare` says.
@@ -72,5 +79,67 @@ impl Fitted for FittedGp {
 
     fn has_std(&self) -> bool {
         true
+    }
+}
+
+impl WrenchModel for WrenchGp {
+    fn family(&self) -> &'static str {
+        "gp"
+    }
+
+    fn describe(&self) -> String {
+        let gps: Vec<String> = self
+            .fits()
+            .map(|(a, gp, _)| format!("{a}: {}", gp.describe()))
+            .collect();
+        format!(
+            "GP per axis ({}; prior mean {}; {} training samples), axes {}",
+            gps.join(", "),
+            self.prior_mean(),
+            self.n_train(),
+            self.axes()
+        )
+    }
+
+    fn input(&self) -> ModelInput<'_> {
+        self.input()
+    }
+
+    fn axes(&self) -> &AxisSet {
+        self.axes()
+    }
+
+    fn n_train(&self) -> usize {
+        self.n_train()
+    }
+
+    fn workspace(&self) -> Workspace {
+        Workspace::new(self.workspace())
+    }
+
+    fn estimate(
+        &self,
+        features: &[f64],
+        ws: &mut Workspace,
+        with_std: bool,
+        out: &mut [Estimate],
+    ) -> Result<(), ModelError> {
+        self.predict_one(features, ws.scratch()?, with_std, out)
+    }
+
+    fn predict_observed(
+        &self,
+        x: ArrayView2<f64>,
+        with_std: bool,
+    ) -> Result<Prediction, ModelError> {
+        self.predict_observed(x, with_std)
+    }
+
+    fn selection(&self) -> Option<&Selection> {
+        self.selection()
+    }
+
+    fn calibration(&self) -> Option<&CalibrationRecord> {
+        self.calibration()
     }
 }

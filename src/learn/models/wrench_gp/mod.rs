@@ -11,7 +11,7 @@ pub mod provenance;
 
 use ndarray::{Array2, ArrayView2};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::sync::Mutex;
 
 use super::gp::fit::FitProgress;
@@ -28,6 +28,7 @@ use crate::wrench::{Axis, AxisSet};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
 use network::{network_mean, MAX_SIGNAL_FLOOR};
 
+pub use super::wrench_model::{Estimate, TareSpec};
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
 pub use learner::GpLearner;
 pub use observed::{std_scale, std_scale_over_folds};
@@ -64,21 +65,28 @@ pub enum ModelError {
         /// Parser error, with line and column.
         source: serde_json::Error,
     },
-    /// JSON, but not a tactile_force wrench model.
-    #[error("model file {path}: format is {found:?}, expected {MODEL_FORMAT:?}")]
+    /// JSON, but not a tactile_force wrench model (or not of the family
+    /// asked for).
+    #[error("model file {path}: format is {found:?}, expected {expected}")]
     WrongFormat {
         /// File path.
         path: String,
         /// The `format` field found.
         found: String,
+        /// The formats the reader takes.
+        expected: &'static str,
     },
     /// A model-file version this build cannot read.
-    #[error("model file {path}: version {found}, this build reads versions 2 to {MODEL_VERSION}")]
+    #[error("model file {path}: version {found}, this build reads versions {first} to {last} of its format")]
     UnsupportedVersion {
         /// File path.
         path: String,
         /// Version found.
         found: u64,
+        /// The oldest version read.
+        first: u32,
+        /// The newest.
+        last: u32,
     },
     /// The right format and version, but fields missing or of the wrong type.
     #[error("model file {path}: invalid: {source}")]
@@ -118,9 +126,15 @@ pub enum ModelError {
     /// Training a GP failed.
     #[error(transparent)]
     Gp(#[from] GpError),
-    /// Training the network of a network mean failed.
-    #[error("the network mean: {0}")]
+    /// Training a network (of a network mean, or of an ensemble) failed.
+    #[error("training the network: {0}")]
     Network(#[from] NnError),
+    /// Scratch made by another model (a programming error).
+    #[error("a workspace made by another model")]
+    ForeignWorkspace,
+    /// An ensemble of fewer than two networks (they would have no spread).
+    #[error("an ensemble needs at least 2 networks, got {0}")]
+    Members(usize),
     /// A GP stored in the file cannot be rebuilt (its data or
     /// hyperparameters refused).
     #[error("model file {path}: axis {axis}: {source}")]
@@ -146,25 +160,6 @@ impl Classify for ModelError {
             _ => ExitClass::Refused,
         }
     }
-}
-
-/// How the training features were tared.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TareSpec {
-    /// Out-of-contact samples at the start of each trial that gave its baseline.
-    pub samples: usize,
-    /// Baseline of each feature, averaged over the training trials (counts).
-    pub mean_baseline: Vec<f64>,
-}
-
-/// Estimate of one wrench component: mean and 1-sigma of the latent force.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Estimate {
-    /// Posterior mean (N or Nm).
-    pub mean: f64,
-    /// Posterior standard deviation of the mean (N or Nm).
-    pub std: f64,
 }
 
 /// A trained wrench estimator.

@@ -1,0 +1,177 @@
+//! The wrench model the estimator runs, of any family: a GP per axis
+//! ([`super::wrench_gp`]) or an ensemble of networks ([`super::ensemble`]).
+//! The model file's `format` names the family; [`load`] reads either, so the
+//! estimator node, `demo --model` and `eval --model` take any of them.
+
+use std::any::Any;
+use std::fmt::Debug;
+use std::path::Path;
+
+use ndarray::ArrayView2;
+use serde::{Deserialize, Serialize};
+
+use super::ensemble::{WrenchEnsemble, ENSEMBLE_FORMAT};
+use super::wrench_gp::{CalibrationRecord, ModelError, Selection, WrenchGp, MODEL_FORMAT};
+use super::Prediction;
+use crate::sensor::ModelInput;
+use crate::wrench::AxisSet;
+
+/// How the training features were tared.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TareSpec {
+    /// Out-of-contact samples at the start of each trial that gave its baseline.
+    pub samples: usize,
+    /// Baseline of each feature, averaged over the training trials (counts).
+    pub mean_baseline: Vec<f64>,
+}
+
+/// Estimate of one wrench component: mean and 1-sigma of the latent force.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Estimate {
+    /// Posterior mean (N or Nm).
+    pub mean: f64,
+    /// Standard deviation of the mean (N or Nm): the model's own doubt,
+    /// which grows away from its training data; what the controller's
+    /// doubt stop reads.
+    pub std: f64,
+}
+
+/// A fitted wrench model of any family.
+pub trait WrenchModel: Send + Sync + Debug + CloneModel {
+    /// Its family's name (`gp`, `ensemble`), for tables.
+    fn family(&self) -> &'static str;
+
+    /// One line on it for logs: its family, its parts, its training size
+    /// and axes.
+    fn describe(&self) -> String;
+
+    /// What it says of its input: features, sensor, tare samples.
+    fn input(&self) -> ModelInput<'_>;
+
+    /// Estimated axes, in output order.
+    fn axes(&self) -> &AxisSet;
+
+    /// Rows it was trained on.
+    fn n_train(&self) -> usize;
+
+    /// Scratch for [`WrenchModel::estimate`], made once per estimator.
+    fn workspace(&self) -> Workspace;
+
+    /// Estimates every axis from one row of tared features into `out`,
+    /// without allocating, in `ws` (made by [`WrenchModel::workspace`] of
+    /// this model); `with_std = false` may skip the standard deviation
+    /// (std = 0) where it costs.
+    fn estimate(
+        &self,
+        features: &[f64],
+        ws: &mut Workspace,
+        with_std: bool,
+        out: &mut [Estimate],
+    ) -> Result<(), ModelError>;
+
+    /// Means and, when `with_std`, the standard deviation of a measured
+    /// target (the model's own doubt with the data's noise, scaled as
+    /// held-out errors said) for rows of tared features: what `eval`
+    /// judges its coverage by.
+    fn predict_observed(
+        &self,
+        x: ArrayView2<f64>,
+        with_std: bool,
+    ) -> Result<Prediction, ModelError>;
+
+    /// How its options were chosen, when `train --select` chose them.
+    fn selection(&self) -> Option<&Selection> {
+        None
+    }
+
+    /// The calibration on the robot that made it, when one did.
+    fn calibration(&self) -> Option<&CalibrationRecord> {
+        None
+    }
+}
+
+/// Clones a model behind its trait: implemented for every
+/// `WrenchModel + Clone`.
+pub trait CloneModel {
+    /// A copy, boxed.
+    fn boxed_clone(&self) -> Box<dyn WrenchModel>;
+}
+
+impl<T: WrenchModel + Clone + 'static> CloneModel for T {
+    fn boxed_clone(&self) -> Box<dyn WrenchModel> {
+        Box::new(self.clone())
+    }
+}
+
+impl Clone for Box<dyn WrenchModel> {
+    fn clone(&self) -> Self {
+        self.boxed_clone()
+    }
+}
+
+impl<'a> dyn WrenchModel + 'a {
+    /// Feature names, in input order.
+    pub fn features(&self) -> &[String] {
+        self.input().features
+    }
+}
+
+/// A model's scratch for one row at a time, of a type only that model
+/// knows.
+#[derive(Debug)]
+pub struct Workspace(Box<dyn Any + Send + Sync>);
+
+impl Workspace {
+    /// `scratch` as a workspace.
+    pub fn new<T: Any + Send + Sync>(scratch: T) -> Self {
+        Workspace(Box::new(scratch))
+    }
+
+    /// The scratch, if it is a `T` (a workspace of the model that asks).
+    pub fn scratch<T: Any>(&mut self) -> Result<&mut T, ModelError> {
+        self.0.downcast_mut().ok_or(ModelError::ForeignWorkspace)
+    }
+}
+
+/// The model file's JSON and its `format` field (empty when absent).
+pub(super) fn read_json(path: &Path) -> Result<(serde_json::Value, String), ModelError> {
+    let p = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
+        path: p.clone(),
+        source,
+    })?;
+    let value: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|source| ModelError::Corrupt { path: p, source })?;
+    let format = value.get("format").and_then(|f| f.as_str()).unwrap_or("");
+    let format = format.to_string();
+    Ok((value, format))
+}
+
+/// Writes `file` as a model file's JSON, whole or not at all
+/// ([`crate::outputs::write_whole`]).
+pub(super) fn write_json(path: &Path, file: &impl Serialize) -> Result<(), ModelError> {
+    let io = |source| ModelError::Write {
+        path: path.display().to_string(),
+        source,
+    };
+    let json = serde_json::to_vec(file).map_err(|e| io(e.into()))?;
+    crate::outputs::write_whole(path, &json).map_err(io)
+}
+
+/// Reads and validates a model file of any family.
+pub fn load(path: &Path) -> Result<Box<dyn WrenchModel>, ModelError> {
+    let (value, format) = read_json(path)?;
+    match format.as_str() {
+        MODEL_FORMAT => Ok(Box::new(WrenchGp::from_json(value, path)?)),
+        ENSEMBLE_FORMAT => Ok(Box::new(WrenchEnsemble::from_json(value, path)?)),
+        _ => Err(ModelError::WrongFormat {
+            path: path.display().to_string(),
+            found: format,
+            expected: ANY_FORMAT,
+        }),
+    }
+}
+
+/// The formats [`load`] reads, for its error.
+const ANY_FORMAT: &str = "tactile_force/wrench_gp or tactile_force/wrench_ensemble";
