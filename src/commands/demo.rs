@@ -9,8 +9,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model::{self, Origin, Recipe};
+use tactile_force::learn::models::model_file;
 use tactile_force::learn::models::wrench_gp::WrenchGp;
-use tactile_force::learn::models::wrench_model::{self, WrenchModel};
+use tactile_force::learn::models::wrench_model::WrenchModel;
 use tactile_force::report::plot::{self, SweepSeries};
 use tactile_force::report::summary::Summary;
 use tactile_force::report::TraceRow;
@@ -181,7 +182,7 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
         return run_calibrate(&run, &scene, model);
     }
     let model = match a.model.as_deref() {
-        Some(p) => wrench_model::load(p)?,
+        Some(p) => model_file::load(p)?,
         None => Box::new(scene_default_model(recipe)?),
     };
     if a.sweep_speed {

@@ -12,8 +12,8 @@ use tactile_force::learn::evaluate::{
 };
 use tactile_force::learn::models::cnn::CnnParams;
 use tactile_force::learn::models::metrics::DEFAULT_PEAK_MIN_N;
+use tactile_force::learn::models::model_file;
 use tactile_force::learn::models::nn::NnParams;
-use tactile_force::learn::models::wrench_model;
 use tactile_force::params::Check;
 use tactile_force::sensor::SensorSpec;
 
@@ -187,7 +187,7 @@ pub(crate) fn run_score(
     min_peak_n: f64,
     json: bool,
 ) -> Result<()> {
-    let model = wrench_model::load(model)?;
+    let model = model_file::load(model)?;
     let model = model.as_ref();
     println!("{}", model.describe());
     if let Some(s) = model.selection() {

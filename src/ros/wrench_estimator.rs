@@ -35,7 +35,8 @@ use r2r::QosProfile;
 use super::{convert, RosClock, RosError};
 use crate::control::TaskKind;
 use crate::learn::default_model::{Origin, Recipe};
-use crate::learn::models::wrench_model::{self, WrenchModel};
+use crate::learn::models::model_file;
+use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::estimator::{loading_status, Dropped, EstimatorParams};
 use crate::nodes::status::Status;
 use crate::nodes::EstimatorNode;
@@ -156,7 +157,7 @@ fn load_model(
 ) -> Result<(Box<dyn WrenchModel>, Option<PathBuf>), RosError> {
     if !model_file.is_empty() {
         let path = PathBuf::from(model_file);
-        return Ok((wrench_model::load(&path)?, Some(path)));
+        return Ok((model_file::load(&path)?, Some(path)));
     }
     let mut said = || {
         tracing::info!(

@@ -1,7 +1,7 @@
 //! The wrench model the estimator runs, of any family: a GP per axis
-//! ([`super::wrench_gp`]) or an ensemble of networks ([`super::ensemble`]).
-//! The model file's `format` names the family; [`load`] reads either, so the
-//! estimator node, `demo --model` and `eval --model` take any of them.
+//! ([`super::wrench_gp`]) or an ensemble of networks ([`super::ensemble`]),
+//! with what they share: the estimate, the tare, scratch, the errors and
+//! the model file's JSON. [`super::model_file::load`] reads either family.
 
 use std::any::Any;
 use std::fmt::Debug;
@@ -10,11 +10,140 @@ use std::path::Path;
 use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};
 
-use super::ensemble::{WrenchEnsemble, ENSEMBLE_FORMAT};
-use super::wrench_gp::{CalibrationRecord, ModelError, Selection, WrenchGp, MODEL_FORMAT};
+use super::gp::GpError;
+use super::nn::NnError;
+use super::provenance::{CalibrationRecord, Selection};
 use super::Prediction;
+use crate::exit::{Classify, ExitClass};
+use crate::params::ParamsError;
 use crate::sensor::ModelInput;
+use crate::wrench::Axis;
 use crate::wrench::AxisSet;
+
+/// Errors saving, loading or using a model.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModelError {
+    /// The file could not be read.
+    #[error("model file {path}: {source}")]
+    Io {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("model file {path}: cannot write: {source}")]
+    Write {
+        /// File path.
+        path: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// Not JSON: truncated or corrupt.
+    #[error("model file {path}: not a model file (truncated or corrupt JSON: {source})")]
+    Corrupt {
+        /// File path.
+        path: String,
+        /// Parser error, with line and column.
+        source: serde_json::Error,
+    },
+    /// JSON, but not a tactile_force wrench model (or not of the family
+    /// asked for).
+    #[error("model file {path}: format is {found:?}, expected {expected}")]
+    WrongFormat {
+        /// File path.
+        path: String,
+        /// The `format` field found.
+        found: String,
+        /// The formats the reader takes.
+        expected: &'static str,
+    },
+    /// A model-file version this build cannot read.
+    #[error("model file {path}: version {found}, this build reads versions {first} to {last} of its format")]
+    UnsupportedVersion {
+        /// File path.
+        path: String,
+        /// Version found.
+        found: u64,
+        /// The oldest version read.
+        first: u32,
+        /// The newest.
+        last: u32,
+    },
+    /// The right format and version, but fields missing or of the wrong type.
+    #[error("model file {path}: invalid: {source}")]
+    Schema {
+        /// File path.
+        path: String,
+        /// Parser error naming the field.
+        source: serde_json::Error,
+    },
+    /// Parts of the file disagree (feature counts, axes, sizes).
+    #[error("model file {path}: inconsistent: {what}")]
+    Inconsistent {
+        /// File path.
+        path: String,
+        /// What disagrees, with the numbers.
+        what: String,
+    },
+    /// Features given to the model do not match the ones it was trained on.
+    #[error("model expects {expected} features, got {found}")]
+    FeatureCount {
+        /// Features the model uses.
+        expected: usize,
+        /// Features given.
+        found: usize,
+    },
+    /// Adaptation data whose features or axes are not the base model's.
+    #[error("cannot adapt: the base model has features {base:?}, the data {data:?}")]
+    AdaptMismatch {
+        /// The base model's features and axes.
+        base: String,
+        /// The data's.
+        data: String,
+    },
+    /// Training options out of range.
+    #[error(transparent)]
+    Options(#[from] ParamsError),
+    /// Training a GP failed.
+    #[error(transparent)]
+    Gp(#[from] GpError),
+    /// Training a network (of a network mean, or of an ensemble) failed.
+    #[error("training the network: {0}")]
+    Network(#[from] NnError),
+    /// Scratch made by another model (a programming error).
+    #[error("a workspace made by another model")]
+    ForeignWorkspace,
+    /// An ensemble of fewer than two networks (they would have no spread).
+    #[error("an ensemble needs at least 2 networks, got {0}")]
+    Members(usize),
+    /// A GP stored in the file cannot be rebuilt (its data or
+    /// hyperparameters refused).
+    #[error("model file {path}: axis {axis}: {source}")]
+    Stored {
+        /// File path.
+        path: String,
+        /// The GP's axis.
+        axis: Axis,
+        /// Why it was refused.
+        source: GpError,
+    },
+}
+
+/// A file not written is a failure, a GP that did not fit says its own; the
+/// rest is a model file or data refused.
+impl Classify for ModelError {
+    fn class(&self) -> ExitClass {
+        match self {
+            ModelError::Write { .. } => ExitClass::Failure,
+            ModelError::Options(e) => e.class(),
+            ModelError::Gp(e) => e.class(),
+            ModelError::Network(e) => e.class(),
+            _ => ExitClass::Refused,
+        }
+    }
+}
 
 /// How the training features were tared.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -158,20 +287,3 @@ pub(super) fn write_json(path: &Path, file: &impl Serialize) -> Result<(), Model
     let json = serde_json::to_vec(file).map_err(|e| io(e.into()))?;
     crate::outputs::write_whole(path, &json).map_err(io)
 }
-
-/// Reads and validates a model file of any family.
-pub fn load(path: &Path) -> Result<Box<dyn WrenchModel>, ModelError> {
-    let (value, format) = read_json(path)?;
-    match format.as_str() {
-        MODEL_FORMAT => Ok(Box::new(WrenchGp::from_json(value, path)?)),
-        ENSEMBLE_FORMAT => Ok(Box::new(WrenchEnsemble::from_json(value, path)?)),
-        _ => Err(ModelError::WrongFormat {
-            path: path.display().to_string(),
-            found: format,
-            expected: ANY_FORMAT,
-        }),
-    }
-}
-
-/// The formats [`load`] reads, for its error.
-const ANY_FORMAT: &str = "tactile_force/wrench_gp or tactile_force/wrench_ensemble";

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::WrenchEnsemble;
 use crate::learn::models::nn::Mlp;
-use crate::learn::models::wrench_gp::ModelError;
+use crate::learn::models::wrench_model::ModelError;
 use crate::learn::models::wrench_model::{write_json, TareSpec};
 use crate::sensor::SensorSpec;
 use crate::wrench::AxisSet;

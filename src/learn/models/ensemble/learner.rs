@@ -7,7 +7,7 @@ use super::WrenchEnsemble;
 use crate::learn::data::Dataset;
 use crate::learn::models::gp::FitProgress;
 use crate::learn::models::nn::NnParams;
-use crate::learn::models::wrench_gp::ModelError;
+use crate::learn::models::wrench_model::ModelError;
 use crate::learn::models::wrench_model::{Estimate, TareSpec, Workspace, WrenchModel};
 use crate::learn::models::{Fitted, LearnError, Learner, Prediction};
 use crate::params::Checked;

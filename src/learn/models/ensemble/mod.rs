@@ -21,7 +21,7 @@ use ndarray::{s, Array2, ArrayView2};
 use rayon::prelude::*;
 
 use super::nn::{Mlp, NnParams};
-use super::wrench_gp::ModelError;
+use super::wrench_model::ModelError;
 use super::wrench_model::{Estimate, TareSpec};
 use super::Prediction;
 use crate::learn::data::Dataset;

@@ -1,7 +1,8 @@
 use ndarray::Array2;
 
 use super::*;
-use crate::learn::models::wrench_model::{self, WrenchModel};
+use crate::learn::models::model_file;
+use crate::learn::models::wrench_model::WrenchModel;
 use crate::params::Check;
 use crate::wrench::AxisSet;
 
@@ -108,7 +109,7 @@ fn a_saved_ensemble_loads_as_a_model_of_its_family_and_estimates_the_same() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("ensemble.json");
     m.save(&path).unwrap();
-    let loaded = wrench_model::load(&path).unwrap();
+    let loaded = model_file::load(&path).unwrap();
     assert_eq!(loaded.family(), "ensemble");
     assert_eq!(loaded.features(), ["e1", "e2"]);
     let mut ws = loaded.workspace();
@@ -165,13 +166,13 @@ fn a_file_that_disagrees_with_itself_is_refused_with_the_reason() {
         let mut bad = good.clone();
         bad[key] = value;
         std::fs::write(&path, serde_json::to_vec(&bad).unwrap()).unwrap();
-        let err = wrench_model::load(&path).unwrap_err().to_string();
+        let err = model_file::load(&path).unwrap_err().to_string();
         assert!(err.contains(said), "{key}: {err}");
     }
     let mut other = good.clone();
     other["format"] = "tactile_force/other".into();
     std::fs::write(&path, serde_json::to_vec(&other).unwrap()).unwrap();
-    let err = wrench_model::load(&path).unwrap_err().to_string();
+    let err = model_file::load(&path).unwrap_err().to_string();
     assert!(
         err.contains("expected tactile_force/wrench_gp or tactile_force/wrench_ensemble"),
         "{err}"

@@ -140,6 +140,7 @@ impl Mlp {
         x: ArrayView2<f64>,
         y: ArrayView2<f64>,
     ) -> Result<Mlp, NnError> {
+        check_data(x, y)?;
         let p: &NnParams = params;
         let (train_rows, val_rows) = split_rows(x.nrows(), p.validation_fraction, p.seed);
         Self::fit_on(params, x, y, (&train_rows, &val_rows))

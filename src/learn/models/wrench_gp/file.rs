@@ -6,7 +6,7 @@
 //! hyperparameters, inducing inputs and their posterior); the network whose
 //! estimate is every GP's prior mean, when it has one; an adapted model's
 //! base, what made it and the data it was trained on, by reference
-//! ([`super::provenance`]). The factorisations are
+//! ([`crate::learn::models::provenance`]). The factorisations are
 //! recomputed on load, which also re-checks the file's numbers.
 
 use std::path::Path;
@@ -14,11 +14,13 @@ use std::path::Path;
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
 
-use super::provenance::{AdaptChoice, AdaptedFrom, CalibrationRecord, Selection, TrainedOn};
 use super::{Estimate, EstimatorWorkspace, ModelError, TareSpec, WrenchGp};
 use crate::biotac::reading::Column;
 use crate::learn::models::gp::{FitInfo, Gp, GpData, GpWorkspace, LinearMean};
 use crate::learn::models::nn::Mlp;
+use crate::learn::models::provenance::{
+    AdaptChoice, AdaptedFrom, CalibrationRecord, Selection, TrainedOn,
+};
 use crate::learn::models::scale::{InputScaling, Standardizer};
 use crate::learn::models::wrench_model::{read_json, write_json};
 use crate::sensor::SensorSpec;

@@ -1,13 +1,12 @@
 //! The wrench estimator: one GP per axis (exact, or sparse with inducing
 //! points) on standardised, tared electrode features, and its versioned model
 //! file (its format, saving and loading: `file.rs`), which records what made
-//! the model in types of its own ([`provenance`]).
+//! the model in types of its own ([`super::provenance`]).
 
 mod file;
 mod learner;
 mod network;
 mod observed;
-pub mod provenance;
 
 use ndarray::{Array2, ArrayView2};
 use rayon::prelude::*;
@@ -18,149 +17,23 @@ use super::gp::fit::FitProgress;
 use super::gp::{
     fit_gp_shared, FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, MeanKind, SeHyper, Start,
 };
-use super::nn::{Mlp, NnError};
+use super::nn::Mlp;
 use super::scale::{InputScaling, Standardizer};
-use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
-use crate::params::{Checked, ParamsError};
+use crate::params::Checked;
 use crate::sensor::{ModelInput, SensorSpec};
 use crate::wrench::{Axis, AxisSet};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
 use network::{network_mean, MAX_SIGNAL_FLOOR};
 
-pub use super::wrench_model::{Estimate, TareSpec};
-pub use file::{MODEL_FORMAT, MODEL_VERSION};
-pub use learner::GpLearner;
-pub use observed::{std_scale, std_scale_over_folds};
-pub use provenance::{
+pub use super::provenance::{
     AdaptChoice, AdaptedFrom, AloneScore, CalibrationRecord, Choice, CvRow, DataFile, GpChoice,
     Selection, TrainedOn, Validation,
 };
-
-/// Errors saving, loading or using a model.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum ModelError {
-    /// The file could not be read.
-    #[error("model file {path}: {source}")]
-    Io {
-        /// File path.
-        path: String,
-        /// Underlying error.
-        source: std::io::Error,
-    },
-    /// The file could not be written.
-    #[error("model file {path}: cannot write: {source}")]
-    Write {
-        /// File path.
-        path: String,
-        /// Underlying error.
-        source: std::io::Error,
-    },
-    /// Not JSON: truncated or corrupt.
-    #[error("model file {path}: not a model file (truncated or corrupt JSON: {source})")]
-    Corrupt {
-        /// File path.
-        path: String,
-        /// Parser error, with line and column.
-        source: serde_json::Error,
-    },
-    /// JSON, but not a tactile_force wrench model (or not of the family
-    /// asked for).
-    #[error("model file {path}: format is {found:?}, expected {expected}")]
-    WrongFormat {
-        /// File path.
-        path: String,
-        /// The `format` field found.
-        found: String,
-        /// The formats the reader takes.
-        expected: &'static str,
-    },
-    /// A model-file version this build cannot read.
-    #[error("model file {path}: version {found}, this build reads versions {first} to {last} of its format")]
-    UnsupportedVersion {
-        /// File path.
-        path: String,
-        /// Version found.
-        found: u64,
-        /// The oldest version read.
-        first: u32,
-        /// The newest.
-        last: u32,
-    },
-    /// The right format and version, but fields missing or of the wrong type.
-    #[error("model file {path}: invalid: {source}")]
-    Schema {
-        /// File path.
-        path: String,
-        /// Parser error naming the field.
-        source: serde_json::Error,
-    },
-    /// Parts of the file disagree (feature counts, axes, sizes).
-    #[error("model file {path}: inconsistent: {what}")]
-    Inconsistent {
-        /// File path.
-        path: String,
-        /// What disagrees, with the numbers.
-        what: String,
-    },
-    /// Features given to the model do not match the ones it was trained on.
-    #[error("model expects {expected} features, got {found}")]
-    FeatureCount {
-        /// Features the model uses.
-        expected: usize,
-        /// Features given.
-        found: usize,
-    },
-    /// Adaptation data whose features or axes are not the base model's.
-    #[error("cannot adapt: the base model has features {base:?}, the data {data:?}")]
-    AdaptMismatch {
-        /// The base model's features and axes.
-        base: String,
-        /// The data's.
-        data: String,
-    },
-    /// Training options out of range.
-    #[error(transparent)]
-    Options(#[from] ParamsError),
-    /// Training a GP failed.
-    #[error(transparent)]
-    Gp(#[from] GpError),
-    /// Training a network (of a network mean, or of an ensemble) failed.
-    #[error("training the network: {0}")]
-    Network(#[from] NnError),
-    /// Scratch made by another model (a programming error).
-    #[error("a workspace made by another model")]
-    ForeignWorkspace,
-    /// An ensemble of fewer than two networks (they would have no spread).
-    #[error("an ensemble needs at least 2 networks, got {0}")]
-    Members(usize),
-    /// A GP stored in the file cannot be rebuilt (its data or
-    /// hyperparameters refused).
-    #[error("model file {path}: axis {axis}: {source}")]
-    Stored {
-        /// File path.
-        path: String,
-        /// The GP's axis.
-        axis: Axis,
-        /// Why it was refused.
-        source: GpError,
-    },
-}
-
-/// A file not written is a failure, a GP that did not fit says its own; the
-/// rest is a model file or data refused.
-impl Classify for ModelError {
-    fn class(&self) -> ExitClass {
-        match self {
-            ModelError::Write { .. } => ExitClass::Failure,
-            ModelError::Options(e) => e.class(),
-            ModelError::Gp(e) => e.class(),
-            ModelError::Network(e) => e.class(),
-            _ => ExitClass::Refused,
-        }
-    }
-}
+pub use super::wrench_model::{Estimate, ModelError, TareSpec};
+pub use file::{MODEL_FORMAT, MODEL_VERSION};
+pub use learner::GpLearner;
+pub use observed::{std_scale, std_scale_over_folds};
 
 /// A trained wrench estimator.
 #[derive(Debug, Clone, Serialize)]

@@ -97,7 +97,7 @@ pub struct CvRow {
     #[serde(default)]
     pub latency_us: Option<f64>,
     /// Per axis, the scale of the standard deviation that puts 95 % of the
-    /// held-out errors within two of it ([`super::std_scale`]; empty in
+    /// held-out errors within two of it ([`super::wrench_gp::std_scale`]; empty in
     /// files written before).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub std_scale: BTreeMap<Axis, f64>,
