@@ -24,8 +24,10 @@ use std::process::ExitCode;
 use tactile_force::contact::BodyParams;
 use tactile_force::control::TaskKind;
 use tactile_force::learn::default_model::load_or_train;
+use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::report::summary::Summary;
 use tactile_force::runtime::demo::run_scene;
+use tactile_force::runtime::scene::SceneError;
 use tactile_force::runtime::{Pacing, Scene};
 
 const CYCLES_S: [f64; 4] = [0.002, 0.004, 0.008, 0.016];
@@ -69,15 +71,7 @@ fn main() -> Result<ExitCode, Box<dyn std::error::Error>> {
                 s.controller.safety.objects = vec!["unknown".into()];
                 s.sim.object = "sweep".into();
                 s.sim.duration_s = 12.0;
-                at(&mut s, cycle, lag);
-                let m = run_scene(
-                    &s,
-                    Box::new(model.clone()),
-                    1,
-                    Pacing::Lockstep,
-                    &mut |_| {},
-                )?
-                .summary;
+                let m = run_at(s, cycle, lag, &model)?;
                 let ok = m.final_phase == "hold"
                     && m.peak_force_n <= 1.1
                     && m.steady_state_error_n.is_some_and(|e| e <= 0.05)
@@ -103,16 +97,7 @@ fn main() -> Result<ExitCode, Box<dyn std::error::Error>> {
         let guided = Scene::builtin(TaskKind::Guided)?;
         let (model, _) = load_or_train(&guided.estimator.default_model, &mut || {})?;
         for (cycle, lag) in grid() {
-            let mut s = guided.clone();
-            at(&mut s, cycle, lag);
-            let m = run_scene(
-                &s,
-                Box::new(model.clone()),
-                1,
-                Pacing::Lockstep,
-                &mut |_| {},
-            )?
-            .summary;
+            let m = run_at(guided.clone(), cycle, lag, &model)?;
             let ok = guided_ok(&m);
             missed += usize::from(!ok);
             let rms: Vec<String> = m
@@ -190,12 +175,21 @@ fn list(name: &str, all: &[f64]) -> Option<Vec<f64>> {
     }
 }
 
-/// The simulated arm takes commands every `cycle` s (pure latency), then
-/// through a servo lag of `lag` s.
-fn at(s: &mut Scene, cycle: f64, lag: f64) {
+/// The summary of `s` run in lockstep with `model`, the simulated arm
+/// taking commands every `cycle` s (pure latency), then through a servo lag
+/// of `lag` s.
+fn run_at(mut s: Scene, cycle: f64, lag: f64, model: &WrenchGp) -> Result<Summary, SceneError> {
     s.sim.command_cycle_s = cycle;
     s.sim.command_latency_s = 0.0;
     s.sim.velocity_lag_s = lag;
+    Ok(run_scene(
+        &s,
+        Box::new(model.clone()),
+        1,
+        Pacing::Lockstep,
+        &mut |_| {},
+    )?
+    .summary)
 }
 
 fn guided_ok(m: &Summary) -> bool {
