@@ -215,6 +215,8 @@ pub struct GuardedMove {
     settle: SettleWindow,
     /// Time since the last fresh estimate (s).
     since_fresh_s: f64,
+    /// Time since the last fresh estimate of the approach (s).
+    since_rest_s: f64,
     phase: Phase,
     reason: Option<StopReason>,
     approach_s: f64,
@@ -247,6 +249,7 @@ impl GuardedMove {
             softened: 0,
             settle: SettleWindow::new(window),
             since_fresh_s: 0.0,
+            since_rest_s: 0.0,
             law: *law,
             p: *p,
             phase: Phase::Approach,
@@ -340,10 +343,20 @@ impl GuardedMove {
         match self.phase {
             Phase::Approach => {
                 self.approach_s += i.dt;
+                self.since_rest_s += i.dt;
                 if i.force_n >= p.contact_force_n || i.pdc_rise >= p.contact_pdc_counts {
                     self.phase = Phase::Regulate;
                     self.touched_m = Some(i.travelled_m);
                     return self.regulate(u, i, reaction_s);
+                }
+                // The estimate's noise out of contact (below half the
+                // contact force: not the first rise) sets the watchdog's
+                // floor.
+                if i.fresh {
+                    let dt = std::mem::take(&mut self.since_rest_s);
+                    if i.force_n.abs() < 0.5 * p.contact_force_n {
+                        self.watchdog.rest(i.force_n, dt);
+                    }
                 }
                 if i.travelled_m >= p.max_distance_m {
                     return self.stop_with(StopReason::TravelLimit);

@@ -1,11 +1,12 @@
-"""The estimator over DDS on a model that is not a plain GP: the network as
-its GPs' prior mean (`train --mean network`, on the default model's
-simulated data). The guarded move holds on the wooden box with it, the
-published stddev of fz below the controller's `out_of_range.max_std_n`;
-then the peer publishes readings no press makes (every electrode 1500
-counts below its tare, the PDC as it is): the stddev rises past that limit
-and the controller's doubt stop ends the task `out_of_range`, the pad
-retracted out of contact.
+"""The estimator over DDS on models that are not a plain GP, one after the
+other, each trained on the default model's simulated data: the network as
+its GPs' prior mean (`train --mean network`), and an ensemble of networks
+(`train --family ensemble`). The guarded move holds on the wooden box with
+each, the published stddev of fz below the controller's
+`out_of_range.max_std_n`; then the peer publishes readings no press makes
+(every electrode 1500 counts below its tare, the PDC as it is): the stddev
+rises past that limit and the controller's doubt stop ends the task
+`out_of_range`, the pad retracted out of contact.
 
 Run by tests/ros/run.sh (after scripts/ros2-jazzy.sh). Prints one line per
 check, the figures, and "N passed, N failed".
@@ -29,23 +30,33 @@ from checks import check, summary
 MAX_STD_N = 0.05  # config/world.yaml, force_controller: out_of_range.max_std_n
 
 
-def network_model(work):
-    """A model with the network as its GPs' prior mean, on the data the
-    default model is trained on (collect --unit 1 --seed 1; fz, sparse GP
-    of 200 inducing points, as config/guarded_move.yaml's recipe)."""
+# (name, `train` options, what the estimator's log says of it): the network
+# mean as config/guarded_move.yaml's recipe (fz, sparse GP of 200 inducing
+# points), and the ensemble.
+MODELS = [
+    ("network mean", ["--inducing", "200", "--mean", "network"], "prior mean network"),
+    ("ensemble", ["--family", "ensemble"], "ensemble of 5 networks"),
+]
+
+
+def train(work, options):
+    """A model of fz trained with `options` on the data the default model is
+    trained on (collect --unit 1 --seed 1)."""
     tf = os.path.join(os.environ.get("TACTILE_FORCE_ROS2_BIN", os.path.join(dds.REPO, "target", "release")),
                       "tactile_force")
-    data, model = os.path.join(work, "data"), os.path.join(work, "network.json")
-    subprocess.run([tf, "collect", "--unit", "1", "--seed", "1", "--out", data], check=True, capture_output=True)
-    subprocess.run([tf, "train", "--data", data, "--axes", "fz", "--inducing", "200", "--mean", "network",
-                    "--out", model], check=True, capture_output=True)
+    data, model = os.path.join(work, "data"), os.path.join(work, "model.json")
+    if not os.path.exists(data):
+        subprocess.run([tf, "collect", "--unit", "1", "--seed", "1", "--out", data], check=True,
+                       capture_output=True)
+    subprocess.run([tf, "train", "--data", data, "--axes", "fz", *options, "--out", model], check=True,
+                   capture_output=True)
     return model
 
 
-def doubt(peer, stds):
-    """Holding on the network-mean model, then readings no press makes."""
+def doubt(name, peer, stds):
+    """Holding on the model, then readings no press makes."""
     t0 = next(t for t, f in peer.ft_stamped if abs(f) > dds.CONTACT_N)
-    dds.check_hold("network mean, wooden_box", peer, t0, 6.0, 30)
+    dds.check_hold(f"{name}, wooden_box", peer, t0, 6.0, 30)
     holding = max(s for _, s in stds[-200:])
     check(f"holding: stddev of fz below {MAX_STD_N} N", holding < MAX_STD_N, f"at most {holding:.4f} N")
     # For 1 s among sim_robot's readings (the peer hears its own too: the
@@ -69,27 +80,36 @@ def doubt(peer, stds):
     check("retracted out of contact", last < dds.CONTACT_N, f"|fz| at most {last:.3f} N over the last 0.5 s")
 
 
-def main():
-    work = tempfile.mkdtemp(prefix="tactile_force_doubt_")
-    n = dds.Nodes("guarded_move.yaml", "wooden_box", estimator={"model_file": network_model(work)})
+def run(work, name, options, said):
+    """The guarded move and the doubt stop on the model `name`; True when
+    every check so far passed."""
+    n = dds.Nodes("guarded_move.yaml", "wooden_box", estimator={"model_file": train(work, options)})
     peer = dds.Peer(n.domain)
     stds = []  # (receive time, std of fz)
     peer.node.create_subscription(WrenchStamped, "biotac/wrench_stddev",
                                   lambda m: stds.append((time.monotonic(), m.wrench.force.z)), 100)
     ok = False
     try:
-        runs = lambda: next((m for name, _, m in peer.logs if "prior mean" in m), None)  # noqa: E731
+        runs = lambda: next((m for node, _, m in peer.logs if "model " in m and said in m), None)  # noqa: E731
         peer.spin(5, runs)
-        check("the estimator runs the network-mean model", "prior mean network" in (runs() or ""),
-              (runs() or "nothing on /rosout")[:120])
+        check(f"the estimator runs the {name} model", runs() is not None,
+              (runs() or "nothing on /rosout of it")[:120])
         touched = peer.spin(60, lambda: any(abs(f) > dds.CONTACT_N for _, f in peer.ft_stamped))
-        check("contact", touched, f"{len(peer.forces)} ft_sensor/wrench messages")
+        check(f"{name}: contact", touched, f"{len(peer.forces)} ft_sensor/wrench messages")
         if touched:
-            doubt(peer, stds)
+            doubt(name, peer, stds)
         ok = summary() == 0
     finally:
         peer.destroy()
         n.stop(keep_logs=not ok)
+    return ok
+
+
+def main():
+    work = tempfile.mkdtemp(prefix="tactile_force_doubt_")
+    try:
+        ok = all([run(work, *m) for m in MODELS])
+    finally:
         shutil.rmtree(work, ignore_errors=True)
     return 0 if ok else 1
 
