@@ -3,12 +3,15 @@
 biotac_driver (`interface: cheetah`, `electrodes: 24`, board position 1)
 -> wrench_estimator with a model trained on 24 electrodes -> biotac/wrench.
 
-An rclpy peer checks, for 5 s after the estimator subscribed:
+An rclpy peer checks, once it has 300 readings and 200 estimates (at most
+20 s after its first reading):
 - the readings on biotac/readings: 24 electrodes and 27 PAC samples, every
   value the one the double sent (its hash of position, frame and sample,
   written again below; TDC carries the frame number), sensor_index 1;
-- the estimator's biotac/wrench: after its tare (the first 50 readings,
-  and 10 more), an estimate for at least half the readings, with their
+- the estimator's biotac/wrench: from the first reading it answered (after
+  its tare on the first 50 it received; DDS discovery between the driver
+  and the estimator took 3 s on a loaded CI machine, so that is not the
+  driver's first), an estimate for at least half the readings, with their
   stamps (251 of 312 on a loaded machine; the nodes' rate is
   test_over_dds.py's to check, not this one's).
 
@@ -112,8 +115,8 @@ def main():
         end = time.monotonic() + 30
         while not readings and time.monotonic() < end and procs[1].poll() is None:
             rclpy.spin_once(node, timeout_sec=0.05)
-        end = time.monotonic() + 5
-        while time.monotonic() < end:
+        end = time.monotonic() + 20
+        while (len(readings) < 300 or len(estimates) < 200) and time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.005)
         time.sleep(0.5)
         rclpy.spin_once(node, timeout_sec=0.1)
@@ -126,14 +129,17 @@ def main():
     exact = sum(expected(m) == (list(m.electrodes), list(m.pac), m.pdc, m.tac) for m in readings)
     check("biotac_driver on the Cheetah double: SP readings bit-exact",
           len(readings) >= 100 and shapes == {(24, 27, SLOT)} and exact == len(readings),
-          f"{len(readings)} readings in 5 s, (electrodes, pac, sensor) {sorted(shapes)}, "
+          f"{len(readings)} readings, (electrodes, pac, sensor) {sorted(shapes)}, "
           f"{exact} equal to what the double sent")
-    # The estimator tares on the first 50 it receives; a few more margin.
-    stamps = [key(m.header.stamp) for m in readings[TARE + 10:]]
-    got = sum(s in estimates for s in stamps)
+    stamps = [key(m.header.stamp) for m in readings]
+    first = next((i for i, s in enumerate(stamps) if s in estimates), len(stamps))
+    # The last few readings may still be on their way through the estimator.
+    answerable = stamps[first:-10]
+    got = sum(s in estimates for s in answerable)
     check("wrench_estimator with a 24-electrode model estimates them",
-          stamps and got >= 0.5 * len(stamps),
-          f"{got} estimates for the {len(stamps)} readings after the tare's {TARE} and 10 more")
+          len(answerable) >= 100 and got >= 0.5 * len(answerable),
+          f"{got} estimates for the {len(answerable)} readings from the first it answered "
+          f"(reading {first}; it tares on its first {TARE})")
     if not all(RESULTS):
         for name in ("biotac_driver", "wrench_estimator"):
             text = open(os.path.join(work, f"{name}.log")).read().splitlines()[-8:]
