@@ -37,6 +37,15 @@ use crate::params::layered_flat_params;
 use crate::params::{FlatParams, ParamsError};
 use params::RuntimeParams;
 
+// `use_sim_time` works only if r2r was built with rosgraph_msgs/Clock. r2r
+// 0.9.7's build script says so only when it generates its bindings, not when
+// it reuses them from an earlier run in the same target/: r2r is then built
+// without simulated time and ignores `use_sim_time:=true`. A build error
+// instead ("'rosgraph_msgs' dependency is missing"); `cargo clean -p r2r
+// --release` then builds it whole.
+#[cfg(not(feature = "ros2-doc-only"))]
+r2r::assert_compiled_with_use_sim_time_support!();
+
 /// The main of a node executable: logs through ROS logging ([`log`]), runs
 /// `node` on a tokio runtime and turns its end into the exit code (1, with
 /// the reason, on an error).
