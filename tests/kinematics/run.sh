@@ -10,6 +10,8 @@ if ! "$venv/bin/python" -c 'import pinocchio' 2>/dev/null; then
   python3 -m venv "$venv"
   "$venv/bin/pip" install --quiet "pin==4.1.0" "example-robot-data==6.0.0"
 fi
+# `--venv-only`: the venv and nothing else (.ci/run makes it beside the build).
+[ "${1:-}" = "--venv-only" ] && exit 0
 robots=$("$venv/bin/python" -c 'import sys, os; print(os.path.join(sys.prefix, "lib", "python%d.%d" % sys.version_info[:2], "site-packages", "cmeel.prefix", "share", "example-robot-data", "robots"))')
 cargo build --release --bin tactile_force
 "$venv/bin/python" tests/kinematics/check_pinocchio.py "$target/release/tactile_force" "$robots"
