@@ -33,7 +33,8 @@ fn every_shipped_parameter_survives_the_trip_through_ros_values() {
             );
             match node {
                 "force_controller" => {
-                    let p: tactile_force::control::ControllerParams = read(&params, &[], node).unwrap();
+                    let p: tactile_force::control::ControllerParams =
+                        read(&params, &[], node).unwrap();
                     assert_eq!(p, scene.controller);
                 }
                 "sim_robot" => {
@@ -76,7 +77,8 @@ fn a_launch_override_wins_and_a_bad_one_is_named() {
         "pd.derivative_filter_s".to_string(),
         Parameter::new(ParameterValue::Integer(1)),
     );
-    let p: tactile_force::control::ControllerParams = read(&params, &[], "force_controller").unwrap();
+    let p: tactile_force::control::ControllerParams =
+        read(&params, &[], "force_controller").unwrap();
     assert_eq!(p.object, "carton_box");
     assert_eq!(p.pd.derivative_filter_s, 1.0);
 }
@@ -135,9 +137,7 @@ fn sets_beyond_the_rate_are_refused_with_it_before_the_node_sees_them() {
     assert_eq!(seen.load(std::sync::atomic::Ordering::Relaxed), 10);
     let why = answers[24].as_ref().unwrap_err().to_string();
     assert!(
-        why.contains(
-            "refused: over the rate: at most 10 parameter sets at once and 5 a second"
-        ),
+        why.contains("refused: over the rate: at most 10 parameter sets at once and 5 a second"),
         "{why}"
     );
     // Start-up-only parameters count too, checked or set.

@@ -1,0 +1,91 @@
+//! `sim_robot`'s parameters: its own and the scene's.
+
+use crate::control::TaskKind;
+use crate::nodes::sim_robot::check_real_time_factor;
+use crate::nodes::SimRobotParams;
+use crate::params::{layered_flat_params, WORLD_YAML};
+use crate::ros::description::joint_names_param;
+use crate::ros::{self, RosError};
+
+/// The node's settings: its own parameters and the scene's.
+pub struct Settings {
+    /// The joints' names, as the arm's driver calls them (`joint_names`).
+    pub remap: Vec<String>,
+    /// The BioTac frame.
+    pub frame_id: String,
+    /// Seed of the simulated noise.
+    pub seed: u64,
+    /// Publishes `/clock` and stamps with it.
+    pub sim_time: bool,
+    /// Simulated seconds per wall-clock second.
+    pub speed: f64,
+    /// The scene's parameters.
+    pub p: SimRobotParams,
+}
+
+/// Declares the node's parameters and reads them.
+pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
+    let remap = joint_names_param(node)?;
+    let frame_id = ros::own_string(
+        node,
+        "frame_id",
+        "biotac",
+        "The BioTac frame (F/T wrench and readings).",
+    )?;
+    let seed = ros::own_u64(node, "seed", 1, "Seed of the simulated noise.")?;
+    let sim_time = matches!(
+        ros::own_param(
+            node,
+            "use_sim_time",
+            r2r::ParameterValue::Bool(false),
+            "Publish the simulated time on /clock and stamp with it.",
+        )?,
+        r2r::ParameterValue::Bool(true)
+    );
+    let speed = ros::own_f64(
+        node,
+        "real_time_factor",
+        1.0,
+        "Simulated seconds per wall-clock second (with use_sim_time:=true); at least 1.",
+    )?;
+    check_real_time_factor(speed, sim_time)?;
+    let p: SimRobotParams = ros::node_params(
+        node,
+        "sim_robot",
+        layered_flat_params(&[WORLD_YAML, TaskKind::Guarded.scene_yaml()], "sim_robot")?,
+        &[
+            "joint_names",
+            "frame_id",
+            "seed",
+            "real_time_factor",
+            "robot_description",
+        ],
+        ros::describe_shared,
+    )?;
+    Ok(Settings {
+        remap,
+        frame_id,
+        seed,
+        sim_time,
+        speed,
+        p,
+    })
+}
+
+impl Settings {
+    /// Logs what it simulates.
+    pub fn log(&self) {
+        tracing::info!(
+            "object {}, BioTac unit {}, noise seed {}, period {} s, {}",
+            self.p.object,
+            self.p.sensor_unit,
+            self.seed,
+            self.p.control_period_s,
+            if self.sim_time {
+                format!("simulated time on /clock, {}x real time", self.speed)
+            } else {
+                "system time".to_string()
+            }
+        );
+    }
+}
