@@ -1,6 +1,6 @@
 //! `biotac_driver`: the serial bridge ([`Driver`], docs/serial-protocol.md),
 //! or with `interface: cheetah` a multi-BioTac board on a Total Phase
-//! Cheetah adapter ([`CheetahSource`], docs/demos.md "Connect your BioTac
+//! Cheetah adapter ([`CheetahSource`](crate::biotac::cheetah::CheetahSource), docs/demos.md "Connect your BioTac
 //! — Cheetah"), -> `biotac/readings` (tactile_force_msgs/BioTac, untyped, sensor-data
 //! QoS) and `/diagnostics` (diagnostic_msgs/DiagnosticArray, once per
 //! statistics period and on every link change). `~/tare`

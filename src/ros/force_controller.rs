@@ -66,6 +66,7 @@ mod cancel;
 mod estimator_link;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod guarded_move_action;
+mod settings;
 mod stepping;
 mod tool_frame;
 
@@ -76,105 +77,41 @@ use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::QosProfile;
 
-use super::description::{joint_names_param, robot_description, Description};
+use super::bounded;
+use super::description::{robot_description, Description};
 use super::params::RuntimeParams;
-use super::{bounded, convert, RosError};
-use crate::control::ControllerParams;
-use crate::nodes::bounds::MESSAGE_MAX_BYTES;
-use crate::nodes::force_controller::{
-    ft_to_biotac, shipped_defaults, tool_frame::biotac_frame, tool_frame::BIOTAC_FRAME,
-    CommandInterface, ForceControllerNode, ForcePart,
-};
+use super::{convert, RosError};
+use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
+use crate::nodes::force_controller::ForceControllerNode;
 use crate::nodes::tasks;
-use stepping::{force, Commands};
+use stepping::Commands;
 
 fn lock(s: &Mutex<ForceControllerNode>) -> std::sync::MutexGuard<'_, ForceControllerNode> {
     s.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Runs the node until the process ends.
+/// Runs the node until the process ends: its settings declared, the
+/// controller made, every input and output wired, the robot description
+/// taken, then one step a period.
 pub async fn run() -> Result<(), RosError> {
     let mut node = super::create_node("force_controller")?;
-    let remap = joint_names_param(&node)?;
-    let interface: CommandInterface = super::own_string(
-        &node,
-        "command_interface",
-        "joint_velocities",
-        "joint_velocities (velocity_controller/commands) or twist (twist_commands).",
-    )?
-    .parse()?;
-    let ft_to_biotac = ft_to_biotac(&super::own_string(
-        &node,
-        "ft_to_biotac",
-        "",
-        "Where the F/T sensor sits in the BioTac frame, roll,pitch,yaw,x,y,z (deg, fixed-axis x-y-z; m): its wrenches are moved to the BioTac frame for the calibration; empty: they are in it already.",
-    )?)?;
-    let estimator = super::own_string(
-        &node,
-        "estimator_node",
-        "wrench_estimator",
-        "The estimator whose model the calibration adapts and then sets (its model_file parameter).",
+    let settings = settings::declare(&node)?;
+    let host = ForceControllerNode::new(
+        settings.base,
+        tasks::shipped(),
+        settings.remap,
+        settings.ft_to_biotac,
     )?;
-    let models = super::models_dir(&node)?;
-    let child = biotac_frame(&super::own_string(
-        &node,
-        "biotac_frame",
-        BIOTAC_FRAME,
-        "The BioTac frame, published on /tf_static in the tip link from robot.tool_*: the estimator's frame_id must name it too.",
-    )?)?;
-    let skip = [
-        "biotac_frame",
-        "joint_names",
-        "robot_description",
-        "command_interface",
-        "ft_to_biotac",
-        "estimator_node",
-        "models_dir",
-    ];
-    let base: ControllerParams = super::node_params(
-        &node,
-        "force_controller",
-        shipped_defaults()?,
-        &skip,
-        super::describe_shared,
-    )?;
-    let host = ForceControllerNode::new(base, tasks::shipped(), remap, ft_to_biotac)?;
     let period = Duration::from_secs_f64(host.params().control_period_s);
+    let interface = settings.interface;
     tracing::info!("{}, commands: {interface:?}", host.summary()?);
     let guard = host.guard().clone();
     let shared = Arc::new(Mutex::new(host));
     let description = robot_description(&mut node, &guard)?;
 
     // Every input bounded in size, refused before it is decoded.
-    let (qos, max) = (QosProfile::default, MESSAGE_MAX_BYTES);
-    let joint_type = "sensor_msgs/msg/JointState";
-    let joints = bounded::typed(&mut node, "joint_states", joint_type, qos(), max, &guard)?;
-    let pdc_type = "sensor_msgs/msg/FluidPressure";
-    let pdc = bounded::typed(&mut node, "biotac/pdc_rise", pdc_type, qos(), max, &guard)?;
-    let wrench_type = "geometry_msgs/msg/WrenchStamped";
-    let forces = futures::stream::select_all(
-        [
-            ("biotac/wrench", ForcePart::Mean),
-            ("biotac/wrench_stddev", ForcePart::Std),
-            ("ft_sensor/wrench", ForcePart::Ft),
-        ]
-        .map(|(name, part)| {
-            let topic = bounded::typed(&mut node, name, wrench_type, qos(), max, &guard)?;
-            Ok(force(topic, part, name))
-        })
-        .into_iter()
-        .collect::<Result<Vec<_>, RosError>>()?,
-    );
-    let reading_type = crate::biotac::msg::BIOTAC_MSG_TYPE;
-    let sensor_qos = QosProfile::sensor_data();
-    let readings = bounded::raw(
-        &mut node,
-        "biotac/readings",
-        reading_type,
-        sensor_qos,
-        max,
-        &guard,
-    )?;
+    let forces = stepping::forces(&mut node, &guard)?;
+    hand_on(&mut node, &guard, &shared)?;
     let commands = Commands {
         interface,
         joints: node.create_publisher("velocity_controller/commands", QosProfile::default())?,
@@ -187,9 +124,7 @@ pub async fn run() -> Result<(), RosError> {
     #[cfg(not(feature = "ros2-doc-only"))]
     let calibrations = bounded::goals(node.create_action_server("~/calibrate")?, &guard);
     #[cfg(not(feature = "ros2-doc-only"))]
-    let link = estimator_link::EstimatorLink::new(&mut node, &estimator)?;
-    #[cfg(feature = "ros2-doc-only")]
-    let _ = (estimator, models);
+    let link = estimator_link::EstimatorLink::new(&mut node, &settings.estimator)?;
     let s = shared.clone();
     let live = RuntimeParams::new(
         &["task"],
@@ -204,51 +139,10 @@ pub async fn run() -> Result<(), RosError> {
         &guard,
     );
     let clock = super::serve_parameters(&mut node, live)?;
-    let tf = tool_frame::ToolFrame::new(&mut node, child, clock.clone())?;
-    match description {
-        Description::Given(text) => {
-            let mut n = lock(&shared);
-            n.take_description(&text)?;
-            tf.publish(&n);
-        }
-        Description::Topic(topic) => {
-            tracing::info!(
-                "waiting for the robot description on {}: commanding nothing until it comes \
-                 (or set the robot_description parameter)",
-                super::description::DESCRIPTION_TOPIC
-            );
-            super::each(topic, &shared, move |n, text: String| {
-                match n.take_description(&text) {
-                    Ok(true) => tf.publish(n),
-                    Ok(false) => {}
-                    Err(e) => tracing::warn!("robot description refused: {e}"),
-                }
-            });
-        }
-    }
+    let tf = tool_frame::ToolFrame::new(&mut node, settings.child, clock.clone())?;
+    take_description(description, &shared, tf)?;
     super::spin_with_action_server(node);
 
-    // Callbacks only convert and hand on (STYLE 3); the loop below steps.
-    super::each(
-        joints,
-        &shared,
-        |n, m: JointStateMsg| match convert::joint_state_from_msg(&m, n.joint_names()) {
-            Ok(js) => n.on_joint_state(&js),
-            Err(e) => n.reject(&format!("joint_states: {e}")),
-        },
-    );
-    super::each(pdc, &shared, |n, m: FluidPressure| {
-        n.on_pdc_rise(m.fluid_pressure)
-    });
-    // BioTac readings are decoded only while a calibration records them.
-    super::each(readings, &shared, |n, bytes: Vec<u8>| {
-        if n.wants_readings() {
-            match crate::biotac::msg::from_cdr(&bytes) {
-                Ok((r, meta)) if meta.invalid_channels.is_empty() => n.on_reading(r),
-                _ => n.reject("biotac/readings: not decoded, or invalid channels"),
-            }
-        }
-    });
     #[cfg(not(feature = "ros2-doc-only"))]
     tokio::spawn(guarded_move_action::serve(
         goals,
@@ -263,8 +157,86 @@ pub async fn run() -> Result<(), RosError> {
         period,
         clock.clone(),
         link,
-        models,
+        settings.models,
     ));
+    #[cfg(feature = "ros2-doc-only")]
+    let _ = (settings.estimator, settings.models);
 
     stepping::run(shared, forces, commands, diagnostics, clock, period).await
+}
+
+/// The arm from the `robot_description` parameter, or from each description
+/// on the topic until one is taken; the tool frame published for it.
+fn take_description(
+    description: Description,
+    shared: &Arc<Mutex<ForceControllerNode>>,
+    tf: tool_frame::ToolFrame,
+) -> Result<(), RosError> {
+    match description {
+        Description::Given(text) => {
+            let mut n = lock(shared);
+            n.take_description(&text)?;
+            tf.publish(&n);
+        }
+        Description::Topic(topic) => {
+            tracing::info!(
+                "waiting for the robot description on {}: commanding nothing until it comes \
+                 (or set the robot_description parameter)",
+                super::description::DESCRIPTION_TOPIC
+            );
+            super::each(topic, shared, move |n, text: String| {
+                match n.take_description(&text) {
+                    Ok(true) => tf.publish(n),
+                    Ok(false) => {}
+                    Err(e) => tracing::warn!("robot description refused: {e}"),
+                }
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Hands the joint states, the PDC rise and (while a calibration records
+/// them) the BioTac readings to the node: the callbacks only convert and
+/// hand on (STYLE 3); the stepping loop steps.
+fn hand_on(
+    node: &mut r2r::Node,
+    guard: &Arc<InputGuard>,
+    shared: &Arc<Mutex<ForceControllerNode>>,
+) -> Result<(), RosError> {
+    let (qos, max) = (QosProfile::default, MESSAGE_MAX_BYTES);
+    let joint_type = "sensor_msgs/msg/JointState";
+    let joints = bounded::typed(node, "joint_states", joint_type, qos(), max, guard)?;
+    super::each(
+        joints,
+        shared,
+        |n, m: JointStateMsg| match convert::joint_state_from_msg(&m, n.joint_names()) {
+            Ok(js) => n.on_joint_state(&js),
+            Err(e) => n.reject(&format!("joint_states: {e}")),
+        },
+    );
+    let pdc_type = "sensor_msgs/msg/FluidPressure";
+    let pdc = bounded::typed(node, "biotac/pdc_rise", pdc_type, qos(), max, guard)?;
+    super::each(pdc, shared, |n, m: FluidPressure| {
+        n.on_pdc_rise(m.fluid_pressure)
+    });
+    let reading_type = crate::biotac::msg::BIOTAC_MSG_TYPE;
+    let sensor_qos = QosProfile::sensor_data();
+    let readings = bounded::raw(
+        node,
+        "biotac/readings",
+        reading_type,
+        sensor_qos,
+        max,
+        guard,
+    )?;
+    super::each(readings, shared, |n, bytes: Vec<u8>| {
+        if n.wants_readings() {
+            match crate::biotac::msg::from_cdr(&bytes) {
+                Ok((r, meta)) if meta.invalid_channels.is_empty() => n.on_reading(r),
+                _ => n.reject("biotac/readings: not decoded, or invalid channels"),
+            }
+        }
+    });
+    Ok(())
 }

@@ -19,10 +19,12 @@ use futures::StreamExt;
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::geometry_msgs::msg::{TwistStamped, WrenchStamped};
 use r2r::std_msgs::msg::Float64MultiArray;
+use r2r::QosProfile;
 
 use super::lock;
+use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
 use crate::nodes::force_controller::{CommandInterface, ForceControllerNode, ForcePart, Stamped};
-use crate::ros::{convert, RosClock, RosError};
+use crate::ros::{bounded, convert, RosClock, RosError};
 
 /// A force message as the node takes it.
 pub(super) type ForceMsg = (ForcePart, Result<Stamped, String>);
@@ -53,8 +55,30 @@ impl Commands {
     }
 }
 
+/// The estimate's mean and standard deviation and the F/T sensor's wrench,
+/// merged into one stream of the parts the node steps on.
+pub(super) fn forces(
+    node: &mut r2r::Node,
+    guard: &Arc<InputGuard>,
+) -> Result<impl futures::Stream<Item = ForceMsg> + Unpin, RosError> {
+    let wrench_type = "geometry_msgs/msg/WrenchStamped";
+    let parts = [
+        ("biotac/wrench", ForcePart::Mean),
+        ("biotac/wrench_stddev", ForcePart::Std),
+        ("ft_sensor/wrench", ForcePart::Ft),
+    ]
+    .map(|(name, part)| {
+        let qos = QosProfile::default();
+        let topic = bounded::typed(node, name, wrench_type, qos, MESSAGE_MAX_BYTES, guard)?;
+        Ok(force(topic, part, name))
+    })
+    .into_iter()
+    .collect::<Result<Vec<_>, RosError>>()?;
+    Ok(futures::stream::select_all(parts))
+}
+
 /// A force topic's messages as the node takes them.
-pub(super) fn force(
+fn force(
     topic: impl futures::Stream<Item = WrenchStamped> + Send + 'static,
     part: ForcePart,
     name: &'static str,

@@ -12,15 +12,14 @@
 //! does not load or fit the BioTac, and while the finger is pressed
 //! ([`crate::nodes::estimator::PRESSED_N`]).
 
-use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
-use std::time::{SystemTime, UNIX_EPOCH};
+
+mod tare_store;
 
 use futures::StreamExt;
 use r2r::QosProfile;
 
 use super::{describe_model, load_model, Outputs, Settings, REPORT};
-use crate::biotac::tare::SavedTare;
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::bounds::MESSAGE_MAX_BYTES;
 use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable, INPUTS};
@@ -29,12 +28,7 @@ use crate::outputs::models_dir::ModelsDir;
 use crate::ros::params::RuntimeParams;
 use crate::ros::{bounded, RosError};
 use crate::sensor::biotac::BioTacInput;
-
-fn unix_s() -> f64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0.0, |d| d.as_secs_f64())
-}
+use tare_store::TareStore;
 
 fn lock(
     e: &Mutex<EstimatorNode<BioTacInput>>,
@@ -75,48 +69,20 @@ fn take_model(
     Ok(())
 }
 
-/// Runs the BioTac estimator until the process ends.
+/// Runs the BioTac estimator until the process ends: its input declared,
+/// the saved tare looked up, the readings and `model_file` wired, then one
+/// estimate per reading.
 pub(super) async fn run(
     mut node: r2r::Node,
     model: Box<dyn WrenchModel>,
     s: Settings,
     mut out: Outputs,
 ) -> Result<(), RosError> {
-    let input = crate::ros::own_string(
-        &node,
-        "input",
-        INPUTS[0],
-        "The readings: biotac (tactile_force_msgs/BioTac on biotac/readings) or biotac_all (a Shadow hand's sr_robot_msgs/BiotacAll on /rh/tactile, one finger).",
-    )?;
-    let finger = crate::ros::own_f64(
-        &node,
-        "finger",
-        0.0,
-        "With input biotac_all: the hand's BioTac, 0 first finger, 1 middle, 2 ring, 3 little, 4 thumb.",
-    )?;
-    let source = ReadingSource::from_params(&input, finger)?;
+    let source = declare_source(&node)?;
     let estimator = EstimatorNode::<BioTacInput>::new(model, s.with_std)
         .and_then(|e| e.with_stale_timeout(s.stale_s))?
         .with_ready_after(s.ready_after_s);
-    let tare_path = match s.tare_file.as_str() {
-        "" => {
-            crate::learn::default_model::cache_dir().map(|d| d.join("wrench_estimator_tare.json"))
-        }
-        f => Some(PathBuf::from(f)),
-    };
-    if tare_path.is_none() {
-        tracing::info!("no cache folder ($HOME unset) and no tare_file: the tare is not saved");
-    }
-    let mut saved = match tare_path.as_deref().map(SavedTare::load) {
-        Some(Ok(saved)) => saved
-            .filter(|saved| (0.0..=s.tare_max_age_s).contains(&(unix_s() - saved.taken_unix_s))),
-        Some(Err(e)) => {
-            tracing::warn!("{e}; taking a new tare");
-            None
-        }
-        None => None,
-    };
-
+    let mut tares = TareStore::open(&s.tare_file, s.tare_max_age_s);
     let (qos, guard) = (QosProfile::sensor_data(), estimator.guard().clone());
     let (topic, kind) = (source.topic(), source.type_name());
     let mut readings = match bounded::raw(&mut node, topic, kind, qos, MESSAGE_MAX_BYTES, &guard) {
@@ -161,34 +127,32 @@ pub(super) async fn run(
                 continue;
             }
         };
-        if let Some(saved) = saved.take() {
-            if saved.serial == serial && !estimator.is_tared() {
-                tracing::info!(
-                    "taking up the tare saved {:.0} s ago (same sensor, \"{}\"): \
-                     the skin may be pressed now; tare_max_age_s:=0 tares anew",
-                    unix_s() - saved.taken_unix_s,
-                    saved.serial,
-                );
-                estimator.set_tare(saved.tare);
-            }
-        }
+        tares.take_up(&mut estimator, &serial);
         let was_tared = estimator.is_tared();
         let estimate = estimator.on_received(&reading, clock.now_s());
         if !was_tared && estimator.is_tared() {
             tracing::info!("tared on {} readings", estimator.tare_samples());
-            if let (Some(tare), Some(path)) = (estimator.tare(), &tare_path) {
-                let saved = SavedTare {
-                    serial: serial.clone(),
-                    taken_unix_s: unix_s(),
-                    tare: tare.clone(),
-                };
-                if let Err(e) = saved.save(path) {
-                    tracing::warn!("tare not saved: {e}");
-                }
-            }
+            tares.save(&estimator, serial);
         }
         if let Some(e) = estimate {
             out.publish(&e);
         }
     }
+}
+
+/// Declares where the readings come from.
+fn declare_source(node: &r2r::Node) -> Result<ReadingSource, RosError> {
+    let input = crate::ros::own_string(
+        node,
+        "input",
+        INPUTS[0],
+        "The readings: biotac (tactile_force_msgs/BioTac on biotac/readings) or biotac_all (a Shadow hand's sr_robot_msgs/BiotacAll on /rh/tactile, one finger).",
+    )?;
+    let finger = crate::ros::own_f64(
+        node,
+        "finger",
+        0.0,
+        "With input biotac_all: the hand's BioTac, 0 first finger, 1 middle, 2 ring, 3 little, 4 thumb.",
+    )?;
+    Ok(ReadingSource::from_params(&input, finger)?)
 }
