@@ -52,8 +52,6 @@ LONG_FUNCTIONS = {
     ("commands/demo.rs", "run_sweep"): 89,
     ("learn/evaluate.rs", "evaluate_splits"): 87,
     ("learn/choice.rs", "select"): 86,
-    ("commands/train.rs", "run_select"): 86,
-    ("commands/calibrate.rs", "run_calibrate"): 81,
 }
 FN_START = re.compile(r"^(\s*)(pub(\([^)]*\))? )?(async )?(const )?(unsafe )?fn (\w+)")
 

@@ -18,6 +18,7 @@ use tactile_force::calibration::{open_outputs, CalibrateParams, SessionEnd};
 use tactile_force::control::TaskKind;
 use tactile_force::learn::calibration::fit_and_save;
 use tactile_force::learn::data::bag::SessionWriter;
+use tactile_force::learn::models::provenance::CalibrationRecord;
 use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::outputs::{check_format, check_writable};
 use tactile_force::report::plot;
@@ -126,25 +127,35 @@ pub(crate) fn run_calibrate(a: &CalibrateRun, scene: &Scene, current: WrenchGp) 
     write_extras(a, &rec, unit)
         .with_context(|| format!("model written to {}; {kept}", out.display()))?;
     if a.json {
-        let line = json!({
-            "task": TaskKind::Calibrate.name(),
-            "unit": unit,
-            "pushes": r.pushes,
-            "rows": r.rows,
-            "motion_s": r.motion_s,
-            "compute_s": compute_s,
-            "peak_force_n": r.peak_force_n,
-            "force_limit_n": limit,
-            "chosen": r.chosen,
-            "validation": r.validation,
-            "held_out": r.held_out,
-            "pooling": r.pooling,
-            "session": session.map(|p| p.display().to_string()),
-            "model": out.display().to_string(),
-        });
-        println!("{line}");
+        println!("{}", json_line(&r, unit, limit, session, out));
     }
     Ok(())
+}
+
+/// The calibration's figures as one JSON line (`--json`).
+fn json_line(
+    r: &CalibrationRecord,
+    unit: u64,
+    limit: f64,
+    session: Option<&Path>,
+    out: &Path,
+) -> serde_json::Value {
+    json!({
+        "task": TaskKind::Calibrate.name(),
+        "unit": unit,
+        "pushes": r.pushes,
+        "rows": r.rows,
+        "motion_s": r.motion_s,
+        "compute_s": r.compute_s,
+        "peak_force_n": r.peak_force_n,
+        "force_limit_n": limit,
+        "chosen": r.chosen,
+        "validation": r.validation,
+        "held_out": r.held_out,
+        "pooling": r.pooling,
+        "session": session.map(|p| p.display().to_string()),
+        "model": out.display().to_string(),
+    })
 }
 
 /// What to say of the session file, printed once it is ended, and its

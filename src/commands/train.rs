@@ -293,41 +293,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     if !(a.budget_s > 0.0 && a.budget_s.is_finite()) {
         return Err(BadArgument(format!("--budget-s {}: a positive time (s)", a.budget_s)).into());
     }
-    // Every channel the data hold (the electrodes always): a channel whose
-    // column is missing is dropped and the files read again.
-    let mut held = a.fit.channels.clone().unwrap_or_else(|| {
-        vec![
-            Channel::Electrodes,
-            Channel::Pdc,
-            Channel::Tdc,
-            Channel::Tac,
-        ]
-    });
-    let sessions = loop {
-        let loaded = load_sessions(
-            &a.data,
-            Features::Channels(&held),
-            &a.fit.axes,
-            a.fit.tare_samples,
-            &a.fit.source,
-            None,
-        );
-        let missing = match &loaded {
-            Err(e) if a.fit.channels.is_none() => match e.cause() {
-                Some(DatasetError::MissingColumn { column, .. }) => held
-                    .iter()
-                    .position(|c| c.name() == column && *c != Channel::Electrodes),
-                _ => None,
-            },
-            _ => None,
-        };
-        match missing {
-            Some(i) => {
-                held.remove(i);
-            }
-            None => break loaded?,
-        }
-    };
+    let (sessions, held) = load_held(a)?;
     let ds = sessions.pooled()?;
     let base = GpParams::clone(&*gp_params(&a.fit, &sessions.sensor)?);
     let bar = progress_bar();
@@ -374,6 +340,45 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     bar.finish_and_clear();
     println!("chosen: {choice}; its standard deviations scaled by {scales:.2?} to cover the held-out errors");
     save_checked(a, model, &data, t0, (&sessions, &params))
+}
+
+/// The data with every channel they hold (the electrodes always, or those
+/// of `--channels`): a channel whose column is missing is dropped and the
+/// files read again. With the channels held.
+fn load_held(a: &TrainArgs) -> Result<(Sessions, Vec<Channel>)> {
+    let mut held = a.fit.channels.clone().unwrap_or_else(|| {
+        vec![
+            Channel::Electrodes,
+            Channel::Pdc,
+            Channel::Tdc,
+            Channel::Tac,
+        ]
+    });
+    loop {
+        let loaded = load_sessions(
+            &a.data,
+            Features::Channels(&held),
+            &a.fit.axes,
+            a.fit.tare_samples,
+            &a.fit.source,
+            None,
+        );
+        let missing = match &loaded {
+            Err(e) if a.fit.channels.is_none() => match e.cause() {
+                Some(DatasetError::MissingColumn { column, .. }) => held
+                    .iter()
+                    .position(|c| c.name() == column && *c != Channel::Electrodes),
+                _ => None,
+            },
+            _ => None,
+        };
+        match missing {
+            Some(i) => {
+                held.remove(i);
+            }
+            None => return Ok((loaded?, held)),
+        }
+    }
 }
 
 /// Checks the model's fit on its own training data `ds`, writes it with
