@@ -427,6 +427,37 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
         out.contains("chosen by `train --select`") && out.contains("--select: 2-fold"),
         "{out}"
     );
+    // The family fixed: the ensemble is scored, chosen and written with
+    // its table.
+    let o = select_fz_in_4_s(
+        d,
+        m,
+        &["--family", "ensemble", "--channels", "electrodes,pdc"],
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("* ") && out.contains("electrodes+pdc, ensemble of 5 networks"),
+        "{out}"
+    );
+    assert!(
+        out.contains("not varied: family: fixed by --family"),
+        "{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(json["format"], "tactile_force/wrench_ensemble", "{json}");
+    let chosen = &json["selection"]["table"][0];
+    assert_eq!(chosen["choice"]["family"], "ensemble", "{json}");
+    let scale = chosen["std_scale"]["fz"].as_f64().unwrap();
+    assert_eq!(json["std_scale"][0].as_f64(), Some(scale), "{json}");
+    let o = run(&["eval", "--model", m, "--test", d, "--axes", "fz"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("ensemble of 5 networks") && out.contains("chosen by `train --select`"),
+        "{out}"
+    );
     // A budget must be a time; one trial per set is cross-validated on
     // contiguous blocks of it.
     let o = run(&[

@@ -97,7 +97,7 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
         adaptation.run(pool, &mut |axis, p| show(&bar, Progress::Axis(axis, p)))?;
     let fit_s = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    training_fit(&model, &data)?;
+    training_fit(model.as_ref(), &data)?;
     model
         .save(&a.out)
         .with_context(|| format!("saving the model to {}", a.out.display()))?;

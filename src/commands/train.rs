@@ -4,17 +4,15 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use tactile_force::learn::choice::{select, Choice, GpChoice, Space};
+use tactile_force::learn::choice::{select, Choice, Family, GpChoice, Space};
 use tactile_force::learn::data::{Channel, DatasetError};
 use tactile_force::learn::evaluate::{training_fit, Progress, Scores};
-use tactile_force::learn::models::ensemble::{WrenchEnsemble, DEFAULT_MEMBERS};
+use tactile_force::learn::models::ensemble::WrenchEnsemble;
 use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
-use tactile_force::learn::models::nn::NnParams;
 use tactile_force::learn::models::scale::InputScaling;
-use tactile_force::learn::models::wrench_gp::{TrainedOn, WrenchGp};
+use tactile_force::learn::models::wrench_gp::{TareSpec, TrainedOn, WrenchGp};
 use tactile_force::learn::models::wrench_model::WrenchModel;
 use tactile_force::learn::pooled::{data_file, readable};
-use tactile_force::params::Check;
 use tactile_force::params::Checked;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
@@ -143,9 +141,10 @@ pub(crate) struct TrainArgs {
     select: bool,
     /// The model's family: gp (a GP per axis, the default), or ensemble (5
     /// baseline networks seeded apart, their mean the estimate and their
-    /// spread its standard deviation; the GP options do not apply).
-    #[arg(long, default_value = "gp", conflicts_with = "select")]
-    family: Family,
+    /// spread its standard deviation; the GP options do not apply). With
+    /// --select: fixes the family (by default --select compares both).
+    #[arg(long)]
+    family: Option<Family>,
     /// Time budget of --select (s): the search stops when it is spent.
     #[arg(long, default_value_t = 60.0, requires = "select")]
     budget_s: f64,
@@ -196,7 +195,7 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
         None,
     )?;
     let ds = sessions.pooled()?;
-    if a.family == Family::Ensemble {
+    if a.family == Some(Family::Ensemble) {
         return run_ensemble(&a, &sessions, &ds);
     }
     let scaling = a.fit.scaling(&sessions.sensor)?;
@@ -215,13 +214,6 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
     save_checked(&a, model, &ds, t0, (&sessions, &params))
 }
 
-/// The model families `train` makes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum Family {
-    Gp,
-    Ensemble,
-}
-
 /// `train --family ensemble`: the ensemble on `ds` (read as `sessions`),
 /// checked on it.
 fn run_ensemble(
@@ -229,14 +221,29 @@ fn run_ensemble(
     sessions: &Sessions,
     ds: &tactile_force::learn::data::Dataset,
 ) -> Result<()> {
-    let params = NnParams {
-        seed: a.fit.seed,
-        ..NnParams::default()
-    }
-    .checked("nn")?;
     let t0 = std::time::Instant::now();
-    let model = WrenchEnsemble::train(ds, sessions.tare.clone(), &params, DEFAULT_MEMBERS)?
-        .with_sensor(sessions.sensor.clone());
+    let model = ensemble(a, ds, sessions.tare.clone(), &sessions.sensor)?;
+    save_ensemble(a, model, ds, t0)
+}
+
+/// The ensemble trained on `ds` (tared as `tare`, from `sensor`).
+fn ensemble(
+    a: &TrainArgs,
+    ds: &tactile_force::learn::data::Dataset,
+    tare: TareSpec,
+    sensor: &SensorSpec,
+) -> Result<WrenchEnsemble> {
+    Ok(WrenchEnsemble::train_default(ds, tare, a.fit.seed)?.with_sensor(sensor.clone()))
+}
+
+/// Checks the ensemble's fit on its own training data `ds`, writes it and
+/// says what it did (`t0`: when its training started).
+fn save_ensemble(
+    a: &TrainArgs,
+    model: WrenchEnsemble,
+    ds: &tactile_force::learn::data::Dataset,
+    t0: std::time::Instant,
+) -> Result<()> {
     let fit_s = t0.elapsed().as_secs_f64();
     let fit = training_fit(&model, ds)?;
     model
@@ -301,6 +308,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     let space = Space {
         held,
         channels: a.fit.channels.clone(),
+        family: a.family,
         input: a.fit.input,
         gp: a.fit.fixed_gp(),
         mean: a.fit.mean,
@@ -329,6 +337,14 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     let (data, tare) = choice
         .cut(&ds, &sessions.tare)
         .map_err(|e| Failure::failed(format!("the chosen options: {e}")))?;
+    let chosen = format!("chosen: {choice}; its standard deviations scaled by {scales:.2?} to cover the held-out errors");
+    if choice.family == Family::Ensemble {
+        let model = ensemble(a, &data, tare, &sessions.sensor)?
+            .with_std_scales(&scales)
+            .with_selection(selection);
+        println!("{chosen}");
+        return save_ensemble(a, model, &data, t0);
+    }
     let params = choice.gp_params(&base).validate()?;
     let bar = progress_bar();
     let model = WrenchGp::train_scaled(&data, tare, choice.input, &params, &mut |axis, p| {
@@ -338,7 +354,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     .with_std_scales(&scales)
     .with_selection(selection);
     bar.finish_and_clear();
-    println!("chosen: {choice}; its standard deviations scaled by {scales:.2?} to cover the held-out errors");
+    println!("{chosen}");
     save_checked(a, model, &data, t0, (&sessions, &params))
 }
 

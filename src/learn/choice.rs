@@ -35,6 +35,7 @@ use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};
 
+pub use super::models::provenance::Family;
 pub use super::models::wrench_gp::{AloneScore, Choice, CvRow, GpChoice, Selection};
 
 impl Choice {
@@ -42,10 +43,21 @@ impl Choice {
     /// exact GP on 2000 rows, zero mean.
     pub fn default_options() -> Self {
         Choice {
+            family: Family::Gp,
             channels: vec![Channel::Electrodes, Channel::Pdc],
             input: InputScaling::Standard,
             gp: GpChoice::Exact(2000),
             mean: MeanKind::Zero,
+        }
+    }
+
+    /// The network ensemble on `channels` (the GP's options left at their
+    /// defaults, so that two such candidates differ only by channels).
+    pub fn ensemble(channels: Vec<Channel>) -> Self {
+        Choice {
+            family: Family::Ensemble,
+            channels,
+            ..Choice::default_options()
         }
     }
 
@@ -119,6 +131,8 @@ pub struct Space {
     pub held: Vec<Channel>,
     /// Channels fixed by the user.
     pub channels: Option<Vec<Channel>>,
+    /// Model family fixed by the user (fixing a GP option fixes the GP).
+    pub family: Option<Family>,
     /// Input scaling fixed by the user.
     pub input: Option<InputScaling>,
     /// GP kind and size fixed by the user.
@@ -144,6 +158,7 @@ impl Space {
         Space {
             held,
             channels: None,
+            family: None,
             input: None,
             gp: None,
             mean: None,
@@ -166,12 +181,23 @@ impl Space {
     /// hold, with the fixed options.
     pub fn start(&self) -> Choice {
         let d = Choice::default_options();
+        let channels = self.channel_sets().into_iter().next().unwrap_or(d.channels);
+        if self.family() == Some(Family::Ensemble) {
+            return Choice::ensemble(channels);
+        }
         Choice {
-            channels: self.channel_sets().into_iter().next().unwrap_or(d.channels),
+            family: Family::Gp,
+            channels,
             input: self.input.unwrap_or(d.input),
             gp: self.gp.unwrap_or(d.gp),
             mean: self.mean.unwrap_or(d.mean),
         }
+    }
+
+    /// The family fixed: by the user, or by a GP option they fixed.
+    fn family(&self) -> Option<Family> {
+        let gp_fixed = self.input.is_some() || self.mean.is_some() || self.gp.is_some();
+        self.family.or(gp_fixed.then_some(Family::Gp))
     }
 
     /// What the search cannot vary, and why, for the record.
@@ -183,6 +209,11 @@ impl Space {
         } else if sets.len() < 2 {
             let held: Vec<&str> = self.held.iter().map(|c| c.name()).collect();
             out.push(format!("channels: the data hold {} only", held.join(", ")));
+        }
+        match (self.family, self.family()) {
+            (Some(_), _) => out.push("family: fixed by --family".to_string()),
+            (None, Some(_)) => out.push("family: a GP option was fixed".to_string()),
+            (None, None) => {}
         }
         let fixed = [
             (self.input.is_some(), "input: fixed by --input"),
@@ -196,8 +227,9 @@ impl Space {
     /// The options tried after the first, one stage at a time (each from
     /// the best so far). The options that change the model's form come
     /// first, the channels last: input scaling, prior mean, the GP (its
-    /// kind and size), channels. Fixed options and channel sets the data do
-    /// not hold have no stage.
+    /// kind and size), the family (the best GP against the ensemble on its
+    /// channels), channels. Fixed options, the GP's options of a fixed
+    /// ensemble and channel sets the data do not hold have no stage.
     fn stages(&self, best: &Choice, rows: usize) -> Vec<Vec<Choice>> {
         let with = |f: &dyn Fn(&mut Choice)| {
             let mut c = best.clone();
@@ -224,13 +256,14 @@ impl Space {
             GpChoice::Exact(4000),
         ];
         let mut out = Vec::new();
-        if self.input.is_none() {
+        let gp = self.family() != Some(Family::Ensemble);
+        if gp && self.input.is_none() {
             out.push(inputs.iter().map(|&i| with(&|c| c.input = i)).collect());
         }
-        if self.mean.is_none() {
+        if gp && self.mean.is_none() {
             out.push(means.iter().map(|&m| with(&|c| c.mean = m)).collect());
         }
-        if self.gp.is_none() {
+        if gp && self.gp.is_none() {
             out.push(
                 gps.iter()
                     .filter(|g| match g {
@@ -239,6 +272,9 @@ impl Space {
                     .map(|&g| with(&|c| c.gp = g))
                     .collect(),
             );
+        }
+        if self.family().is_none() {
+            out.push(vec![Choice::ensemble(best.channels.clone())]);
         }
         out.push(
             self.channel_sets()

@@ -12,12 +12,14 @@ use std::path::{Path, PathBuf};
 use super::data::bag::{read_bag, BagTopics};
 use super::data::{Counts, Dataset, DatasetError};
 use super::evaluate::{score_model, EvalError};
+use super::models::ensemble::WrenchEnsemble;
 use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind};
 use super::models::wrench_gp::{
     std_scale, AdaptChoice, AdaptedFrom, DataFile, ModelError, TareSpec, TrainedOn, Validation,
     WrenchGp,
 };
+use super::models::wrench_model::WrenchModel;
 use crate::biotac::hand::HandKind;
 use crate::params::Checked;
 use crate::sensor::SensorSpec;
@@ -272,7 +274,7 @@ pub fn spread(data: &Dataset) -> Vec<f64> {
 /// axes in units of `sd` (lower is better).
 pub fn validate(
     name: &str,
-    model: &WrenchGp,
+    model: &dyn WrenchModel,
     test: &Dataset,
     sd: &[f64],
 ) -> Result<Validation, EvalError> {
@@ -344,11 +346,11 @@ pub fn held_out(data: &Dataset) -> (Vec<usize>, Vec<usize>) {
 /// its held-out part ([`held_out`]) and scored there: the base adapted
 /// ([`WrenchGp::adapt`]); retrained on the base's data pooled with the new,
 /// when `base_data` is at hand; and each family on the new data alone (the
-/// GP, and the GP with the network as its mean). The best is fitted again
-/// on all of `data`, its standard deviations scaled to cover its held-out
-/// errors ([`std_scale`]), and returned with what was chosen. The models
-/// record `trained_on` (the new data's own, `new_only`, for those trained
-/// on it alone).
+/// GP, the GP with the network as its mean, the ensemble of networks). The
+/// best is fitted again on all of `data`, its standard deviations scaled to
+/// cover its held-out errors ([`std_scale`]), and returned with what was
+/// chosen. The GPs record `trained_on` (the new data's own, `new_only`, for
+/// those trained on it alone).
 pub struct Adaptation<'a> {
     /// The base model.
     pub base: &'a WrenchGp,
@@ -371,6 +373,7 @@ const ADAPTED: &str = "adapted";
 const POOLED: &str = "pooled";
 const NEW_GP: &str = "new data: GP";
 const NEW_NETWORK: &str = "new data: GP, network mean";
+const NEW_ENSEMBLE: &str = "new data: ensemble";
 
 impl Adaptation<'_> {
     /// Runs it (see [`Adaptation`]); `progress` is told every fit's progress.
@@ -378,7 +381,7 @@ impl Adaptation<'_> {
         self,
         base_data: Result<BaseData, Unavailable>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
-    ) -> Result<(WrenchGp, AdaptChoice), EvalError> {
+    ) -> Result<(Box<dyn WrenchModel>, AdaptChoice), EvalError> {
         let pool = match &base_data {
             Ok(b) => Some((b, b.params.clone().validate().map_err(ModelError::from)?)),
             Err(_) => None,
@@ -401,7 +404,7 @@ impl Adaptation<'_> {
                 _ => (self.base).adapt(d, tare, self.from.clone(), self.params, p),
             }
         };
-        let names: Vec<&str> = [ADAPTED, POOLED, NEW_GP, NEW_NETWORK]
+        let names: Vec<&str> = [ADAPTED, POOLED, NEW_GP, NEW_NETWORK, NEW_ENSEMBLE]
             .into_iter()
             .filter(|n| *n != POOLED || pool.is_some())
             .collect();
@@ -411,8 +414,11 @@ impl Adaptation<'_> {
         let mut validation = Vec::with_capacity(names.len());
         let mut scales = Vec::with_capacity(names.len());
         for name in &names {
-            let m = fit(name, &train, progress)?;
-            validation.push(validate(name, &m, &test, &sd)?);
+            let m: Box<dyn WrenchModel> = match *name {
+                NEW_ENSEMBLE => Box::new(self.ensemble(&train)?),
+                _ => Box::new(fit(name, &train, progress)?),
+            };
+            validation.push(validate(name, m.as_ref(), &test, &sd)?);
             let z = m.standardised_errors(&test, CALIBRATION_ROWS)?;
             scales.push(
                 z.iter()
@@ -420,13 +426,10 @@ impl Adaptation<'_> {
                     .collect::<Vec<_>>(),
             );
         }
-        let chosen = best(&validation).map_or(ADAPTED, |v| v.model.as_str());
-        let at = names.iter().position(|n| *n == chosen).unwrap_or(0);
-        let model = fit(chosen, self.data, progress)?.with_std_scales(&scales[at]);
-        let trained_on = match chosen {
-            NEW_GP | NEW_NETWORK => self.new_only.clone(),
-            _ => self.trained_on.clone(),
-        };
+        let at = best(&validation)
+            .and_then(|v| names.iter().position(|n| *n == v.model))
+            .unwrap_or(0);
+        let chosen = names[at];
         let choice = AdaptChoice {
             chosen: chosen.into(),
             held_out_rows: test.len(),
@@ -436,10 +439,24 @@ impl Adaptation<'_> {
             },
             validation,
         };
-        let model = model
+        if chosen == NEW_ENSEMBLE {
+            let model = (self.ensemble(self.data)?.with_std_scales(&scales[at]))
+                .with_adapt_choice(choice.clone());
+            return Ok((Box::new(model), choice));
+        }
+        let trained_on = match chosen {
+            NEW_GP | NEW_NETWORK => self.new_only.clone(),
+            _ => self.trained_on.clone(),
+        };
+        let model = (fit(chosen, self.data, progress)?.with_std_scales(&scales[at]))
             .with_trained_on(trained_on)
             .with_adapt_choice(choice.clone());
-        Ok((model, choice))
+        Ok((Box::new(model), choice))
+    }
+    /// The ensemble of networks on `d` (tared as the new data).
+    fn ensemble(&self, d: &Dataset) -> Result<WrenchEnsemble, ModelError> {
+        let e = WrenchEnsemble::train_default(d, self.tare.clone(), self.params.seed)?;
+        Ok(e.with_sensor(self.base.sensor().clone()))
     }
 }
 

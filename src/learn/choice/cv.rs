@@ -8,14 +8,16 @@ use std::time::Instant;
 use ndarray::Array2;
 use rayon::prelude::*;
 
-use super::{AloneScore, Choice, CvRow};
+use super::{AloneScore, Choice, CvRow, Family};
 use crate::learn::data::Dataset;
+use crate::learn::models::ensemble::WrenchEnsemble;
 use crate::learn::models::gp::fit::FitProgress;
 use crate::learn::models::gp::{GpParams, MeanKind, SeHyper};
 use crate::learn::models::metrics::rmse_columns;
 use crate::learn::models::nn::Mlp;
-use crate::learn::models::wrench_gp::{std_scale_over_folds, Estimate, EstimatorWorkspace};
+use crate::learn::models::wrench_gp::{std_scale_over_folds, Estimate};
 use crate::learn::models::wrench_gp::{ModelError, TareSpec, WarmStart, WrenchGp};
+use crate::learn::models::wrench_model::WrenchModel;
 use crate::learn::tradeoff::{median_latency_us, timed_rows};
 use crate::params::Checked;
 
@@ -153,31 +155,27 @@ impl Cv<'_> {
         let mut latency_us = None;
         let mut z: Vec<Vec<Vec<f64>>> = vec![Vec::new(); self.sd.len()];
         for (fold, (train, test)) in self.splits.iter().enumerate() {
-            let model = WrenchGp::train_from(
-                &sub.select(train),
-                sub_tare.clone(),
-                choice.input,
-                &params,
-                warm.get(choice, fold),
-                &mut |_, p| progress(choice, p),
-            )
-            .map_err(|e| e.to_string())?;
-            warm.keep(choice, fold, &model);
             let held_out = sub.select(test);
             let failed = |e: ModelError| e.to_string();
-            let (p, _) = model.predict(held_out.x.view(), false).map_err(failed)?;
-            pooled.add(self, test, &held_out, p);
-            if let (Some(alone), Some(p)) = (
-                &mut alone,
-                model.network_estimate(held_out.x.view()).map_err(failed)?,
-            ) {
+            let rows = Fold {
+                index: fold,
+                train: &sub.select(train),
+                tare: &sub_tare,
+                held_out: &held_out,
+            };
+            let (model, network_alone) = self.fit_fold(choice, &rows, &params, warm, progress)?;
+            let p = model
+                .predict_observed(held_out.x.view(), false)
+                .map_err(failed)?;
+            pooled.add(self, test, &held_out, p.mean);
+            if let (Some(alone), Some(p)) = (&mut alone, network_alone) {
                 alone.add(self, test, &held_out, p);
             }
             let errors =
                 (model.standardised_errors(&held_out, CALIBRATION_ROWS)).map_err(failed)?;
             z.iter_mut().zip(errors).for_each(|(z, e)| z.push(e));
             if fold + 1 == self.splits.len() {
-                latency_us = Some(latency(&model, &held_out));
+                latency_us = Some(latency(model.as_ref(), &held_out));
             }
             if over() {
                 return Ok(None);
@@ -204,12 +202,58 @@ impl Cv<'_> {
         }))
     }
 
+    /// `choice`'s model of one fold, and for a network mean its network's
+    /// estimates alone of the held-out rows.
+    fn fit_fold(
+        &self,
+        choice: &Choice,
+        rows: &Fold,
+        params: &Checked<GpParams>,
+        warm: &mut WarmStarts,
+        progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
+    ) -> Result<FoldModel, String> {
+        let failed = |e: ModelError| e.to_string();
+        let tare = rows.tare.clone();
+        match choice.family {
+            Family::Gp => {
+                let model = WrenchGp::train_from(
+                    rows.train,
+                    tare,
+                    choice.input,
+                    params,
+                    warm.get(choice, rows.index),
+                    &mut |_, p| progress(choice, p),
+                )
+                .map_err(failed)?;
+                warm.keep(choice, rows.index, &model);
+                let alone = (model.network_estimate(rows.held_out.x.view())).map_err(failed)?;
+                Ok((Box::new(model), alone))
+            }
+            Family::Ensemble => {
+                let model = WrenchEnsemble::train_default(rows.train, tare, self.base.seed)
+                    .map_err(failed)?;
+                Ok((Box::new(model), None))
+            }
+        }
+    }
+
     /// The mean over axes of the RMSE of `pred` over the targets' standard
     /// deviation.
     fn score(&self, y: ndarray::ArrayView2<f64>, pred: ndarray::ArrayView2<f64>) -> f64 {
         let rmse = rmse_columns(y, pred);
         rmse.iter().zip(self.sd).map(|(e, s)| e / s).sum::<f64>() / self.sd.len() as f64
     }
+}
+
+/// A fold's model, and a network mean's network's estimates alone.
+type FoldModel = (Box<dyn WrenchModel>, Option<Array2<f64>>);
+
+/// The rows of one fold, cut to a candidate's features.
+struct Fold<'a> {
+    index: usize,
+    train: &'a Dataset,
+    tare: &'a TareSpec,
+    held_out: &'a Dataset,
 }
 
 /// One model's held-out estimates over the folds.
@@ -261,12 +305,12 @@ const LATENCY_PASS_S: f64 = 0.03;
 /// The median time (µs) of `model`'s estimate with its standard deviation,
 /// as the estimator makes one, on rows of `data`: one estimate first (it
 /// also warms the caches), then as many rows as fit in [`LATENCY_PASS_S`].
-fn latency(model: &WrenchGp, data: &Dataset) -> f64 {
-    let mut ws: EstimatorWorkspace = model.workspace();
+fn latency(model: &dyn WrenchModel, data: &Dataset) -> f64 {
+    let mut ws = model.workspace();
     let mut out = vec![Estimate::default(); model.axes().len()];
     let mut estimate = |x: &[f64]| {
         // The rows have the model's features, so this cannot fail.
-        let _ = model.predict_one(x, &mut ws, true, &mut out);
+        let _ = model.estimate(x, &mut ws, true, &mut out);
     };
     let one_s = 1e-6 * median_latency_us(&timed_rows(data, 1), 1, &mut estimate);
     let rows = (LATENCY_PASS_S / one_s.max(1e-9)).clamp(3.0, LATENCY_ROWS as f64) as usize;

@@ -1,5 +1,6 @@
 //! Which scored candidate `--select` takes: among those within noise of the
-//! best score, the simplest prior mean, then the fastest estimate.
+//! best score, the simplest form (the GP's prior mean; the ensemble as
+//! flexible as a network mean), then the fastest estimate.
 //!
 //! A more flexible model can win the cross-validation by less than the
 //! folds disagree, and then generalise worse to a new session (a cubic mean
@@ -10,16 +11,25 @@
 //! paired), the "one standard error" rule of Hastie, Tibshirani and
 //! Friedman (2009, Sec. 7.10).
 
-use super::{CvRow, MeanKind};
+use super::{Choice, CvRow, Family, MeanKind};
 use crate::learn::models::metrics::mean_and_error;
 
-/// How flexible a prior mean is: what the data must pay for.
-fn flexibility(mean: MeanKind) -> u8 {
-    match mean {
-        MeanKind::Zero => 0,
-        MeanKind::Linear => 1,
-        MeanKind::Cubic => 2,
-        MeanKind::Network => 3,
+/// How flexible a candidate's form is: what the data must pay for. A GP's
+/// prior mean, from none to a network; an ensemble is networks.
+pub(super) fn flexibility(choice: &Choice) -> u8 {
+    match (choice.family, choice.mean) {
+        (Family::Gp, MeanKind::Zero) => 0,
+        (Family::Gp, MeanKind::Linear) => 1,
+        (Family::Gp, MeanKind::Cubic) => 2,
+        (Family::Gp, MeanKind::Network) | (Family::Ensemble, _) => 3,
+    }
+}
+
+/// Its form in words: the GP's mean, or the ensemble.
+fn form(choice: &Choice) -> String {
+    match choice.family {
+        Family::Gp => format!("{} mean", choice.mean.name()),
+        Family::Ensemble => "the ensemble".into(),
     }
 }
 
@@ -50,7 +60,7 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
     let cost = |i: &usize| {
         let r = &table[*i];
         (
-            flexibility(r.choice.mean),
+            flexibility(&r.choice),
             r.latency_us.unwrap_or(f64::INFINITY),
         )
     };
@@ -71,12 +81,12 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
     } else {
         let c = &table[chosen];
         format!(
-            "within one standard error of the best score ({:.4} vs {:.4}, {}), the simplest mean \
+            "within one standard error of the best score ({:.4} vs {:.4}, {}), the simplest form \
              ({}) and then the fastest estimate ({:.0} µs) of the {} candidates there",
             c.score,
             best.score,
             best.choice,
-            c.choice.mean.name(),
+            form(&c.choice),
             c.latency_us.unwrap_or(f64::NAN),
             near.len()
         )
@@ -118,7 +128,7 @@ mod tests {
         ];
         let (i, why) = choose(&table);
         assert_eq!(i, 1, "{why}");
-        assert!(why.contains("simplest mean (linear)"), "{why}");
+        assert!(why.contains("simplest form (linear mean)"), "{why}");
         let (mean, se) = paired_difference(&table[1], &table[2]).unwrap();
         assert!((mean - 0.01).abs() < 1e-12 && mean < se, "{mean} {se}");
     }
@@ -132,6 +142,36 @@ mod tests {
         let (i, why) = choose(&table);
         assert_eq!(i, 1, "{why}");
         assert!(why.starts_with("the best score (0.2160)"), "{why}");
+    }
+
+    #[test]
+    fn the_ensemble_is_as_flexible_as_a_network_mean_and_chosen_when_it_wins() {
+        let ensemble = |folds: &[f64], latency_us: f64| CvRow {
+            choice: Choice::ensemble(Choice::default_options().channels),
+            ..row(MeanKind::Zero, folds, latency_us)
+        };
+        // Within noise of a zero-mean GP: the GP, simpler.
+        let table = [
+            row(MeanKind::Zero, &[0.30, 0.35, 0.28], 300.0),
+            ensemble(&[0.33, 0.30, 0.29], 10.0),
+        ];
+        let (i, why) = choose(&table);
+        assert_eq!(i, 0, "{why}");
+        assert!(why.contains("simplest form (zero mean)"), "{why}");
+        // Within noise of a better network mean: the faster of the two.
+        let table = [
+            row(MeanKind::Network, &[0.30, 0.29, 0.28], 300.0),
+            ensemble(&[0.27, 0.33, 0.30], 10.0),
+        ];
+        let (i, why) = choose(&table);
+        assert_eq!(i, 1, "{why}");
+        assert!(why.contains("simplest form (the ensemble)"), "{why}");
+        // Better on every fold: the ensemble.
+        let table = [
+            row(MeanKind::Zero, &[0.30, 0.35, 0.28], 300.0),
+            ensemble(&[0.20, 0.25, 0.19], 10.0),
+        ];
+        assert_eq!(choose(&table).0, 1);
     }
 
     #[test]

@@ -67,15 +67,7 @@ fn assert_chose_the_best_or_simpler(s: &Selection) {
         .min_by(|a, b| a.score.total_cmp(&b.score))
         .unwrap();
     let chosen = &s.table[s.chosen];
-    let flexibility = |r: &CvRow| {
-        let means = [
-            MeanKind::Zero,
-            MeanKind::Linear,
-            MeanKind::Cubic,
-            MeanKind::Network,
-        ];
-        means.iter().position(|m| *m == r.choice.mean)
-    };
+    let flexibility = |r: &CvRow| super::pick::flexibility(&r.choice);
     let simpler = flexibility(chosen) < flexibility(best)
         || (flexibility(chosen) == flexibility(best) && chosen.latency_us < best.latency_us);
     assert!(chosen.score == best.score || simpler, "{s:?}");
@@ -95,6 +87,7 @@ fn the_search_keeps_the_best_score_and_records_every_candidate() {
     assert!(tried(&|c| c.input == InputScaling::Raw));
     assert!(tried(&|c| c.mean == MeanKind::Cubic));
     assert!(tried(&|c| c.gp == GpChoice::Sparse(200)));
+    assert!(tried(&|c| c.family == Family::Ensemble));
     assert!(s.untried.is_empty(), "{:?}", s.untried);
     for r in &s.table {
         assert!(
@@ -112,6 +105,11 @@ fn the_search_keeps_the_best_score_and_records_every_candidate() {
             );
             assert_eq!(a.fold_scores.len(), s.folds);
         }
+        // Every candidate, the ensemble too, has its folds' scores, its
+        // estimate's latency and the scale of its standard deviation.
+        assert_eq!(r.fold_scores.len(), s.folds, "{r:?}");
+        assert!(r.latency_us.is_some_and(|l| l > 0.0), "{r:?}");
+        assert!(r.std_scale[&Axis::Fz] >= 1.0, "{r:?}");
     }
     assert!(tried(&|c| c.mean == MeanKind::Network));
     // The record survives JSON.
@@ -177,15 +175,27 @@ fn the_candidates_are_the_channels_held_and_the_options_left_free() {
     assert_eq!(channel_stage(&e), [vec![Electrodes]]);
     assert_eq!(e.start().channels, [Electrodes]);
     assert_eq!(e.not_varied(), ["channels: the data hold electrodes only"]);
-    // The form first, the channels last: input, mean, GP, channels.
+    // The form first, the channels last: input, mean, GP, family, channels.
     let stages = every().stages(&best, 10_000);
-    assert_eq!(stages.len(), 4);
+    assert_eq!(stages.len(), 5);
     assert!(stages[0].iter().any(|c| c.input == InputScaling::Raw));
     assert!(stages[1].iter().any(|c| c.mean == MeanKind::Cubic));
     assert!(stages[2].iter().any(|c| c.gp == GpChoice::Sparse(500)));
-    assert!(stages[3]
+    assert_eq!(stages[3], [Choice::ensemble(best.channels.clone())]);
+    assert!(stages[4]
         .iter()
         .any(|c| c.channels == [Electrodes, Pdc, Tdc, Tac]));
+    // The ensemble fixed: it is the first candidate, only its channels vary.
+    let ensemble = Space {
+        family: Some(Family::Ensemble),
+        ..every()
+    };
+    assert_eq!(ensemble.start(), Choice::ensemble(vec![Electrodes, Pdc]));
+    let stages = ensemble.stages(&ensemble.start(), 10_000);
+    assert_eq!(stages.len(), 1, "{stages:?}");
+    assert!(stages[0].iter().all(|c| c.family == Family::Ensemble));
+    assert_eq!(stages[0].len(), 4);
+    assert_eq!(ensemble.not_varied(), ["family: fixed by --family"]);
     // Fixed options have no stage, and every candidate keeps them.
     let fixed = Space {
         channels: Some(vec![Electrodes, Tdc]),
@@ -195,7 +205,11 @@ fn the_candidates_are_the_channels_held_and_the_options_left_free() {
     assert_eq!(fixed.start().channels, [Electrodes, Tdc]);
     assert_eq!(fixed.start().gp, GpChoice::Sparse(300));
     let stages = fixed.stages(&fixed.start(), 10_000);
-    assert_eq!(stages.len(), 3, "input, mean, the one channel set");
+    assert_eq!(
+        stages.len(),
+        3,
+        "input, mean, the one channel set: a GP fixed"
+    );
     assert!(stages
         .iter()
         .flatten()
@@ -204,6 +218,7 @@ fn the_candidates_are_the_channels_held_and_the_options_left_free() {
         fixed.not_varied(),
         [
             "channels: fixed by --channels",
+            "family: a GP option was fixed",
             "GP: fixed by --inducing or --max-train"
         ]
     );
@@ -230,6 +245,7 @@ fn electrode_only_data_vary_the_rest() {
         s.not_varied,
         [
             "channels: the data hold electrodes only",
+            "family: a GP option was fixed",
             "input: fixed by --input"
         ]
     );

@@ -44,31 +44,79 @@ impl std::fmt::Display for GpChoice {
     }
 }
 
+/// A model family: what `train --family` makes and `select` compares.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Family {
+    /// A GP per axis (its input scaling, size and prior mean chosen too).
+    #[default]
+    Gp,
+    /// An ensemble of the baseline network
+    /// ([`crate::learn::models::ensemble`]).
+    Ensemble,
+}
+
+impl Family {
+    /// Its name on the command line and in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Gp => "gp",
+            Family::Ensemble => "ensemble",
+        }
+    }
+
+    fn is_gp(&self) -> bool {
+        *self == Family::Gp
+    }
+}
+
+impl std::str::FromStr for Family {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "gp" => Ok(Family::Gp),
+            "ensemble" => Ok(Family::Ensemble),
+            _ => Err(format!("unknown family {s:?}: expected gp or ensemble")),
+        }
+    }
+}
+
 /// One set of the options `select` chooses.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Choice {
+    /// The model family (absent in files before it: a GP).
+    #[serde(default, skip_serializing_if = "Family::is_gp")]
+    pub family: Family,
     /// The BioTac channels taken as features.
     pub channels: Vec<Channel>,
-    /// How they reach the GP.
+    /// How they reach the GP (an ensemble's networks standardise their
+    /// inputs themselves: `standard`).
     pub input: InputScaling,
-    /// Exact or sparse, and its size.
+    /// Exact or sparse, and its size (an ensemble's: the GP default's).
     pub gp: GpChoice,
-    /// The prior mean.
+    /// The prior mean (an ensemble's: zero).
     pub mean: MeanKind,
 }
 
 impl std::fmt::Display for Choice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let channels: Vec<&str> = self.channels.iter().map(|c| c.name()).collect();
-        write!(
-            f,
-            "{}, {}, {}, {} mean",
-            channels.join("+"),
-            self.input.name(),
-            self.gp,
-            self.mean.name()
-        )
+        let channels = channels.join("+");
+        match self.family {
+            Family::Gp => write!(
+                f,
+                "{channels}, {}, {}, {} mean",
+                self.input.name(),
+                self.gp,
+                self.mean.name()
+            ),
+            Family::Ensemble => write!(
+                f,
+                "{channels}, ensemble of {} networks",
+                crate::learn::models::ensemble::DEFAULT_MEMBERS
+            ),
+        }
     }
 }
 
@@ -242,7 +290,8 @@ pub struct TrainedOn {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AdaptChoice {
-    /// "adapted", "pooled", "new data: GP" or "new data: GP, network mean".
+    /// "adapted", "pooled", "new data: GP", "new data: GP, network mean" or
+    /// "new data: ensemble".
     pub chosen: String,
     /// The candidates on the held-out part of the new data.
     pub validation: Vec<Validation>,

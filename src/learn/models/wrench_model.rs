@@ -12,9 +12,10 @@ use serde::{Deserialize, Serialize};
 
 use super::gp::GpError;
 use super::nn::NnError;
-use super::provenance::{CalibrationRecord, Selection};
+use super::provenance::{AdaptChoice, CalibrationRecord, Selection};
 use super::Prediction;
 use crate::exit::{Classify, ExitClass};
+use crate::learn::data::Dataset;
 use crate::params::ParamsError;
 use crate::sensor::ModelInput;
 use crate::wrench::Axis;
@@ -209,8 +210,46 @@ pub trait WrenchModel: Send + Sync + Debug + CloneModel {
         with_std: bool,
     ) -> Result<Prediction, ModelError>;
 
+    /// Per axis, the errors on at most `rows` rows of `data` (tared, evenly
+    /// spread) over the standard deviation of a measured target
+    /// ([`WrenchModel::predict_observed`]): what
+    /// [`super::wrench_gp::std_scale`] takes.
+    fn standardised_errors(
+        &self,
+        data: &Dataset,
+        rows: usize,
+    ) -> Result<Vec<Vec<f64>>, ModelError> {
+        let step = (data.len() / rows.max(1)).max(1);
+        let picked: Vec<usize> = (0..data.len()).step_by(step).collect();
+        let some = data.select(&picked);
+        let p = self.predict_observed(some.x.view(), true)?;
+        let Some(std) = p.std else {
+            return Ok(Vec::new());
+        };
+        let z = (0..some.y.ncols()).map(|j| {
+            let errors = some.y.column(j).into_iter().zip(p.mean.column(j));
+            errors
+                .zip(std.column(j))
+                .map(|((y, m), s)| (y - m) / s)
+                .collect()
+        });
+        Ok(z.collect())
+    }
+
+    /// Per axis, the scale of the standard deviation of a measured target
+    /// (1: as fitted).
+    fn std_scales(&self) -> Vec<f64>;
+
+    /// Writes its model file, whole or not at all.
+    fn save(&self, path: &Path) -> Result<(), ModelError>;
+
     /// How its options were chosen, when `train --select` chose them.
     fn selection(&self) -> Option<&Selection> {
+        None
+    }
+
+    /// What `adapt` chose it over, when `adapt` made it.
+    fn adapt_choice(&self) -> Option<&AdaptChoice> {
         None
     }
 

@@ -199,12 +199,20 @@ fn adaptation_scores_every_candidate_on_the_held_out_rows_and_keeps_the_best() {
             "adapted",
             "pooled",
             "new data: GP",
-            "new data: GP, network mean"
+            "new data: GP, network mean",
+            "new data: ensemble"
         ]
     );
     assert_eq!(choice.chosen, best(&choice.validation).unwrap().model);
     assert_eq!(choice.held_out_rows, held_out(&new_tared).1.len());
-    assert_eq!(model.adapted_from().is_some(), choice.chosen == "adapted");
+    let ensemble = choice.chosen == "new data: ensemble";
+    assert_eq!(model.family(), if ensemble { "ensemble" } else { "gp" });
+    if !ensemble {
+        let file = dir.path().join("adapted.json");
+        model.save(&file).unwrap();
+        let gp = WrenchGp::load(&file).unwrap();
+        assert_eq!(gp.adapted_from().is_some(), choice.chosen == "adapted");
+    }
     assert_eq!(model.adapt_choice(), Some(&choice));
     // Its standard deviations were scaled on the held-out rows, never down
     // (std_scale's own test checks the scale).
@@ -218,7 +226,12 @@ fn adaptation_scores_every_candidate_on_the_held_out_rows_and_keeps_the_best() {
     let names: Vec<&str> = choice.validation.iter().map(|v| v.model.as_str()).collect();
     assert_eq!(
         names,
-        ["adapted", "new data: GP", "new data: GP, network mean"]
+        [
+            "adapted",
+            "new data: GP",
+            "new data: GP, network mean",
+            "new data: ensemble"
+        ]
     );
     assert_eq!(
         choice.pooling,

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::WrenchEnsemble;
 use crate::learn::models::nn::Mlp;
+use crate::learn::models::provenance::{AdaptChoice, Selection};
 use crate::learn::models::wrench_model::ModelError;
 use crate::learn::models::wrench_model::{write_json, TareSpec};
 use crate::sensor::SensorSpec;
@@ -17,8 +18,10 @@ use crate::wrench::AxisSet;
 
 /// The `format` field of an ensemble's model file.
 pub const ENSEMBLE_FORMAT: &str = "tactile_force/wrench_ensemble";
-/// The version this build writes and reads.
-pub const ENSEMBLE_VERSION: u32 = 1;
+/// The version this build writes (2: `selection` and `adapt_choice` added).
+pub const ENSEMBLE_VERSION: u32 = 2;
+/// The oldest version it reads.
+const FIRST_VERSION: u32 = 1;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -35,6 +38,12 @@ pub(super) struct EnsembleFile {
     pub(super) noise_std: Vec<f64>,
     /// Per axis: what a measured target's standard deviation is multiplied by.
     pub(super) std_scale: Vec<f64>,
+    /// How `train --select` chose it (absent when it did not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) selection: Option<Selection>,
+    /// What `adapt` chose it over (absent when `adapt` did not make it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) adapt_choice: Option<AdaptChoice>,
 }
 
 impl WrenchEnsemble {
@@ -47,11 +56,11 @@ impl WrenchEnsemble {
     pub(crate) fn from_json(value: serde_json::Value, path: &Path) -> Result<Self, ModelError> {
         let p = path.display().to_string();
         let version = value.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
-        if version != u64::from(ENSEMBLE_VERSION) {
+        if !(u64::from(FIRST_VERSION)..=u64::from(ENSEMBLE_VERSION)).contains(&version) {
             return Err(ModelError::UnsupportedVersion {
                 path: p,
                 found: version,
-                first: ENSEMBLE_VERSION,
+                first: FIRST_VERSION,
                 last: ENSEMBLE_VERSION,
             });
         }

@@ -126,6 +126,14 @@ impl WrenchModel for WrenchEnsemble {
         Ok(())
     }
 
+    fn std_scales(&self) -> Vec<f64> {
+        self.file.std_scale.clone()
+    }
+
+    fn save(&self, path: &std::path::Path) -> Result<(), ModelError> {
+        self.save(path)
+    }
+
     fn predict_observed(
         &self,
         x: ArrayView2<f64>,
@@ -133,5 +141,13 @@ impl WrenchModel for WrenchEnsemble {
     ) -> Result<Prediction, ModelError> {
         self.check_count(x.ncols())?;
         Ok(self.observed(x, with_std))
+    }
+
+    fn selection(&self) -> Option<&crate::learn::models::provenance::Selection> {
+        self.file.selection.as_ref()
+    }
+
+    fn adapt_choice(&self) -> Option<&crate::learn::models::provenance::AdaptChoice> {
+        self.file.adapt_choice.as_ref()
     }
 }

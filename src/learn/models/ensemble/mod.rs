@@ -21,6 +21,7 @@ use ndarray::{s, Array2, ArrayView2};
 use rayon::prelude::*;
 
 use super::nn::{Mlp, NnParams};
+use super::provenance::{AdaptChoice, Selection};
 use super::wrench_model::ModelError;
 use super::wrench_model::{Estimate, TareSpec};
 use super::Prediction;
@@ -81,13 +82,51 @@ impl WrenchEnsemble {
             members: nets,
             noise_std,
             std_scale: vec![1.0; data.axes.len()],
+            selection: None,
+            adapt_choice: None,
         };
         Ok(WrenchEnsemble { file })
+    }
+
+    /// [`DEFAULT_MEMBERS`] networks with the default options, the first
+    /// seeded `seed`: what `train --family ensemble`, `--select` and
+    /// `adapt` train.
+    pub fn train_default(data: &Dataset, tare: TareSpec, seed: u64) -> Result<Self, ModelError> {
+        let params = NnParams {
+            seed,
+            ..NnParams::default()
+        };
+        Self::train(data, tare, &params.checked("nn")?, DEFAULT_MEMBERS)
     }
 
     /// The model, recording that its features come from `sensor`.
     pub fn with_sensor(mut self, sensor: SensorSpec) -> Self {
         self.file.sensor = sensor;
+        self
+    }
+
+    /// The model with each axis's standard deviation of a measured target
+    /// multiplied by its scale in `scales` (in output order; positive and
+    /// finite, or that axis is left as it is), as
+    /// [`crate::learn::models::wrench_gp::WrenchGp::with_std_scales`].
+    pub fn with_std_scales(mut self, scales: &[f64]) -> Self {
+        for (o, s) in self.file.std_scale.iter_mut().zip(scales) {
+            if *s > 0.0 && s.is_finite() {
+                *o = *s;
+            }
+        }
+        self
+    }
+
+    /// The model, recording how `train --select` chose it.
+    pub fn with_selection(mut self, selection: Selection) -> Self {
+        self.file.selection = Some(selection);
+        self
+    }
+
+    /// The model, recording what `adapt` chose it over.
+    pub fn with_adapt_choice(mut self, choice: AdaptChoice) -> Self {
+        self.file.adapt_choice = Some(choice);
         self
     }
 

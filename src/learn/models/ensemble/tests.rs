@@ -159,7 +159,7 @@ fn a_file_that_disagrees_with_itself_is_refused_with_the_reason() {
         (
             "version",
             serde_json::json!(9),
-            "version 9, this build reads versions 1 to 1",
+            "version 9, this build reads versions 1 to 2",
         ),
     ];
     for (key, value, said) in cases {
@@ -169,6 +169,11 @@ fn a_file_that_disagrees_with_itself_is_refused_with_the_reason() {
         let err = model_file::load(&path).unwrap_err().to_string();
         assert!(err.contains(said), "{key}: {err}");
     }
+    // A file of version 1, before `selection`, is read.
+    let mut v1 = good.clone();
+    v1["version"] = 1.into();
+    std::fs::write(&path, serde_json::to_vec(&v1).unwrap()).unwrap();
+    assert_eq!(model_file::load(&path).unwrap().family(), "ensemble");
     let mut other = good.clone();
     other["format"] = "tactile_force/other".into();
     std::fs::write(&path, serde_json::to_vec(&other).unwrap()).unwrap();

@@ -4,7 +4,8 @@
 use ndarray::ArrayView2;
 
 use super::{
-    CalibrationRecord, Estimate, EstimatorWorkspace, ModelError, Selection, TareSpec, WrenchGp,
+    AdaptChoice, CalibrationRecord, Estimate, EstimatorWorkspace, ModelError, Selection, TareSpec,
+    WrenchGp,
 };
 use crate::learn::data::Dataset;
 use crate::learn::models::gp::{FitProgress, GpParams, MeanKind};
@@ -127,6 +128,14 @@ impl WrenchModel for WrenchGp {
         self.predict_one(features, ws.scratch()?, with_std, out)
     }
 
+    fn std_scales(&self) -> Vec<f64> {
+        self.std_scales()
+    }
+
+    fn save(&self, path: &std::path::Path) -> Result<(), ModelError> {
+        self.save(path)
+    }
+
     fn predict_observed(
         &self,
         x: ArrayView2<f64>,
@@ -137,6 +146,10 @@ impl WrenchModel for WrenchGp {
 
     fn selection(&self) -> Option<&Selection> {
         self.selection()
+    }
+
+    fn adapt_choice(&self) -> Option<&AdaptChoice> {
+        self.adapt_choice()
     }
 
     fn calibration(&self) -> Option<&CalibrationRecord> {

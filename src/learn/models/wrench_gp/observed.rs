@@ -6,7 +6,6 @@
 use ndarray::ArrayView2;
 
 use super::{ModelError, WrenchGp};
-use crate::learn::data::Dataset;
 use crate::learn::models::Prediction;
 
 impl WrenchGp {
@@ -50,31 +49,6 @@ impl WrenchGp {
             }
         }
         self
-    }
-
-    /// Per axis, the errors on at most `rows` rows of `data` (tared, evenly
-    /// spread) over the observed standard deviation
-    /// ([`WrenchGp::predict_observed`]): what [`std_scale`] takes.
-    pub fn standardised_errors(
-        &self,
-        data: &Dataset,
-        rows: usize,
-    ) -> Result<Vec<Vec<f64>>, ModelError> {
-        let step = (data.len() / rows.max(1)).max(1);
-        let picked: Vec<usize> = (0..data.len()).step_by(step).collect();
-        let some = data.select(&picked);
-        let p = self.predict_observed(some.x.view(), true)?;
-        let Some(std) = p.std else {
-            return Ok(Vec::new());
-        };
-        let z = (0..some.y.ncols()).map(|j| {
-            let errors = some.y.column(j).into_iter().zip(p.mean.column(j));
-            errors
-                .zip(std.column(j))
-                .map(|((y, m), s)| (y - m) / s)
-                .collect()
-        });
-        Ok(z.collect())
     }
 
     /// Each axis's scale of its standard deviation (1: as fitted).
