@@ -28,7 +28,7 @@ use crate::nodes::bounds::InputGuard;
 pub async fn run() -> Result<(), RosError> {
     let mut node = super::create_node("biotac_driver")?;
     let (driver, link) = link::declare(&node)?;
-    let mut out = Outputs::declare(&mut node, link)?;
+    let out = Outputs::declare(&mut node, link)?;
     let tare_requests = serve_tare(&mut node)?;
     let guard = std::sync::Arc::new(InputGuard::new());
     let clock = super::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
@@ -115,7 +115,7 @@ impl Outputs {
     /// Polls `driver`, tares it on request, publishes what it sends, until
     /// it fails (the error says why).
     fn drive(
-        &mut self,
+        &self,
         mut driver: Driver,
         tare_requests: &Receiver<()>,
         clock: &RosClock,
