@@ -51,7 +51,6 @@ LONG_FUNCTIONS = {
     ("nodes/force_controller/diagnostics.rs", "status"): 91,
     ("commands/demo.rs", "run_sweep"): 89,
     ("learn/evaluate.rs", "evaluate_splits"): 87,
-    ("learn/choice.rs", "select"): 86,
 }
 FN_START = re.compile(r"^(\s*)(pub(\([^)]*\))? )?(async )?(const )?(unsafe )?fn (\w+)")
 

@@ -305,16 +305,7 @@ pub fn select(
 ) -> Result<Selection, SelectError> {
     let (data, blocks) = data.single_trials_in_blocks(folds);
     let data = &data;
-    let mut per_set: BTreeMap<u32, usize> = BTreeMap::new();
-    for ((set, _), _) in data.trials() {
-        *per_set.entry(set).or_default() += 1;
-    }
-    if let Some((&set, &trials)) = per_set.iter().min_by_key(|(_, t)| **t) {
-        if trials < 2 {
-            return Err(SelectError::TooFewTrials { set, trials });
-        }
-    }
-    let k = folds.min(per_set.values().copied().min().unwrap_or(folds));
+    let k = fold_count(data, folds)?;
     let splits = trialwise_folds(data, k);
     let sd: Vec<f64> = data
         .y
@@ -379,6 +370,20 @@ pub fn select(
         untried,
         not_varied: space.not_varied(),
     })
+}
+
+/// The folds `data` (its sets of one trial cut into blocks) gives: `folds`,
+/// fewer when a set has fewer trials; refused when a set has one.
+fn fold_count(data: &Dataset, folds: usize) -> Result<usize, SelectError> {
+    let mut per_set: BTreeMap<u32, usize> = BTreeMap::new();
+    for ((set, _), _) in data.trials() {
+        *per_set.entry(set).or_default() += 1;
+    }
+    match per_set.iter().min_by_key(|(_, t)| **t) {
+        Some((&set, &trials)) if trials < 2 => Err(SelectError::TooFewTrials { set, trials }),
+        Some((_, &trials)) => Ok(folds.min(trials)),
+        None => Ok(folds),
+    }
 }
 
 /// `data` and `tare` cut to the columns `features`; the name of one that is
