@@ -16,7 +16,7 @@ use tactile_force::kinematics::ShippedRobot;
 use tactile_force::learn::calibration::{fit, gp_params, CalibrationError, Recorded};
 use tactile_force::learn::data::Dataset;
 use tactile_force::learn::evaluate::score_model;
-use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::learn::models::wrench_model::WrenchModel;
 use tactile_force::nodes::sim_robot::SimRobot;
 use tactile_force::nodes::{ControlOutput, ForceController};
 use tactile_force::runtime::calibrate::{record, Recording};
@@ -42,12 +42,16 @@ fn recorded(r: &Recording) -> Recorded {
     }
 }
 
-fn guarded(unit: u64, object: &str, m: &WrenchGp) -> tactile_force::report::summary::Summary {
+fn guarded(
+    unit: u64,
+    object: &str,
+    m: &dyn WrenchModel,
+) -> tactile_force::report::summary::Summary {
     let mut s = Scene::builtin(TaskKind::Guarded)
         .unwrap()
         .with_object(object);
     s.sim.sensor_unit = unit;
-    run_scene(&s, Box::new(m.clone()), 1, Pacing::Lockstep, &mut |_| {})
+    run_scene(&s, m.boxed_clone(), 1, Pacing::Lockstep, &mut |_| {})
         .unwrap()
         .summary
 }
@@ -75,7 +79,7 @@ fn a_calibration_of_unit_2_makes_a_model_that_holds_the_guarded_move_on_every_ob
     assert!(score(&r.chosen) < score("current"), "{r:?}");
     assert_eq!(calibrated.calibration(), Some(&r));
     for object in ["wooden_box", "carton_box", "stuffed_animal"] {
-        let s = guarded(2, object, &calibrated);
+        let s = guarded(2, object, calibrated.as_ref());
         assert!(s.final_phase == "hold" && !s.aborted, "{object}: {s:?}");
         assert!(s.overshoot_n <= 0.1, "{object}: {s:?}");
         assert!(s.steady_state_error_n.unwrap() <= 0.05, "{object}: {s:?}");
@@ -93,8 +97,9 @@ fn a_calibration_of_unit_2_makes_a_model_that_holds_the_guarded_move_on_every_ob
         "unit 2, session 5",
     )
     .unwrap();
-    test.tare_per_trial(calibrated.tare().samples).unwrap();
-    let rmse = score_model(&calibrated, &test, f64::INFINITY, false)
+    test.tare_per_trial(calibrated.input().tare_samples)
+        .unwrap();
+    let rmse = score_model(calibrated.as_ref(), &test, f64::INFINITY, false)
         .unwrap()
         .rmse;
     for (axis, thesis) in [(Axis::Fx, 0.27), (Axis::Fy, 0.28), (Axis::Fz, 0.23)] {

@@ -561,8 +561,13 @@ fn demo_calibrate_writes_the_session_and_a_model_and_refuses_what_it_cannot_do()
         "{j}"
     );
     assert!(
-        ["adapted", "from scratch", "from scratch, network mean"]
-            .contains(&j["chosen"].as_str().unwrap()),
+        [
+            "adapted",
+            "from scratch",
+            "from scratch, network mean",
+            "from scratch, ensemble"
+        ]
+        .contains(&j["chosen"].as_str().unwrap()),
         "{j}"
     );
     // The session is a rosbag2 MCAP file that eval reads; the model records

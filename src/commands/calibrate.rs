@@ -19,7 +19,7 @@ use tactile_force::control::TaskKind;
 use tactile_force::learn::calibration::fit_and_save;
 use tactile_force::learn::data::bag::SessionWriter;
 use tactile_force::learn::models::provenance::CalibrationRecord;
-use tactile_force::learn::models::wrench_gp::WrenchGp;
+use tactile_force::learn::models::wrench_model::WrenchModel;
 use tactile_force::outputs::{check_format, check_writable};
 use tactile_force::report::plot;
 use tactile_force::runtime::calibrate::{record_to, Recording};
@@ -66,7 +66,11 @@ pub(crate) fn check_outputs(
     Ok(())
 }
 
-pub(crate) fn run_calibrate(a: &CalibrateRun, scene: &Scene, current: WrenchGp) -> Result<()> {
+pub(crate) fn run_calibrate(
+    a: &CalibrateRun,
+    scene: &Scene,
+    current: &dyn WrenchModel,
+) -> Result<()> {
     let out = a.out;
     let limit = scene.controller.section::<CalibrateParams>()?.force_limit_n;
     // Checked again and opened with the arm still: written as recorded.
@@ -97,7 +101,7 @@ pub(crate) fn run_calibrate(a: &CalibrateRun, scene: &Scene, current: WrenchGp) 
         ))),
         None => fit_and_save(
             &rec.records,
-            &current,
+            current,
             rec.motion_s,
             rec.peak_force_n,
             session,

@@ -162,12 +162,11 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     // Check the scene before a possibly long training.
     scene.check()?;
     let recipe = &scene.estimator.default_model;
+    let model = match a.model.as_deref() {
+        Some(p) => model_file::load(p)?,
+        None => Box::new(scene_default_model(recipe)?),
+    };
     if task == TaskKind::Calibrate {
-        // The calibration adapts the current model: a GP.
-        let model = match a.model.as_deref() {
-            Some(p) => WrenchGp::load(p)?,
-            None => scene_default_model(recipe)?,
-        };
         let (out, session) =
             session.ok_or_else(|| BadArgument("demo calibrate needs --out".into()))?;
         let run = CalibrateRun {
@@ -179,12 +178,8 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
             json: a.json,
             realtime: a.realtime,
         };
-        return run_calibrate(&run, &scene, model);
+        return run_calibrate(&run, &scene, model.as_ref());
     }
-    let model = match a.model.as_deref() {
-        Some(p) => model_file::load(p)?,
-        None => Box::new(scene_default_model(recipe)?),
-    };
     if a.sweep_speed {
         return run_sweep(&a, &scene, model.as_ref());
     }

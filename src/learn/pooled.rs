@@ -303,7 +303,7 @@ const CALIBRATION_ROWS: usize = 500;
 
 /// Per axis, the scale of `model`'s standard deviation that covers its
 /// errors on `test` ([`std_scale`]; 1 without one).
-pub fn std_scales(model: &WrenchGp, test: &Dataset) -> Result<Vec<f64>, ModelError> {
+pub fn std_scales(model: &dyn WrenchModel, test: &Dataset) -> Result<Vec<f64>, ModelError> {
     let z = model.standardised_errors(test, CALIBRATION_ROWS)?;
     Ok(z.iter().map(|z| std_scale(z).unwrap_or(1.0)).collect())
 }

@@ -168,7 +168,7 @@ pub struct Estimate {
 }
 
 /// A fitted wrench model of any family.
-pub trait WrenchModel: Send + Sync + Debug + CloneModel {
+pub trait WrenchModel: Send + Sync + Debug + CloneModel + AsAny {
     /// Its family's name (`gp`, `ensemble`), for tables.
     fn family(&self) -> &'static str;
 
@@ -269,6 +269,20 @@ pub trait CloneModel {
 impl<T: WrenchModel + Clone + 'static> CloneModel for T {
     fn boxed_clone(&self) -> Box<dyn WrenchModel> {
         Box::new(self.clone())
+    }
+}
+
+/// A model behind its trait as [`Any`], to find its family's own type (a
+/// GP, which `adapt` and the calibration adapt): implemented for every
+/// `WrenchModel`.
+pub trait AsAny {
+    /// The model as `Any`.
+    fn as_any(&self) -> &dyn Any;
+}
+
+impl<T: WrenchModel + 'static> AsAny for T {
+    fn as_any(&self) -> &dyn Any {
+        self
     }
 }
 

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::WrenchEnsemble;
 use crate::learn::models::nn::Mlp;
-use crate::learn::models::provenance::{AdaptChoice, Selection};
+use crate::learn::models::provenance::{AdaptChoice, CalibrationRecord, Selection};
 use crate::learn::models::wrench_model::ModelError;
 use crate::learn::models::wrench_model::{write_json, TareSpec};
 use crate::sensor::SensorSpec;
@@ -18,7 +18,8 @@ use crate::wrench::AxisSet;
 
 /// The `format` field of an ensemble's model file.
 pub const ENSEMBLE_FORMAT: &str = "tactile_force/wrench_ensemble";
-/// The version this build writes (2: `selection` and `adapt_choice` added).
+/// The version this build writes (2: `selection`, `adapt_choice` and
+/// `calibration` added).
 pub const ENSEMBLE_VERSION: u32 = 2;
 /// The oldest version it reads.
 const FIRST_VERSION: u32 = 1;
@@ -44,6 +45,9 @@ pub(super) struct EnsembleFile {
     /// What `adapt` chose it over (absent when `adapt` did not make it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(super) adapt_choice: Option<AdaptChoice>,
+    /// The calibration on the robot that made it (absent when none did).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) calibration: Option<CalibrationRecord>,
 }
 
 impl WrenchEnsemble {

@@ -150,4 +150,8 @@ impl WrenchModel for WrenchEnsemble {
     fn adapt_choice(&self) -> Option<&crate::learn::models::provenance::AdaptChoice> {
         self.file.adapt_choice.as_ref()
     }
+
+    fn calibration(&self) -> Option<&crate::learn::models::provenance::CalibrationRecord> {
+        self.file.calibration.as_ref()
+    }
 }

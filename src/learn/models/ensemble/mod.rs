@@ -21,7 +21,7 @@ use ndarray::{s, Array2, ArrayView2};
 use rayon::prelude::*;
 
 use super::nn::{Mlp, NnParams};
-use super::provenance::{AdaptChoice, Selection};
+use super::provenance::{AdaptChoice, CalibrationRecord, Selection};
 use super::wrench_model::ModelError;
 use super::wrench_model::{Estimate, TareSpec};
 use super::Prediction;
@@ -84,6 +84,7 @@ impl WrenchEnsemble {
             std_scale: vec![1.0; data.axes.len()],
             selection: None,
             adapt_choice: None,
+            calibration: None,
         };
         Ok(WrenchEnsemble { file })
     }
@@ -127,6 +128,12 @@ impl WrenchEnsemble {
     /// The model, recording what `adapt` chose it over.
     pub fn with_adapt_choice(mut self, choice: AdaptChoice) -> Self {
         self.file.adapt_choice = Some(choice);
+        self
+    }
+
+    /// The model, recording the calibration that made it.
+    pub fn with_calibration(mut self, record: CalibrationRecord) -> Self {
+        self.file.calibration = Some(record);
         self
     }
 

@@ -7,7 +7,7 @@ use r2r::tactile_force_msgs::action::Calibrate;
 
 use super::EstimatorLink;
 use crate::learn::calibration::fit_and_save;
-use crate::learn::models::wrench_gp::WrenchGp;
+use crate::learn::models::model_file;
 use crate::record::Record;
 
 /// The fit once the arm has stopped, and the estimator given the model.
@@ -41,10 +41,10 @@ pub(super) async fn fit(
     let (motion_s, peak) = (recorded.motion_s, recorded.peak_force_n);
     let (model, session) = (model_path.clone(), session_path.clone());
     let fitted = tokio::task::spawn_blocking(move || {
-        let current = WrenchGp::load(Path::new(&current_file)).map_err(|e| e.to_string())?;
+        let current = model_file::load(Path::new(&current_file)).map_err(|e| e.to_string())?;
         fit_and_save(
             &records,
-            &current,
+            current.as_ref(),
             motion_s,
             peak,
             session.as_deref(),
