@@ -32,7 +32,7 @@ use super::exact::{
     check_hyper, cholesky_with_jitter, clamp_var, cross_one, dot, forward_subst_packed, pack_lower,
     unpack_lower, GpWorkspace,
 };
-use super::kernel::{scale_rows, se_cross, se_gram, KernelKind, SeHyper};
+use super::kernel::{scale_rows, se_cross, se_gram, SeHyper};
 use super::GpError;
 
 /// Jitter always added to K_uu, relative to s2. Proportional to s2, so that
@@ -103,187 +103,6 @@ fn b_factor(b: &Mat<f64>, ay: &Mat<f64>, hyper: &SeHyper) -> Result<(Llt<f64>, M
     let mut c = Mat::from_fn(ay.nrows(), 1, |i, _| ay[(i, 0)] * inv_sigma);
     solve_lower_triangular_in_place(lb.L(), c.as_mut(), Par::rayon(0));
     Ok((lb, c))
-}
-
-/// Negative VFE bound per sample, `-F / n`, and its gradient with respect to
-/// the log-hyperparameters `hyper.to_log()` (same packing and sign as
-/// [`neg_lml_and_grad`](super::exact::neg_lml_and_grad)), for inputs `x`
-/// (row-major n x d), targets `y` and inducing inputs `z` (row-major m x d),
-/// all standardised. Z is held fixed.
-///
-/// With Q = K_fu K_uu^-1 K_uf, C = Q + σ² I, α = C^-1 y and
-/// W = α α^T - C^-1 + I / σ², P = K_uu^-1 K_uf W and R = P K_fu K_uu^-1:
-/// dF = Σ P ∘ dK_uf - 1/2 tr(R dK_uu) - d tr(K_nn) / (2σ²)
-///      + [1/2 (α^T α - tr C^-1) + tr(K_nn - Q) / (2σ⁴)] dσ².
-/// By Woodbury, C^-1 = σ^-2 (I - A^T B^-1 A), α = y / σ² - A^T L_B^-T c / σ,
-/// P = u α^T + L_uu^-T (I - B^-1) A / σ with u = K_uu^-1 K_uf α, and
-/// R = u u^T + L_uu^-T (B - 2I + B^-1) L_uu^-1: time O(n m^2 + n m d),
-/// memory O(n m).
-pub fn neg_vfe_and_grad(
-    x: &[f64],
-    d: usize,
-    y: &[f64],
-    z: &[f64],
-    hyper: &SeHyper,
-) -> Result<(f64, Vec<f64>), GpError> {
-    check_hyper(hyper, d)?;
-    check_inducing(z, d)?;
-    let par = Par::rayon(0);
-    let (n, m) = (y.len(), z.len() / d);
-    let (nf, mf) = (n as f64, m as f64);
-    let (s2, sn2) = (hyper.signal_var, hyper.noise_var);
-    let sigma = sn2.sqrt();
-    let xs = scale_rows(x, &hyper.lengthscales);
-    let zs = scale_rows(z, &hyper.lengthscales);
-    let (luu_llt, kuu, _) = kuu_factor(&zs, d, hyper)?;
-    let luu = luu_llt.L();
-    let (kuf, a) = projection(&zs, &xs, d, hyper, luu);
-    let mut b = Mat::<f64>::identity(m, m);
-    let mut ay = Mat::<f64>::zeros(m, 1);
-    accumulate(a.as_ref(), y, &mut b, &mut ay);
-    let (lb, c) = b_factor(&b, &ay, hyper)?;
-
-    let yy = dot(y, y);
-    let cc: f64 = c.col(0).iter().map(|v| v * v).sum();
-    let tr_aat: f64 = (0..m).map(|i| b[(i, i)] - 1.0).sum();
-    let log_det_b: f64 = (0..m).map(|i| lb.L()[(i, i)].ln()).sum();
-    let bound = -0.5 * nf * (2.0 * std::f64::consts::PI * sn2).ln() - log_det_b - 0.5 * yy / sn2
-        + 0.5 * cc
-        - 0.5 * nf * s2 / sn2
-        + 0.5 * tr_aat;
-
-    // α = y / σ² - A^T (L_B^-T c) / σ.
-    let mut g = c;
-    solve_upper_triangular_in_place(lb.L().transpose(), g.as_mut(), par);
-    let mut alpha = Mat::<f64>::from_fn(n, 1, |i, _| y[i] / sn2);
-    matmul(
-        alpha.as_mut(),
-        Accum::Add,
-        a.transpose(),
-        g.as_ref(),
-        -1.0 / sigma,
-        par,
-    );
-    // u = K_uu^-1 K_uf α = σ L_uu^-T A α.
-    let mut u = Mat::<f64>::zeros(m, 1);
-    matmul(
-        u.as_mut(),
-        Accum::Replace,
-        a.as_ref(),
-        alpha.as_ref(),
-        sigma,
-        par,
-    );
-    solve_upper_triangular_in_place(luu.transpose(), u.as_mut(), par);
-    // H = L_uu^-T (I - B^-1) / σ, T = B - 2I + B^-1.
-    let binv = lb.inverse();
-    let tr_binv: f64 = (0..m).map(|i| binv[(i, i)]).sum();
-    let mut h = Mat::<f64>::from_fn(m, m, |i, j| (f64::from(i == j) - binv[(i, j)]) / sigma);
-    solve_upper_triangular_in_place(luu.transpose(), h.as_mut(), par);
-    // R = u u^T + L_uu^-T T L_uu^-1 (symmetric).
-    let mut r = Mat::<f64>::from_fn(m, m, |i, j| {
-        b[(i, j)] + binv[(i, j)] - 2.0 * f64::from(i == j)
-    });
-    solve_upper_triangular_in_place(luu.transpose(), r.as_mut(), par);
-    let mut r = r.transpose().to_owned();
-    solve_upper_triangular_in_place(luu.transpose(), r.as_mut(), par);
-    matmul(r.as_mut(), Accum::Add, u.as_ref(), u.transpose(), 1.0, par);
-
-    // Σ P ∘ dK_uf by blocks of columns, with M = P ∘ K_uf: Σ M for ln s2 and,
-    // per scaled input c, Σ_ij M_ij (z_ic - x_jc)^2 =
-    // Σ_i rowsum_i z_ic^2 + Σ_j colsum_j x_jc^2 - 2 Σ_i z_ic (M x)_ic.
-    let zs_m = MatRef::from_row_major_slice(&zs, m, d);
-    let mut row_sums = vec![0.0; m];
-    let mut col_term = vec![0.0; d];
-    let mut mx = Mat::<f64>::zeros(m, d);
-    let mut pb = Mat::<f64>::zeros(m, BLOCK.min(n));
-    for j0 in (0..n).step_by(BLOCK) {
-        let w = BLOCK.min(n - j0);
-        let mut p = pb.as_mut().subcols_mut(0, w);
-        matmul(
-            p.as_mut(),
-            Accum::Replace,
-            h.as_ref(),
-            a.as_ref().subcols(j0, w),
-            1.0,
-            par,
-        );
-        let alpha_b = alpha.as_ref().subrows(j0, w);
-        matmul(
-            p.as_mut(),
-            Accum::Add,
-            u.as_ref(),
-            alpha_b.transpose(),
-            1.0,
-            par,
-        );
-        let kuf_b = kuf.as_ref().subcols(j0, w);
-        let col_sums: Vec<f64> = p
-            .as_mut()
-            .par_col_iter_mut()
-            .zip(kuf_b.par_col_iter())
-            .map(|(col, kcol)| {
-                let mut sum = 0.0;
-                for (v, k) in col.iter_mut().zip(kcol.iter()) {
-                    *v *= k;
-                    sum += *v;
-                }
-                sum
-            })
-            .collect();
-        for jj in 0..w {
-            for (i, rs) in row_sums.iter_mut().enumerate() {
-                *rs += p[(i, jj)];
-            }
-            let row = &xs[(j0 + jj) * d..(j0 + jj + 1) * d];
-            for (t, v) in col_term.iter_mut().zip(row) {
-                *t += col_sums[jj] * v * v;
-            }
-        }
-        let xs_b = MatRef::from_row_major_slice(&xs[j0 * d..(j0 + w) * d], w, d);
-        matmul(mx.as_mut(), Accum::Add, p.as_ref(), xs_b, 1.0, par);
-    }
-    let sum_m: f64 = row_sums.iter().sum();
-    let dl_f: Vec<f64> = (0..d)
-        .map(|c| {
-            col_term[c]
-                + (0..m)
-                    .map(|i| row_sums[i] * zs_m[(i, c)].powi(2) - 2.0 * zs_m[(i, c)] * mx[(i, c)])
-                    .sum::<f64>()
-        })
-        .collect();
-
-    // 1/2 tr(R dK_uu) with N = R ∘ K_uu (symmetric): for ln s2, Σ N plus the
-    // s2-proportional jitter; per scaled input c, 1/2 Σ_ij N_ij (z_ic - z_jc)^2
-    // = Σ_i rowsum_i z_ic^2 - z_c^T N z_c.
-    let nmat = Mat::<f64>::from_fn(m, m, |i, j| r[(i, j)] * kuu[(i, j)]);
-    let tr_r: f64 = (0..m).map(|i| r[(i, i)]).sum();
-    let n_rows: Vec<f64> = (0..m).map(|i| nmat.row(i).iter().sum()).collect();
-    let mut nz = Mat::<f64>::zeros(m, d);
-    matmul(nz.as_mut(), Accum::Replace, nmat.as_ref(), zs_m, 1.0, par);
-    let half_dl_u: Vec<f64> = (0..d)
-        .map(|c| {
-            (0..m)
-                .map(|i| zs_m[(i, c)] * (n_rows[i] * zs_m[(i, c)] - nz[(i, c)]))
-                .sum()
-        })
-        .collect();
-    let sum_n: f64 = n_rows.iter().sum::<f64>() + KUU_JITTER * s2 * tr_r;
-
-    let alpha_sq: f64 = alpha.col(0).iter().map(|v| v * v).sum();
-    let tr_cinv = (nf - mf + tr_binv) / sn2;
-    let tr_knn_q = nf * s2 - sn2 * tr_aat;
-    let d_sn2 = 0.5 * (alpha_sq - tr_cinv) + tr_knn_q / (2.0 * sn2 * sn2);
-
-    let mut grad = vec![sum_m - 0.5 * sum_n - 0.5 * nf * s2 / sn2];
-    let dl = (0..d).map(|c| dl_f[c] - half_dl_u[c]);
-    match hyper.kind {
-        KernelKind::Isotropic => grad.push(dl.sum()),
-        KernelKind::Ard => grad.extend(dl),
-    }
-    grad.push(sn2 * d_sn2);
-    grad.iter_mut().for_each(|g| *g = -*g / nf);
-    Ok((-bound / nf, grad))
 }
 
 /// Column `c` of a column-major matrix as a slice.
@@ -545,6 +364,10 @@ impl SparseGp {
         (means, vars)
     }
 }
+
+mod vfe;
+
+pub use vfe::neg_vfe_and_grad;
 
 #[cfg(test)]
 mod tests;

@@ -268,36 +268,13 @@ impl WrenchGp {
 /// The file's GPs rebuilt, and its parts checked against each other (an
 /// adapted model's base too).
 fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, ModelError> {
-    let bad = |what: String| {
-        Err(ModelError::Inconsistent {
-            path: path.into(),
-            what,
-        })
+    let bad = |what: String| ModelError::Inconsistent {
+        path: path.into(),
+        what,
     };
     let electrode = electrode_mask(&file.features);
     let d = file.scaling.dim(&electrode);
-    if file.input.dim() != d
-        || file.input.scale.len() != d
-        || file.tare.mean_baseline.len() != file.features.len()
-    {
-        return bad(format!(
-            "{} features ({d} inputs, {:?}), but {} input means, {} input scales and {} tare baselines",
-            file.features.len(),
-            file.scaling,
-            file.input.dim(),
-            file.input.scale.len(),
-            file.tare.mean_baseline.len()
-        ));
-    }
-    if let SensorSpec::Nail(spec) = &file.sensor {
-        if let Err(e) = spec.check(file.features.len()) {
-            return bad(e.to_string());
-        }
-    }
-    let axes: Vec<Axis> = file.outputs.iter().map(|o| o.axis).collect();
-    if axes != file.axes.axes() {
-        return bad(format!("axes {} but outputs for {axes:?}", file.axes));
-    }
+    shape_problem(&file, d).map_or(Ok(()), |what| Err(bad(what)))?;
     let prior = match file.prior.take() {
         None => None,
         Some(Prior { from, base }) => {
@@ -306,10 +283,10 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
                 || base.axes != file.axes
                 || base.sensor != file.sensor
             {
-                return bad(format!(
+                return Err(bad(format!(
                     "adapted from a model of features {:?} and axes {}, but has {:?} and {}",
                     base.features, base.axes, file.features, file.axes
-                ));
+                )));
             }
             Some(Prior {
                 from,
@@ -317,62 +294,25 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
             })
         }
     };
-    if let Some(net) = &file.network {
-        if net.n_inputs() != d || net.n_outputs() != file.axes.len() {
-            return bad(format!(
-                "a network mean of {} inputs and {} outputs, but {d} inputs and {} axes",
-                net.n_inputs(),
-                net.n_outputs(),
-                file.axes.len()
-            ));
-        }
-    }
-    let mut outputs = Vec::with_capacity(file.outputs.len());
-    for o in std::mem::take(&mut file.outputs) {
-        if o.gp.dim() != d {
-            return bad(format!(
-                "axis {}: GP of dimension {}, expected {d}",
-                o.axis,
-                o.gp.dim()
-            ));
-        }
-        let positive = |v: f64| v > 0.0 && v.is_finite();
-        if !(positive(o.target_scale) && positive(o.std_scale) && o.target_mean.is_finite()) {
-            return bad(format!(
-                "axis {}: target scale {} / mean {} / std scale {}",
-                o.axis, o.target_scale, o.target_mean, o.std_scale
-            ));
-        }
-        if let Some(l) = o.linear.as_ref().filter(|l| !l.is_valid(d)) {
-            return bad(format!(
-                "axis {}: linear mean of {} weights (expected {d}, all finite), intercept {}{}",
-                o.axis,
-                l.weights.len(),
-                l.bias,
-                l.bend.as_ref().map_or(String::new(), |b| format!(
-                    ", bend of {} lines (1 to 6, each of {d} weights) with scales {:?} (> 0), \
-                     ranges {:?} (ordered) and {} weights (one per term), all finite",
-                    b.along.len(),
-                    b.scale,
-                    b.range,
-                    b.coeffs.len()
-                ))
-            ));
-        }
-        outputs.push(AxisModel {
-            axis: o.axis,
-            target_mean: o.target_mean,
-            target_scale: o.target_scale,
-            fit: o.fit,
-            linear: o.linear,
-            std_scale: o.std_scale,
-            gp: Gp::try_from(o.gp).map_err(|source| ModelError::Stored {
-                path: path.into(),
+    let outputs = std::mem::take(&mut file.outputs)
+        .into_iter()
+        .map(|o| {
+            output_problem(&o, d).map_or(Ok(()), |what| Err(bad(what)))?;
+            Ok(AxisModel {
                 axis: o.axis,
-                source,
-            })?,
-        });
-    }
+                target_mean: o.target_mean,
+                target_scale: o.target_scale,
+                fit: o.fit,
+                linear: o.linear,
+                std_scale: o.std_scale,
+                gp: Gp::try_from(o.gp).map_err(|source| ModelError::Stored {
+                    path: path.into(),
+                    axis: o.axis,
+                    source,
+                })?,
+            })
+        })
+        .collect::<Result<_, ModelError>>()?;
     Ok(ModelFile {
         format: file.format,
         version: file.version,
@@ -392,4 +332,75 @@ fn checked(mut file: ModelFile<GpData>, path: &str) -> Result<ModelFile<Gp>, Mod
         adapt_choice: file.adapt_choice,
         electrode,
     })
+}
+
+/// What disagrees among a model file's features, inputs (`d` of them),
+/// tare, sensor, axes and network mean; None when nothing does.
+fn shape_problem(file: &ModelFile<GpData>, d: usize) -> Option<String> {
+    if file.input.dim() != d
+        || file.input.scale.len() != d
+        || file.tare.mean_baseline.len() != file.features.len()
+    {
+        return Some(format!(
+            "{} features ({d} inputs, {:?}), but {} input means, {} input scales and {} tare baselines",
+            file.features.len(),
+            file.scaling,
+            file.input.dim(),
+            file.input.scale.len(),
+            file.tare.mean_baseline.len()
+        ));
+    }
+    if let SensorSpec::Nail(spec) = &file.sensor {
+        if let Err(e) = spec.check(file.features.len()) {
+            return Some(e.to_string());
+        }
+    }
+    let axes: Vec<Axis> = file.outputs.iter().map(|o| o.axis).collect();
+    if axes != file.axes.axes() {
+        return Some(format!("axes {} but outputs for {axes:?}", file.axes));
+    }
+    let net = file.network.as_ref();
+    net.filter(|net| net.n_inputs() != d || net.n_outputs() != file.axes.len())
+        .map(|net| {
+            format!(
+                "a network mean of {} inputs and {} outputs, but {d} inputs and {} axes",
+                net.n_inputs(),
+                net.n_outputs(),
+                file.axes.len()
+            )
+        })
+}
+
+/// What is wrong with one axis's stored model of `d` inputs; None when
+/// nothing is (its GP's own data are checked as it is built).
+fn output_problem(o: &AxisModel<GpData>, d: usize) -> Option<String> {
+    if o.gp.dim() != d {
+        return Some(format!(
+            "axis {}: GP of dimension {}, expected {d}",
+            o.axis,
+            o.gp.dim()
+        ));
+    }
+    let positive = |v: f64| v > 0.0 && v.is_finite();
+    if !(positive(o.target_scale) && positive(o.std_scale) && o.target_mean.is_finite()) {
+        return Some(format!(
+            "axis {}: target scale {} / mean {} / std scale {}",
+            o.axis, o.target_scale, o.target_mean, o.std_scale
+        ));
+    }
+    let l = o.linear.as_ref().filter(|l| !l.is_valid(d))?;
+    Some(format!(
+        "axis {}: linear mean of {} weights (expected {d}, all finite), intercept {}{}",
+        o.axis,
+        l.weights.len(),
+        l.bias,
+        l.bend.as_ref().map_or(String::new(), |b| format!(
+            ", bend of {} lines (1 to 6, each of {d} weights) with scales {:?} (> 0), \
+             ranges {:?} (ordered) and {} weights (one per term), all finite",
+            b.along.len(),
+            b.scale,
+            b.range,
+            b.coeffs.len()
+        ))
+    ))
 }

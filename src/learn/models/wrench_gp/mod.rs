@@ -3,28 +3,26 @@
 //! file (its format, saving and loading: `file.rs`), which records what made
 //! the model in types of its own ([`super::provenance`]).
 
+mod axis_fits;
 mod file;
 mod learner;
 mod network;
 mod observed;
 
 use ndarray::{Array2, ArrayView2};
-use rayon::prelude::*;
 use serde::Serialize;
-use std::sync::Mutex;
 
 use super::gp::fit::FitProgress;
-use super::gp::{
-    fit_gp_shared, FitData, FitInfo, Gp, GpError, GpParams, GpWorkspace, MeanKind, SeHyper, Start,
-};
+use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace, MeanKind, SeHyper};
 use super::nn::Mlp;
 use super::scale::{InputScaling, Standardizer};
 use crate::learn::data::Dataset;
 use crate::params::Checked;
 use crate::sensor::{ModelInput, SensorSpec};
 use crate::wrench::{Axis, AxisSet};
+use axis_fits::{floors, gp_targets, AxisFits};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
-use network::{network_mean, MAX_SIGNAL_FLOOR};
+use network::network_mean;
 
 pub use super::provenance::{
     AdaptChoice, AdaptedFrom, AloneScore, CalibrationRecord, Choice, CvRow, DataFile, GpChoice,
@@ -98,85 +96,17 @@ impl WrenchGp {
             residual -= &net.predict(inputs);
         }
         let axes = data.axes.axes();
-        // What each GP models: the target less its prior mean, standardised
-        // (so that the fit's starts and bounds hold).
-        let targets: Vec<(Standardizer, Vec<f64>)> = (0..axes.len())
-            .map(|j| {
-                let mut y = residual.column(j).to_owned();
-                if let Some(l) = &means[j] {
-                    y.iter_mut().zip(l.at_rows(&x)).for_each(|(y, p)| *y -= p);
-                }
-                let targets = Standardizer::fit(y.view().insert_axis(ndarray::Axis(1)));
-                let (m, s) = (targets.mean[0], targets.scale[0]);
-                (targets, y.iter().map(|v| (v - m) / s).collect())
-            })
-            .collect();
-        let start = |j: usize| {
-            warm.hypers
-                .and_then(|w| w.get(j))
-                .filter(|h| h.lengthscales.len() == d)
-                .map_or(Start::Multistart, |h| Start::Warm(h.clone()))
-        };
-        let progress = Mutex::new(progress);
-        let report = |axis: &[Axis], p: FitProgress| {
-            if let Ok(mut f) = progress.lock() {
-                axis.iter().for_each(|&a| f(a, p));
-            }
-        };
-        // A network mean's GPs may not shrink their prior below the targets'
-        // own variance: far from the training rows their doubt grows as a
-        // zero-mean GP's does, whatever the network extrapolates to.
-        let floors: Vec<Checked<GpParams>> = (0..axes.len())
-            .map(|j| {
-                let floor = match &network {
-                    Some(_) => (data.y.column(j).var(0.0) / targets[j].0.scale[0].powi(2))
-                        .clamp(params.min_signal_var, MAX_SIGNAL_FLOOR),
-                    None => params.min_signal_var,
-                };
-                GpParams {
-                    min_signal_var: floor,
-                    ..GpParams::clone(params)
-                }
-                .validate()
-            })
-            .collect::<Result<_, _>>()?;
-        let fits: Vec<(Gp, FitInfo)> = if params.shared && params.inducing.is_none() {
-            // One fit for every axis: targets row-major n x axes.
-            let k = axes.len();
-            let y: Vec<f64> = (0..data.len())
-                .flat_map(|i| targets.iter().map(move |t| t.1[i]))
-                .collect();
-            let start = start(0);
-            let fit = FitData {
-                x: &x,
-                d,
-                y: &y,
-                params: floors
-                    .iter()
-                    .min_by(|a, b| a.min_signal_var.total_cmp(&b.min_signal_var))
-                    .unwrap_or(params),
-                start: &start,
-            };
-            let (gps, info) = fit_gp_shared(&fit, k, &mut |p| report(axes, p))?;
-            gps.into_iter()
-                .map(|g| (Gp::Exact(g), info.clone()))
-                .collect()
-        } else {
-            (0..axes.len())
-                .into_par_iter()
-                .map(|j| {
-                    let start = start(j);
-                    let fit = FitData {
-                        x: &x,
-                        d,
-                        y: &targets[j].1,
-                        params: &floors[j],
-                        start: &start,
-                    };
-                    Gp::fit_from(&fit, &mut |p| report(&axes[j..=j], p))
-                })
-                .collect::<Result<_, GpError>>()?
-        };
+        let targets = gp_targets(&residual, &means, &x);
+        let floors = floors(data, &targets, network.is_some(), params)?;
+        let fits = AxisFits {
+            x: &x,
+            d,
+            axes,
+            targets: &targets,
+            floors: &floors,
+            warm: &warm,
+        }
+        .fit(params, progress)?;
         let outputs = fits
             .into_iter()
             .zip(targets)

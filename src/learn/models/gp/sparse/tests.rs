@@ -2,6 +2,7 @@
 
 use super::super::exact::tests::{assert_gradient_matches, data, hyper};
 use super::super::exact::{neg_lml_and_grad, ExactGp};
+use super::super::kernel::KernelKind;
 use super::super::select::greedy_variance;
 use super::*;
 
