@@ -192,17 +192,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
     let after = contact.map_or(&rows[rows.len()..], |i| &rows[i..]);
     let peak_force_n = rows.iter().map(pressing).fold(0.0, f64::max);
 
-    let mut by_axis = BTreeMap::new();
-    for (i, t) in targets.iter().enumerate() {
-        if let (Some(t), false) = (t, after.is_empty()) {
-            let ms = after
-                .iter()
-                .map(|r| (t - r.measured[i]).powi(2))
-                .sum::<f64>()
-                / after.len() as f64;
-            by_axis.insert(FORCE_AXES[i].name(), ms.sqrt());
-        }
-    }
+    let by_axis = rms_by_axis(&targets, after);
     let rms = by_axis.values().copied().reduce(f64::max);
 
     let window = |w: f64| rows.iter().filter(move |r| r.t > end_t - w);
@@ -227,31 +217,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         let held = rows[c..].iter().find(|r| r.phase == Phase::Hold)?;
         Some(held.t - rows[c].t)
     });
-    let (off_speed, off_ratio) = match info.task {
-        // The calibration slides and turns on purpose: nothing is off-axis.
-        TaskKind::Calibrate => (0.0, None),
-        TaskKind::Guarded => {
-            let d = nalgebra::Vector3::ith(normal, 1.0);
-            let s = rows
-                .iter()
-                .map(|r| (r.velocity - d * r.velocity.dot(&d)).norm())
-                .fold(0.0, f64::max);
-            (s, info.approach_speed_mps.map(|v| s / v))
-        }
-        TaskKind::Guided => {
-            let (mut s, mut ratio) = (0.0f64, 0.0f64);
-            for r in rows.iter().filter(|r| r.phase != Phase::Stopped) {
-                let Some(f) = r.finger.filter(|f| f.peak_speed_mps > 0.0) else {
-                    continue;
-                };
-                for i in (0..3).filter(|&i| !f.pushed[i]) {
-                    s = s.max(r.velocity[i].abs());
-                    ratio = ratio.max(r.velocity[i].abs() / f.peak_speed_mps);
-                }
-            }
-            (s, Some(ratio))
-        }
-    };
+    let (off_speed, off_ratio) = off_axis(info, rows, normal);
     let rest_speed_mps = window(REST_WINDOW_S)
         .map(|r| r.velocity.norm())
         .fold(0.0, f64::max);
@@ -284,6 +250,55 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         final_phase: last.map_or("none", |r| r.phase.name()),
         duration_s: end_t,
         identified: None,
+    }
+}
+
+/// The RMS error of each controlled axis (`targets`) over the rows from
+/// contact on (`after`).
+fn rms_by_axis(targets: &[Option<f64>; 3], after: &[TraceRow]) -> BTreeMap<&'static str, f64> {
+    let mut by_axis = BTreeMap::new();
+    for (i, t) in targets.iter().enumerate() {
+        if let (Some(t), false) = (t, after.is_empty()) {
+            let ms = after
+                .iter()
+                .map(|r| (t - r.measured[i]).powi(2))
+                .sum::<f64>()
+                / after.len() as f64;
+            by_axis.insert(FORCE_AXES[i].name(), ms.sqrt());
+        }
+    }
+    by_axis
+}
+
+/// The largest speed off the axes the task moves along (m/s), and its
+/// ratio to the commanded or the finger's speed: for the guarded move, off
+/// the `normal` axis; for the guided move, along axes the finger did not
+/// push; none for the calibration, which slides and turns on purpose.
+fn off_axis(info: &RunInfo, rows: &[TraceRow], normal: usize) -> (f64, Option<f64>) {
+    match info.task {
+        // The calibration slides and turns on purpose: nothing is off-axis.
+        TaskKind::Calibrate => (0.0, None),
+        TaskKind::Guarded => {
+            let d = nalgebra::Vector3::ith(normal, 1.0);
+            let s = rows
+                .iter()
+                .map(|r| (r.velocity - d * r.velocity.dot(&d)).norm())
+                .fold(0.0, f64::max);
+            (s, info.approach_speed_mps.map(|v| s / v))
+        }
+        TaskKind::Guided => {
+            let (mut s, mut ratio) = (0.0f64, 0.0f64);
+            for r in rows.iter().filter(|r| r.phase != Phase::Stopped) {
+                let Some(f) = r.finger.filter(|f| f.peak_speed_mps > 0.0) else {
+                    continue;
+                };
+                for i in (0..3).filter(|&i| !f.pushed[i]) {
+                    s = s.max(r.velocity[i].abs());
+                    ratio = ratio.max(r.velocity[i].abs() / f.peak_speed_mps);
+                }
+            }
+            (s, Some(ratio))
+        }
     }
 }
 

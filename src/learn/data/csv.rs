@@ -86,16 +86,6 @@ impl Dataset {
             path: p.clone(),
             source,
         };
-        // The line a record starts on, counted here: in files with CRLF
-        // line ends the csv crate's count, and its record offset, fall one
-        // line end short (the offset is at the '\n' of the previous one).
-        let line_at = |byte: u64| {
-            let mut end = usize::try_from(byte).unwrap_or(usize::MAX).min(bytes.len());
-            while bytes.get(end).is_some_and(|b| matches!(b, b'\r' | b'\n')) {
-                end += 1;
-            }
-            1 + bytes[..end].iter().filter(|&&b| b == b'\n').count() as u64
-        };
         // Fields are trimmed as they are parsed: one record is reused and
         // only the columns taken are looked at.
         let mut reader = csv::ReaderBuilder::new()
@@ -115,48 +105,24 @@ impl Dataset {
                 header: header.join(","),
             })
         };
-        let feature_idx = features
-            .iter()
-            .map(|f| need(f))
-            .collect::<Result<Vec<_>, _>>()?;
-        let axis_idx = axes
-            .axes()
-            .iter()
+        let feature_idx: Vec<usize> = features.iter().map(|f| need(f)).collect::<Result<_, _>>()?;
+        let axis_idx: Vec<usize> = (axes.axes().iter())
             .map(|a| need(a.name()))
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect::<Result<_, _>>()?;
         let (set_idx, trial_idx) = (find("set"), find("trial"));
-        let plausible: Vec<Option<Plausible>> =
-            header.iter().map(|h| Plausible::of(h, counts)).collect();
+        let fields = Fields {
+            path: &p,
+            bytes: &bytes,
+            header: &header,
+            plausible: header.iter().map(|h| Plausible::of(h, counts)).collect(),
+        };
 
         let mut xs = Vec::new();
         let mut ys = Vec::new();
         let (mut set, mut trial) = (Vec::new(), Vec::new());
         let mut rec = csv::ByteRecord::new();
         while reader.read_byte_record(&mut rec).map_err(csv_err)? {
-            let line = || rec.position().map_or(0, |pos| line_at(pos.byte()));
-            let num = |i: usize| -> Result<f64, DatasetError> {
-                let field = rec.get(i).unwrap_or(b"");
-                let value = std::str::from_utf8(field)
-                    .ok()
-                    .and_then(|text| text.trim().parse::<f64>().ok())
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| DatasetError::BadValue {
-                        path: p.clone(),
-                        line: line(),
-                        column: header[i].clone(),
-                        value: String::from_utf8_lossy(field).trim().to_string(),
-                    })?;
-                match plausible[i].as_ref().and_then(|c| c.check(value)) {
-                    None => Ok(value),
-                    Some(expected) => Err(DatasetError::Implausible {
-                        path: p.clone(),
-                        at: format!("line {}", line()),
-                        column: header[i].clone(),
-                        value,
-                        expected: expected.to_string(),
-                    }),
-                }
-            };
+            let num = |i: usize| fields.value(&rec, i);
             for &i in &feature_idx {
                 xs.push(num(i)?);
             }
@@ -180,5 +146,54 @@ impl Dataset {
             trial,
             images: None,
         })
+    }
+}
+
+/// A CSV file's header and each column's plausible values: a field's value,
+/// checked, or the error naming its line and column.
+struct Fields<'a> {
+    path: &'a str,
+    bytes: &'a [u8],
+    header: &'a [String],
+    plausible: Vec<Option<Plausible>>,
+}
+
+impl Fields<'_> {
+    /// The finite, plausible number in column `i` of `rec`.
+    fn value(&self, rec: &csv::ByteRecord, i: usize) -> Result<f64, DatasetError> {
+        let line = || rec.position().map_or(0, |pos| self.line_at(pos.byte()));
+        let field = rec.get(i).unwrap_or(b"");
+        let value = std::str::from_utf8(field)
+            .ok()
+            .and_then(|text| text.trim().parse::<f64>().ok())
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| DatasetError::BadValue {
+                path: self.path.into(),
+                line: line(),
+                column: self.header[i].clone(),
+                value: String::from_utf8_lossy(field).trim().to_string(),
+            })?;
+        match self.plausible[i].as_ref().and_then(|c| c.check(value)) {
+            None => Ok(value),
+            Some(expected) => Err(DatasetError::Implausible {
+                path: self.path.into(),
+                at: format!("line {}", line()),
+                column: self.header[i].clone(),
+                value,
+                expected: expected.to_string(),
+            }),
+        }
+    }
+
+    /// The line a record starting at `byte` is on, counted here: in files
+    /// with CRLF line ends the csv crate's count, and its record offset,
+    /// fall one line end short (the offset is at the '\n' of the previous one).
+    fn line_at(&self, byte: u64) -> u64 {
+        let bytes = self.bytes;
+        let mut end = usize::try_from(byte).unwrap_or(usize::MAX).min(bytes.len());
+        while bytes.get(end).is_some_and(|b| matches!(b, b'\r' | b'\n')) {
+            end += 1;
+        }
+        1 + bytes[..end].iter().filter(|&&b| b == b'\n').count() as u64
     }
 }
