@@ -2,8 +2,19 @@
 # The tests over DDS: our executables and an rclpy peer, against the ROS 2
 # that scripts/ros2-jazzy.sh set up (run it first). Each test picks its own
 # ROS_DOMAIN_ID.
+#
+#   tests/ros/run.sh                all of them, then hold_sweep.py's grid
+#   tests/ros/run.sh --only NAME    tests/ros/NAME.py alone
+#   tests/ros/run.sh --skip NAME    all but tests/ros/NAME.py, then the grid
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+mode=${1:-all}
+name=${2:-}
+case "$mode" in
+  all) ;;
+  --only | --skip) [ -f "tests/ros/$name.py" ] || { echo "run.sh: no test tests/ros/$name.py" >&2; exit 2; } ;;
+  *) echo "usage: tests/ros/run.sh [--only NAME | --skip NAME]" >&2; exit 2 ;;
+esac
 # shellcheck disable=SC1091
 . "${CARGO_TARGET_DIR:-target}/ros2/env.sh"
 # The independent plant of hold_sweep.py: MuJoCo and example-robot-data's
@@ -21,7 +32,12 @@ timed() {
   python "$@" || status=1
   echo "== $1: $((SECONDS - start)) s"
 }
+if [ "$mode" = --only ]; then
+  timed "tests/ros/$name.py"
+  exit "$status"
+fi
 for t in tests/ros/test_*.py; do
+  [ "$mode" = --skip ] && [ "$t" = "tests/ros/$name.py" ] && continue
   timed "$t"
 done
 # Both moves with the shipped parameters, nothing declared, on an arm with

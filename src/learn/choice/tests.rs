@@ -279,7 +279,7 @@ fn sparse_candidates_are_scored_on_fewer_rows_and_iterations_exact_ones_as_train
     let small = GpParams {
         sparse_candidates: 1000,
         sparse_fit_subset: 500,
-        sparse_iters: 5,
+        sparse_iters: SCORING_SPARSE_ITERS - 1,
         ..GpParams::default()
     };
     assert_eq!(scoring(small.clone()), small);
