@@ -39,7 +39,6 @@ LONG_FUNCTIONS = {
     ("learn/data/ros1.rs", "read_ros1_bag"): 103,
     ("nodes/sim_robot.rs", "new"): 97,
     ("commands/demo.rs", "run_demo"): 94,
-    ("commands/data.rs", "load_sessions"): 94,
     ("nail/sim.rs", "check"): 92,
     ("commands/robot.rs", "run_robot"): 92,
     ("nodes/force_controller/diagnostics.rs", "status"): 91,

@@ -138,6 +138,11 @@ impl AxisSet {
         AxisSet(vec![Axis::Fx, Axis::Fy, Axis::Fz])
     }
 
+    /// All six axes.
+    pub fn wrench() -> Self {
+        AxisSet(Axis::ALL.to_vec())
+    }
+
     /// The axes in wrench order.
     pub fn axes(&self) -> &[Axis] {
         &self.0

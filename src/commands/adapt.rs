@@ -11,10 +11,11 @@ use tactile_force::learn::models::gp::GpParams;
 use tactile_force::learn::models::wrench_gp::{AdaptChoice, AdaptedFrom, WrenchGp};
 use tactile_force::learn::pooled::{base_data, lineage, Adaptation, Unavailable};
 
-use super::data::{load_sessions, Features, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{print_scores, progress_bar, show};
 use super::train::trained_on;
 use super::{Context, Result};
+use tactile_force::learn::data::sessions::Features;
 
 #[derive(Args)]
 pub(crate) struct AdaptArgs {

@@ -17,13 +17,14 @@ use tactile_force::learn::models::nn::NnParams;
 use tactile_force::params::Check;
 use tactile_force::sensor::SensorSpec;
 
-use super::data::{load_sessions, Features, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{
     file_labels, print_selection, print_table, print_validation, progress_bar, show,
 };
 use super::train::{gp_params, FitArgs};
 use super::BadArgument;
 use super::{Context, Result};
+use tactile_force::learn::data::sessions::Features;
 
 #[derive(Args)]
 pub(crate) struct EvalArgs {

@@ -13,10 +13,11 @@ use tactile_force::params::Check;
 use tactile_force::report::plot;
 use tactile_force::wrench::AxisSet;
 
-use super::data::{load_sessions, Features, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{axis_headers, axis_scores, progress_bar};
 use super::BadArgument;
 use super::Result;
+use tactile_force::learn::data::sessions::Features;
 
 #[derive(Args)]
 pub struct TradeoffArgs {

@@ -12,14 +12,15 @@ use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
 use tactile_force::learn::models::scale::InputScaling;
 use tactile_force::learn::models::wrench_gp::{TareSpec, TrainedOn, WrenchGp};
 use tactile_force::learn::models::wrench_model::WrenchModel;
-use tactile_force::learn::pooled::{data_file, readable};
+use tactile_force::learn::pooled::data_file;
 use tactile_force::params::Checked;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::AxisSet;
 
-use super::data::{load_sessions, Features, Sessions, SourceArgs};
+use super::data::{load_sessions, SourceArgs};
 use super::output::{print_selection, progress_bar, show};
 use super::{BadArgument, Context, Failure, Result};
+use tactile_force::learn::data::sessions::{Features, SessionError, Sessions};
 
 /// Options shared by `train` and `eval`.
 #[derive(Args)]
@@ -274,8 +275,8 @@ fn say_trained(fit: &Scores, model: &dyn WrenchModel, fit_s: f64, a: &TrainArgs)
 
 /// The reference to `paths` (read as `sessions`) a model trained on them
 /// with `params` records; none when pooled retraining could not read them
-/// again as they were read (nail-camera directories, ROS 1 bags, other bag
-/// topics or trial cuts, `--ft-to-biotac`).
+/// again as they were read (nail-camera directories, other bag topics or
+/// trial cuts, `--ft-to-biotac`).
 pub(crate) fn trained_on(
     paths: &[PathBuf],
     sessions: &Sessions,
@@ -283,7 +284,7 @@ pub(crate) fn trained_on(
     params: GpParams,
 ) -> Result<Option<TrainedOn>> {
     let biotac = matches!(sessions.sensor, SensorSpec::Biotac { .. });
-    if !(biotac && source.pooling_repeats() && paths.iter().all(|p| readable(p))) {
+    if !(biotac && source.pooling_repeats()) {
         return Ok(None);
     }
     let files = paths
@@ -381,7 +382,7 @@ fn load_held(a: &TrainArgs) -> Result<(Sessions, Vec<Channel>)> {
         );
         let missing = match &loaded {
             Err(e) if a.fit.channels.is_none() => match e.cause() {
-                Some(DatasetError::MissingColumn { column, .. }) => held
+                Some(SessionError::Dataset(DatasetError::MissingColumn { column, .. })) => held
                     .iter()
                     .position(|c| c.name() == column && *c != Channel::Electrodes),
                 _ => None,

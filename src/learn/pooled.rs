@@ -9,8 +9,8 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use super::data::bag::{read_bag, BagTopics};
-use super::data::{Counts, Dataset, DatasetError};
+use super::data::sessions::{load_sessions, Features, Source};
+use super::data::Dataset;
 use super::evaluate::{score_model, EvalError};
 use super::models::ensemble::WrenchEnsemble;
 use super::models::gp::fit::FitProgress;
@@ -20,9 +20,7 @@ use super::models::wrench_gp::{
     WrenchGp,
 };
 use super::models::wrench_model::WrenchModel;
-use crate::biotac::hand::HandKind;
 use crate::params::Checked;
-use crate::sensor::SensorSpec;
 use crate::wrench::Axis;
 
 /// Why the base model's training data cannot be pooled.
@@ -87,15 +85,6 @@ pub fn data_file(path: &Path, rows: usize) -> std::io::Result<DataFile> {
         hash: file_hash(path)?,
         rows,
     })
-}
-
-/// Whether pooling can read `path` again as it was read for training
-/// (CSV, or rosbag2 MCAP of BioTac messages on the default topics).
-pub fn readable(path: &Path) -> bool {
-    !path.is_dir()
-        && !path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("bag"))
 }
 
 /// The reference an adapted or pooled model records: its base's files
@@ -183,38 +172,22 @@ pub fn base_data(model: &WrenchGp, given: Option<&[PathBuf]>) -> Result<BaseData
     })
 }
 
-/// One training file read with `model`'s features and axes, each trial
-/// tared on its first rows as the model's were.
+/// One training file read with `model`'s features and axes as the
+/// defaults read it ([`load_sessions`]), each trial tared on its first rows
+/// as the model's were.
 fn read_session(path: &Path, model: &WrenchGp) -> Result<Dataset, String> {
-    if !matches!(model.sensor(), SensorSpec::Biotac { .. }) || !readable(path) {
-        return Err("pooling reads BioTac CSV or rosbag2 MCAP files".into());
-    }
-    let (features, axes) = (model.features(), model.axes());
-    let samples = model.tare().samples;
-    let name = path.display().to_string();
-    let mcap = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
-    let mut ds = if mcap {
-        let bag = read_bag(path, &BagTopics::default()).map_err(|e| e.to_string())?;
-        if HandKind::of(&bag.reading_type).is_some() {
-            return Err(format!("{}: hand messages", bag.reading_type));
-        }
-        Dataset::from_records(&bag.records, features, axes, &name)
-    } else {
-        let counts = if samples == 0 {
-            Counts::Tared
-        } else {
-            Counts::Raw
-        };
-        Dataset::read_csv(path, features, axes, counts)
-    }
+    let sessions = load_sessions(
+        &[path.to_path_buf()],
+        Features::Model(model.features()),
+        model.axes(),
+        Some(model.tare().samples),
+        &Source::default(),
+        Some(model.sensor()),
+        &mut |_| {},
+    )
     .map_err(|e| e.to_string())?;
-    if samples > 0 {
-        ds.tare_per_trial(samples)
-            .map_err(|e: DatasetError| e.to_string())?;
-    }
-    Ok(ds)
+    let no_rows = || format!("{}: nothing read", path.display());
+    sessions.sets.into_iter().next().ok_or_else(no_rows)
 }
 
 impl BaseData {

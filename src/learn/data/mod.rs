@@ -3,18 +3,21 @@
 //! ([`bag`]), ROS 1 bags ([`ros1`]) of hands' BioTac messages
 //! ([`crate::biotac::hand`]),
 //! cut into trials ([`trials`]), and the nail camera's directories
-//! ([`nail`]); which columns hold what ([`columns`]).
+//! ([`nail`]); which columns hold what ([`columns`]); any of them read as
+//! tared sessions of one sensor ([`sessions`]).
 
 pub mod bag;
 pub mod columns;
 pub mod csv;
 pub mod nail;
 pub mod ros1;
+pub mod sessions;
 pub mod trials;
 
 use std::collections::BTreeMap;
 
 use ndarray::{Array2, Array3, Axis as NdAxis};
+use serde::{Deserialize, Serialize};
 
 use crate::biotac::reading::Column;
 use crate::biotac::ElectrodeLayout;
@@ -123,6 +126,16 @@ pub enum DatasetError {
         /// Rows needed.
         needed: usize,
     },
+}
+
+/// How the training features were tared.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TareSpec {
+    /// Out-of-contact samples at the start of each trial that gave its baseline.
+    pub samples: usize,
+    /// Baseline of each feature, averaged over the training trials (counts).
+    pub mean_baseline: Vec<f64>,
 }
 
 /// A file not written is a failure; anything else is a data file refused.

@@ -16,6 +16,7 @@ use super::provenance::{AdaptChoice, CalibrationRecord, Selection};
 use super::Prediction;
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
+pub use crate::learn::data::TareSpec;
 use crate::params::ParamsError;
 use crate::sensor::ModelInput;
 use crate::wrench::Axis;
@@ -144,16 +145,6 @@ impl Classify for ModelError {
             _ => ExitClass::Refused,
         }
     }
-}
-
-/// How the training features were tared.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TareSpec {
-    /// Out-of-contact samples at the start of each trial that gave its baseline.
-    pub samples: usize,
-    /// Baseline of each feature, averaged over the training trials (counts).
-    pub mean_baseline: Vec<f64>,
 }
 
 /// Estimate of one wrench component: mean and 1-sigma of the latent force.

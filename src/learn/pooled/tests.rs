@@ -4,7 +4,7 @@
 use super::*;
 use crate::biotac::sim::BioTacSimConfig;
 use crate::biotac::ElectrodeLayout;
-use crate::learn::data::{electrode_columns, write_csv};
+use crate::learn::data::{electrode_columns, write_csv, Counts};
 use crate::learn::models::wrench_gp::quick_params;
 use crate::sim::collect::{collect, CollectConfig};
 
