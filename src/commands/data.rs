@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use tactile_force::learn::data::bag::BagTopics;
-use tactile_force::learn::data::sessions::{self, Features, Sessions, Source};
+use tactile_force::learn::data::sessions::{self, Features, Request, Sessions, Source};
 use tactile_force::learn::data::sessions::{DEFAULT_REST_FORCE_N, DEFAULT_REST_MIN_S};
 use tactile_force::learn::data::trials::TrialsArg;
 use tactile_force::sensor::SensorSpec;
@@ -95,15 +95,14 @@ pub(crate) fn load_sessions(
     source: &SourceArgs,
     sensor: Option<&SensorSpec>,
 ) -> Result<Sessions> {
-    let source = source.source();
-    let say = &mut |s: String| eprintln!("{s}");
-    Ok(sessions::load_sessions(
+    let request = Request {
         paths,
         features,
         axes,
         tare_samples,
-        &source,
+        source: &source.source(),
         sensor,
-        say,
-    )?)
+    };
+    let say = &mut |s: String| eprintln!("{s}");
+    Ok(sessions::load_sessions(&request, say)?)
 }

@@ -9,7 +9,7 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use super::data::sessions::{load_sessions, Features, Source};
+use super::data::sessions::{load_sessions, Features, Request, Source};
 use super::data::Dataset;
 use super::evaluate::{score_model, EvalError};
 use super::models::ensemble::WrenchEnsemble;
@@ -176,16 +176,15 @@ pub fn base_data(model: &WrenchGp, given: Option<&[PathBuf]>) -> Result<BaseData
 /// defaults read it ([`load_sessions`]), each trial tared on its first rows
 /// as the model's were.
 fn read_session(path: &Path, model: &WrenchGp) -> Result<Dataset, String> {
-    let sessions = load_sessions(
-        &[path.to_path_buf()],
-        Features::Model(model.features()),
-        model.axes(),
-        Some(model.tare().samples),
-        &Source::default(),
-        Some(model.sensor()),
-        &mut |_| {},
-    )
-    .map_err(|e| e.to_string())?;
+    let request = Request {
+        paths: &[path.to_path_buf()],
+        features: Features::Model(model.features()),
+        axes: model.axes(),
+        tare_samples: Some(model.tare().samples),
+        source: &Source::default(),
+        sensor: Some(model.sensor()),
+    };
+    let sessions = load_sessions(&request, &mut |_| {}).map_err(|e| e.to_string())?;
     let no_rows = || format!("{}: nothing read", path.display());
     sessions.sets.into_iter().next().ok_or_else(no_rows)
 }

@@ -232,28 +232,37 @@ pub enum Features<'a> {
     Model(&'a [String]),
 }
 
-/// Reads sessions of either sensor, each trial tared on its first
-/// `tare_samples` rows (0: already tared; None: the sensor's default),
-/// refused when they mix sensors or their sensor is not `sensor`'s. BioTac
-/// files give the `features`. Nail-camera directories give the principal
+/// The files to read as sessions and how.
+#[derive(Debug, Clone, Copy)]
+pub struct Request<'a> {
+    /// Data files, or nail-camera directories.
+    pub paths: &'a [PathBuf],
+    /// The BioTac features (nail-camera directories give their own).
+    pub features: Features<'a>,
+    /// The targets.
+    pub axes: &'a AxisSet,
+    /// Each trial tared on its first rows (0: already tared; None: the
+    /// sensor's default).
+    pub tare_samples: Option<usize>,
+    /// Where the wrenches come from.
+    pub source: &'a Source,
+    /// The sensor of the model the data are for, if any.
+    pub sensor: Option<&'a SensorSpec>,
+}
+
+/// Reads sessions of either sensor as `r` says, each trial tared, refused
+/// when they mix sensors or their sensor is not `r.sensor`. BioTac files
+/// give the `features`. Nail-camera directories give the principal
 /// components of their frames' nail pixels (`features` does not apply),
-/// projected as `sensor` says or, without it, as fitted on these
+/// projected as `r.sensor` says or, without it, as fitted on these
 /// directories' frames (no labels are used).
-pub fn load_sessions(
-    paths: &[PathBuf],
-    features: Features,
-    axes: &AxisSet,
-    tare_samples: Option<usize>,
-    source: &Source,
-    sensor: Option<&SensorSpec>,
-    say: Say,
-) -> Result<Sessions, SessionError> {
-    let nail = paths.iter().filter(|p| is_nail_dir(p)).count();
-    if nail > 0 && nail < paths.len() {
+pub fn load_sessions(r: &Request, say: Say) -> Result<Sessions, SessionError> {
+    let nail = r.paths.iter().filter(|p| is_nail_dir(p)).count();
+    if nail > 0 && nail < r.paths.len() {
         let msg = "the data files mix nail-camera directories and BioTac files";
         return Err(SessionError::Sensor(msg.into()));
     }
-    match sensor {
+    match r.sensor {
         Some(s @ SensorSpec::Nail(_)) if nail == 0 => Err(SessionError::Sensor(format!(
             "BioTac data given to a model of the {} sensor",
             s.name()
@@ -262,26 +271,20 @@ pub fn load_sessions(
             "nail-camera data given to a model of the {} sensor",
             s.name()
         ))),
-        _ if nail > 0 => nail_sessions(paths, axes, tare_samples, sensor, say),
-        _ => biotac_sessions(paths, features, axes, tare_samples, source, sensor, say),
+        _ if nail > 0 => nail_sessions(r, say),
+        _ => biotac_sessions(r, say),
     }
 }
 
-/// Nail-camera directories as sessions, projected as `sensor` (a nail
+/// Nail-camera directories as sessions, projected as `r.sensor` (a nail
 /// sensor's) says or as fitted on their frames.
-fn nail_sessions(
-    paths: &[PathBuf],
-    axes: &AxisSet,
-    tare_samples: Option<usize>,
-    sensor: Option<&SensorSpec>,
-    say: Say,
-) -> Result<Sessions, SessionError> {
-    let spec = match sensor {
+fn nail_sessions(r: &Request, say: Say) -> Result<Sessions, SessionError> {
+    let spec = match r.sensor {
         Some(SensorSpec::Nail(spec)) => Some(spec.as_ref()),
         _ => None,
     };
-    let (mut sets, spec) = read_nail_dirs(paths, axes, spec)?;
-    if sensor.is_none() {
+    let (mut sets, spec) = read_nail_dirs(r.paths, r.axes, spec)?;
+    if r.sensor.is_none() {
         say(format!(
             "nail frames: {} nail pixels of {:?} px, {} principal components holding {:.1} % \
              of their variance",
@@ -291,8 +294,8 @@ fn nail_sessions(
             spec.projection.explained * 100.0
         ));
     }
-    let samples = tare_samples.unwrap_or(nail::TARE_FRAMES);
-    let tare = tare_each(&mut sets, paths, samples)?;
+    let samples = r.tare_samples.unwrap_or(nail::TARE_FRAMES);
+    let tare = tare_each(&mut sets, r.paths, samples)?;
     Ok(Sessions {
         sets,
         tare,
@@ -300,38 +303,30 @@ fn nail_sessions(
     })
 }
 
-/// BioTac files as sessions, their electrode layout `sensor`'s if given.
-fn biotac_sessions(
-    paths: &[PathBuf],
-    features: Features,
-    axes: &AxisSet,
-    tare_samples: Option<usize>,
-    source: &Source,
-    sensor: Option<&SensorSpec>,
-    say: Say,
-) -> Result<Sessions, SessionError> {
-    let layout = layout_of_files(paths, axes, source)?;
-    if let Some(&SensorSpec::Biotac { electrodes }) = sensor {
+/// BioTac files as sessions, their electrode layout `r.sensor`'s if given.
+fn biotac_sessions(r: &Request, say: Say) -> Result<Sessions, SessionError> {
+    let layout = layout_of_files(r.paths, r.axes, r.source)?;
+    if let Some(&SensorSpec::Biotac { electrodes }) = r.sensor {
         if electrodes != layout {
             let msg = format!("model trained on {electrodes}, readings have {layout}");
             return Err(SessionError::Sensor(msg));
         }
     }
-    let features = match features {
+    let features = match r.features {
         Features::Channels(channels) => channel_columns(channels, layout),
         Features::Model(names) => names.to_vec(),
     };
-    let samples = tare_samples.unwrap_or(biotac::DEFAULT_TARE_SAMPLES);
+    let samples = r.tare_samples.unwrap_or(biotac::DEFAULT_TARE_SAMPLES);
     // Untared files hold raw counts; tared ones may go below zero.
     let counts = match samples {
         0 => Counts::Tared,
         _ => Counts::Raw,
     };
-    let mut sets = Vec::with_capacity(paths.len());
-    for p in paths {
-        sets.push(read_file(p, &features, axes, counts, source, say)?);
+    let mut sets = Vec::with_capacity(r.paths.len());
+    for p in r.paths {
+        sets.push(read_file(p, &features, r.axes, counts, r.source, say)?);
     }
-    let tare = tare_each(&mut sets, paths, samples)?;
+    let tare = tare_each(&mut sets, r.paths, samples)?;
     Ok(Sessions {
         sets,
         tare,

@@ -31,16 +31,15 @@ fn each_file_is_tared_per_trial_and_the_baselines_averaged() {
     );
     let features = ["e1".to_string()];
     let axes: AxisSet = "fz".parse().unwrap();
-    let s = load_sessions(
-        &[a, b],
-        Features::Model(&features),
-        &axes,
-        Some(1),
-        &Source::default(),
-        None,
-        &mut quiet(),
-    )
-    .unwrap();
+    let request = Request {
+        paths: &[a, b],
+        features: Features::Model(&features),
+        axes: &axes,
+        tare_samples: Some(1),
+        source: &Source::default(),
+        sensor: None,
+    };
+    let s = load_sessions(&request, &mut quiet()).unwrap();
     assert_eq!(s.sets[0].x.column(0).to_vec(), vec![0.0, 2.0, 0.0, 1.0]);
     assert_eq!(s.sets[1].x.column(0).to_vec(), vec![0.0, 6.0]);
     // a: trials at 10 and 30 (mean 20); b: 20.
@@ -101,16 +100,15 @@ fn files_of_two_sensors_or_not_the_models_sensor_are_refused_by_name() {
     let axes: AxisSet = "fz".parse().unwrap();
     let channels = [Channel::Electrodes];
     let load = |paths: &[PathBuf], sensor: Option<&SensorSpec>| {
-        let src = Source::default();
-        load_sessions(
+        let request = Request {
             paths,
-            Features::Channels(&channels),
-            &axes,
-            Some(0),
-            &src,
+            features: Features::Channels(&channels),
+            axes: &axes,
+            tare_samples: Some(0),
+            source: &Source::default(),
             sensor,
-            &mut quiet(),
-        )
+        };
+        load_sessions(&request, &mut quiet())
     };
     let err = load(&[sp.clone(), bt.clone()], None).unwrap_err();
     assert!(
