@@ -18,6 +18,8 @@ use rosbag::{ChunkRecord, MessageRecord, RosBag};
 
 use super::bag::{paired, stamp_or_log_time, Bag, BagError, BagTopics, Holds, Series};
 use crate::biotac::hand::{ros1_wrench, Encoding, HandKind, HandLayout, ROS1_WRENCH_TYPE};
+use crate::biotac::BioTacReading;
+use crate::wrench::Wrench;
 
 /// The first bytes of a ROS 1 bag of format 2.0.
 pub const ROS1_MAGIC: &[u8] = b"#ROSBAG V2.0\n";
@@ -46,106 +48,163 @@ enum Role {
 /// wrench of nearest stamp.
 pub fn read_ros1_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
     let p = path.display().to_string();
+    let bag = open(path, &p)?;
+    let mut reader = Reader::new(&p, topics);
+    for record in bag.chunk_records() {
+        let chunk = match record {
+            Ok(ChunkRecord::Chunk(chunk)) => chunk,
+            Ok(ChunkRecord::IndexData(_)) => continue,
+            Err(e) => return Err(reader.corrupt(e.to_string())),
+        };
+        for record in chunk.messages() {
+            match record.map_err(|e| reader.corrupt(e.to_string()))? {
+                MessageRecord::Connection(c) => {
+                    reader.connection(c.id, c.topic, c.tp, c.message_definition)?
+                }
+                MessageRecord::MessageData(m) => reader.message(m.conn_id, m.data, m.time)?,
+            }
+        }
+    }
+    reader.finish()
+}
+
+/// The bag at `path` (named `p`), its header checked first.
+fn open(path: &Path, p: &str) -> Result<RosBag, BagError> {
     let io = |source| BagError::Open {
-        path: p.clone(),
+        path: p.into(),
         source,
     };
+    let corrupt = |reason: String| Reader::new(p, &BagTopics::default()).corrupt(reason);
     // The header is within the first 4 KiB as rosbag writes it.
     let mut head = Vec::new();
     let file = std::fs::File::open(path).map_err(io)?;
     let file_len = file.metadata().map_err(io)?.len();
     std::io::Read::read_to_end(&mut std::io::Read::take(file, 1 << 16), &mut head).map_err(io)?;
-    let corrupt = |messages, holds: &Holds, reason: String| BagError::Ros1Corrupt {
-        path: p.clone(),
-        messages,
-        holds: holds.to_string(),
-        reason,
-    };
-    let mut holds = Holds::new();
     check_header(&head, file_len).map_err(|e| match e {
         HeaderError::NotABag(reason) => BagError::NotRos1 {
-            path: p.clone(),
+            path: p.into(),
             reason,
         },
-        HeaderError::Broken(reason) => corrupt(0, &holds, reason),
+        HeaderError::Broken(reason) => corrupt(reason),
     })?;
-    let bag = RosBag::new(path).map_err(|e| corrupt(0, &holds, e.to_string()))?;
+    RosBag::new(path).map_err(|e| corrupt(e.to_string()))
+}
 
-    let mut readings = Series::new(&p, &topics.biotac);
-    let mut wrenches = Series::new(&p, &topics.ft);
-    let mut connections: HashMap<u32, (Role, String, String)> = HashMap::new();
-    let mut messages = 0;
-    let mut unknown = None;
-    for record in bag.chunk_records() {
-        let chunk = match record {
-            Ok(ChunkRecord::Chunk(chunk)) => chunk,
-            Ok(ChunkRecord::IndexData(_)) => continue,
-            Err(e) => return Err(corrupt(messages, &holds, e.to_string())),
-        };
-        for record in chunk.messages() {
-            match record.map_err(|e| corrupt(messages, &holds, e.to_string()))? {
-                MessageRecord::Connection(c) => {
-                    if let Entry::Vacant(slot) = connections.entry(c.id) {
-                        // An unknown type is told once the bag is counted.
-                        let role = match role(&p, c.topic, c.tp, c.message_definition, topics) {
-                            Err(e @ BagError::UnknownType { .. }) => {
-                                unknown.get_or_insert(e);
-                                Role::Other
-                            }
-                            role => role?,
-                        };
-                        if let Role::Readings(_) = role {
-                            readings.msg_type = c.tp.into();
-                        }
-                        slot.insert((role, c.topic.into(), c.tp.into()));
-                    }
-                }
-                MessageRecord::MessageData(m) => {
-                    let Some((role, topic, tp)) = connections.get(&m.conn_id) else {
-                        let reason = format!("a message of connection {} before it", m.conn_id);
-                        return Err(corrupt(messages, &holds, reason));
-                    };
-                    messages += 1;
-                    holds.count(topic, || tp.clone());
-                    let tolerance_s = topics.tolerance_s;
-                    match *role {
-                        Role::Readings(layout) => {
-                            readings.push(m.data, m.time, tolerance_s, |b| {
-                                let (stamp_s, reading) =
-                                    layout.decode(b, Encoding::Ros1, topics.finger)?;
-                                Ok(stamp_or_log_time(stamp_s, reading, m.time))
-                            })?
-                        }
-                        Role::Wrenches => wrenches.push(m.data, m.time, tolerance_s, |b| {
-                            let (stamp_s, wrench) = ros1_wrench(b)?;
-                            let zero = stamp_s == 0.0;
-                            Ok((if zero { m.time as f64 * 1e-9 } else { stamp_s }, wrench))
-                        })?,
-                        Role::Other => {}
-                    }
-                }
-            }
+/// A bag's records taken in file order: its connections' roles, the
+/// readings and wrenches so far, what it holds.
+struct Reader<'a> {
+    p: &'a str,
+    topics: &'a BagTopics,
+    readings: Series<'a, BioTacReading>,
+    wrenches: Series<'a, Wrench>,
+    /// Role, topic and type by connection id.
+    connections: HashMap<u32, (Role, String, String)>,
+    messages: usize,
+    holds: Holds,
+    /// The first connection of an unknown type, told once the bag is counted.
+    unknown: Option<BagError>,
+}
+
+impl<'a> Reader<'a> {
+    fn new(p: &'a str, topics: &'a BagTopics) -> Self {
+        Reader {
+            p,
+            topics,
+            readings: Series::new(p, &topics.biotac),
+            wrenches: Series::new(p, &topics.ft),
+            connections: HashMap::new(),
+            messages: 0,
+            holds: Holds::new(),
+            unknown: None,
         }
     }
 
-    if let Some(BagError::UnknownType {
-        path,
-        topic,
-        expected,
-        found,
-        ..
-    }) = unknown
-    {
-        let holds = holds.to_string();
-        return Err(BagError::UnknownType {
+    /// The bag is broken here, for `reason`.
+    fn corrupt(&self, reason: String) -> BagError {
+        BagError::Ros1Corrupt {
+            path: self.p.into(),
+            messages: self.messages,
+            holds: self.holds.to_string(),
+            reason,
+        }
+    }
+
+    /// A connection record: its role, kept by id (the first record of an id).
+    fn connection(
+        &mut self,
+        id: u32,
+        topic: &str,
+        tp: &str,
+        definition: &str,
+    ) -> Result<(), BagError> {
+        let Entry::Vacant(slot) = self.connections.entry(id) else {
+            return Ok(());
+        };
+        let role = match role(self.p, topic, tp, definition, self.topics) {
+            Err(e @ BagError::UnknownType { .. }) => {
+                self.unknown.get_or_insert(e);
+                Role::Other
+            }
+            role => role?,
+        };
+        if let Role::Readings(_) = role {
+            self.readings.msg_type = tp.into();
+        }
+        slot.insert((role, topic.into(), tp.into()));
+        Ok(())
+    }
+
+    /// A message of connection `id`, logged at `time` (ns).
+    fn message(&mut self, id: u32, data: &[u8], time: u64) -> Result<(), BagError> {
+        let Some((role, topic, tp)) = self.connections.get(&id) else {
+            let reason = format!("a message of connection {id} before it");
+            return Err(self.corrupt(reason));
+        };
+        self.messages += 1;
+        self.holds.count(topic, || tp.clone());
+        let (tolerance_s, finger) = (self.topics.tolerance_s, self.topics.finger);
+        match *role {
+            Role::Readings(layout) => self.readings.push(data, time, tolerance_s, |b| {
+                let (stamp_s, reading) = layout.decode(b, Encoding::Ros1, finger)?;
+                Ok(stamp_or_log_time(stamp_s, reading, time))
+            }),
+            Role::Wrenches => self.wrenches.push(data, time, tolerance_s, |b| {
+                let (stamp_s, wrench) = ros1_wrench(b)?;
+                let zero = stamp_s == 0.0;
+                Ok((if zero { time as f64 * 1e-9 } else { stamp_s }, wrench))
+            }),
+            Role::Other => Ok(()),
+        }
+    }
+
+    /// The readings paired with the wrenches; the first unknown type
+    /// refused, naming what the bag holds.
+    fn finish(mut self) -> Result<Bag, BagError> {
+        if let Some(BagError::UnknownType {
             path,
             topic,
             expected,
             found,
-            holds,
-        });
+            ..
+        }) = self.unknown
+        {
+            let holds = self.holds.to_string();
+            return Err(BagError::UnknownType {
+                path,
+                topic,
+                expected,
+                found,
+                holds,
+            });
+        }
+        paired(
+            self.p,
+            self.topics,
+            &mut self.readings,
+            &mut self.wrenches,
+            &self.holds,
+        )
     }
-    paired(&p, topics, &mut readings, &mut wrenches, &holds)
 }
 
 /// The role of a connection on `topic` of type `tp`; an error when a topic
