@@ -42,7 +42,6 @@ LONG_FUNCTIONS = {
     ("commands/robot.rs", "run_robot"): 92,
     ("nodes/force_controller/diagnostics.rs", "status"): 91,
     ("commands/demo.rs", "run_sweep"): 89,
-    ("learn/evaluate.rs", "evaluate_splits"): 87,
 }
 FN_START = re.compile(r"^(\s*)(pub(\([^)]*\))? )?(async )?(const )?(unsafe )?fn (\w+)")
 

@@ -379,9 +379,8 @@ fn evaluate_splits(
     let learners = opts.learners(tare);
     let mut results = Vec::new();
     let mut pooled = Vec::new();
-    // Per model, in the learners' order: its predictions per split and
-    // its total training time.
-    let mut per_model: Vec<(&'static str, Vec<Prediction>, f64)> = Vec::new();
+    // Per model, in the learners' order.
+    let mut per_model: PerModel = Vec::new();
     let mut n_train = 0;
     for (s, (train, tests)) in splits.enumerate() {
         progress(Progress::Fold(s + 1, n_splits));
@@ -396,24 +395,7 @@ fn evaluate_splits(
             })?;
         let (preds, rows_trained) = fit_and_predict(&train, &test, &learners, opts, progress)?;
         n_train = rows_trained;
-        let mut from = 0;
-        for t in &tests {
-            let rows = from..from + t.len();
-            from += t.len();
-            let mut by_model = preds.iter().map(|p| {
-                let pred = p.pred.mean.slice(ndarray::s![rows.clone(), ..]);
-                let std = (p.pred.std.as_ref()).map(|m| m.slice(ndarray::s![rows.clone(), ..]));
-                let s = scores(&t.axes, t.y.view(), (pred, std), p.fit_s, n_train);
-                (p.name, with_direction(s, t, pred, opts.min_peak_n))
-            });
-            let (_, gp) = by_model.next().ok_or(EvalError::Folds(0))?;
-            results.push(FoldScores {
-                fold: results.len() + 1,
-                n_test: t.len(),
-                gp,
-                baselines: by_model.collect(),
-            });
-        }
+        score_test_sets(&tests, &preds, n_train, opts, &mut results)?;
         for p in preds {
             match per_model.iter_mut().find(|(name, _, _)| *name == p.name) {
                 Some((_, preds, time)) => {
@@ -425,10 +407,59 @@ fn evaluate_splits(
         }
         pooled.push(test);
     }
+    let (gp, baselines) = pooled_scores(&per_model, &pooled, n_splits, n_train, opts)?;
+    Ok(Evaluation {
+        folds: results,
+        gp,
+        baselines,
+    })
+}
+
+/// Each of `tests`' scores, a fold each, from the models' estimates
+/// `preds` of them all (stacked in order), after `n_train` training rows.
+fn score_test_sets(
+    tests: &[Dataset],
+    preds: &[Predictions],
+    n_train: usize,
+    opts: &EvalOptions,
+    results: &mut Vec<FoldScores>,
+) -> Result<(), EvalError> {
+    let mut from = 0;
+    for t in tests {
+        let rows = from..from + t.len();
+        from += t.len();
+        let mut by_model = preds.iter().map(|p| {
+            let pred = p.pred.mean.slice(ndarray::s![rows.clone(), ..]);
+            let std = (p.pred.std.as_ref()).map(|m| m.slice(ndarray::s![rows.clone(), ..]));
+            let s = scores(&t.axes, t.y.view(), (pred, std), p.fit_s, n_train);
+            (p.name, with_direction(s, t, pred, opts.min_peak_n))
+        });
+        let (_, gp) = by_model.next().ok_or(EvalError::Folds(0))?;
+        results.push(FoldScores {
+            fold: results.len() + 1,
+            n_test: t.len(),
+            gp,
+            baselines: by_model.collect(),
+        });
+    }
+    Ok(())
+}
+
+/// Each model's predictions per split and its total training time.
+type PerModel = Vec<(&'static str, Vec<Prediction>, f64)>;
+
+/// The scores over the `pooled` test sets of every split of the models
+/// that predicted each (the GP's, then the baselines').
+fn pooled_scores(
+    per_model: &PerModel,
+    pooled: &[Dataset],
+    n_splits: usize,
+    n_train: usize,
+    opts: &EvalOptions,
+) -> Result<(Scores, BTreeMap<&'static str, Scores>), EvalError> {
     let refs: Vec<&Dataset> = pooled.iter().collect();
     let all = Dataset::concat(&refs).ok_or(EvalError::Folds(0))?;
     let nf = n_splits as f64;
-    // Pooled scores of the models that predicted every split.
     let mut overall = per_model
         .iter()
         .filter(|(_, preds, _)| preds.len() == pooled.len())
@@ -450,11 +481,7 @@ fn evaluate_splits(
         .collect::<Result<Vec<_>, EvalError>>()?
         .into_iter();
     let (_, gp) = overall.next().ok_or(EvalError::Folds(0))?;
-    Ok(Evaluation {
-        folds: results,
-        gp,
-        baselines: overall.collect(),
-    })
+    Ok((gp, overall.collect()))
 }
 
 /// The least share of its training targets' variance (R2) a model must
