@@ -40,7 +40,6 @@ LONG_FUNCTIONS = {
     ("commands/demo.rs", "run_demo"): 94,
     ("nail/sim.rs", "check"): 92,
     ("commands/robot.rs", "run_robot"): 92,
-    ("nodes/force_controller/diagnostics.rs", "status"): 91,
     ("commands/demo.rs", "run_sweep"): 89,
 }
 FN_START = re.compile(r"^(\s*)(pub(\([^)]*\))? )?(async )?(const )?(unsafe )?fn (\w+)")

@@ -5,6 +5,7 @@
 //! what its input guard refused.
 
 use super::ForceControllerNode;
+use crate::nodes::controller::ForceController;
 use crate::nodes::status::{Level, Status};
 
 impl ForceControllerNode {
@@ -30,48 +31,17 @@ impl ForceControllerNode {
             }
         }
         if let Some(c) = &self.controller {
-            let ms = |v: f64| format!("{:.1}", v * 1e3);
-            let t = c.timing();
-            s.value("transport_ms", ms(t.transport_s));
-            s.value("arm_latency_ms", ms(t.latency_s));
-            s.value("arm_lag_ms", ms(t.lag_s));
-            s.value("arm_fitted", c.arm_response().is_some());
-            s.value("stale_after_ms", ms(c.stale_after_s()));
-            for (q, name) in [
-                (0.5, "estimate_interval_p50_ms"),
-                (0.99, "estimate_interval_p99_ms"),
-            ] {
-                if let Some(i) = c.arrivals().interval_s(q) {
-                    s.value(name, ms(i));
-                }
-            }
-            s.value("stale_halts", self.stale_halts);
-            let f = c.task().figures();
-            let axes = ["x", "y", "z"];
-            for (i, g) in c.gains().iter().enumerate() {
-                if let Some(g) = g {
-                    s.push(
-                        format!("gain_{}_mm_s_per_n", axes[i]),
-                        format!("{:.2}", g * 1e3),
-                    );
-                }
-            }
-            for (i, k) in f.stiffness_n_per_m.iter().enumerate() {
-                if let Some(k) = k {
-                    s.push(format!("stiffness_{}_n_per_m", axes[i]), format!("{k:.0}"));
-                }
-            }
-            if f.softened > 0 {
-                s.raise(
-                    Level::Warn,
-                    &format!(
-                        "; gain lowered {} time(s): the force oscillated",
-                        f.softened
-                    ),
-                );
-                s.value("gain_lowered", f.softened);
-            }
+            loop_values(&mut s, c, self.stale_halts);
         }
+        self.delay_values(&mut s);
+        s.value("rejected", self.rejected);
+        self.guard.report(&mut s);
+        s
+    }
+
+    /// The loop delay's report, when one is due, against the bound the
+    /// gains assume: warned once when it goes beyond and once when back.
+    fn delay_values(&mut self, s: &mut Status) {
         if let Some(r) = self.delays.take_report() {
             let ms = |v: f64| format!("{:.2}", v * 1e3);
             s.value("loop_delay_steps", r.steps);
@@ -98,8 +68,52 @@ impl ForceControllerNode {
                 }
             }
         }
-        s.value("rejected", self.rejected);
-        self.guard.report(&mut s);
-        s
+    }
+}
+
+/// The loop as `c` measures it: the estimates' age and arrival, the stale
+/// bound and its `stale_halts`, the arm's response, the gains and the
+/// contact's stiffness, a gain lowered.
+fn loop_values(s: &mut Status, c: &ForceController, stale_halts: u64) {
+    let ms = |v: f64| format!("{:.1}", v * 1e3);
+    let t = c.timing();
+    s.value("transport_ms", ms(t.transport_s));
+    s.value("arm_latency_ms", ms(t.latency_s));
+    s.value("arm_lag_ms", ms(t.lag_s));
+    s.value("arm_fitted", c.arm_response().is_some());
+    s.value("stale_after_ms", ms(c.stale_after_s()));
+    for (q, name) in [
+        (0.5, "estimate_interval_p50_ms"),
+        (0.99, "estimate_interval_p99_ms"),
+    ] {
+        if let Some(i) = c.arrivals().interval_s(q) {
+            s.value(name, ms(i));
+        }
+    }
+    s.value("stale_halts", stale_halts);
+    let f = c.task().figures();
+    let axes = ["x", "y", "z"];
+    for (i, g) in c.gains().iter().enumerate() {
+        if let Some(g) = g {
+            s.push(
+                format!("gain_{}_mm_s_per_n", axes[i]),
+                format!("{:.2}", g * 1e3),
+            );
+        }
+    }
+    for (i, k) in f.stiffness_n_per_m.iter().enumerate() {
+        if let Some(k) = k {
+            s.push(format!("stiffness_{}_n_per_m", axes[i]), format!("{k:.0}"));
+        }
+    }
+    if f.softened > 0 {
+        s.raise(
+            Level::Warn,
+            &format!(
+                "; gain lowered {} time(s): the force oscillated",
+                f.softened
+            ),
+        );
+        s.value("gain_lowered", f.softened);
     }
 }
