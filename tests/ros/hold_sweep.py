@@ -311,7 +311,9 @@ def guided_figures(forces, arm, finger, watch=None, longest_gap_s=0.0):
     after = [f for t, f in forces if t >= t0]
     target = (0.0, 0.0, 1.0)
     rms = [(sum((f[i] - target[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
-    off, _ = dds.off_axis_ratio(arm, finger, t0 + 1.0)
+    off, where = dds.off_axis_ratio(arm, finger, t0 + 1.0)
+    if LOGS:
+        print(f"  the largest off-axis speed: {where}", flush=True)
     stopped = watch is not None and bool(watch.phases & {"retract", "stopped"})
     halts = watch.stale_halts if watch is not None else 0
     missing = longest_gap_s >= 2 * ESTIMATE_PERIOD_S

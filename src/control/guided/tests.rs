@@ -51,7 +51,7 @@ fn gives_way_to_pushes_and_presses_when_too_light() {
     let mut g = guided();
     let v = g.velocity(&input(Vector3::new(0.5, -0.5, 1.0)));
     assert!(v.x > 0.0 && v.y < 0.0 && v.z == 0.0, "{v}");
-    let v = g.velocity(&input(Vector3::new(0.1, 0.0, 0.5)));
+    let v = guided().velocity(&input(Vector3::new(0.1, 0.0, 0.5)));
     assert!(v.x == 0.0 && v.z < 0.0, "deadband on x, press on z: {v}");
     assert_eq!(g.targets(), [Some(0.0), Some(0.0), Some(1.0)]);
 }
@@ -136,16 +136,16 @@ fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
     assert_eq!(g.phase(), Phase::Stopped);
 }
 
-#[test]
-fn across_the_pad_the_arm_moves_with_the_finger_and_lags_it_less() {
-    // A finger sliding at 30 mm/s along x over a contact of 250 N/m,
-    // the arm tracking commands 40 ms late: the force it takes to move.
-    let lag_behind = |feedforward: bool| {
-        let mut g = guided();
-        let (k, dt) = (250.0, 0.01);
-        let (mut arm, mut finger, mut queue) = (0.0, 0.0, vec![0.0; 4]);
-        let (mut v_arm, mut worst) = (0.0, 0.0f64);
-        for step in 0..300 {
+/// The force along x (N) each 10 ms while a finger slides at 30 mm/s
+/// along x over a contact of 250 N/m for 3 s, the arm tracking commands
+/// 40 ms late, its velocity read by the feedforward or not.
+fn slide(feedforward: bool) -> Vec<f64> {
+    let mut g = guided();
+    let (k, dt) = (250.0, 0.01);
+    let (mut arm, mut finger, mut queue) = (0.0, 0.0, vec![0.0; 4]);
+    let mut v_arm = 0.0;
+    (0..300)
+        .map(|_| {
             finger += 0.03 * dt;
             let f = k * (finger - arm);
             let i = GuidedInput {
@@ -159,14 +159,25 @@ fn across_the_pad_the_arm_moves_with_the_finger_and_lags_it_less() {
             queue.push(g.velocity(&i).x);
             v_arm = queue.remove(0);
             arm += v_arm * dt;
-            if step > 200 {
-                worst = worst.max(f.abs());
-            }
-        }
-        worst
-    };
-    let (with, without) = (lag_behind(true), lag_behind(false));
-    assert!(with < 0.7 * without, "{with} N with, {without} N without");
+            f
+        })
+        .collect()
+}
+
+#[test]
+fn across_the_pad_the_arm_moves_with_the_finger_and_lags_it_less() {
+    let rms = |f: Vec<f64>| (f.iter().map(|f| f * f).sum::<f64>() / f.len() as f64).sqrt();
+    let (with, without) = (rms(slide(true)), rms(slide(false)));
+    assert!(with < 0.9 * without, "{with} N with, {without} N without");
+}
+
+#[test]
+fn a_steady_slide_is_followed_within_the_deadband() {
+    // The PD alone would lag by the speed over its gain; the integral
+    // takes the error to the deadband's edge (0.2 N).
+    let forces = slide(false);
+    let worst = forces[200..].iter().fold(0.0f64, |w, f| w.max(f.abs()));
+    assert!(worst < 0.22, "{worst} N in the last second");
 }
 
 /// A fingertip on its hand's spring, per axis of the pad's frame.
@@ -194,17 +205,23 @@ struct Followed {
 /// joint_states; estimates at 100 Hz with 5 mN of noise, each with the
 /// pad's position at its reading. The skin of the law (src/contact.rs),
 /// damped as tests/ros/mujoco_ur5.py's, in series with the finger; the hand starts 1 mm under the pad, then after
-/// 2.5 s slides at 30 mm/s along x for a second, then along -y.
-fn follow(g: &mut GuidedMove, finger: Finger, period_s: f64) -> Followed {
+/// 2.5 s pushes 30 mm along x, then along -y, each with the guided scene's
+/// minimum-jerk profile (src/sim/finger.rs) at a peak speed of `speed` (m/s).
+fn follow(g: &mut GuidedMove, finger: Finger, period_s: f64, lag_s: f64, speed: f64) -> Followed {
     let skin = crate::control::guarded::tests::law().skin;
     let h = 0.0005;
-    let slide = |t: f64| 0.03 * (t - 2.5).clamp(0.0, 1.0);
-    let hand = |t: f64| Vector3::new(slide(t), -slide(t - 1.0), -0.001);
+    let push_s = 1.875 * 0.03 / speed;
+    let slide = |t: f64| {
+        let u = ((t - 2.5) / push_s).clamp(0.0, 1.0);
+        0.03 * u.powi(3) * (10.0 - 15.0 * u + 6.0 * u * u)
+    };
+    let hand = |t: f64| Vector3::new(slide(t), -slide(t - push_s), -0.001);
     let (mut arm, mut v_arm, mut target) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
     let (mut tip, mut v_tip) = (hand(0.0), Vector3::<f64>::zeros());
     let mut arm_at = vec![Vector3::zeros(); (0.02 / h) as usize + 1];
     let mut queue = vec![Vector3::zeros(); (0.008 / h) as usize];
     let (mut estimate, mut fresh, mut command) = (None, false, Vector3::zeros());
+    let mut lagged = Vector3::zeros();
     let (mut sq, mut n, mut previous, mut worst) = (Vector3::zeros(), 0.0f64, 0.0, 0.0f64);
     let mut seed = 1u64;
     let mut noise = move || {
@@ -214,7 +231,7 @@ fn follow(g: &mut GuidedMove, finger: Finger, period_s: f64) -> Followed {
         0.01 * ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
     };
     let (every_estimate, every_command) = ((0.01 / h) as usize, (period_s / h) as usize);
-    for step in 0..(5.0 / h) as usize {
+    for step in 0..((3.0 + 2.0 * push_s) / h) as usize {
         let t = step as f64 * h;
         let gap = tip - arm;
         let force = (Vector3::new(
@@ -247,7 +264,7 @@ fn follow(g: &mut GuidedMove, finger: Finger, period_s: f64) -> Followed {
                     timing: LoopTiming {
                         transport_s: 0.0005,
                         latency_s: 0.008,
-                        lag_s: 0.01,
+                        lag_s: 0.01 + lag_s,
                         period_s,
                     },
                     ..input(f)
@@ -256,7 +273,8 @@ fn follow(g: &mut GuidedMove, finger: Finger, period_s: f64) -> Followed {
             }
         }
         queue.push(command);
-        let acting = queue.remove(0);
+        lagged += (queue.remove(0) - lagged) * h / (lag_s + h);
+        let acting = lagged;
         target += acting * h;
         v_arm += (200.0f64.powi(2) * (target - arm) + 400.0 * (acting - v_arm)) * h;
         arm += v_arm * h;
@@ -287,7 +305,7 @@ const FINGER: Finger = Finger {
 #[test]
 fn following_a_finger_with_mass_does_not_ring() {
     let mut g = unprobed();
-    let run = follow(&mut g, FINGER, 0.01);
+    let run = follow(&mut g, FINGER, 0.01, 0.0, 0.03);
     assert!(
         run.worst_step_n < 0.03 && g.figures().softened == 0,
         "the force changed by up to {} N between estimates, {} gain(s) lowered",
@@ -309,7 +327,7 @@ fn a_finger_stiffer_across_than_along_is_measured_and_followed() {
     };
     for period_s in [0.002, 0.016] {
         let mut g = unprobed();
-        let run = follow(&mut g, finger, period_s);
+        let run = follow(&mut g, finger, period_s, 0.0, 0.03);
         let k = g.figures().stiffness_n_per_m.map(Option::unwrap);
         // 1500 N/m in series with 1000 N/m: 600 N/m.
         for (j, k) in k[..2].iter().enumerate() {
@@ -337,8 +355,56 @@ fn gains_too_high_are_lowered_until_the_follow_settles() {
     };
     let mut g = unprobed();
     g.probed = [Some(100.0), Some(100.0), None];
-    let run = follow(&mut g, finger, 0.002);
+    let run = follow(&mut g, finger, 0.002, 0.0, 0.03);
     assert!(g.figures().softened > 0, "never lowered");
     assert_eq!(g.phase(), Phase::Follow);
     assert!(run.rms.max() < 0.3, "RMS {}", run.rms);
+}
+
+/// The corners of issue 48's grid on this plant: fingers of 100-1000 N/m
+/// (normal and shear apart), 1-10 N s/m and 2-20 g, pushed at 50 mm/s,
+/// followed at 2, 8 and 16 ms cycles, and at 16 ms with 30 ms of servo lag,
+/// within 0.3 N RMS per axis, no gain lowered.
+#[test]
+fn fingers_nobody_tuned_for_are_followed_at_every_cycle() {
+    let finger = |across, along, damping, mass_kg| Finger {
+        across,
+        along,
+        damping,
+        mass_kg,
+    };
+    for finger in [
+        FINGER,
+        finger(1000.0, 100.0, 3.0, 0.003),
+        finger(1000.0, 1000.0, 10.0, 0.02),
+        finger(1000.0, 1000.0, 1.0, 0.002),
+        finger(100.0, 100.0, 1.0, 0.002),
+        finger(100.0, 100.0, 1.0, 0.02),
+    ] {
+        for (period_s, lag_s) in [(0.002, 0.0), (0.008, 0.0), (0.016, 0.0), (0.016, 0.03)] {
+            let mut g = unprobed();
+            let run = follow(&mut g, finger, period_s, lag_s, 0.05);
+            let about = format!(
+                "{} N/m across, {} g, {period_s} s",
+                finger.across,
+                finger.mass_kg * 1e3
+            );
+            assert!(run.rms.max() < 0.3, "{about}: RMS {}", run.rms);
+            assert_eq!(
+                (g.phase(), g.figures().softened),
+                (Phase::Follow, 0),
+                "{about}"
+            );
+        }
+    }
+}
+
+#[test]
+fn an_axis_across_the_pad_the_probe_missed_takes_the_other_ones_measure() {
+    let mut g = unprobed();
+    g.probed = [None, Some(300.0), None];
+    let k = g.stiffness();
+    assert_eq!((k[0], k[1]), (300.0, 300.0));
+    g.probed[0] = Some(500.0);
+    assert_eq!(g.stiffness()[..2], [500.0, 300.0]);
 }
