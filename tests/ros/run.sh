@@ -3,18 +3,24 @@
 # that scripts/ros2-jazzy.sh set up (run it first). Each test picks its own
 # ROS_DOMAIN_ID.
 #
-#   tests/ros/run.sh                all of them, then hold_sweep.py's grid
-#   tests/ros/run.sh --only NAME    tests/ros/NAME.py alone
-#   tests/ros/run.sh --skip NAME    all but tests/ros/NAME.py, then the grid
+#   tests/ros/run.sh                 all of them, then hold_sweep.py's grid
+#   tests/ros/run.sh --only A,B      tests/ros/A.py and B.py alone
+#   tests/ros/run.sh --skip A,B      all but tests/ros/A.py and B.py, then the grid
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 mode=${1:-all}
-name=${2:-}
+IFS=, read -r -a names <<<"${2:-}"
 case "$mode" in
   all) ;;
-  --only | --skip) [ -f "tests/ros/$name.py" ] || { echo "run.sh: no test tests/ros/$name.py" >&2; exit 2; } ;;
-  *) echo "usage: tests/ros/run.sh [--only NAME | --skip NAME]" >&2; exit 2 ;;
+  --only | --skip)
+    [ "${#names[@]}" -gt 0 ] || { echo "run.sh: $mode needs test names" >&2; exit 2; }
+    for name in "${names[@]}"; do
+      [ -f "tests/ros/$name.py" ] || { echo "run.sh: no test tests/ros/$name.py" >&2; exit 2; }
+    done ;;
+  *) echo "usage: tests/ros/run.sh [--only A,B | --skip A,B]" >&2; exit 2 ;;
 esac
+# True when tests/ros/$1.py is one of the names given.
+named() { local n; for n in "${names[@]}"; do [ "$n" = "$1" ] && return 0; done; return 1; }
 # shellcheck disable=SC1091
 . "${CARGO_TARGET_DIR:-target}/ros2/env.sh"
 # The independent plant of hold_sweep.py: MuJoCo and example-robot-data's
@@ -33,11 +39,11 @@ timed() {
   echo "== $1: $((SECONDS - start)) s"
 }
 if [ "$mode" = --only ]; then
-  timed "tests/ros/$name.py"
+  for name in "${names[@]}"; do timed "tests/ros/$name.py"; done
   exit "$status"
 fi
 for t in tests/ros/test_*.py; do
-  [ "$mode" = --skip ] && [ "$t" = "tests/ros/$name.py" ] && continue
+  [ "$mode" = --skip ] && named "$(basename "$t" .py)" && continue
   timed "$t"
 done
 # Both moves with the shipped parameters, nothing declared, on an arm with
