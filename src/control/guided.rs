@@ -245,13 +245,13 @@ impl GuidedMove {
             .stiffness
             .effective(self.p.target_force_n[2], self.prior_body);
         let across = self.law.skin.shear_stiffness_n_per_m;
-        let measured = self.measured();
-        let measured = [
-            measured[0].unwrap_or(across),
-            measured[1].unwrap_or(across),
-            measured[2].map_or(normal, |k| k.max(normal)),
+        let [x, y, z] = self.measured();
+        let taken = [
+            x.unwrap_or(across),
+            y.unwrap_or(across),
+            z.map_or(normal, |k| k.max(normal)),
         ];
-        std::array::from_fn(|j| measured[j] * self.stiffer[j])
+        std::array::from_fn(|j| taken[j] * self.stiffer[j])
     }
 
     /// The stiffness the probe measured per axis (N/m), across the pad the
@@ -285,14 +285,14 @@ impl GuidedMove {
         // the arm's own velocity in the finger's.
         let touched = i.force.norm() >= p.contact_force_n;
         let known = self.measured();
-        let measured = [0, 1, 2].map(|j| touched && self.probe.is_none() && known[j].is_some());
-        let feeds = [0, 1, 2].map(|j| j < 2 && measured[j]);
+        let integrates = [0, 1, 2].map(|j| touched && self.probe.is_none() && known[j].is_some());
+        let feeds = [0, 1, 2].map(|j| j < 2 && integrates[j]);
         let max_speed = self.law.pd.max_speed_mps;
         let mut v = Vector3::zeros();
         for (j, pd) in self.pd.iter_mut().enumerate() {
             if let Some(pd) = pd {
                 let u = -pd.step(p.target_force_n[j], i.force[j], i.dt);
-                self.integral[j] = if measured[j] {
+                self.integral[j] = if integrates[j] {
                     let corner = pd.gain() * k[j] / INTEGRAL_RATIO;
                     (self.integral[j] + corner * u * i.dt).clamp(-max_speed, max_speed)
                 } else {
