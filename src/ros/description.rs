@@ -70,28 +70,18 @@ pub fn joint_names_param(node: &r2r::Node) -> Result<Vec<String>, RosError> {
 }
 
 /// The first description on `topic` that `build` takes (each refused one
-/// logged); any other published later is refused with a warning, the node
-/// keeping the arm it started with. None if the topic ends first.
+/// logged), then the topic dropped: r2r removes the subscription at the
+/// next message, so later descriptions (a 50 MB one a peer publishes too)
+/// are not copied into the node again. None if the topic ends first.
 pub async fn first_taken<T>(
     mut topic: BoxStream<'static, String>,
     build: impl Fn(&str) -> Result<T, RosError>,
 ) -> Option<T> {
-    let (built, used) = loop {
+    loop {
         let text = topic.next().await?;
         match build(&text) {
-            Ok(built) => break (built, text),
+            Ok(built) => return Some(built),
             Err(e) => tracing::error!("robot description refused: {e}"),
         }
-    };
-    tokio::spawn(async move {
-        while let Some(text) = topic.next().await {
-            if text != used {
-                tracing::warn!(
-                    "robot description refused: the node keeps the arm it started with; \
-                     restart it for another"
-                );
-            }
-        }
-    });
-    Some(built)
+    }
 }
