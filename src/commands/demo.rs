@@ -120,17 +120,7 @@ const OVERSHOOT_BOUND_N: f64 = 0.1;
 
 pub fn run_demo(a: DemoArgs) -> Result<()> {
     let task = a.task;
-    if (a.out.is_some() || a.session.is_some()) != (task == TaskKind::Calibrate) {
-        return Err(BadArgument(
-            "--out (and --session) go with `demo calibrate`, which needs --out".into(),
-        )
-        .into());
-    }
-    if task == TaskKind::Guided && (a.sweep_speed || a.speed.is_some()) {
-        return Err(
-            BadArgument("--speed and --sweep-speed are for the guarded move".into()).into(),
-        );
-    }
+    check_flags(&a)?;
     // Every output checked before any work: a run that could not write
     // what it makes is refused now, not after it (a calibration: before
     // the arm moves).
@@ -143,24 +133,7 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     };
     let files = session.as_ref().map(|(o, s)| (*o, s.as_path()));
     check_outputs(files, a.plot.as_deref(), a.csv.as_deref())?;
-    let robot = RobotChoice::parse(&a.robot)?;
-    let text = match &a.scene {
-        Some(path) => Scene::read_scene(path)?,
-        None => task.scene_yaml().to_string(),
-    };
-    let mut scene =
-        Scene::with_robot(&robot, &text)?.with_links(a.base.as_deref(), a.tip.as_deref());
-    if let Some(o) = &a.object {
-        scene = scene.with_object(o);
-    }
-    if let Some(v) = a.speed {
-        scene = scene.with_approach_speed(v)?;
-    }
-    if let Some(u) = a.unit {
-        scene.sim.sensor_unit = u;
-    }
-    // Check the scene before a possibly long training.
-    scene.check()?;
+    let scene = demo_scene(&a)?;
     let recipe = &scene.estimator.default_model;
     let model = match a.model.as_deref() {
         Some(p) => model_file::load(p)?,
@@ -183,13 +156,58 @@ pub fn run_demo(a: DemoArgs) -> Result<()> {
     if a.sweep_speed {
         return run_sweep(&a, &scene, model.as_ref());
     }
-    let bar = status_line(&scene);
+    run_move(&a, &scene, model)
+}
+
+/// The flags that go with one task only, refused with another.
+fn check_flags(a: &DemoArgs) -> Result<()> {
+    if (a.out.is_some() || a.session.is_some()) != (a.task == TaskKind::Calibrate) {
+        return Err(BadArgument(
+            "--out (and --session) go with `demo calibrate`, which needs --out".into(),
+        )
+        .into());
+    }
+    if a.task == TaskKind::Guided && (a.sweep_speed || a.speed.is_some()) {
+        return Err(
+            BadArgument("--speed and --sweep-speed are for the guarded move".into()).into(),
+        );
+    }
+    Ok(())
+}
+
+/// The task's scene (or `--scene`) on the chosen arm with the flags'
+/// changes, checked before a possibly long training.
+fn demo_scene(a: &DemoArgs) -> Result<Scene> {
+    let robot = RobotChoice::parse(&a.robot)?;
+    let text = match &a.scene {
+        Some(path) => Scene::read_scene(path)?,
+        None => a.task.scene_yaml().to_string(),
+    };
+    let mut scene =
+        Scene::with_robot(&robot, &text)?.with_links(a.base.as_deref(), a.tip.as_deref());
+    if let Some(o) = &a.object {
+        scene = scene.with_object(o);
+    }
+    if let Some(v) = a.speed {
+        scene = scene.with_approach_speed(v)?;
+    }
+    if let Some(u) = a.unit {
+        scene.sim.sensor_unit = u;
+    }
+    scene.check()?;
+    Ok(scene)
+}
+
+/// One guarded or guided move: its status line, then its summary, and
+/// the trace, plot and JSON the flags ask for.
+fn run_move(a: &DemoArgs, scene: &Scene, model: Box<dyn WrenchModel>) -> Result<()> {
+    let bar = status_line(scene);
     let pacing = if a.realtime {
         Pacing::Realtime
     } else {
         Pacing::Lockstep
     };
-    let run = run_scene(&scene, model, a.seed, pacing, &mut |r| show_status(&bar, r))?;
+    let run = run_scene(scene, model, a.seed, pacing, &mut |r| show_status(&bar, r))?;
     bar.finish_and_clear();
     if let Some(path) = &a.csv {
         tactile_force::report::trace::write_csv(path, &run.rows)
@@ -326,41 +344,7 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &dyn WrenchModel) -> Result<()>
     ));
     let (objects, points) = sweep_speeds(scene, model, &a.objects, &speeds, a.seed)?;
     bar.finish_and_clear();
-    println!(
-        "Peak force (N) measured (overshoot) / predicted by the safety envelope; each object alone in the scene."
-    );
-    println!("* overshoot over {OVERSHOOT_BOUND_N} N, ! stopped on the force limit, refused: above the envelope.");
-    print!("{:>10}", "mm/s");
-    for o in &a.objects {
-        print!("  {o:>26}");
-    }
-    println!();
-    for v in &speeds {
-        print!("{:>10.1}", v * 1e3);
-        for o in &a.objects {
-            let p = points
-                .iter()
-                .find(|p| &p.object == o && p.approach_speed_mps == *v);
-            let cell = p.map_or("-".into(), |p| match &p.run {
-                Some(r) => {
-                    let mark = if r.aborted {
-                        "!"
-                    } else if r.overshoot_n > OVERSHOOT_BOUND_N {
-                        "*"
-                    } else {
-                        " "
-                    };
-                    format!(
-                        "{:.3} (+{:.3}) / {:.2}{mark}",
-                        r.peak_force_n, r.overshoot_n, p.predicted_peak_n
-                    )
-                }
-                None => "refused ".into(),
-            });
-            print!("  {cell:>26}");
-        }
-        println!();
-    }
+    print_sweep(&speeds, &a.objects, &points);
     for o in &objects {
         println!(
             "{}: the envelope accepts up to {:.1} mm/s ({:.1e} N/m, force limit {} N)",
@@ -400,6 +384,50 @@ fn run_sweep(a: &DemoArgs, scene: &Scene, model: &dyn WrenchModel) -> Result<()>
         );
     }
     Ok(())
+}
+
+/// The sweep's table: a row per speed, a column per object.
+fn print_sweep(speeds: &[f64], objects: &[String], points: &[SweepPoint]) {
+    println!(
+        "Peak force (N) measured (overshoot) / predicted by the safety envelope; each object alone in the scene."
+    );
+    println!("* overshoot over {OVERSHOOT_BOUND_N} N, ! stopped on the force limit, refused: above the envelope.");
+    print!("{:>10}", "mm/s");
+    for o in objects {
+        print!("  {o:>26}");
+    }
+    println!();
+    for v in speeds {
+        print!("{:>10.1}", v * 1e3);
+        for o in objects {
+            let p = points
+                .iter()
+                .find(|p| &p.object == o && p.approach_speed_mps == *v);
+            print!("  {:>26}", p.map_or("-".into(), sweep_cell));
+        }
+        println!();
+    }
+}
+
+/// One cell of the sweep's table: peak (overshoot) / predicted peak, and
+/// its mark.
+fn sweep_cell(p: &SweepPoint) -> String {
+    match &p.run {
+        Some(r) => {
+            let mark = if r.aborted {
+                "!"
+            } else if r.overshoot_n > OVERSHOOT_BOUND_N {
+                "*"
+            } else {
+                " "
+            };
+            format!(
+                "{:.3} (+{:.3}) / {:.2}{mark}",
+                r.peak_force_n, r.overshoot_n, p.predicted_peak_n
+            )
+        }
+        None => "refused ".into(),
+    }
 }
 
 /// The sweep's plot: measured peaks, the envelope's predicted peak on a

@@ -63,37 +63,7 @@ pub fn run_robot(a: RobotArgs) -> Result<()> {
         None => robot.middle(),
     };
 
-    println!(
-        "{}: {} -> {}, {} joints",
-        robot.name,
-        robot.links.0,
-        robot.links.1,
-        robot.dof()
-    );
-    println!(
-        "  {:>2}  {:<28} {:<10} {:>10} {:>10} {:>10}",
-        "#", "joint", "type", "lower", "upper", "velocity"
-    );
-    let l = &robot.limits;
-    for (i, j) in robot.chain.joints().iter().enumerate() {
-        let unit = if j.kind.turns() { "rad" } else { "m" };
-        let bound = |v: f64| {
-            if v.is_finite() {
-                format!("{v:.4}")
-            } else {
-                "none".into()
-            }
-        };
-        println!(
-            "  {:>2}  {:<28} {:<10} {:>10} {:>10} {:>10}  ({unit}, {unit}/s)",
-            i + 1,
-            j.name,
-            j.kind.name(),
-            bound(l.min[i]),
-            bound(l.max[i]),
-            format!("{:.4}", l.speed_max[i]),
-        );
-    }
+    print_joints(&robot);
     let pose = robot.chain.forward(&q);
     let jac = robot.chain.jacobian(&q);
     let sv = jac.singular_values();
@@ -136,4 +106,39 @@ pub fn run_robot(a: RobotArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&report)?);
     }
     Ok(())
+}
+
+/// The arm's name, links and joints with their limits.
+fn print_joints(robot: &Robot) {
+    println!(
+        "{}: {} -> {}, {} joints",
+        robot.name,
+        robot.links.0,
+        robot.links.1,
+        robot.dof()
+    );
+    println!(
+        "  {:>2}  {:<28} {:<10} {:>10} {:>10} {:>10}",
+        "#", "joint", "type", "lower", "upper", "velocity"
+    );
+    let l = &robot.limits;
+    for (i, j) in robot.chain.joints().iter().enumerate() {
+        let unit = if j.kind.turns() { "rad" } else { "m" };
+        let bound = |v: f64| {
+            if v.is_finite() {
+                format!("{v:.4}")
+            } else {
+                "none".into()
+            }
+        };
+        println!(
+            "  {:>2}  {:<28} {:<10} {:>10} {:>10} {:>10}  ({unit}, {unit}/s)",
+            i + 1,
+            j.name,
+            j.kind.name(),
+            bound(l.min[i]),
+            bound(l.max[i]),
+            format!("{:.4}", l.speed_max[i]),
+        );
+    }
 }

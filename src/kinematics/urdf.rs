@@ -123,9 +123,9 @@ pub fn read_chain(urdf: &str, base: &str, tip: &str) -> Result<UrdfChain, UrdfEr
         .iter()
         .map(|j| (j.child.link.as_str(), j))
         .collect();
-    let known = |name: &str| -> Result<(), UrdfError> {
+    let known = |name: &str| -> Result<String, UrdfError> {
         if links.iter().any(|l| l == name) {
-            Ok(())
+            Ok(name.to_string())
         } else {
             Err(UrdfError::NoLink {
                 name: name.into(),
@@ -136,38 +136,61 @@ pub fn read_chain(urdf: &str, base: &str, tip: &str) -> Result<UrdfChain, UrdfEr
     let base = if base.is_empty() {
         root(&links, &up)?
     } else {
-        known(base)?;
-        base.to_string()
+        known(base)?
     };
     let tip = if tip.is_empty() {
         leaf(&robot, &links)?
     } else {
-        known(tip)?;
-        tip.to_string()
+        known(tip)?
     };
-    // Walk up from the tip to the base.
+    let on_chain = joints_between(&up, links.len(), &base, &tip)?;
+    let (chain, limits) = chain_of(&on_chain)?;
+    if limits.is_empty() {
+        return Err(UrdfError::NoJoint { base, tip });
+    }
+    Ok(UrdfChain {
+        chain,
+        limits,
+        links: (base, tip),
+        name: robot.name.clone(),
+    })
+}
+
+/// The joints from `base` down to `tip`, walking up from the tip through
+/// each link's joint to its parent (`up`; `links`: how many the URDF has).
+fn joints_between<'a>(
+    up: &HashMap<&str, &'a urdf_rs::Joint>,
+    links: usize,
+    base: &str,
+    tip: &str,
+) -> Result<Vec<&'a urdf_rs::Joint>, UrdfError> {
     let mut above = Vec::new();
     let mut on_chain = Vec::new();
-    let mut link = tip.as_str();
+    let mut link = tip;
     while link != base {
         let Some(joint) = up.get(link) else {
             return Err(UrdfError::NoChain {
-                base,
-                tip: tip.clone(),
+                base: base.to_string(),
+                tip: tip.to_string(),
                 above,
             });
         };
         on_chain.push(*joint);
         link = joint.parent.link.as_str();
         above.push(link.to_string());
-        if above.len() > links.len() {
+        if above.len() > links {
             return Err(UrdfError::Parse(format!(
                 "the joints form a loop at `{link}`"
             )));
         }
     }
     on_chain.reverse();
+    Ok(on_chain)
+}
 
+/// The chain of the moving joints of `on_chain` (base first), each fixed
+/// joint folded into the next one's origin (or the tip's), and their limits.
+fn chain_of(on_chain: &[&urdf_rs::Joint]) -> Result<(SerialChain, Vec<UrdfLimit>), UrdfError> {
     let mut joints = Vec::new();
     let mut limits = Vec::new();
     let mut fixed = Isometry3::identity();
@@ -208,15 +231,7 @@ pub fn read_chain(urdf: &str, base: &str, tip: &str) -> Result<UrdfChain, UrdfEr
             axis: Unit::new_normalize(axis),
         });
     }
-    if joints.is_empty() {
-        return Err(UrdfError::NoJoint { base, tip });
-    }
-    Ok(UrdfChain {
-        chain: SerialChain::new(joints, fixed),
-        limits,
-        links: (base, tip),
-        name: robot.name.clone(),
-    })
+    Ok((SerialChain::new(joints, fixed), limits))
 }
 
 /// The link without a parent joint (a URDF has exactly one).

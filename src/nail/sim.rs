@@ -213,17 +213,12 @@ impl NailSimConfig {
         Ok(c)
     }
 
-    fn check(&self) -> Result<(), ConfigError> {
-        let (c, n, r, p, s, q) = (
-            &self.camera,
-            &self.nail,
-            &self.response,
-            &self.person,
-            &self.session,
-            &self.protocol,
-        );
-        #[rustfmt::skip]
-        let values = [
+    /// Each single value with its key and accepted bounds (min, max).
+    #[rustfmt::skip]
+    fn bounded_values(&self) -> Vec<(&'static str, f64, f64, f64)> {
+        let (c, n, r) = (&self.camera, &self.nail, &self.response);
+        let (p, s, q) = (&self.person, &self.session, &self.protocol);
+        vec![
             ("camera.width_px", c.width_px as f64, 16.0, 4096.0),
             ("camera.height_px", c.height_px as f64, 16.0, 4096.0),
             ("camera.rate_hz", c.rate_hz, 1.0, 1000.0),
@@ -262,7 +257,12 @@ impl NailSimConfig {
             ("protocol.min_rest_s", q.min_rest_s, 0.0, q.trial_duration_s),
             ("protocol.max_traction_ratio", q.max_traction_ratio, 1e-3, 2.0),
             ("protocol.pressure_roll_mm", q.pressure_roll_mm, 0.0, 20.0),
-        ];
+        ]
+    }
+
+    fn check(&self) -> Result<(), ConfigError> {
+        let (c, n, s, q) = (&self.camera, &self.nail, &self.session, &self.protocol);
+        let values = self.bounded_values();
         for (key, value, min, max) in values {
             check_value(key, value, min, max)?;
         }

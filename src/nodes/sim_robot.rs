@@ -25,7 +25,9 @@ use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
 use crate::biotac::BioTacReading;
 use crate::contact::{object_body, BodyParams, SkinParams};
 use crate::kinematics::{JointVector, Robot, RobotParams};
-use crate::params::{control_period, invalid, non_negative, positive, within, Check, ParamsError};
+use crate::params::{
+    control_period, invalid, non_negative, positive, within, Check, Checked, ParamsError,
+};
 use crate::sim::arm::ArmPlant;
 use crate::sim::collect::unit_seed;
 use crate::sim::contact::PlaneContact;
@@ -147,33 +149,7 @@ impl SimRobot {
         sensor: &BioTacSimConfig,
         seed: u64,
     ) -> Result<Self, ParamsError> {
-        control_period(p.control_period_s)?;
-        // Steps of the physics per control period: bounded.
-        within("physics_rate_hz", p.physics_rate_hz, 1.0, 1e6)?;
-        non_negative("command_cycle_s", p.command_cycle_s)?;
-        non_negative("command_latency_s", p.command_latency_s)?;
-        non_negative("velocity_lag_s", p.velocity_lag_s)?;
-        non_negative("ft_noise_n", p.ft_noise_n)?;
-        non_negative("ft_noise_nm", p.ft_noise_nm)?;
-        positive("duration_s", p.duration_s)?;
-        non_negative("transport_delay_s", p.transport_delay_s)?;
-        non_negative("transport_jitter_s", p.transport_jitter_s)?;
-        if !(0.0..1.0).contains(&p.period_jitter_fraction) {
-            return Err(invalid(
-                "period_jitter_fraction",
-                p.period_jitter_fraction,
-                "a fraction in 0..1",
-            ));
-        }
-        let skin = p.skin.checked("skin")?;
-        let ratio = p.control_period_s * p.physics_rate_hz;
-        if (ratio - ratio.round()).abs() > 1e-9 || ratio < 1.0 {
-            return Err(invalid(
-                "physics_rate_hz",
-                p.physics_rate_hz,
-                "a whole multiple of the control rate",
-            ));
-        }
+        let (skin, steps) = check(&p)?;
         let q0 = match &p.start_joints_deg {
             Some(values) => robot.positions_from_deg_mm("start_joints_deg", values)?,
             None => robot.middle(),
@@ -203,7 +179,6 @@ impl SimRobot {
         let plane0 = start * nalgebra::Point3::from(pad_tool) - normal * p.object_gap_mm * 1e-3;
         let mut biotac = BioTacSim::new(sensor, unit_seed(p.sensor_unit));
         biotac.reseed_noise(seed);
-        let steps = ratio.round() as usize;
         Ok(SimRobot {
             arm: ArmPlant::new(
                 q0,
@@ -383,6 +358,37 @@ impl SimRobot {
     }
 }
 
+/// `p` checked: its skin, and the physics steps per control period.
+fn check(p: &SimRobotParams) -> Result<(Checked<SkinParams>, usize), ParamsError> {
+    control_period(p.control_period_s)?;
+    // Steps of the physics per control period: bounded.
+    within("physics_rate_hz", p.physics_rate_hz, 1.0, 1e6)?;
+    non_negative("command_cycle_s", p.command_cycle_s)?;
+    non_negative("command_latency_s", p.command_latency_s)?;
+    non_negative("velocity_lag_s", p.velocity_lag_s)?;
+    non_negative("ft_noise_n", p.ft_noise_n)?;
+    non_negative("ft_noise_nm", p.ft_noise_nm)?;
+    positive("duration_s", p.duration_s)?;
+    non_negative("transport_delay_s", p.transport_delay_s)?;
+    non_negative("transport_jitter_s", p.transport_jitter_s)?;
+    if !(0.0..1.0).contains(&p.period_jitter_fraction) {
+        return Err(invalid(
+            "period_jitter_fraction",
+            p.period_jitter_fraction,
+            "a fraction in 0..1",
+        ));
+    }
+    let skin = p.skin.checked("skin")?;
+    let ratio = p.control_period_s * p.physics_rate_hz;
+    if (ratio - ratio.round()).abs() > 1e-9 || ratio < 1.0 {
+        return Err(invalid(
+            "physics_rate_hz",
+            p.physics_rate_hz,
+            "a whole multiple of the control rate",
+        ));
+    }
+    Ok((skin, ratio.round() as usize))
+}
 /// The fastest simulated time a node may run at: a period of 0.1 ms of
 /// wall clock at 100 Hz.
 pub const MAX_REAL_TIME_FACTOR: f64 = 100.0;
