@@ -32,7 +32,6 @@ MAX_LINES = 600
 MAX_ROS_CODE_LINES = 210
 ROS_HELPERS = {"mod.rs", "convert.rs", "params.rs", "log.rs"}
 MAX_FN_LINES = 80
-# (file under src/, function): its length today; to be split.
 FN_START = re.compile(r"^(\s*)(pub(\([^)]*\))? )?(async )?(const )?(unsafe )?fn (\w+)")
 
 

@@ -10,6 +10,8 @@ use futures::future::ready;
 use futures::{Stream, StreamExt};
 use r2r::{QosProfile, WrappedTypesupport};
 
+#[cfg(not(feature = "ros2-doc-only"))]
+use super::action_server::{GoalRequest, Served};
 use super::RosError;
 use crate::nodes::bounds::InputGuard;
 
@@ -54,29 +56,27 @@ pub fn typed<T: WrappedTypesupport + Send + 'static>(
     }))
 }
 
-/// The goal requests that `guard` admits, drained from r2r's queue on a
-/// task of their own (r2r drops a request, unanswered, when its queue of
-/// ten is full); the others are rejected at the request, which makes no
-/// goal: r2r 0.9.7 keeps every goal it accepted for the node's life (r2r
-/// issue #136), so accepting a flood to abort it with a reason would grow
-/// the node without bound. `guard` logs the reason and counts it for
-/// `/diagnostics`.
+/// The goal requests that `guard` admits; each other one is accepted and
+/// at once aborted with `refused` of its reason (a result holding it), as
+/// a goal the node refuses on its merits is. `guard` logs the reason and
+/// counts it for `/diagnostics`.
 #[cfg(not(feature = "ros2-doc-only"))]
-pub fn goals<T: r2r::WrappedActionTypeSupport + 'static>(
-    mut requests: impl Messages<r2r::ActionServerGoalRequest<T>>,
+pub fn goals<T: Served>(
+    requests: impl Messages<GoalRequest<T>>,
     guard: &Arc<InputGuard>,
-) -> impl Messages<r2r::ActionServerGoalRequest<T>> {
-    // Unbounded, as the rate bounds what enters it.
-    let (admitted, out) = futures::channel::mpsc::unbounded();
+    refused: fn(String) -> T::Result,
+) -> impl Messages<GoalRequest<T>> {
     let guard = guard.clone();
-    tokio::spawn(async move {
-        while let Some(req) = requests.next().await {
-            if guard.admit_goal().is_err() {
-                let _ = req.reject();
-            } else if admitted.unbounded_send(req).is_err() {
-                return;
+    requests.filter_map(move |req| {
+        let admitted = match guard.admit_goal() {
+            Ok(()) => Some(req),
+            Err(e) => {
+                if let Ok((mut goal, _)) = req.accept() {
+                    goal.abort(refused(format!("refused: {e}")));
+                }
+                None
             }
-        }
-    });
-    out
+        };
+        ready(admitted)
+    })
 }

@@ -77,6 +77,8 @@ use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::QosProfile;
 
+#[cfg(not(feature = "ros2-doc-only"))]
+use super::action_server;
 use super::bounded;
 use super::description::{robot_description, Description};
 use super::params::RuntimeParams;
@@ -120,9 +122,17 @@ pub async fn run() -> Result<(), RosError> {
     let diagnostics =
         node.create_publisher::<DiagnosticArray>("/diagnostics", QosProfile::default())?;
     #[cfg(not(feature = "ros2-doc-only"))]
-    let goals = bounded::goals(node.create_action_server("~/guarded_move")?, &guard);
+    let goals = bounded::goals(
+        action_server::create(&mut node, "~/guarded_move")?,
+        &guard,
+        guarded_move_action::refused,
+    );
     #[cfg(not(feature = "ros2-doc-only"))]
-    let calibrations = bounded::goals(node.create_action_server("~/calibrate")?, &guard);
+    let calibrations = bounded::goals(
+        action_server::create(&mut node, "~/calibrate")?,
+        &guard,
+        calibrate_action::refused,
+    );
     #[cfg(not(feature = "ros2-doc-only"))]
     let link = estimator_link::EstimatorLink::new(&mut node, &settings.estimator)?;
     let s = shared.clone();
@@ -141,7 +151,7 @@ pub async fn run() -> Result<(), RosError> {
     let clock = super::serve_parameters(&mut node, live)?;
     let tf = tool_frame::ToolFrame::new(&mut node, settings.child, clock.clone())?;
     take_description(description, &shared, tf)?;
-    super::spin_with_action_server(node);
+    super::spin(node);
 
     #[cfg(not(feature = "ros2-doc-only"))]
     tokio::spawn(guarded_move_action::serve(

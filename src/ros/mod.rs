@@ -12,6 +12,8 @@
 //! - [`biotac_driver`]: serial port -> `biotac/readings`, diagnostics, `~/tare`;
 //! - [`sim_robot`]: simulated arm, object or finger, F/T sensor and BioTac.
 
+#[cfg(not(feature = "ros2-doc-only"))]
+pub mod action_server;
 pub mod biotac_driver;
 pub mod bounded;
 pub mod convert;
@@ -334,31 +336,6 @@ pub fn each<M: Send + 'static, S: Send + 'static>(
 pub fn spin(mut node: r2r::Node) -> tokio::task::JoinHandle<()> {
     tokio::task::spawn_blocking(move || loop {
         node.spin_once(Duration::from_millis(5));
-    })
-}
-
-/// [`spin`] for a node with an action server. r2r 0.9.7 never expires an
-/// action server's finished goals (r2r issue #136): from a goal's result
-/// timeout on (10 s in Jazzy) the wait set stays ready and `spin_once`
-/// returns at once, over and over, which took 29-33 % of a core. After ten
-/// spins in a row that return at once, each next one waits 0.2 ms first
-/// until a spin blocks again (a message may then wait 0.2 ms more; one
-/// subscription still takes up to 5000 messages a second).
-pub fn spin_with_action_server(mut node: r2r::Node) -> tokio::task::JoinHandle<()> {
-    tokio::task::spawn_blocking(move || {
-        let mut at_once = 0u32;
-        loop {
-            let start = std::time::Instant::now();
-            node.spin_once(Duration::from_millis(5));
-            if start.elapsed() < Duration::from_micros(100) {
-                at_once = at_once.saturating_add(1);
-            } else {
-                at_once = 0;
-            }
-            if at_once >= 10 {
-                std::thread::sleep(Duration::from_micros(200));
-            }
-        }
     })
 }
 

@@ -28,6 +28,8 @@ use r2r::tactile_force_msgs::action::Calibrate;
 
 use futures::StreamExt;
 
+use crate::ros::action_server::{CancelRequest, GoalHandle, GoalRequest};
+
 use super::cancel::{CancelWatch, Canceling};
 use super::estimator_link::EstimatorLink;
 use super::*;
@@ -48,11 +50,16 @@ fn failed(reason: String, rec: Option<&CalibrationRecorder>) -> Calibrate::Resul
     }
 }
 
+/// The result of a goal refused for `reason`.
+pub(super) fn refused(reason: String) -> Calibrate::Result {
+    failed(reason, None)
+}
+
 /// Serves the goals: each is started, or refused with the reason, as it
 /// comes, and then run on a task of its own, so that a goal that comes
 /// while one runs is refused at once.
 pub(super) async fn serve(
-    mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<Calibrate::Action>> + Unpin,
+    mut goals: impl futures::Stream<Item = GoalRequest<Calibrate::Action>> + Unpin,
     shared: Arc<Mutex<ForceControllerNode>>,
     period: Duration,
     clock: RosClock,
@@ -78,7 +85,7 @@ pub(super) async fn serve(
             Ok(path) => path,
             Err(e) => {
                 tracing::warn!("calibrate goal refused: {e}");
-                let _ = handle.abort(failed(format!("refused: {e}"), None));
+                handle.abort(refused(format!("refused: {e}")));
                 continue;
             }
         };
@@ -95,7 +102,7 @@ pub(super) async fn serve(
 /// The end of a calibration whose arm has stopped (`why` not, if it did
 /// not end its pattern): its session ended, the fit and its result.
 async fn end(
-    mut handle: r2r::ActionServerGoal<Calibrate::Action>,
+    mut handle: GoalHandle<Calibrate::Action>,
     why: Option<(String, bool)>,
     shared: &Mutex<ForceControllerNode>,
     estimator: &EstimatorLink,
@@ -109,21 +116,21 @@ async fn end(
         let why = format!("{why}; no model written; {}", session.0);
         tracing::warn!("calibration: {why}");
         let result = failed(why, Some(&rec));
-        let _ = if canceled {
-            handle.cancel(result)
+        if canceled {
+            handle.cancel(result);
         } else {
-            handle.abort(result)
-        };
+            handle.abort(result);
+        }
         return;
     }
     // What the fit needs, taken out: the session writer the recording
     // holds may not be borrowed across an await.
     let recorded = failed(String::new(), Some(&rec));
     let records = rec.records().to_vec();
-    let _ = match fit(recorded, records, estimator, model_path, session).await {
+    match fit(recorded, records, estimator, model_path, session).await {
         Ok(r) => handle.succeed(r),
         Err(r) => handle.abort(r),
-    };
+    }
 }
 
 /// The goal's files resolved in `models`, checked and the session opened,
@@ -149,8 +156,8 @@ fn start(
 /// stopped: None when the pattern ended, else why not and whether the goal
 /// was canceled.
 async fn motion(
-    handle: &mut r2r::ActionServerGoal<Calibrate::Action>,
-    mut cancel: CancelWatch<impl futures::Stream<Item = r2r::ActionServerCancelRequest> + Unpin>,
+    handle: &mut GoalHandle<Calibrate::Action>,
+    mut cancel: CancelWatch<impl futures::Stream<Item = CancelRequest> + Unpin>,
     shared: &Mutex<ForceControllerNode>,
     period: Duration,
     clock: &RosClock,

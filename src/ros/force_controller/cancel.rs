@@ -1,11 +1,12 @@
-//! A goal's cancel as both action servers take it: the request is
-//! accepted at once and the pad withdraws out of contact
+//! A goal's cancel as both action servers take it (the server accepted
+//! it): the pad withdraws out of contact
 //! ([`ForceControllerNode::cancel_goal`]); the goal ends canceled once it
 //! has ([`ForceControllerNode::withdrawn`]), so the next goal starts clean.
 
 use futures::StreamExt;
 
 use crate::nodes::force_controller::ForceControllerNode;
+use crate::ros::action_server::CancelRequest;
 
 /// Where a goal's cancel is.
 pub(super) enum Canceling {
@@ -23,7 +24,7 @@ pub(super) struct CancelWatch<S> {
     asked: bool,
 }
 
-impl<S: futures::Stream<Item = r2r::ActionServerCancelRequest> + Unpin> CancelWatch<S> {
+impl<S: futures::Stream<Item = CancelRequest> + Unpin> CancelWatch<S> {
     pub(super) fn new(requests: S) -> Self {
         CancelWatch {
             requests,
@@ -35,11 +36,11 @@ impl<S: futures::Stream<Item = r2r::ActionServerCancelRequest> + Unpin> CancelWa
     /// and how the withdrawal goes.
     pub(super) fn poll(&mut self, n: &mut ForceControllerNode, now: f64) -> Canceling {
         if !self.asked {
-            let Some(Some(request)) = futures::FutureExt::now_or_never(self.requests.next()) else {
+            let Some(Some(CancelRequest)) = futures::FutureExt::now_or_never(self.requests.next())
+            else {
                 return Canceling::No;
             };
             n.cancel_goal(now);
-            request.accept();
             self.asked = true;
         }
         match n.withdrawn(now) {

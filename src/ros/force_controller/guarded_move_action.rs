@@ -8,17 +8,27 @@
 
 use futures::StreamExt;
 
+use crate::ros::action_server::{CancelRequest, GoalHandle, GoalRequest};
+
 use super::cancel::{CancelWatch, Canceling};
 use super::*;
 use crate::nodes::guarded_goal::GuardedGoal;
 use crate::ros::RosClock;
 use r2r::tactile_force_msgs::action::GuardedMove;
 
+/// The result of a goal refused for `reason`.
+pub(super) fn refused(reason: String) -> GuardedMove::Result {
+    GuardedMove::Result {
+        reason,
+        ..Default::default()
+    }
+}
+
 /// Serves the goals: each is started, or refused with the reason, as it
 /// comes, and then followed on a task of its own, so that a goal that
 /// comes while one runs is refused at once.
 pub(super) async fn serve(
-    mut goals: impl futures::Stream<Item = r2r::ActionServerGoalRequest<GuardedMove::Action>> + Unpin,
+    mut goals: impl futures::Stream<Item = GoalRequest<GuardedMove::Action>> + Unpin,
     shared: Arc<Mutex<ForceControllerNode>>,
     period: Duration,
     clock: RosClock,
@@ -40,10 +50,7 @@ pub(super) async fn serve(
         };
         if let Err(e) = started {
             tracing::warn!("guarded_move goal refused: {e}");
-            let _ = handle.abort(GuardedMove::Result {
-                reason: format!("refused: {e}"),
-                ..Default::default()
-            });
+            handle.abort(refused(format!("refused: {e}")));
             continue;
         }
         let cancel = CancelWatch::new(cancel);
@@ -60,8 +67,8 @@ pub(super) async fn serve(
 /// Follows a started goal each period until it ends: its feedback, then
 /// its result; a cancel once the pad has withdrawn.
 async fn follow(
-    mut handle: r2r::ActionServerGoal<GuardedMove::Action>,
-    mut cancel: CancelWatch<impl futures::Stream<Item = r2r::ActionServerCancelRequest> + Unpin>,
+    mut handle: GoalHandle<GuardedMove::Action>,
+    mut cancel: CancelWatch<impl futures::Stream<Item = CancelRequest> + Unpin>,
     shared: Arc<Mutex<ForceControllerNode>>,
     period: Duration,
     clock: RosClock,
@@ -76,7 +83,7 @@ async fn follow(
                 Canceling::Withdrawing => continue,
                 Canceling::Done(reason) => {
                     let force_n = n.guarded_progress().map_or(0.0, |p| p.force_n);
-                    let _ = handle.cancel(GuardedMove::Result {
+                    handle.cancel(GuardedMove::Result {
                         reason,
                         force_n,
                         ..Default::default()
@@ -105,11 +112,11 @@ async fn follow(
                 gain_m_per_s_per_n: p.gain_m_per_s_per_n.unwrap_or(0.0),
                 ..Default::default()
             };
-            let _ = if reason == "hold" {
-                handle.succeed(result)
+            if reason == "hold" {
+                handle.succeed(result);
             } else {
-                handle.abort(result)
-            };
+                handle.abort(result);
+            }
             break;
         }
     }
