@@ -11,8 +11,11 @@
 //!   [`loop_delay`]: the delay it actually sees, from header stamps;
 //! - [`bounds`]: what a peer may send a node (message sizes, goal and
 //!   parameter-set rates), refused before any work and counted;
+//!   [`action_goals`]: the goals of an action server and their results,
+//!   each kept for a bounded time;
 //! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac.
 
+pub mod action_goals;
 pub mod bounds;
 pub mod controller;
 pub mod estimator;

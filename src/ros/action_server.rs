@@ -4,34 +4,28 @@
 //! 0.9.7's own server, which keeps an entry for every goal request,
 //! accepted or rejected, for the node's life (375 bytes each), and never
 //! expires a finished goal, so that its wait set stays ready and the spin
-//! loop turns at once (r2r issue #136). Here a goal is held while it runs
-//! and its result for [`RESULT_KEPT`] after (at most [`RESULTS_KEPT`]).
-//! Every goal is accepted (one the node refuses ends aborted at once, its
-//! reason in its result), and a cancel is accepted for any goal still
-//! running (the controller's goals withdraw on every cancel).
+//! loop turns at once (r2r issue #136). The goals and results it keeps,
+//! each for a bounded time: [`ActionGoals`]. Every goal is accepted (one
+//! the node refuses ends aborted at once, its reason in its result), and a
+//! cancel is accepted for any goal still running (the controller's goals
+//! withdraw on every cancel).
 
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use futures::channel::mpsc;
 use futures::StreamExt;
-use r2r::action_msgs::msg::GoalInfo;
+use r2r::action_msgs::msg::{GoalInfo, GoalStatus, GoalStatusArray};
 use r2r::action_msgs::srv::CancelGoal;
 use r2r::builtin_interfaces::msg::Time;
-use r2r::GoalStatus as Status;
+use r2r::unique_identifier_msgs::msg::UUID;
 use r2r::{QosProfile, ServiceRequest, WrappedActionTypeSupport as Action};
 
 use super::RosError;
-use goals::Server;
+use crate::nodes::action_goals::{ActionGoals, CancelAnswer, Status};
+pub use goal::{CancelRequest, GoalHandle, GoalRequest};
 
-mod goals;
-
-/// How long a finished goal's result waits for its client (rcl_action's
-/// default result timeout in Jazzy).
-pub const RESULT_KEPT: Duration = Duration::from_secs(10);
-/// The most finished goals whose results are kept: ten seconds of goals
-/// at 100 a second.
-pub const RESULTS_KEPT: usize = 1000;
+mod goal;
 
 type GetResult<T> = <T as Action>::GetResult;
 
@@ -58,6 +52,16 @@ impl<T> Served for T where
 {
 }
 
+/// The goals and the two topics of one server.
+struct Server<T: Served> {
+    goals:
+        ActionGoals<T::Result, ServiceRequest<GetResult<T>>, mpsc::UnboundedSender<CancelRequest>>,
+    status: r2r::Publisher<GoalStatusArray>,
+    feedback: r2r::Publisher<T::FeedbackMessage>,
+    /// The server's start: the goals' clock.
+    start: Instant,
+}
+
 type Shared<T> = Arc<Mutex<Server<T>>>;
 
 /// The goal requests sent to action `name` of `node`, each to be
@@ -68,10 +72,13 @@ pub fn create<T: Served>(
 ) -> Result<mpsc::UnboundedReceiver<GoalRequest<T>>, RosError> {
     let services = QosProfile::services_default();
     let status_qos = QosProfile::default().keep_last(1).transient_local();
-    let server = Arc::new(Mutex::new(Server::<T>::new(
-        node.create_publisher(&format!("{name}/_action/status"), status_qos)?,
-        node.create_publisher(&format!("{name}/_action/feedback"), QosProfile::default())?,
-    )));
+    let server = Arc::new(Mutex::new(Server::<T> {
+        goals: ActionGoals::default(),
+        status: node.create_publisher(&format!("{name}/_action/status"), status_qos)?,
+        feedback: node
+            .create_publisher(&format!("{name}/_action/feedback"), QosProfile::default())?,
+        start: Instant::now(),
+    }));
     let mut goals =
         node.create_service::<T::SendGoal>(&format!("{name}/_action/send_goal"), services.clone())?;
     let mut cancels = node.create_service::<CancelGoal::Service>(
@@ -113,88 +120,71 @@ pub fn create<T: Served>(
     tokio::spawn(async move {
         while let Some(request) = results.next().await {
             let id = T::destructure_result_request_msg(request.message.clone()).uuid;
-            lock(&server).result(id, request);
+            let mut server = lock(&server);
+            let now_s = server.start.elapsed().as_secs_f64();
+            if let Some((request, status, result)) = server.goals.result(id, request, now_s) {
+                let _ = request.respond(T::make_result_response_msg(code(status), result));
+            }
         }
     });
     Ok(out)
 }
 
-/// A goal sent, not yet answered.
-pub struct GoalRequest<T: Served> {
-    /// The goal.
-    pub goal: T::Goal,
-    info: GoalInfo,
-    request: ServiceRequest<T::SendGoal>,
-    server: Shared<T>,
-}
-
-impl<T: Served> GoalRequest<T> {
-    /// Accepts the goal: it runs (executing) until its handle ends it; the
-    /// cancel requests it gets.
-    pub fn accept(
-        self,
-    ) -> Result<(GoalHandle<T>, mpsc::UnboundedReceiver<CancelRequest>), RosError> {
-        let (cancel, requests) = mpsc::unbounded();
-        // Under the lock: a result request for the goal waits until it runs.
-        let mut server = lock(&self.server);
-        self.request
-            .respond(T::make_goal_response_msg(true, self.info.stamp.clone()))?;
-        server.start(self.info.clone(), cancel);
-        drop(server);
-        let handle = GoalHandle {
-            info: self.info,
-            server: self.server,
-            ended: false,
+impl<T: Served> Server<T> {
+    /// Sets the goals a cancel request names canceling, and its answer.
+    fn cancel(&mut self, asked: &GoalInfo) -> CancelGoal::Response {
+        let stamp = (asked.stamp.sec, asked.stamp.nanosec);
+        let heard =
+            |c: &mpsc::UnboundedSender<CancelRequest>| c.unbounded_send(CancelRequest).is_ok();
+        let (return_code, canceling) = match self.goals.cancel(&asked.goal_id.uuid, stamp, heard) {
+            CancelAnswer::Canceling(goals) => (CancelGoal::Response::ERROR_NONE as i8, goals),
+            CancelAnswer::Ended => (CancelGoal::Response::ERROR_GOAL_TERMINATED as i8, vec![]),
+            CancelAnswer::Unknown => (CancelGoal::Response::ERROR_UNKNOWN_GOAL_ID as i8, vec![]),
         };
-        Ok((handle, requests))
-    }
-}
-
-/// A client asked to cancel its goal (already accepted: the goal is
-/// canceling).
-pub struct CancelRequest;
-
-/// A goal running: its feedback and its end. Dropped without an end, the
-/// goal ends aborted.
-pub struct GoalHandle<T: Served> {
-    info: GoalInfo,
-    server: Shared<T>,
-    ended: bool,
-}
-
-impl<T: Served> GoalHandle<T> {
-    /// Publishes feedback on the goal.
-    pub fn publish_feedback(&self, feedback: T::Feedback) -> Result<(), RosError> {
-        let message = T::make_feedback_msg(self.info.goal_id.clone(), feedback);
-        lock(&self.server).feedback(&message)
-    }
-
-    /// Ends the goal succeeded with `result`.
-    pub fn succeed(&mut self, result: T::Result) {
-        self.end(Status::Succeeded, result);
-    }
-
-    /// Ends the goal aborted with `result`.
-    pub fn abort(&mut self, result: T::Result) {
-        self.end(Status::Aborted, result);
-    }
-
-    /// Ends the goal canceled with `result`.
-    pub fn cancel(&mut self, result: T::Result) {
-        self.end(Status::Canceled, result);
-    }
-
-    fn end(&mut self, status: Status, result: T::Result) {
-        if !std::mem::replace(&mut self.ended, true) {
-            lock(&self.server).end(&self.info, status.to_rcl(), result);
+        if !canceling.is_empty() {
+            self.publish_status();
+        }
+        let goals_canceling = canceling
+            .into_iter()
+            .map(|(id, stamp)| info(id, stamp))
+            .collect();
+        CancelGoal::Response {
+            return_code,
+            goals_canceling,
         }
     }
+
+    /// The goals' status on the status topic.
+    fn publish_status(&self) {
+        let status_list = (self.goals.statuses().into_iter())
+            .map(|(id, stamp, status)| GoalStatus {
+                goal_info: info(id, stamp),
+                status: code(status),
+            })
+            .collect();
+        let _ = self.status.publish(&GoalStatusArray { status_list });
+    }
 }
 
-impl<T: Served> Drop for GoalHandle<T> {
-    fn drop(&mut self) {
-        self.end(Status::Aborted, T::Result::default());
+/// A goal's id and stamp as the protocol carries them.
+fn info(id: Vec<u8>, (sec, nanosec): (i32, u32)) -> GoalInfo {
+    GoalInfo {
+        goal_id: UUID { uuid: id },
+        stamp: Time { sec, nanosec },
     }
+}
+
+/// A status as the protocol codes it.
+fn code(status: Status) -> i8 {
+    let status = match status {
+        Status::Unknown => r2r::GoalStatus::Unknown,
+        Status::Executing => r2r::GoalStatus::Executing,
+        Status::Canceling => r2r::GoalStatus::Canceling,
+        Status::Succeeded => r2r::GoalStatus::Succeeded,
+        Status::Canceled => r2r::GoalStatus::Canceled,
+        Status::Aborted => r2r::GoalStatus::Aborted,
+    };
+    status.to_rcl()
 }
 
 /// The lock of `m`, also after a panic while another held it.
