@@ -29,7 +29,8 @@ mod goal;
 
 type GetResult<T> = <T as Action>::GetResult;
 
-/// An action type whose messages the server's tasks may take.
+/// An action type whose messages the server's tasks may take (each
+/// action the package serves says so: src/ros/force_controller.rs).
 pub trait Served:
     Action<
         Goal: Send,
@@ -38,17 +39,6 @@ pub trait Served:
         GetResult: 'static,
         FeedbackMessage: 'static,
     > + 'static
-{
-}
-
-impl<T> Served for T where
-    T: Action<
-            Goal: Send,
-            Result: Send,
-            SendGoal: 'static,
-            GetResult: 'static,
-            FeedbackMessage: 'static,
-        > + 'static
 {
 }
 

@@ -88,6 +88,11 @@ use crate::nodes::force_controller::ForceControllerNode;
 use crate::nodes::tasks;
 use stepping::Commands;
 
+#[cfg(not(feature = "ros2-doc-only"))]
+impl action_server::Served for r2r::tactile_force_msgs::action::GuardedMove::Action {}
+#[cfg(not(feature = "ros2-doc-only"))]
+impl action_server::Served for r2r::tactile_force_msgs::action::Calibrate::Action {}
+
 fn lock(s: &Mutex<ForceControllerNode>) -> std::sync::MutexGuard<'_, ForceControllerNode> {
     s.lock().unwrap_or_else(|e| e.into_inner())
 }
