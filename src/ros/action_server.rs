@@ -21,7 +21,7 @@ use r2r::builtin_interfaces::msg::Time;
 use r2r::unique_identifier_msgs::msg::UUID;
 use r2r::{QosProfile, ServiceRequest, WrappedActionTypeSupport as Action};
 
-use super::RosError;
+use super::{lock, RosError};
 use crate::nodes::action_goals::{ActionGoals, CancelAnswer, Status};
 pub use goal::{CancelRequest, GoalHandle, GoalRequest};
 
@@ -175,11 +175,6 @@ fn code(status: Status) -> i8 {
         Status::Aborted => r2r::GoalStatus::Aborted,
     };
     status.to_rcl()
-}
-
-/// The lock of `m`, also after a panic while another held it.
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// The wall clock as a ROS time stamp.

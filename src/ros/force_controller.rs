@@ -82,7 +82,7 @@ use super::action_server;
 use super::bounded;
 use super::description::{robot_description, Description};
 use super::params::RuntimeParams;
-use super::{convert, RosError};
+use super::{convert, lock, RosError};
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
 use crate::nodes::force_controller::ForceControllerNode;
 use crate::nodes::tasks;
@@ -92,10 +92,6 @@ use stepping::Commands;
 impl action_server::Served for r2r::tactile_force_msgs::action::GuardedMove::Action {}
 #[cfg(not(feature = "ros2-doc-only"))]
 impl action_server::Served for r2r::tactile_force_msgs::action::Calibrate::Action {}
-
-fn lock(s: &Mutex<ForceControllerNode>) -> std::sync::MutexGuard<'_, ForceControllerNode> {
-    s.lock().unwrap_or_else(|e| e.into_inner())
-}
 
 /// Runs the node until the process ends: its settings declared, the
 /// controller made, every input and output wired, the robot description

@@ -76,7 +76,7 @@ fn rosout(level: u8, logger: &str, msg: &str, file: &str, line: u32) {
         function: String::new(),
         line,
     };
-    let publisher = publisher.lock().unwrap_or_else(|e| e.into_inner());
+    let publisher = super::lock(publisher);
     let _ = publisher.publish(&record);
     PUBLISHING.with(|p| p.set(false));
 }

@@ -162,7 +162,7 @@ impl RosClock {
     /// Seconds on the clock; NaN if it cannot be read (the controller's
     /// watchdog then halts) or if `/clock` has not ticked yet (0).
     pub fn now_s(&self) -> f64 {
-        let mut clock = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        let mut clock = lock(&self.0);
         match clock.get_now().map(|d| d.as_secs_f64()) {
             Ok(t) if t > 0.0 => t,
             _ => f64::NAN,
@@ -189,7 +189,7 @@ pub fn node_params<T: serde::de::DeserializeOwned>(
     skip: &[&str],
     describe: fn(&str) -> &'static str,
 ) -> Result<T, RosError> {
-    let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
+    let mut p = lock(&node.params);
     params::declare(&mut p, &defaults, describe);
     Ok(params::read(&p, skip, name)?)
 }
@@ -202,7 +202,7 @@ pub fn own_param(
     default: r2r::ParameterValue,
     description: &'static str,
 ) -> Result<r2r::ParameterValue, RosError> {
-    let mut p = node.params.lock().unwrap_or_else(|e| e.into_inner());
+    let mut p = lock(&node.params);
     let entry = p.entry(name.to_string()).or_insert(r2r::Parameter {
         value: default,
         description,
@@ -214,7 +214,7 @@ pub fn own_param(
 /// chose itself, such as the file it loaded), so that `ros2 param get`
 /// says it.
 pub fn set_own_string(node: &r2r::Node, name: &str, value: &str) {
-    let mut params = node.params.lock().unwrap_or_else(|e| e.into_inner());
+    let mut params = lock(&node.params);
     if let Some(param) = params.get_mut(name) {
         param.value = r2r::ParameterValue::String(value.to_string());
     }
@@ -327,9 +327,15 @@ pub fn each<M: Send + 'static, S: Send + 'static>(
     let shared = shared.clone();
     tokio::spawn(async move {
         while let Some(m) = futures::StreamExt::next(&mut stream).await {
-            f(&mut shared.lock().unwrap_or_else(|e| e.into_inner()), m);
+            f(&mut lock(&shared), m);
         }
     });
+}
+
+/// The lock of `m`, also after a panic while another held it (the state
+/// behind it stays usable: each holder leaves it whole).
+pub fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Spins the node on a blocking task until the process ends.

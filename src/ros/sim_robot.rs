@@ -110,7 +110,7 @@ pub async fn run() -> Result<(), RosError> {
             clock.now_s()
         };
         step.publish(&mut sim, now);
-        sim.command(&qdot.lock().unwrap_or_else(|e| e.into_inner()));
+        sim.command(&super::lock(&qdot));
         sim.advance();
     }
     Ok(())
@@ -181,7 +181,7 @@ fn follow_commands(
     tokio::spawn(async move {
         while let Some(m) = commands.next().await {
             match convert::qdot_from_msg(&m, dof) {
-                Ok(v) => *latest.lock().unwrap_or_else(|e| e.into_inner()) = v,
+                Ok(v) => *super::lock(&latest) = v,
                 Err(e) => tracing::debug!("command refused: {e}"),
             }
         }

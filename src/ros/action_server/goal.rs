@@ -5,8 +5,9 @@ use futures::channel::mpsc;
 use r2r::action_msgs::msg::GoalInfo;
 use r2r::ServiceRequest;
 
-use super::{code, lock, Served, Shared};
+use super::{code, Served, Shared};
 use crate::nodes::action_goals::Status;
+use crate::ros::lock;
 use crate::ros::RosError;
 
 /// A goal sent, not yet answered.

@@ -26,15 +26,9 @@ use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable, INPUTS}
 use crate::nodes::EstimatorNode;
 use crate::outputs::models_dir::ModelsDir;
 use crate::ros::params::RuntimeParams;
-use crate::ros::{bounded, RosError};
+use crate::ros::{bounded, lock, RosError};
 use crate::sensor::biotac::BioTacInput;
 use tare_store::TareStore;
-
-fn lock(
-    e: &Mutex<EstimatorNode<BioTacInput>>,
-) -> std::sync::MutexGuard<'_, EstimatorNode<BioTacInput>> {
-    e.lock().unwrap_or_else(|e| e.into_inner())
-}
 
 /// Checks (or, `apply`, takes) the model of a new `model_file` value: a
 /// file in `models` ([`ModelsDir::input`]), or "" for the default model.
