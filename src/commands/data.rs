@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use tactile_force::learn::data::bag::BagTopics;
-use tactile_force::learn::data::sessions::{self, Features, Request, Sessions, Source};
-use tactile_force::learn::data::sessions::{DEFAULT_REST_FORCE_N, DEFAULT_REST_MIN_S};
+use tactile_force::learn::data::sessions::{self, Features, Request, Sessions};
+use tactile_force::learn::data::source::{Source, DEFAULT_REST_FORCE_N, DEFAULT_REST_MIN_S};
 use tactile_force::learn::data::trials::TrialsArg;
 use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::{AxisSet, FrameTransform};

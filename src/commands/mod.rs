@@ -48,11 +48,6 @@ impl Failure {
         }
     }
 
-    /// The first error of type `E` in the chain of causes.
-    pub fn cause<E: std::error::Error + 'static>(&self) -> Option<&E> {
-        self.error.chain().find_map(|c| c.downcast_ref::<E>())
-    }
-
     /// The process's exit code.
     pub fn exit_code(&self) -> u8 {
         self.class.code()

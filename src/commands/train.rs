@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use tactile_force::learn::choice::{select, Choice, Family, GpChoice, Space};
-use tactile_force::learn::data::{Channel, DatasetError};
+use tactile_force::learn::data::Channel;
 use tactile_force::learn::evaluate::{training_fit, Progress, Scores};
 use tactile_force::learn::models::ensemble::WrenchEnsemble;
 use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
@@ -20,7 +20,7 @@ use tactile_force::wrench::AxisSet;
 use super::data::{load_sessions, SourceArgs};
 use super::output::{print_selection, progress_bar, show};
 use super::{BadArgument, Context, Failure, Result};
-use tactile_force::learn::data::sessions::{Features, SessionError, Sessions};
+use tactile_force::learn::data::sessions::{Features, Sessions};
 
 /// Options shared by `train` and `eval`.
 #[derive(Args)]
@@ -359,43 +359,29 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     save_checked(a, model, &data, t0, (&sessions, &params))
 }
 
-/// The data with every channel they hold (the electrodes always, or those
-/// of `--channels`): a channel whose column is missing is dropped and the
-/// files read again. With the channels held.
+/// The data with every channel they all hold (the electrodes always, or
+/// those of `--channels`). With the channels held.
 fn load_held(a: &TrainArgs) -> Result<(Sessions, Vec<Channel>)> {
-    let mut held = a.fit.channels.clone().unwrap_or_else(|| {
-        vec![
-            Channel::Electrodes,
-            Channel::Pdc,
-            Channel::Tdc,
-            Channel::Tac,
-        ]
-    });
-    loop {
-        let loaded = load_sessions(
-            &a.data,
-            Features::Channels(&held),
-            &a.fit.axes,
-            a.fit.tare_samples,
-            &a.fit.source,
-            None,
-        );
-        let missing = match &loaded {
-            Err(e) if a.fit.channels.is_none() => match e.cause() {
-                Some(SessionError::Dataset(DatasetError::MissingColumn { column, .. })) => held
-                    .iter()
-                    .position(|c| c.name() == column && *c != Channel::Electrodes),
-                _ => None,
-            },
-            _ => None,
-        };
-        match missing {
-            Some(i) => {
-                held.remove(i);
-            }
-            None => return Ok((loaded?, held)),
-        }
-    }
+    let all = [
+        Channel::Electrodes,
+        Channel::Pdc,
+        Channel::Tdc,
+        Channel::Tac,
+    ];
+    let features = match &a.fit.channels {
+        Some(channels) => Features::Channels(channels),
+        None => Features::Held(&all),
+    };
+    let sessions = load_sessions(
+        &a.data,
+        features,
+        &a.fit.axes,
+        a.fit.tare_samples,
+        &a.fit.source,
+        None,
+    )?;
+    let held = sessions.channels_of(a.fit.channels.as_deref().unwrap_or(&all));
+    Ok((sessions, held))
 }
 
 /// Checks the model's fit on its own training data `ds`, writes it with

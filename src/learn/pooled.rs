@@ -9,7 +9,8 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use super::data::sessions::{load_sessions, Features, Request, Source};
+use super::data::sessions::{load_sessions, Features, Request};
+use super::data::source::Source;
 use super::data::Dataset;
 use super::evaluate::{score_model, EvalError};
 use super::models::ensemble::WrenchEnsemble;

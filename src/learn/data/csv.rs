@@ -23,7 +23,7 @@ use std::path::Path;
 
 use ndarray::Array2;
 
-use super::columns::{electrode_columns, Counts, Plausible};
+use super::columns::{electrode_columns, layout_of, Counts, Plausible};
 use super::{records_layout, Dataset, DatasetError};
 use crate::biotac::ElectrodeLayout;
 use crate::record::Record;
@@ -77,26 +77,64 @@ impl Dataset {
         axes: &AxisSet,
         counts: Counts,
     ) -> Result<Self, DatasetError> {
+        CsvFile::open(path)?.rows(features, axes, counts)
+    }
+}
+
+/// A CSV data file in memory, its header read.
+pub struct CsvFile {
+    path: String,
+    bytes: Vec<u8>,
+    header: Vec<String>,
+}
+
+impl CsvFile {
+    /// Reads the file at `path` and its header.
+    pub fn open(path: &Path) -> Result<Self, DatasetError> {
         let p = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|source| DatasetError::Io {
             path: p.clone(),
             source,
         })?;
+        let header = reader(&bytes)
+            .headers()
+            .map_err(|source| DatasetError::Csv {
+                path: p.clone(),
+                source,
+            })?
+            .iter()
+            .map(String::from)
+            .collect();
+        Ok(CsvFile {
+            path: p,
+            bytes,
+            header,
+        })
+    }
+
+    /// The electrode layout its columns hold.
+    pub fn layout(&self) -> ElectrodeLayout {
+        layout_of(&self.header)
+    }
+
+    /// True when it has the column `name`.
+    pub fn holds(&self, name: &str) -> bool {
+        self.header.iter().any(|h| h == name)
+    }
+
+    /// The named feature columns and the target columns of `axes`, as
+    /// [`Dataset::read_csv`] reads them.
+    pub fn rows(
+        &self,
+        features: &[String],
+        axes: &AxisSet,
+        counts: Counts,
+    ) -> Result<Dataset, DatasetError> {
+        let (p, header) = (&self.path, &self.header);
         let csv_err = |source| DatasetError::Csv {
             path: p.clone(),
             source,
         };
-        // Fields are trimmed as they are parsed: one record is reused and
-        // only the columns taken are looked at.
-        let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::Headers)
-            .from_reader(bytes.as_slice());
-        let header: Vec<String> = reader
-            .headers()
-            .map_err(csv_err)?
-            .iter()
-            .map(String::from)
-            .collect();
         let find = |name: &str| header.iter().position(|h| h == name);
         let need = |name: &str| {
             find(name).ok_or_else(|| DatasetError::MissingColumn {
@@ -111,15 +149,16 @@ impl Dataset {
             .collect::<Result<_, _>>()?;
         let (set_idx, trial_idx) = (find("set"), find("trial"));
         let fields = Fields {
-            path: &p,
-            bytes: &bytes,
-            header: &header,
+            path: p,
+            bytes: &self.bytes,
+            header,
             plausible: header.iter().map(|h| Plausible::of(h, counts)).collect(),
         };
 
         let mut xs = Vec::new();
         let mut ys = Vec::new();
         let (mut set, mut trial) = (Vec::new(), Vec::new());
+        let mut reader = reader(&self.bytes);
         let mut rec = csv::ByteRecord::new();
         while reader.read_byte_record(&mut rec).map_err(csv_err)? {
             let num = |i: usize| fields.value(&rec, i);
@@ -134,7 +173,7 @@ impl Dataset {
         }
         let n = set.len();
         if n == 0 {
-            return Err(DatasetError::Empty { path: p });
+            return Err(DatasetError::Empty { path: p.clone() });
         }
         let shape_ok = "row-major buffers sized rows x columns";
         Ok(Dataset {
@@ -147,6 +186,14 @@ impl Dataset {
             images: None,
         })
     }
+}
+
+/// A reader of CSV `bytes` whose fields are trimmed as they are parsed:
+/// one record is reused and only the columns taken are looked at.
+fn reader(bytes: &[u8]) -> csv::Reader<&[u8]> {
+    csv::ReaderBuilder::new()
+        .trim(csv::Trim::Headers)
+        .from_reader(bytes)
 }
 
 /// A CSV file's header and each column's plausible values: a field's value,

@@ -1,17 +1,21 @@
 //! Data sets (samples x features, with their targets and trials) and their
 //! files: the training-data CSV format ([`csv`]), rosbag2 MCAP bags
 //! ([`bag`]), ROS 1 bags ([`ros1`]) of hands' BioTac messages
-//! ([`crate::biotac::hand`]),
-//! cut into trials ([`trials`]), and the nail camera's directories
-//! ([`nail`]); which columns hold what ([`columns`]); any of them read as
-//! tared sessions of one sensor ([`sessions`]).
+//! ([`crate::biotac::hand`]), each a [`format::Format`] registered in
+//! [`formats`]; bags cut into trials ([`trials`]) as their [`source`]
+//! says; the nail camera's directories ([`nail`]); which columns hold what
+//! ([`columns`]); any of them read as tared sessions of one sensor
+//! ([`sessions`]).
 
 pub mod bag;
 pub mod columns;
 pub mod csv;
+pub mod format;
+pub mod formats;
 pub mod nail;
 pub mod ros1;
 pub mod sessions;
+pub mod source;
 pub mod trials;
 
 use std::collections::BTreeMap;
@@ -406,6 +410,22 @@ impl Dataset {
             set: idx.iter().map(|&i| self.set[i]).collect(),
             trial: idx.iter().map(|&i| self.trial[i]).collect(),
             images: self.images.as_ref().map(|m| m.select(NdAxis(0), idx)),
+        }
+    }
+
+    /// Only its feature columns `names` (those it has), in that order.
+    pub fn with_features(&self, names: &[String]) -> Dataset {
+        let idx: Vec<usize> = (names.iter())
+            .filter_map(|n| self.features.iter().position(|f| f == n))
+            .collect();
+        Dataset {
+            features: idx.iter().map(|&i| self.features[i].clone()).collect(),
+            x: self.x.select(NdAxis(1), &idx),
+            axes: self.axes.clone(),
+            y: self.y.clone(),
+            set: self.set.clone(),
+            trial: self.trial.clone(),
+            images: self.images.clone(),
         }
     }
 }

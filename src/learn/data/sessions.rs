@@ -1,83 +1,22 @@
-//! Training data files as sessions, the one reader of every format: BioTac
-//! CSV files, rosbag2 MCAP and ROS 1 bags (cut into trials), each a session
-//! tared on its own, wrenches moved to the BioTac frame; or nail-camera
-//! directories. It finds the files' electrode layout and checks their
-//! sensor against a model's. The commands (`train`, `eval`, `adapt`,
-//! `tradeoff`) and pooled retraining read through it.
+//! Training data files as sessions: each file read in its format
+//! ([`super::formats`]), each trial tared on its own, wrenches moved to the
+//! BioTac frame; or nail-camera directories. It finds the files' electrode
+//! layout and checks their sensor against a model's. The commands
+//! (`train`, `eval`, `adapt`, `tradeoff`) and pooled retraining read
+//! through it.
 
-use std::path::{Path, PathBuf};
+use std::cell::Cell;
+use std::path::PathBuf;
 
-use nalgebra::Vector3;
-
-use super::bag::{read_bag, Bag, BagError, BagTopics};
+use super::format::{FileError, Say};
+use super::formats;
 use super::nail::read_nail_dirs;
-use super::ros1::{is_ros1_bag, read_ros1_bag};
-use super::trials::{split_trials, TrialSplit, TrialsArg};
+use super::source::Source;
 use super::{channel_columns, Channel, Counts, Dataset, DatasetError, TareSpec};
-use crate::biotac::hand::HandKind;
-use crate::biotac::ElectrodeLayout;
 use crate::exit::{Classify, ExitClass};
 use crate::nail::collect::{is_nail_dir, NailDataError};
 use crate::sensor::{biotac, nail, SensorSpec};
-use crate::wrench::{AxisSet, FrameTransform, Wrench};
-
-/// At rest, by default: the force within this of the first readings' mean (N).
-pub const DEFAULT_REST_FORCE_N: f64 = 0.1;
-/// The shortest rest between two presses, by default (s).
-pub const DEFAULT_REST_MIN_S: f64 = 0.5;
-
-/// Where the files' wrenches come from: the topics of a bag, how a bag is
-/// cut into trials, and the F/T sensor's frame.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Source {
-    /// Topics read from bags and how their stamps pair.
-    pub topics: BagTopics,
-    /// How a bag is cut into trials.
-    pub trials: TrialsArg,
-    /// At rest: the force within this of the first 50 readings' mean (N).
-    pub rest_force_n: f64,
-    /// The shortest rest between two presses (s).
-    pub rest_min_s: f64,
-    /// Where the F/T sensor sits in the BioTac frame; None: the files are
-    /// in the BioTac frame already.
-    pub ft_to_biotac: Option<FrameTransform>,
-}
-
-impl Default for Source {
-    /// The default topics, trials as the bag's message type says, no frame change.
-    fn default() -> Self {
-        Source {
-            topics: BagTopics::default(),
-            trials: TrialsArg::Auto,
-            rest_force_n: DEFAULT_REST_FORCE_N,
-            rest_min_s: DEFAULT_REST_MIN_S,
-            ft_to_biotac: None,
-        }
-    }
-}
-
-impl Source {
-    /// Cuts a bag's records into trials; the number of trials.
-    fn split(&self, bag: &mut Bag) -> usize {
-        let rests = TrialSplit::Rests {
-            force_n: self.rest_force_n,
-            min_rest_s: self.rest_min_s,
-            rest_samples: biotac::DEFAULT_TARE_SAMPLES,
-        };
-        let how = match &self.trials {
-            TrialsArg::Auto if HandKind::of(&bag.reading_type).is_some() => rests,
-            TrialsArg::Auto | TrialsArg::Whole => TrialSplit::Whole,
-            TrialsArg::Rests => rests,
-            TrialsArg::Starts(times) => TrialSplit::Starts(times.clone()),
-        };
-        split_trials(&mut bag.records, &how)
-    }
-
-    /// `w` in the BioTac frame.
-    fn to_biotac(&self, w: Wrench) -> Wrench {
-        self.ft_to_biotac.map_or(w, |t| t.apply(&w))
-    }
-}
+use crate::wrench::AxisSet;
 
 /// Errors reading sessions.
 #[derive(Debug, thiserror::Error)]
@@ -88,7 +27,7 @@ pub enum SessionError {
     Dataset(#[from] DatasetError),
     /// A bag refused.
     #[error(transparent)]
-    Bag(#[from] BagError),
+    Bag(#[from] super::bag::BagError),
     /// A nail-camera directory refused.
     #[error(transparent)]
     Nail(#[from] NailDataError),
@@ -121,85 +60,14 @@ impl Classify for SessionError {
     }
 }
 
-/// Where what the reader has to say goes (a bag's pairing, a cut file).
-pub type Say<'a> = &'a mut dyn FnMut(String);
-
-/// Reads a CSV (its BioTac channels holding `counts`) or, by its `.mcap`
-/// extension, a rosbag2 bag, or a ROS 1 bag (`.bag`, or a file that starts
-/// as one) (raw readings, cut into trials); wrenches moved to the BioTac
-/// frame when `source` says where the F/T sensor is.
-pub fn read_file(
-    path: &Path,
-    features: &[String],
-    axes: &AxisSet,
-    counts: Counts,
-    source: &Source,
-    say: Say,
-) -> Result<Dataset, SessionError> {
-    let mcap = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
-    let ros1 = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("bag"))
-        || is_ros1_bag(path);
-    if mcap || ros1 {
-        let bag = match mcap {
-            true => read_bag(path, &source.topics)?,
-            false => read_ros1_bag(path, &source.topics)?,
-        };
-        return bag_rows(path, bag, features, axes, source, say);
+impl From<FileError> for SessionError {
+    fn from(e: FileError) -> Self {
+        match e {
+            FileError::Dataset(e) => SessionError::Dataset(e),
+            FileError::Bag(e) => SessionError::Bag(e),
+            FileError::Sensor(why) => SessionError::Sensor(why),
+        }
     }
-    if source.ft_to_biotac.is_none() {
-        return Ok(Dataset::read_csv(path, features, axes, counts)?);
-    }
-    // Every BioTac-frame component needs the whole force (and torque).
-    let torques = axes.axes().iter().any(|a| a.index() >= 3);
-    let read = if torques {
-        AxisSet::wrench()
-    } else {
-        AxisSet::forces()
-    };
-    let mut ds = Dataset::read_csv(path, features, &read, counts)?;
-    ds.y = ndarray::Array2::from_shape_fn((ds.len(), axes.len()), |(i, j)| {
-        let row = ds.y.row(i);
-        let torque = match torques {
-            true => Vector3::new(row[3], row[4], row[5]),
-            false => Vector3::zeros(),
-        };
-        let w = Wrench::new(Vector3::new(row[0], row[1], row[2]), torque);
-        source.to_biotac(w).get(axes.axes()[j])
-    });
-    ds.axes = axes.clone();
-    Ok(ds)
-}
-
-/// A bag's records cut into trials, their wrenches in the BioTac frame.
-fn bag_rows(
-    path: &Path,
-    mut bag: Bag,
-    features: &[String],
-    axes: &AxisSet,
-    source: &Source,
-    say: Say,
-) -> Result<Dataset, SessionError> {
-    if let Some(warning) = bag.cut_warning(path) {
-        say(format!("warning: {warning}"));
-    }
-    let trials = source.split(&mut bag);
-    let name = path.display().to_string();
-    say(format!(
-        "{name}: {} readings of {} paired with a wrench; unpaired: {} readings, {} wrenches; \
-         trials: {trials}",
-        bag.records.len(),
-        bag.reading_type,
-        bag.unpaired_readings,
-        bag.unpaired_wrenches
-    ));
-    for r in &mut bag.records {
-        r.wrench = source.to_biotac(r.wrench);
-    }
-    Ok(Dataset::from_records(&bag.records, features, axes, &name)?)
 }
 
 /// What training files hold: rows, the tare a model of them records, and
@@ -215,6 +83,21 @@ pub struct Sessions {
 }
 
 impl Sessions {
+    /// The `channels` whose columns its rows hold.
+    pub fn channels_of(&self, channels: &[Channel]) -> Vec<Channel> {
+        let (Some(first), SensorSpec::Biotac { electrodes: layout }) =
+            (self.sets.first(), &self.sensor)
+        else {
+            return Vec::new();
+        };
+        let holds = |c: &Channel| {
+            channel_columns(&[*c], *layout)
+                .iter()
+                .all(|n| first.features.contains(n))
+        };
+        channels.iter().copied().filter(holds).collect()
+    }
+
     /// Every session's rows in one data set.
     pub fn pooled(&self) -> Result<Dataset, SessionError> {
         let refs: Vec<&Dataset> = self.sets.iter().collect();
@@ -230,6 +113,9 @@ pub enum Features<'a> {
     Channels(&'a [Channel]),
     /// A model's features by name: the files must hold its sensor's layout.
     Model(&'a [String]),
+    /// These channels where every file holds them (the electrodes always):
+    /// one a file lacks is left out of all.
+    Held(&'a [Channel]),
 }
 
 /// The files to read as sessions and how.
@@ -303,34 +189,63 @@ fn nail_sessions(r: &Request, say: Say) -> Result<Sessions, SessionError> {
     })
 }
 
-/// BioTac files as sessions, their electrode layout `r.sensor`'s if given.
+/// BioTac files as sessions, each read once, their electrode layout
+/// `r.sensor`'s if given; refused when they mix layouts.
 fn biotac_sessions(r: &Request, say: Say) -> Result<Sessions, SessionError> {
-    let layout = layout_of_files(r.paths, r.axes, r.source)?;
-    if let Some(&SensorSpec::Biotac { electrodes }) = r.sensor {
-        if electrodes != layout {
-            let msg = format!("model trained on {electrodes}, readings have {layout}");
-            return Err(SessionError::Sensor(msg));
-        }
-    }
-    let features = match r.features {
-        Features::Channels(channels) => channel_columns(channels, layout),
-        Features::Model(names) => names.to_vec(),
-    };
     let samples = r.tare_samples.unwrap_or(biotac::DEFAULT_TARE_SAMPLES);
     // Untared files hold raw counts; tared ones may go below zero.
     let counts = match samples {
         0 => Counts::Tared,
         _ => Counts::Raw,
     };
+    let first = Cell::new(None);
     let mut sets = Vec::with_capacity(r.paths.len());
-    for p in r.paths {
-        sets.push(read_file(p, &features, r.axes, counts, r.source, say)?);
+    for path in r.paths {
+        let features = |layout, holds: &dyn Fn(&str) -> bool| {
+            let held = |p: &PathBuf, l| format!("{} holds {l}", p.display());
+            match (first.get(), r.sensor) {
+                (Some(l), _) if l != layout => Err(FileError::Sensor(format!(
+                    "the data files mix sensors: {}, {}",
+                    held(&r.paths[0], l),
+                    held(path, layout)
+                ))),
+                (_, Some(&SensorSpec::Biotac { electrodes })) if electrodes != layout => {
+                    Err(FileError::Sensor(format!(
+                        "model trained on {electrodes}, readings have {layout}"
+                    )))
+                }
+                _ => {
+                    first.set(Some(layout));
+                    Ok(match r.features {
+                        Features::Channels(channels) => channel_columns(channels, layout),
+                        Features::Model(names) => names.to_vec(),
+                        Features::Held(channels) => {
+                            let held = channels.iter().copied().filter(|&c| {
+                                c == Channel::Electrodes
+                                    || channel_columns(&[c], layout).iter().all(|n| holds(n))
+                            });
+                            channel_columns(&held.collect::<Vec<_>>(), layout)
+                        }
+                    })
+                }
+            }
+        };
+        sets.push(formats::read(path, &features, r.axes, counts, r.source, say)?.rows);
+    }
+    if let Features::Held(_) = r.features {
+        let names = sets.first().map_or(Vec::new(), |s| s.features.clone());
+        let common: Vec<String> = (names.into_iter())
+            .filter(|n| sets.iter().all(|s| s.features.contains(n)))
+            .collect();
+        for set in &mut sets {
+            *set = set.with_features(&common);
+        }
     }
     let tare = tare_each(&mut sets, r.paths, samples)?;
     Ok(Sessions {
         sets,
         tare,
-        sensor: SensorSpec::biotac(layout),
+        sensor: SensorSpec::biotac(first.get().unwrap_or_default()),
     })
 }
 
@@ -358,40 +273,6 @@ fn tare_each(
         samples,
         mean_baseline,
     })
-}
-
-/// The electrode layout of BioTac data files: a BioTac SP's when they hold
-/// `e20`; refused when they mix layouts.
-fn layout_of_files(
-    paths: &[PathBuf],
-    axes: &AxisSet,
-    source: &Source,
-) -> Result<ElectrodeLayout, SessionError> {
-    let mut layouts = Vec::with_capacity(paths.len());
-    for path in paths {
-        let sp = ["e20".to_string()];
-        let layout = match read_file(path, &sp, axes, Counts::Tared, source, &mut |_| {}) {
-            Ok(_) => ElectrodeLayout::BiotacSp,
-            Err(SessionError::Dataset(DatasetError::MissingColumn { column, .. }))
-                if column == "e20" =>
-            {
-                ElectrodeLayout::Biotac
-            }
-            Err(e) => return Err(e),
-        };
-        layouts.push((path, layout));
-    }
-    let Some(&(first, layout)) = layouts.first() else {
-        return Ok(ElectrodeLayout::default());
-    };
-    match layouts.iter().find(|(_, l)| *l != layout) {
-        Some((other, l)) => Err(SessionError::Sensor(format!(
-            "the data files mix sensors: {} holds {layout}, {} holds {l}",
-            first.display(),
-            other.display()
-        ))),
-        None => Ok(layout),
-    }
 }
 
 #[cfg(test)]

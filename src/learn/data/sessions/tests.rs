@@ -3,6 +3,9 @@
 use super::*;
 
 use std::io::Write;
+use std::path::Path;
+
+use crate::biotac::ElectrodeLayout;
 
 fn csv(dir: &Path, name: &str, text: &str) -> PathBuf {
     let path = dir.join(name);
@@ -63,7 +66,13 @@ fn an_ft_sensor_turned_half_about_x_gives_the_wrench_in_the_biotac_frame() {
         ..Source::default()
     };
     let axes: AxisSet = "fy,fz".parse().unwrap();
-    let ds = read_file(&f, &features, &axes, Counts::Raw, &source, &mut quiet()).unwrap();
+    let read = |source: &Source| {
+        let features = |_, _: &dyn Fn(&str) -> bool| Ok(features.to_vec());
+        formats::read(&f, &features, &axes, Counts::Raw, source, &mut quiet())
+            .unwrap()
+            .rows
+    };
+    let ds = read(&source);
     let y = ds.y.row(0).to_vec();
     assert!(
         (y[0] + 0.2).abs() < 1e-12 && (y[1] + 0.5).abs() < 1e-12,
@@ -71,15 +80,7 @@ fn an_ft_sensor_turned_half_about_x_gives_the_wrench_in_the_biotac_frame() {
     );
     assert_eq!(ds.axes, axes);
     // Without the frame change the file's own values.
-    let ds = read_file(
-        &f,
-        &features,
-        &axes,
-        Counts::Raw,
-        &Source::default(),
-        &mut quiet(),
-    )
-    .unwrap();
+    let ds = read(&Source::default());
     assert_eq!(ds.y.row(0).to_vec(), vec![0.2, 0.5]);
 }
 
@@ -131,4 +132,51 @@ fn files_of_two_sensors_or_not_the_models_sensor_are_refused_by_name() {
         err.to_string().contains("mix nail-camera directories"),
         "{err}"
     );
+}
+
+#[test]
+fn held_channels_are_those_every_file_holds_each_file_read_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let e: Vec<String> = (1..=19).map(|i| format!("e{i}")).collect();
+    let tens = vec!["10"; 19].join(",");
+    let a = csv(
+        dir.path(),
+        "a.csv",
+        &format!("{},pdc,tac,fz\n{tens},2000,30,0.5\n", e.join(",")),
+    );
+    let b = csv(
+        dir.path(),
+        "b.csv",
+        &format!("{},pdc,fz\n{tens},2100,0.4\n", e.join(",")),
+    );
+    let all = [
+        Channel::Electrodes,
+        Channel::Pdc,
+        Channel::Tdc,
+        Channel::Tac,
+    ];
+    let axes: AxisSet = "fz".parse().unwrap();
+    let request = Request {
+        paths: &[a, b],
+        features: Features::Held(&all),
+        axes: &axes,
+        tare_samples: Some(0),
+        source: &Source::default(),
+        sensor: None,
+    };
+    let s = load_sessions(&request, &mut quiet()).unwrap();
+    assert_eq!(s.channels_of(&all), [Channel::Electrodes, Channel::Pdc]);
+    let mut names = e.clone();
+    names.push("pdc".into());
+    for set in &s.sets {
+        assert_eq!(set.features, names);
+    }
+    assert_eq!(s.pooled().unwrap().x.column(19).to_vec(), [2000.0, 2100.0]);
+    // Asked for by name, a channel a file lacks is refused with its column.
+    let request = Request {
+        features: Features::Channels(&all),
+        ..request
+    };
+    let err = load_sessions(&request, &mut quiet()).unwrap_err();
+    assert!(err.to_string().contains("\"tdc\""), "{err}");
 }
