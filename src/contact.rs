@@ -7,33 +7,32 @@
 
 use std::collections::BTreeMap;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
-use crate::params::{non_negative, positive, Check, Checked, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{Check, Checked, ParamsError};
 
 /// Largest exponent of the skin law (the skin has bottomed out long before).
 const MAX_SKIN_EXPONENT: f64 = 30.0;
 
 /// The BioTac skin law (`/**.skin` in the scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SkinParams {
     /// Force scale A of `F = A (exp(x / x0) - 1)` (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub force_scale_n: f64,
     /// Length scale x0 (mm).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub length_scale_mm: f64,
     /// Shear stiffness of a stuck contact through the skin (N/m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub shear_stiffness_n_per_m: f64,
 }
 
 impl Check for SkinParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        positive(&format!("{key}.force_scale_n"), self.force_scale_n)?;
-        positive(&format!("{key}.length_scale_mm"), self.length_scale_mm)?;
-        positive(
-            &format!("{key}.shear_stiffness_n_per_m"),
-            self.shear_stiffness_n_per_m,
-        )?;
+        check_ranges(&self, key)?;
         Ok(self)
     }
 }
@@ -55,22 +54,23 @@ impl SkinParams {
 }
 
 /// A compliant body: an object or a fingertip.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BodyParams {
     /// Normal stiffness (N/m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub stiffness_n_per_m: f64,
     /// Normal damping (N s/m).
+    #[schemars(range(min = 0.0))]
     pub damping_n_s_per_m: f64,
     /// Coulomb friction coefficient against the skin.
+    #[schemars(range(min = 0.0))]
     pub friction: f64,
 }
 
 impl Check for BodyParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        positive(&format!("{key}.stiffness_n_per_m"), self.stiffness_n_per_m)?;
-        non_negative(&format!("{key}.damping_n_s_per_m"), self.damping_n_s_per_m)?;
-        non_negative(&format!("{key}.friction"), self.friction)?;
+        check_ranges(&self, key)?;
         Ok(self)
     }
 }

@@ -1,6 +1,8 @@
 //! ROS 2 parameter files (`node: ros__parameters: ...`). The embedded runtime
 //! reads the same files as the ROS nodes, so one file configures both.
 
+pub mod reference;
+
 use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;

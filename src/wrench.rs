@@ -8,12 +8,15 @@ use std::fmt;
 use std::str::FromStr;
 
 use nalgebra::Vector3;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::exit::{Classify, ExitClass};
 
 /// One component of a wrench.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
     /// Force along x (N).
@@ -95,7 +98,7 @@ impl FromStr for Axis {
 }
 
 /// A non-empty set of axes without repeats, kept in wrench order.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(try_from = "Vec<Axis>", into = "Vec<Axis>")]
 pub struct AxisSet(Vec<Axis>);
 

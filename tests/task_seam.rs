@@ -1,5 +1,7 @@
 //! The task seam is open: a task defined here, outside the crate, runs in
-//! the closed loop through its registration alone.
+//! the closed loop through its registration alone, and its parameter,
+//! declared once by its field, is checked, described to ROS and listed in
+//! the parameter reference.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -10,7 +12,9 @@ use tactile_force::control::{
     Envelope, Phase, StopReason, Task, TaskEnvelope, TaskKind, TaskSection,
 };
 use tactile_force::kinematics::Twist;
+use tactile_force::nodes::param_reference::{markdown, SharedNode};
 use tactile_force::nodes::tasks;
+use tactile_force::params::reference::check_ranges;
 use tactile_force::params::{Check, Checked, ParamsError};
 use tactile_force::runtime::{run, Pacing, Scene};
 use tactile_force::wrench::Axis;
@@ -19,23 +23,18 @@ mod common;
 use common::model;
 
 /// The section `hold_still:` of the controller's parameters.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct HoldStillParams {
     /// How long to hold still (s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     seconds: f64,
 }
 
 impl Check for HoldStillParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        if self.seconds > 0.0 {
-            return Ok(self);
-        }
-        Err(ParamsError::Invalid {
-            key: format!("{key}.seconds"),
-            value: self.seconds.to_string(),
-            expected: "> 0".into(),
-        })
+        check_ranges(&self, key)?;
+        Ok(self)
     }
 }
 
@@ -170,5 +169,19 @@ fn without_its_registration_the_task_and_its_section_are_refused_by_name() {
         .controller
         .set_section(&HoldStillParams { seconds: -1.0 });
     let e = scene.check().unwrap_err().to_string();
-    assert!(e.contains("hold_still.seconds"), "{e}");
+    assert!(e.contains("hold_still.seconds") && e.contains("> 0"), "{e}");
+}
+
+#[test]
+fn its_parameter_declared_once_is_described_to_ros_and_in_the_reference() {
+    let registry = tasks::shipped().with::<HoldStillParams>();
+    let node = SharedNode::ForceController;
+    let said = node.describe(&registry, "hold_still.seconds");
+    assert_eq!(said, "How long to hold still (s).");
+    let row = "| `hold_still.seconds` | number | > 0 |  | How long to hold still (s). |";
+    assert!(markdown(&registry).unwrap().contains(row));
+    // Not registered: no task of that name, nothing described.
+    let said = node.describe(&tasks::shipped(), "hold_still.seconds");
+    assert_eq!(said, "See the config/ files.");
+    assert!(!markdown(&tasks::shipped()).unwrap().contains("hold_still"));
 }

@@ -6,10 +6,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::params::{invalid, positive, Check, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{invalid, Check, ParamsError};
 
 /// Calibration settings (`force_controller.calibrate` in the scene files).
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CalibrateParams {
     /// Normal forces of the ladder's presses (N), in order.
@@ -19,36 +20,46 @@ pub struct CalibrateParams {
     /// Directions of the slides in the pad's plane (deg; 0 = +x, 90 = +y).
     pub shear_directions_deg: Vec<f64>,
     /// How far the pad slides along the block in a shear push (m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub shear_distance_m: f64,
     /// How fast it slides (m/s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub shear_speed_mps: f64,
     /// Turns of the BioTac about its axis from the start, one per push in
     /// turn (deg).
     pub roll_deg: Vec<f64>,
     /// How fast it turns (deg/s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub roll_rate_deg_s: f64,
     /// Approach and retract speed (m/s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub approach_speed_mps: f64,
     /// Force that means contact (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub contact_force_n: f64,
     /// Time each press holds its force once settled (s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub hold_s: f64,
     /// Time out of contact before each press: its tare (s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub rest_s: f64,
     /// How far above where it touched the pad backs off between pushes (m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub clearance_m: f64,
     /// Force above which the calibration retracts and stops (N).
     pub force_limit_n: f64,
     /// Approach distance of a press with no contact: the calibration stops (m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_distance_m: f64,
     /// The longest the calibration may move the arm (s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_duration_s: f64,
 }
 
 impl Check for CalibrateParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
         let name = |field: &str| format!("{key}.{field}");
-        positive(&name("contact_force_n"), self.contact_force_n)?;
+        check_ranges(&self, key)?;
         if self.ladder_n.is_empty() {
             return Err(invalid(&name("ladder_n"), 0.0, "at least one force"));
         }
@@ -68,19 +79,6 @@ impl Check for CalibrateParams {
                     ),
                 ));
             }
-        }
-        for (field, v) in [
-            ("shear_distance_m", self.shear_distance_m),
-            ("shear_speed_mps", self.shear_speed_mps),
-            ("roll_rate_deg_s", self.roll_rate_deg_s),
-            ("approach_speed_mps", self.approach_speed_mps),
-            ("hold_s", self.hold_s),
-            ("rest_s", self.rest_s),
-            ("clearance_m", self.clearance_m),
-            ("max_distance_m", self.max_distance_m),
-            ("max_duration_s", self.max_duration_s),
-        ] {
-            positive(&name(field), v)?;
         }
         if let Some(d) = self.shear_directions_deg.iter().find(|d| !d.is_finite()) {
             return Err(invalid(&name("shear_directions_deg"), *d, "a finite angle"));

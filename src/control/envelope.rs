@@ -45,20 +45,22 @@
 //! contact ~ latency x approach speed x stiffness" (architecture page,
 //! "Force control facts").
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::contact::SkinParams;
-use crate::params::{positive, Check, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{Check, ParamsError};
 
 /// What the envelope assumes of the bodies (`force_controller.safety` in
 /// the scene files); the loop's delays are [`crate::control::LoopDelays`].
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SafetyParams {
     /// The bodies this scene may touch (names of `objects`, or
     /// [`UNKNOWN_OBJECT`]); the stiffest one sets the speed limit.
     pub objects: Vec<String>,
     /// Stiffness assumed for [`UNKNOWN_OBJECT`] (N/m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub worst_case_stiffness_n_per_m: f64,
 }
 
@@ -68,10 +70,7 @@ pub const UNKNOWN_OBJECT: &str = "unknown";
 
 impl Check for SafetyParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        positive(
-            &format!("{key}.worst_case_stiffness_n_per_m"),
-            self.worst_case_stiffness_n_per_m,
-        )?;
+        check_ranges(&self, key)?;
         if self.objects.is_empty() {
             return Err(ParamsError::Invalid {
                 key: format!("{key}.objects"),

@@ -52,40 +52,51 @@ use super::tuning::LoopTiming;
 use super::{Envelope, Phase, StopReason};
 use crate::contact::BodyParams;
 use crate::kinematics::Twist;
-use crate::params::{invalid, non_negative, positive, require, Check, Checked, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{invalid, Check, Checked, ParamsError};
 use crate::wrench::Axis;
 
 /// Guarded-move settings (`force_controller.guarded` in the scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GuardedParams {
     /// Approach direction in the BioTac frame (normalised on validation);
     /// the pad faces -z.
     pub direction: [f64; 3],
     /// Approach speed (m/s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub approach_speed_mps: f64,
     /// Force to hold (N).
     pub target_force_n: f64,
     /// Estimated force that means contact (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub contact_force_n: f64,
     /// PDC rise above its tare that means contact (counts).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub contact_pdc_counts: f64,
     /// Estimated force above which the move retracts and stops (N).
     pub force_limit_n: f64,
     /// Travel along the direction after which the move stops (m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_distance_m: f64,
     /// Time of approach without contact after which the move stops (s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_approach_s: f64,
     /// Retract speed (m/s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub retract_speed_mps: f64,
     /// Distance to retract after the force limit (m).
+    #[schemars(range(min = 0.0))]
     pub retract_distance_m: f64,
     /// Force band around the target that counts as settled (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub settle_band_n: f64,
     /// Estimates within the band, over this time, before the phase is
-    /// Hold (s).
+    /// Hold (s; at most a minute: the window's estimates are held in memory).
+    #[schemars(range(min = 0.0, max = 60.0))]
     pub settle_time_s: f64,
     /// Largest standard deviation of the force over that time (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub settle_sd_n: f64,
 }
 
@@ -99,9 +110,7 @@ impl Check for GuardedParams {
             return Err(invalid(&name("direction"), n, "a finite non-zero vector"));
         }
         self.direction = (d / n).into();
-        positive(&name("approach_speed_mps"), self.approach_speed_mps)?;
-        positive(&name("contact_force_n"), self.contact_force_n)?;
-        positive(&name("contact_pdc_counts"), self.contact_pdc_counts)?;
+        check_ranges(&self, key)?;
         if self.target_force_n.is_nan() || self.target_force_n <= self.contact_force_n {
             return Err(invalid(
                 &name("target_force_n"),
@@ -116,16 +125,6 @@ impl Check for GuardedParams {
                 &format!("above {}", name("target_force_n")),
             ));
         }
-        positive(&name("max_distance_m"), self.max_distance_m)?;
-        positive(&name("max_approach_s"), self.max_approach_s)?;
-        positive(&name("retract_speed_mps"), self.retract_speed_mps)?;
-        non_negative(&name("retract_distance_m"), self.retract_distance_m)?;
-        positive(&name("settle_band_n"), self.settle_band_n)?;
-        non_negative(&name("settle_time_s"), self.settle_time_s)?;
-        // The window's estimates are held in memory.
-        let t = self.settle_time_s;
-        require(key, "settle_time_s", t, t <= 60.0, "at most 60 s")?;
-        positive(&name("settle_sd_n"), self.settle_sd_n)?;
         Ok(self)
     }
 }

@@ -67,7 +67,8 @@ use super::tuning::{LoopTiming, Margins};
 use super::{Envelope, Phase, StopReason};
 use crate::contact::{shear_stiffness, BodyParams};
 use crate::kinematics::Twist;
-use crate::params::{invalid, non_negative, positive, Check, Checked, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{invalid, Check, Checked, ParamsError};
 use crate::wrench::Axis;
 
 /// The share of the finger's estimated velocity the arm adds to its PD's.
@@ -82,24 +83,30 @@ const SOFTENINGS: u32 = 3;
 const INTEGRAL_RATIO: f64 = 5.0;
 
 /// Guided-move settings (`force_controller.guided` in the scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GuidedParams {
     /// Force to hold along x, y, z of the BioTac frame (N).
     pub target_force_n: [f64; 3],
     /// Deadband on the force error (N).
+    #[schemars(range(min = 0.0))]
     pub deadband_n: f64,
     /// Force magnitude above which the arm stops (N).
     pub force_limit_n: f64,
     /// Force magnitude that means a finger is there (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub contact_force_n: f64,
     /// Time without a finger after which the move stops (s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub contact_timeout_s: f64,
     /// Distance from the start after which the move stops (m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_travel_m: f64,
     /// Speed of the retract after an oscillation (m/s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub retract_speed_mps: f64,
     /// Distance of that retract along the pad's normal (m).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub retract_distance_m: f64,
     /// The margins the gains keep: following a finger trades some of the
     /// hold's damping (`pd.margins`) for a smaller lag behind it.
@@ -113,22 +120,13 @@ impl Check for GuidedParams {
             let key = format!("{key}.target_force_n");
             return Err(invalid(&key, t.norm(), "finite values"));
         }
-        non_negative(&format!("{key}.deadband_n"), self.deadband_n)?;
+        check_ranges(&self, key)?;
         if self.force_limit_n.is_nan() || self.force_limit_n <= t.norm() {
             return Err(invalid(
                 &format!("{key}.force_limit_n"),
                 self.force_limit_n,
                 "above the target force's magnitude",
             ));
-        }
-        for (field, v) in [
-            ("contact_force_n", self.contact_force_n),
-            ("contact_timeout_s", self.contact_timeout_s),
-            ("max_travel_m", self.max_travel_m),
-            ("retract_speed_mps", self.retract_speed_mps),
-            ("retract_distance_m", self.retract_distance_m),
-        ] {
-            positive(&format!("{key}.{field}"), v)?;
         }
         self.margins.check(&format!("{key}.margins"))?;
         Ok(self)

@@ -22,7 +22,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::params::{positive, Check, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{Check, ParamsError};
 
 /// The lowest frequency counted (Hz).
 pub const LOW_HZ: f64 = 3.0;
@@ -40,25 +41,20 @@ const NOISE_SIGMAS: f64 = 3.0;
 const REST_SAMPLES: u32 = 50;
 
 /// The watchdog's settings (`force_controller.oscillation`).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OscillationParams {
     /// The swing that counts, either side of the slow force (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub threshold_n: f64,
     /// The gain is multiplied by this at the first oscillation.
+    #[schemars(extend("exclusiveMinimum" = 0.0, "exclusiveMaximum" = 1.0))]
     pub gain_factor: f64,
 }
 
 impl Check for OscillationParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        positive(&format!("{key}.threshold_n"), self.threshold_n)?;
-        if !(self.gain_factor > 0.0 && self.gain_factor < 1.0) {
-            return Err(crate::params::invalid(
-                &format!("{key}.gain_factor"),
-                self.gain_factor,
-                "0 < factor < 1",
-            ));
-        }
+        check_ranges(&self, key)?;
         Ok(self)
     }
 }

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::task::{RawSection, TaskRegistry, TaskSection};
 use super::{LoopDelays, OscillationParams, PdParams, SafetyParams};
@@ -16,9 +16,10 @@ use crate::wrench::AxisSet;
 /// The `force_controller` parameters. Every key but the task sections is
 /// a field; a task's section is the key of its name (`guarded:`, ...),
 /// read by the task's own type ([`TaskSection`]) when the task is built.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 pub struct ControllerParams {
     /// Sensing and control period (s).
+    #[schemars(range(min = 0.0001, max = 1.0))]
     pub control_period_s: f64,
     /// The BioTac skin law.
     pub skin: SkinParams,
@@ -33,6 +34,7 @@ pub struct ControllerParams {
     /// An estimate this many of its stream's measured periods later than
     /// usual (at least 2, plus the arrival's jitter: src/control/window.rs),
     /// or a joint state this many control periods old, stops the arm.
+    #[schemars(range(min = 2.0, max = 10.0))]
     pub stale_periods: f64,
     /// When the estimate cannot be trusted.
     pub out_of_range: OutOfRangeParams,
@@ -56,6 +58,7 @@ pub struct ControllerParams {
     /// Every other key: the tasks' sections, by task name (checked against
     /// the registry: [`ControllerParams::check_sections`]).
     #[serde(flatten)]
+    #[schemars(skip)]
     pub sections: BTreeMap<String, RawSection>,
 }
 
@@ -64,12 +67,14 @@ pub struct ControllerParams {
 /// (zero force) while its standard deviation grows, and PDC saturates with
 /// force (architecture page): either means the force may be larger than
 /// estimated, so the task stops (guarded: retracts).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OutOfRangeParams {
     /// Largest trusted standard deviation on a controlled axis (N).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_std_n: f64,
     /// Largest trusted PDC rise above the tare (counts).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_pdc_rise_counts: f64,
 }
 

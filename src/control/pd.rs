@@ -27,10 +27,11 @@
 //! that takes commands on a cycle of its own), half of it keeps some of the
 //! phase it buys (the margins count it).
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::tuning::{gain, LoopTiming, Margins};
-use crate::params::{non_negative, positive, Check, Checked, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{Check, Checked, ParamsError};
 
 /// The share of the arm's delay the derivative predicts.
 const DERIVATIVE_SHARE: f64 = 0.5;
@@ -42,24 +43,25 @@ const RETUNE_SHARE: f64 = 0.01;
 /// (`force_controller.loop_delays` in the scene files): the bounds the
 /// safety envelope assumes ([`crate::control::envelope`]), and the gains'
 /// priors until the controller has measured the loop.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LoopDelays {
     /// From a reading to its estimate reaching the controller, beyond the
     /// control period (s): 0 in one process; over ROS 2 the estimator, DDS
     /// and the controller's wait for its next tick.
+    #[schemars(range(min = 0.0))]
     pub transport_delay_s: f64,
     /// Before the arm acts on a velocity command (s).
+    #[schemars(range(min = 0.0))]
     pub command_latency_s: f64,
     /// Time constant of the arm's velocity servos (s).
+    #[schemars(range(min = 0.0))]
     pub arm_lag_s: f64,
 }
 
 impl Check for LoopDelays {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        non_negative(&format!("{key}.transport_delay_s"), self.transport_delay_s)?;
-        non_negative(&format!("{key}.command_latency_s"), self.command_latency_s)?;
-        non_negative(&format!("{key}.arm_lag_s"), self.arm_lag_s)?;
+        check_ranges(&self, key)?;
         Ok(self)
     }
 }
@@ -77,26 +79,23 @@ impl LoopDelays {
 }
 
 /// PD settings (`force_controller.pd` in the scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PdParams {
     /// The margins the gain keeps on the loop the controller measures (a
     /// task may keep its own: the guided move's).
     pub margins: Margins,
     /// Time constant of the force low-pass feeding the derivative (s).
+    #[schemars(range(min = 0.0))]
     pub derivative_filter_s: f64,
     /// Largest speed the law commands (m/s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_speed_mps: f64,
 }
 
 impl Check for PdParams {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        self.margins.check(&format!("{key}.margins"))?;
-        non_negative(
-            &format!("{key}.derivative_filter_s"),
-            self.derivative_filter_s,
-        )?;
-        positive(&format!("{key}.max_speed_mps"), self.max_speed_mps)?;
+        check_ranges(&self, key)?;
         Ok(self)
     }
 }

@@ -13,6 +13,7 @@ use std::any::Any;
 use std::fmt;
 
 use nalgebra::{Isometry3, Vector3};
+use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
@@ -20,6 +21,7 @@ use super::tuning::LoopTiming;
 use super::{Envelope, LoopDelays, OscillationParams, PdParams, Phase, StopReason};
 use crate::contact::{BodyParams, SkinParams};
 use crate::kinematics::{ShippedRobot, Twist};
+use crate::params::reference::{params_of, ParamDoc};
 use crate::params::{
     Check, Checked, ParamsError, CALIBRATE_YAML, GUARDED_YAML, GUIDED_YAML, WORLD_YAML,
 };
@@ -109,7 +111,7 @@ impl Clone for Box<dyn Task> {
 
 /// A task's section of the `force_controller` parameters (its key is the
 /// task's name): the settings, their checks, and the task they make.
-pub trait TaskSection: DeserializeOwned + Serialize + Check + 'static {
+pub trait TaskSection: DeserializeOwned + Serialize + JsonSchema + Check + 'static {
     /// The task's name: the value of the parameter `task`, and its
     /// section's key.
     const NAME: &'static str;
@@ -145,6 +147,7 @@ pub struct TaskEntry {
     name: &'static str,
     build: BuildFn,
     envelope: EnvelopeFn,
+    params: fn() -> Vec<ParamDoc>,
 }
 
 impl fmt::Debug for TaskEntry {
@@ -160,6 +163,7 @@ impl TaskEntry {
             name: S::NAME,
             build: |raw, lp, body| Ok(S::build(read_section::<S>(raw)?, lp, body)),
             envelope: |raw, lp, body, name| S::envelope(&read_section::<S>(raw)?, lp, body, name),
+            params: || params_of::<S>(S::NAME),
         }
     }
 
@@ -235,6 +239,11 @@ impl TaskRegistry {
     /// True when a task is named `name`.
     pub fn contains(&self, name: &str) -> bool {
         self.entries.iter().any(|e| e.name == name)
+    }
+
+    /// Every task's parameters, under its section's key.
+    pub fn params(&self) -> Vec<ParamDoc> {
+        self.entries.iter().flat_map(|e| (e.params)()).collect()
     }
 
     /// The tasks' names, for messages ("guarded, guided or calibrate").

@@ -38,33 +38,27 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
-use crate::params::{positive, Check, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{Check, ParamsError};
 
 /// Points of the frequency grid.
 const GRID: usize = 400;
 
 /// The margins the gains keep (`force_controller.margins`).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Margins {
     /// Phase margin (deg).
+    #[schemars(extend("exclusiveMinimum" = 0.0, "exclusiveMaximum" = 90.0))]
     pub phase_deg: f64,
     /// Gain margin (a factor above 1).
+    #[schemars(extend("exclusiveMinimum" = 1.0))]
     pub gain: f64,
 }
 
 impl Check for Margins {
     fn check(self, key: &str) -> Result<Self, ParamsError> {
-        if !(self.phase_deg > 0.0 && self.phase_deg < 90.0) {
-            return Err(crate::params::invalid(
-                &format!("{key}.phase_deg"),
-                self.phase_deg,
-                "0 < phase < 90 deg",
-            ));
-        }
-        positive(&format!("{key}.gain"), self.gain - 1.0).map_err(|_| {
-            crate::params::invalid(&format!("{key}.gain"), self.gain, "a factor > 1")
-        })?;
+        check_ranges(&self, key)?;
         Ok(self)
     }
 }

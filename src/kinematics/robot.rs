@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::chain::SerialChain;
 use super::dls::{DlsParams, JointLimits};
@@ -17,7 +17,7 @@ use crate::exit::{Classify, ExitClass};
 use crate::params::{layered_node_params, ParamsError};
 
 /// Robot parameters as written in the files (`robot.*`, for every node).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RobotParams {
     /// First link of the chain; empty: the URDF's root link.
@@ -43,7 +43,7 @@ pub struct RobotParams {
 
 /// A joint's limits that replace the URDF's, in the URDF's units (rad or m,
 /// rad/s or m/s); absent keys keep the URDF's value.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LimitOverride {
     /// Lower position limit.

@@ -30,7 +30,7 @@ pub const DATA_SEED: u64 = 1;
 pub const TARE_SAMPLES: usize = 50;
 
 /// The GP approximation of a default model.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum GpKind {
     /// Exact GP on `size` rows of the data set, chosen at random.
@@ -40,7 +40,7 @@ pub enum GpKind {
 }
 
 /// How a default model is made: which axes, which GP, how large.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Recipe {
     /// Axes to estimate: the task's.

@@ -22,7 +22,7 @@ use crate::control::{
     StopReason, Task, Watchdog,
 };
 use crate::kinematics::{Dls, JointVector, Robot, Twist};
-use crate::params::{positive, within, ParamsError};
+use crate::params::ParamsError;
 use crate::wrench::{Axis, AxisSet, WrenchEstimate};
 pub use sections::task_envelope;
 use sections::{stiffest_permitted, Sections};
@@ -89,12 +89,6 @@ impl CheckedTask {
     /// Checks every parameter but the robot's and builds the task of
     /// `tasks`.
     fn new(p: &ControllerParams, tasks: &TaskRegistry) -> Result<Self, ParamsError> {
-        within("stale_periods", p.stale_periods, 2.0, 10.0)?;
-        positive("out_of_range.max_std_n", p.out_of_range.max_std_n)?;
-        positive(
-            "out_of_range.max_pdc_rise_counts",
-            p.out_of_range.max_pdc_rise_counts,
-        )?;
         let sections = Sections::check(p, tasks)?;
         let speed = sections.envelope(p)?;
         speed.check()?;

@@ -24,7 +24,7 @@ use crate::wrench::{Wrench, WrenchEstimate};
 ///
 /// Unknown keys are not refused here: the world's `/**` parameters meant for
 /// the other nodes reach this one too.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, schemars::JsonSchema)]
 pub struct EstimatorParams {
     /// Publish the posterior standard deviation, which the controller's
     /// out-of-range check reads; false: the mean only (cheaper, and that

@@ -35,7 +35,7 @@ use crate::sim::finger::{FingerPath, FingerState, Segment};
 use crate::wrench::Wrench;
 
 /// The `sim_robot` parameters (world file + scene file).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SimRobotParams {
     /// Sensing and control period (s).
@@ -66,6 +66,7 @@ pub struct SimRobotParams {
     /// Distance from the pad to the body's surface at the start (mm).
     pub object_gap_mm: f64,
     /// The body moves along this path (the guided move's finger); absent: fixed.
+    #[schemars(with = "Option<Vec<String>>")]
     pub finger_path: Option<Vec<Segment>>,
     /// F/T noise per physics step, forces (N, std).
     pub ft_noise_n: f64,

@@ -98,13 +98,10 @@ impl action_server::Served for r2r::tactile_force_msgs::action::Calibrate::Actio
 /// taken, then one step a period.
 pub async fn run() -> Result<(), RosError> {
     let mut node = super::create_node("force_controller")?;
-    let settings = settings::declare(&node)?;
-    let host = ForceControllerNode::new(
-        settings.base,
-        tasks::shipped(),
-        settings.remap,
-        settings.ft_to_biotac,
-    )?;
+    let tasks = tasks::shipped();
+    let settings = settings::declare(&node, &tasks)?;
+    let host =
+        ForceControllerNode::new(settings.base, tasks, settings.remap, settings.ft_to_biotac)?;
     let period = Duration::from_secs_f64(host.params().control_period_s);
     let interface = settings.interface;
     tracing::info!("{}, commands: {interface:?}", host.summary()?);

@@ -27,16 +27,15 @@ pub mod wrench_estimator;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crate::control::TaskKind;
+use crate::control::TaskRegistry;
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
 use crate::learn::models::wrench_gp::ModelError;
 use crate::nodes::estimator::EstimatorError;
+use crate::nodes::param_reference::SharedNode;
 use crate::outputs::models_dir::ModelsDir;
-#[cfg(doc)]
-use crate::params::layered_flat_params;
-use crate::params::{FlatParams, ParamsError};
+use crate::params::ParamsError;
 use params::RuntimeParams;
 
 // `use_sim_time` works only if r2r was built with rosgraph_msgs/Clock. r2r
@@ -179,19 +178,20 @@ pub fn serve_parameters(node: &mut r2r::Node, live: RuntimeParams) -> Result<Ros
     Ok(RosClock::of(node))
 }
 
-/// Declares the node's parameters with `defaults` (the shipped files'
-/// values, [`layered_flat_params`]) and reads them into `T`; `skip` names
-/// the adapter's own parameters, read separately.
+/// Declares the parameters of `shared` with the shipped files' values as
+/// defaults and their descriptions (a controller's with those of `tasks`),
+/// and reads them into `T`; `skip` names the adapter's own parameters,
+/// read separately.
 pub fn node_params<T: serde::de::DeserializeOwned>(
     node: &r2r::Node,
-    name: &str,
-    defaults: FlatParams,
+    shared: SharedNode,
+    tasks: &TaskRegistry,
     skip: &[&str],
-    describe: fn(&str) -> &'static str,
 ) -> Result<T, RosError> {
+    let defaults = shared.defaults()?;
     let mut p = lock(&node.params);
-    params::declare(&mut p, &defaults, describe);
-    Ok(params::read(&p, skip, name)?)
+    params::declare(&mut p, &defaults, &|name| shared.describe(tasks, name));
+    Ok(params::read(&p, skip, shared.name())?)
 }
 
 /// One of the adapter's own parameters, declared with its default and
@@ -343,49 +343,4 @@ pub fn spin(mut node: r2r::Node) -> tokio::task::JoinHandle<()> {
     tokio::task::spawn_blocking(move || loop {
         node.spin_once(Duration::from_millis(5));
     })
-}
-
-/// The description of a parameter loaded from the shared config files.
-pub fn describe_shared(name: &str) -> &'static str {
-    let section = name.split('.').next().unwrap_or("");
-    if section.parse::<TaskKind>().is_ok() {
-        return "Settings of the task of this name (its scene file in config/).";
-    }
-    match section {
-        "control_period_s" => "Sensing and control period (s).",
-        "skin" => "BioTac skin law (config/world.yaml).",
-        "objects" => "Objects the arm may touch, by name (config/world.yaml).",
-        "object" => "The object of this run (launch argument `object`).",
-        "robot" => "The arm: the links of the robot description, the BioTac's mount, limits.",
-        "stale_periods" => "Estimates this many of their own periods late (>= 2) halt the arm.",
-        "autostart" => "Start the task at once; false: zero velocity until a goal or task set.",
-        "axes" => "Wrench axes the task controls.",
-        "task" => "The task (guarded, guided or calibrate); set while running: it starts (again).",
-        "pd" => "PD force law (config/world.yaml).",
-        "loop_delays" => {
-            "Longest delays of the force loop: the safety envelope, the gains' priors (s)."
-        }
-        "safety" => "Safety envelope: the bodies the scene may touch, the worst-case stiffness.",
-        "out_of_range" => "Limits of what the estimator knows (std, PDC rise); beyond: stop.",
-        "transport_delay_s" | "transport_jitter_s" => "Embedded runtime only (s).",
-        "period_jitter_fraction" => "Jitter of the simulated control period (fraction).",
-        "physics_rate_hz" => "Physics rate of the simulation (Hz).",
-        "command_latency_s" => "Delay before a joint velocity command acts (s).",
-        "command_cycle_s" => "The arm's command cycle: a command acts at the next but one (s).",
-        "oscillation" => "The stability watchdog: threshold and gain factor.",
-        "velocity_lag_s" => "Time constant of the joints' velocity tracking (s).",
-        "start_joints_deg" => "Joint positions at the start (deg, mm if prismatic).",
-        "contact_x_mm" => "Where the pad touches, along the BioTac axis (mm).",
-        "object_gap_mm" => "Distance from the pad to the body at the start (mm).",
-        "finger_path" => "The guided move's finger path (wait/push/circle lines).",
-        "ft_noise_n" => "F/T noise per physics step, forces (N, std).",
-        "ft_noise_nm" => "F/T noise per physics step, torques (Nm, std).",
-        "sensor_unit" => "The simulated BioTac unit.",
-        "duration_s" => "Length of a simulated run (s); the node keeps running after it.",
-        "with_std" => {
-            "Publish the posterior std (the out-of-range check reads it); false: mean only."
-        }
-        "default_model" => "The model when no model file is given: axes, gp (exact|sparse), size.",
-        _ => "See the config/ files.",
-    }
 }

@@ -76,24 +76,23 @@ fn is_ros_internal(name: &str) -> bool {
 }
 
 /// Declares `defaults` (absent ones only: launch-time values win), each
-/// with the description `describe` gives for its name.
+/// with the description `describe` gives for its name, which those given
+/// at launch take too (kept for the process's life, as r2r's parameters
+/// hold them: once per parameter, at start-up).
 pub fn declare(
     params: &mut indexmap::IndexMap<String, Parameter>,
     defaults: &FlatParams,
-    describe: fn(&str) -> &'static str,
+    describe: &dyn Fn(&str) -> String,
 ) {
     for (name, value) in defaults {
-        if params.contains_key(name) {
-            continue;
-        }
-        if let Some(value) = from_yaml(value) {
-            params.insert(
-                name.clone(),
-                Parameter {
-                    value,
-                    description: describe(name),
-                },
-            );
+        let description = describe(name).leak();
+        match params.get_mut(name) {
+            Some(given) => given.description = description,
+            None => {
+                if let Some(value) = from_yaml(value) {
+                    params.insert(name.clone(), Parameter { value, description });
+                }
+            }
         }
     }
 }

@@ -33,14 +33,14 @@ use r2r::sensor_msgs::msg::FluidPressure;
 use r2r::QosProfile;
 
 use super::{convert, RosClock, RosError};
-use crate::control::TaskKind;
 use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::models::model_file;
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::estimator::{loading_status, Dropped, EstimatorParams};
+use crate::nodes::param_reference::SharedNode;
 use crate::nodes::status::Status;
+use crate::nodes::tasks;
 use crate::nodes::EstimatorNode;
-use crate::params::{layered_flat_params, WORLD_YAML};
 use crate::sensor::{SensorInput, SensorSpec};
 use crate::wrench::WrenchEstimate;
 
@@ -88,16 +88,8 @@ pub async fn run() -> Result<(), RosError> {
         "input",
         "finger",
     ];
-    let params: EstimatorParams = super::node_params(
-        &node,
-        "wrench_estimator",
-        layered_flat_params(
-            &[WORLD_YAML, TaskKind::Guarded.scene_yaml()],
-            "wrench_estimator",
-        )?,
-        &skip,
-        super::describe_shared,
-    )?;
+    let params: EstimatorParams =
+        super::node_params(&node, SharedNode::WrenchEstimator, &tasks::shipped(), &skip)?;
     let out = Outputs::new(&mut node, frame_id)?;
     let loading = std::time::Instant::now();
     let (model, file) = load_reporting(&model_file, &params.default_model, &out, &node).await?;

@@ -77,7 +77,7 @@ from rclpy.serialization import serialize_message
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rcl_interfaces.msg import Log, Parameter, ParameterType, ParameterValue
 from std_msgs.msg import String
-from rcl_interfaces.srv import GetParameters, SetParameters
+from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 from std_msgs.msg import Float64MultiArray
@@ -308,6 +308,16 @@ class Peer:
         answered = self.spin(10, future.done)
         self.node.destroy_client(client)
         return future.result().values[0].string_value if answered and future.result().values else None
+
+    def describe_params(self, node, names):
+        """The descriptions `node` gives for its parameters `names`, or None."""
+        client = self.node.create_client(DescribeParameters, f"{node}/describe_parameters")
+        if not client.wait_for_service(timeout_sec=10):
+            return None
+        future = client.call_async(DescribeParameters.Request(names=names))
+        answered = self.spin(10, future.done)
+        self.node.destroy_client(client)
+        return [d.description for d in future.result().descriptors] if answered else None
 
     def diagnostic(self, name, key, timeout=3.0):
         """The next value of `key` in the `name` status on /diagnostics."""
@@ -546,6 +556,12 @@ def parameters_guarded(peer):
     check("task fast refused", not ok and "guarded, guided or calibrate" in why, why)
     ok, why = peer.set_param("force_controller", "pd.max_speed_mps", 0.05)
     check("pd.max_speed_mps refused while running", not ok and "read at start-up only" in why, why)
+    # Each parameter described by the field that reads it (docs/parameters.md).
+    said = peer.describe_params("force_controller", ["pd.max_speed_mps", "guided.deadband_n",
+                                                     "objects.fingertip.friction"])
+    check("parameters described by their fields", said == [
+        "Largest speed the law commands (m/s).", "Deadband on the force error (N).",
+        "Coulomb friction coefficient against the skin."], said)
     peer.spin(0.5)
     said = [(level, m) for name, level, m in peer.logs if name == "force_controller"]
     warned = [m for level, m in said if level == Log.WARN]

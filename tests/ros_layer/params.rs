@@ -21,7 +21,7 @@ fn every_shipped_parameter_survives_the_trip_through_ros_values() {
         for node in ["force_controller", "sim_robot", "wrench_estimator"] {
             let defaults = layered_flat_params(&task.shipped_layers(robot), node).unwrap();
             let mut params = indexmap::IndexMap::new();
-            declare(&mut params, &defaults, |_| "test");
+            declare(&mut params, &defaults, &|_| "test".into());
             assert_eq!(
                 params.len(),
                 defaults.len(),
@@ -64,7 +64,11 @@ fn a_launch_override_wins_and_a_bad_one_is_named() {
         "pd.derivative_filter_s".to_string(),
         Parameter::new(ParameterValue::String("fast".into())),
     );
-    declare(&mut params, &defaults, |_| "test");
+    declare(&mut params, &defaults, &|name| format!("about {name}"));
+    // Given at launch: its value kept, described as declared ones are.
+    let given = &params["object"];
+    assert_eq!(given.value, ParameterValue::String("carton_box".into()));
+    assert_eq!(given.description, "about object");
     let err = read::<tactile_force::control::ControllerParams>(&params, &[], "force_controller")
         .unwrap_err()
         .to_string();

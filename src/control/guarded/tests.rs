@@ -361,7 +361,7 @@ fn a_settle_window_beyond_a_minute_is_refused_before_it_is_allocated() {
             Err(e) => assert!(
                 !taken
                     && e.to_string().contains("guarded.settle_time_s")
-                    && e.to_string().contains("at most 60 s"),
+                    && e.to_string().contains("<= 60"),
                 "{t}: {e}"
             ),
         }

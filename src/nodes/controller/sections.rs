@@ -9,7 +9,8 @@ use crate::control::{
     TaskLoop, UNKNOWN_OBJECT,
 };
 use crate::nodes::tasks;
-use crate::params::{control_period, Check, Checked, ParamsError};
+use crate::params::reference::check_ranges;
+use crate::params::{Check, Checked, ParamsError};
 
 /// The safety envelope of the task of `p` (src/control/envelope.rs)
 /// against the stiffest body the scene permits.
@@ -32,7 +33,8 @@ impl<'t> Sections<'t> {
         p: &ControllerParams,
         tasks: &'t TaskRegistry,
     ) -> Result<Self, ParamsError> {
-        control_period(p.control_period_s)?;
+        // Every range a field declares, the tasks' sections' by their own checks.
+        check_ranges(p, "")?;
         p.check_sections(tasks)?;
         let skin = p.skin.checked("skin")?;
         let pd = p.pd.checked("pd")?;

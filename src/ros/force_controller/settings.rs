@@ -1,10 +1,10 @@
 //! `force_controller`'s parameters: its own and the controller's.
 
-use crate::control::ControllerParams;
+use crate::control::{ControllerParams, TaskRegistry};
 use crate::nodes::force_controller::{
-    ft_to_biotac, shipped_defaults, tool_frame::biotac_frame, tool_frame::BIOTAC_FRAME,
-    CommandInterface,
+    ft_to_biotac, tool_frame::biotac_frame, tool_frame::BIOTAC_FRAME, CommandInterface,
 };
+use crate::nodes::param_reference::SharedNode;
 use crate::outputs::models_dir::ModelsDir;
 use crate::ros::description::joint_names_param;
 use crate::ros::{self, RosError};
@@ -28,8 +28,8 @@ pub struct Settings {
     pub base: ControllerParams,
 }
 
-/// Declares the node's parameters and reads them.
-pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
+/// Declares the node's parameters (those of `tasks`' sections too) and reads them.
+pub fn declare(node: &r2r::Node, tasks: &TaskRegistry) -> Result<Settings, RosError> {
     let remap = joint_names_param(node)?;
     let interface: CommandInterface = ros::own_string(
         node,
@@ -66,13 +66,7 @@ pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
         "estimator_node",
         "models_dir",
     ];
-    let base: ControllerParams = ros::node_params(
-        node,
-        "force_controller",
-        shipped_defaults()?,
-        &skip,
-        ros::describe_shared,
-    )?;
+    let base: ControllerParams = ros::node_params(node, SharedNode::ForceController, tasks, &skip)?;
     Ok(Settings {
         remap,
         interface,

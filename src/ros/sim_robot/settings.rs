@@ -1,9 +1,9 @@
 //! `sim_robot`'s parameters: its own and the scene's.
 
-use crate::control::TaskKind;
+use crate::nodes::param_reference::SharedNode;
 use crate::nodes::sim_robot::check_real_time_factor;
+use crate::nodes::tasks;
 use crate::nodes::SimRobotParams;
-use crate::params::{layered_flat_params, WORLD_YAML};
 use crate::ros::description::joint_names_param;
 use crate::ros::{self, RosError};
 
@@ -51,8 +51,8 @@ pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
     check_real_time_factor(speed, sim_time)?;
     let p: SimRobotParams = ros::node_params(
         node,
-        "sim_robot",
-        layered_flat_params(&[WORLD_YAML, TaskKind::Guarded.scene_yaml()], "sim_robot")?,
+        SharedNode::SimRobot,
+        &tasks::shipped(),
         &[
             "joint_names",
             "frame_id",
@@ -60,7 +60,6 @@ pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
             "real_time_factor",
             "robot_description",
         ],
-        ros::describe_shared,
     )?;
     Ok(Settings {
         remap,
