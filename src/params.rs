@@ -244,31 +244,6 @@ pub(crate) fn positive(key: &str, v: f64) -> Result<(), ParamsError> {
     }
 }
 
-/// `v` finite and >= 0, or an error naming `key`.
-pub(crate) fn non_negative(key: &str, v: f64) -> Result<(), ParamsError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(key, v, "a finite value >= 0"))
-    }
-}
-
-/// `v` in `[lo, hi]`, or an error naming `key`.
-pub(crate) fn within(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), ParamsError> {
-    if (lo..=hi).contains(&v) {
-        Ok(())
-    } else {
-        Err(invalid(key, v, &format!("a value in [{lo}, {hi}]")))
-    }
-}
-
-/// The control period (s): 0.1 ms to 1 s. Windows of estimates and the
-/// simulator's steps are sized by it, so a vanishing one is refused
-/// rather than allocated.
-pub(crate) fn control_period(v: f64) -> Result<(), ParamsError> {
-    within("control_period_s", v, 1e-4, 1.0)
-}
-
 /// `Ok` when `ok`, else the error for `key`.`name` = `value`, which is not
 /// `expected`.
 pub(crate) fn require(

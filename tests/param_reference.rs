@@ -2,7 +2,7 @@
 //! a field added, renamed or described anew changes it, and this test
 //! fails until it is written again (`TACTILE_FORCE_WRITE_DOCS=1`).
 
-use tactile_force::nodes::param_reference::{markdown, SharedNode};
+use tactile_force::nodes::param_reference::{markdown, RosNode};
 use tactile_force::nodes::tasks;
 
 const PAGE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/parameters.md");
@@ -24,7 +24,7 @@ fn the_parameter_reference_is_current() {
 #[test]
 fn every_shipped_parameter_is_described_by_its_field() {
     let shipped = tasks::shipped();
-    for node in SharedNode::ALL {
+    for node in RosNode::ALL {
         let docs = node.params(&shipped);
         for (key, _) in node.defaults().unwrap() {
             let said = node.describe(&shipped, &key);
@@ -36,8 +36,17 @@ fn every_shipped_parameter_is_described_by_its_field() {
         }
         assert!(docs.iter().all(|d| !d.description.is_empty()));
     }
-    let said = SharedNode::ForceController.describe(&shipped, "guided.deadband_n");
+    // The adapters' own: listed, each described, none read from the files.
+    let page = markdown(&shipped).unwrap();
+    for node in RosNode::ALL {
+        for (doc, default) in node.own() {
+            let row = format!("| `{}` | {} |  | {default} | ", doc.key, doc.kind);
+            assert!(page.contains(&row), "{row}");
+            assert!(!node.params(&shipped).iter().any(|d| d.key == doc.key));
+        }
+    }
+    let said = RosNode::ForceController.describe(&shipped, "guided.deadband_n");
     assert_eq!(said, "Deadband on the force error (N).");
-    let said = SharedNode::SimRobot.describe(&shipped, "objects.fingertip.friction");
+    let said = RosNode::SimRobot.describe(&shipped, "objects.fingertip.friction");
     assert_eq!(said, "Coulomb friction coefficient against the skin.");
 }

@@ -12,7 +12,7 @@ use tactile_force::control::{
     Envelope, Phase, StopReason, Task, TaskEnvelope, TaskKind, TaskSection,
 };
 use tactile_force::kinematics::Twist;
-use tactile_force::nodes::param_reference::{markdown, SharedNode};
+use tactile_force::nodes::param_reference::{markdown, RosNode};
 use tactile_force::nodes::tasks;
 use tactile_force::params::reference::check_ranges;
 use tactile_force::params::{Check, Checked, ParamsError};
@@ -175,7 +175,7 @@ fn without_its_registration_the_task_and_its_section_are_refused_by_name() {
 #[test]
 fn its_parameter_declared_once_is_described_to_ros_and_in_the_reference() {
     let registry = tasks::shipped().with::<HoldStillParams>();
-    let node = SharedNode::ForceController;
+    let node = RosNode::ForceController;
     let said = node.describe(&registry, "hold_still.seconds");
     assert_eq!(said, "How long to hold still (s).");
     let row = "| `hold_still.seconds` | number | > 0 |  | How long to hold still (s). |";

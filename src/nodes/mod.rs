@@ -22,6 +22,7 @@ pub mod estimator;
 pub mod force_controller;
 pub mod guarded_goal;
 pub mod loop_delay;
+pub mod own_params;
 pub mod param_reference;
 pub mod reading_source;
 pub mod sim_robot;

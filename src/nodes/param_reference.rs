@@ -1,7 +1,8 @@
-//! The parameters of the nodes read from the shared files, each declared
-//! once by the field that reads it ([`crate::params::reference`]): what
-//! the ROS nodes describe them with, and docs/parameters.md
-//! ([`markdown`]; tests/param_reference.rs keeps it current).
+//! The parameters of the ROS nodes: those of the shared files, each
+//! declared once by the field that reads it ([`crate::params::reference`]),
+//! and the adapters' own ([`super::own_params`]): what the nodes describe
+//! them with, and docs/parameters.md ([`markdown`]; tests/param_reference.rs
+//! keeps it current).
 
 use serde_yaml_ng::Value;
 
@@ -12,44 +13,100 @@ use crate::control::{ControllerParams, TaskKind, TaskRegistry};
 use crate::params::reference::{describe, params_of, ParamDoc};
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
 
-/// A node whose parameters come from the shared files.
+/// A ROS node of the package.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SharedNode {
+pub enum RosNode {
     /// `force_controller`.
     ForceController,
     /// `wrench_estimator`.
     WrenchEstimator,
     /// `sim_robot`.
     SimRobot,
+    /// `biotac_driver` (its own parameters only).
+    BiotacDriver,
 }
 
-impl SharedNode {
+impl RosNode {
     /// Every one, in the order docs/parameters.md lists them.
-    pub const ALL: [SharedNode; 3] = [
-        SharedNode::ForceController,
-        SharedNode::WrenchEstimator,
-        SharedNode::SimRobot,
+    pub const ALL: [RosNode; 4] = [
+        RosNode::ForceController,
+        RosNode::WrenchEstimator,
+        RosNode::SimRobot,
+        RosNode::BiotacDriver,
     ];
 
     /// Its name in the parameter files.
     pub fn name(self) -> &'static str {
         match self {
-            SharedNode::ForceController => "force_controller",
-            SharedNode::WrenchEstimator => "wrench_estimator",
-            SharedNode::SimRobot => "sim_robot",
+            RosNode::ForceController => "force_controller",
+            RosNode::WrenchEstimator => "wrench_estimator",
+            RosNode::SimRobot => "sim_robot",
+            RosNode::BiotacDriver => "biotac_driver",
         }
+    }
+
+    /// Its adapter's own parameters, each with its default as shown.
+    pub fn own(self) -> Vec<(ParamDoc, String)> {
+        use super::own_params::*;
+        match self {
+            RosNode::ForceController => vec![
+                ROBOT_DESCRIPTION.row(),
+                JOINT_NAMES.row(),
+                MODELS_DIR.row(),
+                COMMAND_INTERFACE.row(),
+                FT_TO_BIOTAC.row(),
+                ESTIMATOR_NODE.row(),
+                BIOTAC_FRAME.row(),
+            ],
+            RosNode::WrenchEstimator => vec![
+                MODEL_FILE.row(),
+                MODELS_DIR.row(),
+                ESTIMATE_FRAME.row(),
+                STALE_TIMEOUT.row(),
+                TARE_FILE.row(),
+                TARE_MAX_AGE.row(),
+                INPUT.row(),
+                FINGER.row(),
+            ],
+            RosNode::SimRobot => vec![
+                ROBOT_DESCRIPTION.row(),
+                JOINT_NAMES.row(),
+                SIM_FRAME.row(),
+                SEED.row(),
+                USE_SIM_TIME.row(),
+                REAL_TIME_FACTOR.row(),
+            ],
+            RosNode::BiotacDriver => vec![
+                READINGS_FRAME.row(),
+                SERIAL.row(),
+                TARE_SAMPLES.row(),
+                PORT.row(),
+                LINK.row(),
+                CHEETAH.row(),
+                CHEETAH_LIBRARY.row(),
+                SENSORS.row(),
+                ELECTRODES.row(),
+            ],
+        }
+    }
+
+    /// The names of its adapter's own parameters (not read from the
+    /// shared files).
+    pub fn own_names(self) -> Vec<String> {
+        self.own().into_iter().map(|(doc, _)| doc.key).collect()
     }
 
     /// The parameters it reads (the controller's with those of `tasks`).
     pub fn params(self, tasks: &TaskRegistry) -> Vec<ParamDoc> {
         match self {
-            SharedNode::ForceController => {
+            RosNode::ForceController => {
                 let mut docs = params_of::<ControllerParams>("");
                 docs.extend(tasks.params());
                 docs
             }
-            SharedNode::WrenchEstimator => params_of::<EstimatorParams>(""),
-            SharedNode::SimRobot => params_of::<SimRobotParams>(""),
+            RosNode::WrenchEstimator => params_of::<EstimatorParams>(""),
+            RosNode::SimRobot => params_of::<SimRobotParams>(""),
+            RosNode::BiotacDriver => Vec::new(),
         }
     }
 
@@ -57,7 +114,8 @@ impl SharedNode {
     /// and every task's section for the controller).
     pub fn defaults(self) -> Result<FlatParams, ParamsError> {
         match self {
-            SharedNode::ForceController => shipped_defaults(),
+            RosNode::ForceController => shipped_defaults(),
+            RosNode::BiotacDriver => Ok(Vec::new()),
             _ => layered_flat_params(&[WORLD_YAML, TaskKind::Guarded.scene_yaml()], self.name()),
         }
     }
@@ -66,7 +124,7 @@ impl SharedNode {
     /// key of the world's `/**` meant for another node.
     pub fn describe(self, tasks: &TaskRegistry, name: &str) -> String {
         let own = self.params(tasks);
-        let other = || SharedNode::ALL.map(|n| n.params(tasks)).concat();
+        let other = || RosNode::ALL.map(|n| n.params(tasks)).concat();
         let said = describe(&own, name).map(str::to_string);
         said.or_else(|| describe(&other(), name).map(str::to_string))
             .unwrap_or_else(|| "See the config/ files.".into())
@@ -78,41 +136,58 @@ impl SharedNode {
 pub fn markdown(tasks: &TaskRegistry) -> Result<String, ParamsError> {
     let mut out = String::from(
         "# Parameters\n\n\
-         Generated from the structs that read them (their doc comments) and the\n\
-         shipped files (config/world.yaml, then config/guarded_move.yaml; a task's\n\
-         section from its own scene): `cargo test --test param_reference` fails\n\
-         when this page is stale, and `TACTILE_FORCE_WRITE_DOCS=1 cargo test --test\n\
-         param_reference` writes it again. `accepts`: the range its field declares,\n\
-         checked when the node starts (a value outside is refused, named with\n\
-         what it expects); rules between fields are the struct's own checks.\n\
-         `<name>`: any key (an object's name, a joint's name).\n",
+         Every parameter of the ROS nodes, generated from where each is declared:\n\
+         the fields of the structs that read the shared files (type, doc comment,\n\
+         range), with their values in the shipped files (config/world.yaml, then\n\
+         config/guarded_move.yaml; a task's section from its own scene), and the\n\
+         adapters' own (src/nodes/own_params.rs). `cargo test --test\n\
+         param_reference` fails when this page is stale;\n\
+         `TACTILE_FORCE_WRITE_DOCS=1 cargo test --test param_reference` writes it\n\
+         again. `accepts`: the range a field declares, checked when the node\n\
+         starts (a value outside is refused, named with what it expects); rules\n\
+         between fields are the struct's own checks. `<name>`: any key (an\n\
+         object's name, a joint's name).\n",
     );
-    for node in SharedNode::ALL {
+    for node in RosNode::ALL {
         let defaults = node.defaults()?;
-        out.push_str(&format!(
-            "\n## {}\n\n| parameter | type | accepts | shipped | description |\n|---|---|---|---|---|\n",
-            node.name()
-        ));
-        for doc in node.params(tasks) {
-            let value = defaults
-                .iter()
-                .find(|(k, _)| *k == doc.key)
-                .map_or(String::new(), |(_, v)| shown(v));
+        out.push_str(&format!("\n## {}\n", node.name()));
+        let shared = node.params(tasks).into_iter().map(|doc| {
+            let value = defaults.iter().find(|(k, _)| *k == doc.key);
+            let shown = value.map_or(String::new(), |(_, v)| shown(v));
+            (doc, shown)
+        });
+        let tables = [
+            ("From the shared files", shared.collect::<Vec<_>>()),
+            ("Its own", node.own()),
+        ];
+        for (title, rows) in tables.into_iter().filter(|(_, rows)| !rows.is_empty()) {
             out.push_str(&format!(
-                "| `{}` | {} | {} | {} | {} |\n",
-                doc.key,
-                doc.kind,
-                doc.range,
-                value,
-                doc.description.replace('|', "\\|")
+                "\n{title}:\n\n| parameter | type | accepts | default | description |\n\
+                 |---|---|---|---|---|\n"
             ));
+            for (doc, value) in rows {
+                out.push_str(&row(&doc, &value));
+            }
         }
     }
     Ok(out)
 }
 
+/// A table row.
+fn row(doc: &ParamDoc, value: &str) -> String {
+    let cell = |s: &str| s.replace('|', "\\|");
+    format!(
+        "| `{}` | {} | {} | {} | {} |\n",
+        doc.key,
+        doc.kind,
+        doc.range,
+        cell(value),
+        cell(&doc.description)
+    )
+}
+
 /// A shipped value as the table shows it (JSON).
 fn shown(v: &Value) -> String {
     let text = serde_json::to_string(v).unwrap_or_default();
-    format!("`{}`", text.replace(',', ", ").replace('|', "\\|"))
+    format!("`{}`", text.replace(',', ", "))
 }

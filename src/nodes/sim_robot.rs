@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::JointState;
 use crate::biotac::geometry::SurfacePoint;
@@ -25,9 +25,8 @@ use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
 use crate::biotac::BioTacReading;
 use crate::contact::{object_body, BodyParams, SkinParams};
 use crate::kinematics::{JointVector, Robot, RobotParams};
-use crate::params::{
-    control_period, invalid, non_negative, positive, within, Check, Checked, ParamsError,
-};
+use crate::params::reference::check_ranges;
+use crate::params::{invalid, Check, Checked, ParamsError};
 use crate::sim::arm::ArmPlant;
 use crate::sim::collect::unit_seed;
 use crate::sim::contact::PlaneContact;
@@ -35,10 +34,11 @@ use crate::sim::finger::{FingerPath, FingerState, Segment};
 use crate::wrench::Wrench;
 
 /// The `sim_robot` parameters (world file + scene file).
-#[derive(Debug, Clone, PartialEq, Deserialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SimRobotParams {
     /// Sensing and control period (s).
+    #[schemars(range(min = 0.0001, max = 1.0))]
     pub control_period_s: f64,
     /// The BioTac skin law.
     pub skin: SkinParams,
@@ -49,13 +49,17 @@ pub struct SimRobotParams {
     /// The arm: the links of its robot description, the BioTac's mount.
     pub robot: RobotParams,
     /// Physics rate (Hz); a multiple of the control rate.
+    #[schemars(range(min = 1.0, max = 1e6))]
     pub physics_rate_hz: f64,
     /// The arm's command cycle (s): a command acts at the cycle after the
     /// one it arrives in (0: at once).
+    #[schemars(range(min = 0.0))]
     pub command_cycle_s: f64,
     /// Delay before a joint velocity command acts, after its cycle (s).
+    #[schemars(range(min = 0.0))]
     pub command_latency_s: f64,
     /// Time constant of the joints' velocity tracking (s).
+    #[schemars(range(min = 0.0))]
     pub velocity_lag_s: f64,
     /// Joint positions at the start, one per joint of the chain (deg, or mm
     /// for a prismatic joint); absent: the middle of each joint's range.
@@ -67,22 +71,29 @@ pub struct SimRobotParams {
     pub object_gap_mm: f64,
     /// The body moves along this path (the guided move's finger); absent: fixed.
     #[schemars(with = "Option<Vec<String>>")]
+    #[serde(skip_serializing)]
     pub finger_path: Option<Vec<Segment>>,
     /// F/T noise per physics step, forces (N, std).
+    #[schemars(range(min = 0.0))]
     pub ft_noise_n: f64,
     /// F/T noise per physics step, torques (Nm, std).
+    #[schemars(range(min = 0.0))]
     pub ft_noise_nm: f64,
     /// The simulated BioTac unit, numbered as `collect --unit` numbers them.
     pub sensor_unit: u64,
     /// Length of a run (s).
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub duration_s: f64,
     /// Jitter of the control period: each period lasts a uniformly drawn
     /// whole number of physics steps within +- this fraction (0: none).
+    #[schemars(range(min = 0.0), extend("exclusiveMaximum" = 1.0))]
     pub period_jitter_fraction: f64,
     /// Embedded runtime only: delay of an estimate on its way to the
     /// controller (s), as over ROS 2.
+    #[schemars(range(min = 0.0))]
     pub transport_delay_s: f64,
     /// Embedded runtime only: uniform jitter added to that delay (s).
+    #[schemars(range(min = 0.0))]
     pub transport_jitter_s: f64,
 }
 
@@ -361,24 +372,8 @@ impl SimRobot {
 
 /// `p` checked: its skin, and the physics steps per control period.
 fn check(p: &SimRobotParams) -> Result<(Checked<SkinParams>, usize), ParamsError> {
-    control_period(p.control_period_s)?;
-    // Steps of the physics per control period: bounded.
-    within("physics_rate_hz", p.physics_rate_hz, 1.0, 1e6)?;
-    non_negative("command_cycle_s", p.command_cycle_s)?;
-    non_negative("command_latency_s", p.command_latency_s)?;
-    non_negative("velocity_lag_s", p.velocity_lag_s)?;
-    non_negative("ft_noise_n", p.ft_noise_n)?;
-    non_negative("ft_noise_nm", p.ft_noise_nm)?;
-    positive("duration_s", p.duration_s)?;
-    non_negative("transport_delay_s", p.transport_delay_s)?;
-    non_negative("transport_jitter_s", p.transport_jitter_s)?;
-    if !(0.0..1.0).contains(&p.period_jitter_fraction) {
-        return Err(invalid(
-            "period_jitter_fraction",
-            p.period_jitter_fraction,
-            "a fraction in 0..1",
-        ));
-    }
+    // Every range a field declares (the physics steps per period bounded).
+    check_ranges(p, "")?;
     let skin = p.skin.checked("skin")?;
     let ratio = p.control_period_s * p.physics_rate_hz;
     if (ratio - ratio.round()).abs() > 1e-9 || ratio < 1.0 {

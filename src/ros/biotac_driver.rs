@@ -21,6 +21,7 @@ use super::{convert, RosClock, RosError};
 use crate::biotac::driver::{Driver, DriverEvent};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 use crate::nodes::bounds::InputGuard;
+use crate::nodes::own_params;
 
 /// Runs the node until the process ends: the link and the readings'
 /// settings declared, the topics and `~/tare` wired, then the driver polled
@@ -80,24 +81,9 @@ struct Outputs {
 impl Outputs {
     /// Declares the readings' settings and advertises both topics.
     fn declare(node: &mut r2r::Node, link: String) -> Result<Self, RosError> {
-        let frame_id = super::own_string(
-            node,
-            "frame_id",
-            "biotac",
-            "Frame of the readings (the BioTac frame).",
-        )?;
-        let serial = super::own_string(
-            node,
-            "serial",
-            "",
-            "Sensor serial number, copied into every message.",
-        )?;
-        let tare_samples = super::own_f64(
-            node,
-            "tare_samples",
-            50.0,
-            "Readings averaged by a ~/tare request.",
-        )?;
+        let frame_id = super::own_string(node, &own_params::READINGS_FRAME)?;
+        let serial = super::own_string(node, &own_params::SERIAL)?;
+        let tare_samples = super::own_f64(node, &own_params::TARE_SAMPLES)?;
         Ok(Outputs {
             readings: node.create_publisher_untyped(
                 "biotac/readings",

@@ -14,6 +14,7 @@ use r2r::QosProfile;
 
 use super::{bounded, RosError};
 use crate::nodes::bounds::{InputGuard, DESCRIPTION_MAX_BYTES};
+use crate::nodes::own_params;
 
 /// The topic robot_state_publisher publishes the description on.
 pub const DESCRIPTION_TOPIC: &str = "/robot_description";
@@ -34,12 +35,7 @@ pub fn robot_description(
     node: &mut r2r::Node,
     guard: &Arc<InputGuard>,
 ) -> Result<Description, RosError> {
-    let text = super::own_string(
-        node,
-        "robot_description",
-        "",
-        "The robot's URDF; empty: taken from /robot_description (std_msgs/String, transient local).",
-    )?;
+    let text = super::own_string(node, &own_params::ROBOT_DESCRIPTION)?;
     if !text.is_empty() {
         return Ok(Description::Given(text));
     }
@@ -61,12 +57,7 @@ pub fn robot_description(
 /// The `joint_names` parameter: the names of the arm's joints on
 /// `joint_states`, in chain order; empty: the URDF's names.
 pub fn joint_names_param(node: &r2r::Node) -> Result<Vec<String>, RosError> {
-    super::own_strings(
-        node,
-        "joint_names",
-        &[],
-        "The arm's joints on joint_states, in chain order; empty: the URDF's names.",
-    )
+    super::own_strings(node, &own_params::JOINT_NAMES)
 }
 
 /// The first description on `topic` that `build` takes (each refused one

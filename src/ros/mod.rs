@@ -33,7 +33,8 @@ use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
 use crate::learn::models::wrench_gp::ModelError;
 use crate::nodes::estimator::EstimatorError;
-use crate::nodes::param_reference::SharedNode;
+use crate::nodes::own_params::{self, OwnParam};
+use crate::nodes::param_reference::RosNode;
 use crate::outputs::models_dir::ModelsDir;
 use crate::params::ParamsError;
 use params::RuntimeParams;
@@ -180,23 +181,24 @@ pub fn serve_parameters(node: &mut r2r::Node, live: RuntimeParams) -> Result<Ros
 
 /// Declares the parameters of `shared` with the shipped files' values as
 /// defaults and their descriptions (a controller's with those of `tasks`),
-/// and reads them into `T`; `skip` names the adapter's own parameters,
-/// read separately.
+/// and reads them into `T`, the adapter's own parameters (read
+/// separately) left out.
 pub fn node_params<T: serde::de::DeserializeOwned>(
     node: &r2r::Node,
-    shared: SharedNode,
+    shared: RosNode,
     tasks: &TaskRegistry,
-    skip: &[&str],
 ) -> Result<T, RosError> {
     let defaults = shared.defaults()?;
+    let own = shared.own_names();
+    let skip: Vec<&str> = own.iter().map(String::as_str).collect();
     let mut p = lock(&node.params);
     params::declare(&mut p, &defaults, &|name| shared.describe(tasks, name));
-    Ok(params::read(&p, skip, shared.name())?)
+    Ok(params::read(&p, &skip, shared.name())?)
 }
 
 /// One of the adapter's own parameters, declared with its default and
 /// description if absent.
-pub fn own_param(
+fn own_param(
     node: &r2r::Node,
     name: &str,
     default: r2r::ParameterValue,
@@ -221,36 +223,26 @@ pub fn set_own_string(node: &r2r::Node, name: &str, value: &str) {
 }
 
 /// A string parameter of the adapter.
-pub fn own_string(
-    node: &r2r::Node,
-    name: &str,
-    default: &str,
-    description: &'static str,
-) -> Result<String, RosError> {
-    match own_param(
-        node,
-        name,
-        r2r::ParameterValue::String(default.into()),
-        description,
-    )? {
+pub fn own_string(node: &r2r::Node, p: &OwnParam<&str>) -> Result<String, RosError> {
+    let default = r2r::ParameterValue::String(p.default.into());
+    match own_param(node, p.name, default, p.description)? {
         r2r::ParameterValue::String(s) => Ok(s),
-        other => Err(wrong_type(name, "a string", &other)),
+        other => Err(wrong_type(p.name, "a string", &other)),
     }
 }
 
-/// The `models_dir` parameter (default: the model cache folder): the
-/// folder that the files a goal or a run-time parameter set names stay in
+/// The `models_dir` parameter (empty: the model cache folder): the folder
+/// that the files a goal or a run-time parameter set names stay in
 /// ([`ModelsDir`]); made if missing.
 pub fn models_dir(node: &r2r::Node) -> Result<ModelsDir, RosError> {
+    let given = own_string(node, &own_params::MODELS_DIR)?;
     let cache = crate::learn::default_model::cache_dir().unwrap_or_default();
-    let dir = own_string(
-        node,
-        "models_dir",
-        &cache.display().to_string(),
-        "The folder of the files a calibration goal writes and of a model_file set while running: names inside it, nothing outside, no `..`, no symlink leading out; default: the model cache folder.",
-    )?;
+    let dir = match given.is_empty() {
+        true => cache.display().to_string(),
+        false => given,
+    };
     let refuse = |expected: String| ParamsError::Invalid {
-        key: "models_dir".into(),
+        key: own_params::MODELS_DIR.name.into(),
         value: dir.clone(),
         expected,
     };
@@ -263,49 +255,44 @@ pub fn models_dir(node: &r2r::Node) -> Result<ModelsDir, RosError> {
 }
 
 /// A floating-point parameter of the adapter (integers accepted).
-pub fn own_f64(
-    node: &r2r::Node,
-    name: &str,
-    default: f64,
-    description: &'static str,
-) -> Result<f64, RosError> {
-    match own_param(
-        node,
-        name,
-        r2r::ParameterValue::Double(default),
-        description,
-    )? {
+pub fn own_f64(node: &r2r::Node, p: &OwnParam<f64>) -> Result<f64, RosError> {
+    let default = r2r::ParameterValue::Double(p.default);
+    match own_param(node, p.name, default, p.description)? {
         r2r::ParameterValue::Double(d) if d.is_finite() => Ok(d),
         r2r::ParameterValue::Integer(i) => Ok(i as f64),
-        other => Err(wrong_type(name, "a finite number", &other)),
+        other => Err(wrong_type(p.name, "a finite number", &other)),
     }
 }
 
 /// A non-negative integer parameter of the adapter.
-pub fn own_u64(
-    node: &r2r::Node,
-    name: &str,
-    default: u32,
-    description: &'static str,
-) -> Result<u64, RosError> {
-    let default = r2r::ParameterValue::Integer(i64::from(default));
-    match own_param(node, name, default, description)? {
+pub fn own_u64(node: &r2r::Node, p: &OwnParam<u32>) -> Result<u64, RosError> {
+    let default = r2r::ParameterValue::Integer(i64::from(p.default));
+    match own_param(node, p.name, default, p.description)? {
         r2r::ParameterValue::Integer(i) if i >= 0 => Ok(i.unsigned_abs()),
-        other => Err(wrong_type(name, "an integer >= 0", &other)),
+        other => Err(wrong_type(p.name, "an integer >= 0", &other)),
+    }
+}
+
+/// A boolean parameter of the adapter.
+pub fn own_bool(node: &r2r::Node, p: &OwnParam<bool>) -> Result<bool, RosError> {
+    let default = r2r::ParameterValue::Bool(p.default);
+    match own_param(node, p.name, default, p.description)? {
+        r2r::ParameterValue::Bool(b) => Ok(b),
+        other => Err(wrong_type(p.name, "true or false", &other)),
     }
 }
 
 /// A string-array parameter of the adapter.
-pub fn own_strings(
-    node: &r2r::Node,
-    name: &str,
-    default: &[&str],
-    description: &'static str,
-) -> Result<Vec<String>, RosError> {
-    let d = default.iter().map(|s| s.to_string()).collect();
-    match own_param(node, name, r2r::ParameterValue::StringArray(d), description)? {
+pub fn own_strings(node: &r2r::Node, p: &OwnParam<&[&str]>) -> Result<Vec<String>, RosError> {
+    let d = p.default.iter().map(|s| s.to_string()).collect();
+    match own_param(
+        node,
+        p.name,
+        r2r::ParameterValue::StringArray(d),
+        p.description,
+    )? {
         r2r::ParameterValue::StringArray(a) => Ok(a),
-        other => Err(wrong_type(name, "a list of strings", &other)),
+        other => Err(wrong_type(p.name, "a list of strings", &other)),
     }
 }
 

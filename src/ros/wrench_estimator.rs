@@ -37,7 +37,8 @@ use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::models::model_file;
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::estimator::{loading_status, Dropped, EstimatorParams};
-use crate::nodes::param_reference::SharedNode;
+use crate::nodes::own_params;
+use crate::nodes::param_reference::RosNode;
 use crate::nodes::status::Status;
 use crate::nodes::tasks;
 use crate::nodes::EstimatorNode;
@@ -47,56 +48,25 @@ use crate::wrench::WrenchEstimate;
 /// Runs the node until the process ends.
 pub async fn run() -> Result<(), RosError> {
     let mut node = super::create_node("wrench_estimator")?;
-    let model_file = super::own_string(
-        &node,
-        "model_file",
-        "",
-        "Model file from `tactile_force train` (a GP, or with --family ensemble an ensemble of networks); empty: the demos' default model (trained on first use, cached), and the node then sets it to that model's cache file. May be set while running (BioTac, out of contact): estimates come from the new model from the next reading.",
-    )?;
-    let frame_id = super::own_string(
-        &node,
-        "frame_id",
-        "biotac",
-        "Frame of the published wrenches (the BioTac frame).",
-    )?;
-    let stale_s = super::own_f64(
-        &node,
-        "stale_timeout_s",
-        0.03,
-        "Readings older than this are not estimated (s).",
-    )?;
-    let tare_file = super::own_string(
-        &node,
-        "tare_file",
-        "",
-        "Where the tare is saved; empty: wrench_estimator_tare.json in the model cache folder.",
-    )?;
-    let tare_max_age_s = super::own_f64(
-        &node,
-        "tare_max_age_s",
-        60.0,
-        "A saved tare younger than this is taken up at start (s); 0: always tare anew.",
-    )?;
+    let model_file = super::own_string(&node, &own_params::MODEL_FILE)?;
+    let frame_id = super::own_string(&node, &own_params::ESTIMATE_FRAME)?;
+    let stale_s = super::own_f64(&node, &own_params::STALE_TIMEOUT)?;
+    let tare_file = super::own_string(&node, &own_params::TARE_FILE)?;
+    let tare_max_age_s = super::own_f64(&node, &own_params::TARE_MAX_AGE)?;
     let models = super::models_dir(&node)?;
-    let skip = [
-        "models_dir",
-        "model_file",
-        "frame_id",
-        "stale_timeout_s",
-        "tare_file",
-        "tare_max_age_s",
-        "input",
-        "finger",
-    ];
     let params: EstimatorParams =
-        super::node_params(&node, SharedNode::WrenchEstimator, &tasks::shipped(), &skip)?;
+        super::node_params(&node, RosNode::WrenchEstimator, &tasks::shipped())?;
     let out = Outputs::new(&mut node, frame_id)?;
     let loading = std::time::Instant::now();
     let (model, file) = load_reporting(&model_file, &params.default_model, &out, &node).await?;
     let ready_after_s = loading.elapsed().as_secs_f64();
     if let (true, Some(file)) = (model_file.is_empty(), &file) {
         // Says which file it estimates with (the calibration adapts it).
-        super::set_own_string(&node, "model_file", &file.display().to_string());
+        super::set_own_string(
+            &node,
+            own_params::MODEL_FILE.name,
+            &file.display().to_string(),
+        );
     }
     tracing::info!(
         "{}: ready after {ready_after_s:.1} s; with_std {}, stale after {stale_s} s",

@@ -3,48 +3,19 @@
 
 use crate::biotac::cheetah::{CheetahConfig, CheetahSource};
 use crate::biotac::driver::{Driver, DriverConfig};
+use crate::nodes::own_params;
 use crate::params::ParamsError;
 use crate::ros::{self, RosError};
 
 /// Declares the link's parameters and opens nothing yet: the driver for
 /// them, and the link's name for /diagnostics.
 pub fn declare(node: &r2r::Node) -> Result<(Driver, String), RosError> {
-    let port = ros::own_string(
-        node,
-        "port",
-        "/dev/ttyACM0",
-        "Serial device of the BioTac bridge.",
-    )?;
-    let interface = ros::own_string(
-        node,
-        "interface",
-        "serial",
-        "serial (the bridge at `port`) or cheetah (a board on a Cheetah adapter).",
-    )?;
-    let cheetah = ros::own_string(
-        node,
-        "cheetah",
-        "0",
-        "Cheetah adapter: port number (0, 1, ...) or serial number (1364-123456).",
-    )?;
-    let library = ros::own_string(
-        node,
-        "cheetah_library",
-        "",
-        "Total Phase's cheetah.so (file or directory); empty: searched.",
-    )?;
-    let sensors = ros::own_strings(
-        node,
-        "sensors",
-        &[],
-        "Board positions (0, 1, 2) to sample; empty: every BioTac that answers.",
-    )?;
-    let electrodes = ros::own_f64(
-        node,
-        "electrodes",
-        19.0,
-        "Electrodes of the BioTacs: 19 (BioTac) or 24 (BioTac SP).",
-    )?;
+    let port = ros::own_string(node, &own_params::PORT)?;
+    let interface = ros::own_string(node, &own_params::LINK)?;
+    let cheetah = ros::own_string(node, &own_params::CHEETAH)?;
+    let library = ros::own_string(node, &own_params::CHEETAH_LIBRARY)?;
+    let sensors = ros::own_strings(node, &own_params::SENSORS)?;
+    let electrodes = ros::own_f64(node, &own_params::ELECTRODES)?;
     match interface.as_str() {
         "serial" => Ok((Driver::new(DriverConfig::new(port.clone())), port)),
         "cheetah" => {

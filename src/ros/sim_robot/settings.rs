@@ -1,6 +1,7 @@
 //! `sim_robot`'s parameters: its own and the scene's.
 
-use crate::nodes::param_reference::SharedNode;
+use crate::nodes::own_params;
+use crate::nodes::param_reference::RosNode;
 use crate::nodes::sim_robot::check_real_time_factor;
 use crate::nodes::tasks;
 use crate::nodes::SimRobotParams;
@@ -26,41 +27,12 @@ pub struct Settings {
 /// Declares the node's parameters and reads them.
 pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
     let remap = joint_names_param(node)?;
-    let frame_id = ros::own_string(
-        node,
-        "frame_id",
-        "biotac",
-        "The BioTac frame (F/T wrench and readings).",
-    )?;
-    let seed = ros::own_u64(node, "seed", 1, "Seed of the simulated noise.")?;
-    let sim_time = matches!(
-        ros::own_param(
-            node,
-            "use_sim_time",
-            r2r::ParameterValue::Bool(false),
-            "Publish the simulated time on /clock and stamp with it.",
-        )?,
-        r2r::ParameterValue::Bool(true)
-    );
-    let speed = ros::own_f64(
-        node,
-        "real_time_factor",
-        1.0,
-        "Simulated seconds per wall-clock second (with use_sim_time:=true); at least 1.",
-    )?;
+    let frame_id = ros::own_string(node, &own_params::SIM_FRAME)?;
+    let seed = ros::own_u64(node, &own_params::SEED)?;
+    let sim_time = ros::own_bool(node, &own_params::USE_SIM_TIME)?;
+    let speed = ros::own_f64(node, &own_params::REAL_TIME_FACTOR)?;
     check_real_time_factor(speed, sim_time)?;
-    let p: SimRobotParams = ros::node_params(
-        node,
-        SharedNode::SimRobot,
-        &tasks::shipped(),
-        &[
-            "joint_names",
-            "frame_id",
-            "seed",
-            "real_time_factor",
-            "robot_description",
-        ],
-    )?;
+    let p: SimRobotParams = ros::node_params(node, RosNode::SimRobot, &tasks::shipped())?;
     Ok(Settings {
         remap,
         frame_id,

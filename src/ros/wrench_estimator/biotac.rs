@@ -22,7 +22,8 @@ use r2r::QosProfile;
 use super::{describe_model, load_model, Outputs, Settings, REPORT};
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::bounds::MESSAGE_MAX_BYTES;
-use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable, INPUTS};
+use crate::nodes::own_params;
+use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable};
 use crate::nodes::EstimatorNode;
 use crate::outputs::models_dir::ModelsDir;
 use crate::ros::params::RuntimeParams;
@@ -90,7 +91,7 @@ pub(super) async fn run(
     let shared = estimator.clone();
     let (recipe, models) = (s.default_model, s.models);
     let live = RuntimeParams::new(
-        &["model_file"],
+        &[own_params::MODEL_FILE.name],
         Box::new(move |_, value, apply| {
             take_model(&shared, &recipe, &models, value, apply)
                 .inspect_err(|e| tracing::warn!("model_file refused: {e}"))
@@ -136,17 +137,7 @@ pub(super) async fn run(
 
 /// Declares where the readings come from.
 fn declare_source(node: &r2r::Node) -> Result<ReadingSource, RosError> {
-    let input = crate::ros::own_string(
-        node,
-        "input",
-        INPUTS[0],
-        "The readings: biotac (tactile_force_msgs/BioTac on biotac/readings) or biotac_all (a Shadow hand's sr_robot_msgs/BiotacAll on /rh/tactile, one finger).",
-    )?;
-    let finger = crate::ros::own_f64(
-        node,
-        "finger",
-        0.0,
-        "With input biotac_all: the hand's BioTac, 0 first finger, 1 middle, 2 ring, 3 little, 4 thumb.",
-    )?;
+    let input = crate::ros::own_string(node, &own_params::INPUT)?;
+    let finger = crate::ros::own_f64(node, &own_params::FINGER)?;
     Ok(ReadingSource::from_params(&input, finger)?)
 }
