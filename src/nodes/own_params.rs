@@ -18,69 +18,42 @@ pub struct OwnParam<T: 'static> {
     pub description: &'static str,
 }
 
-/// A default as the reference shows it, and its type.
-pub trait Shown {
-    /// The value, as JSON.
-    fn shown(&self) -> String;
-    /// Its type.
-    fn kind(&self) -> &'static str;
+/// The type of a default, as the reference names it.
+pub trait Kind {
+    /// `string`, `number`, ...
+    const KIND: &'static str;
 }
 
-impl Shown for &str {
-    fn shown(&self) -> String {
-        format!("{self:?}")
-    }
-    fn kind(&self) -> &'static str {
-        "string"
-    }
+impl Kind for &str {
+    const KIND: &'static str = "string";
 }
 
-impl Shown for f64 {
-    fn shown(&self) -> String {
-        format!("{self:?}")
-    }
-    fn kind(&self) -> &'static str {
-        "number"
-    }
+impl Kind for f64 {
+    const KIND: &'static str = "number";
 }
 
-impl Shown for u32 {
-    fn shown(&self) -> String {
-        self.to_string()
-    }
-    fn kind(&self) -> &'static str {
-        "integer"
-    }
+impl Kind for u32 {
+    const KIND: &'static str = "integer";
 }
 
-impl Shown for bool {
-    fn shown(&self) -> String {
-        self.to_string()
-    }
-    fn kind(&self) -> &'static str {
-        "boolean"
-    }
+impl Kind for bool {
+    const KIND: &'static str = "boolean";
 }
 
-impl Shown for &[&str] {
-    fn shown(&self) -> String {
-        format!("{self:?}")
-    }
-    fn kind(&self) -> &'static str {
-        "list of string"
-    }
+impl Kind for &[&str] {
+    const KIND: &'static str = "list of string";
 }
 
-impl<T: Shown> OwnParam<T> {
+impl<T: Kind + std::fmt::Debug> OwnParam<T> {
     /// Its row in the reference, and its default as shown.
     pub fn row(&self) -> (ParamDoc, String) {
         let doc = ParamDoc {
             key: self.name.into(),
-            kind: self.default.kind().into(),
+            kind: T::KIND.into(),
             description: self.description.into(),
             range: String::new(),
         };
-        (doc, format!("`{}`", self.default.shown()))
+        (doc, format!("`{:?}`", self.default))
     }
 }
 

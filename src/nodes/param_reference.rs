@@ -123,11 +123,18 @@ impl RosNode {
     /// The description of its parameter `name`: its own, or else that of a
     /// key of the world's `/**` meant for another node.
     pub fn describe(self, tasks: &TaskRegistry, name: &str) -> String {
+        self.descriptions(tasks)(name)
+    }
+
+    /// [`RosNode::describe`] for every parameter it declares, the fields
+    /// read once.
+    pub fn descriptions(self, tasks: &TaskRegistry) -> impl Fn(&str) -> String {
         let own = self.params(tasks);
-        let other = || RosNode::ALL.map(|n| n.params(tasks)).concat();
-        let said = describe(&own, name).map(str::to_string);
-        said.or_else(|| describe(&other(), name).map(str::to_string))
-            .unwrap_or_else(|| "See the config/ files.".into())
+        let all = RosNode::ALL.map(|n| n.params(tasks)).concat();
+        move |name| {
+            let said = describe(&own, name).or_else(|| describe(&all, name));
+            said.map_or_else(|| "See the config/ files.".into(), str::to_string)
+        }
     }
 }
 

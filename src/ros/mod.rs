@@ -192,7 +192,7 @@ pub fn node_params<T: serde::de::DeserializeOwned>(
     let own = shared.own_names();
     let skip: Vec<&str> = own.iter().map(String::as_str).collect();
     let mut p = lock(&node.params);
-    params::declare(&mut p, &defaults, &|name| shared.describe(tasks, name));
+    params::declare(&mut p, &defaults, &shared.descriptions(tasks));
     Ok(params::read(&p, &skip, shared.name())?)
 }
 

@@ -53,20 +53,12 @@ pub fn read(
     source: &Source,
     say: Say,
 ) -> Result<FileRows, FileError> {
-    let Some(transform) = source.ft_to_biotac else {
-        let want = Want {
-            features,
-            axes,
-            counts,
-            source,
-        };
-        return format_of(path).read(path, &want, say);
-    };
     // Every BioTac-frame component needs the whole force (and torque).
     let torques = axes.axes().iter().any(|a| a.index() >= 3);
-    let read = match torques {
-        true => AxisSet::wrench(),
-        false => AxisSet::forces(),
+    let read = match (source.ft_to_biotac, torques) {
+        (None, _) => axes.clone(),
+        (Some(_), true) => AxisSet::wrench(),
+        (Some(_), false) => AxisSet::forces(),
     };
     let want = Want {
         features,
@@ -75,17 +67,19 @@ pub fn read(
         source,
     };
     let mut file = format_of(path).read(path, &want, say)?;
-    let ds = &mut file.rows;
-    ds.y = ndarray::Array2::from_shape_fn((ds.len(), axes.len()), |(i, j)| {
-        let row = ds.y.row(i);
-        let torque = match torques {
-            true => Vector3::new(row[3], row[4], row[5]),
-            false => Vector3::zeros(),
-        };
-        let w = Wrench::new(Vector3::new(row[0], row[1], row[2]), torque);
-        transform.apply(&w).get(axes.axes()[j])
-    });
-    ds.axes = axes.clone();
+    if let Some(transform) = source.ft_to_biotac {
+        let ds = &mut file.rows;
+        ds.y = ndarray::Array2::from_shape_fn((ds.len(), axes.len()), |(i, j)| {
+            let row = ds.y.row(i);
+            let torque = match torques {
+                true => Vector3::new(row[3], row[4], row[5]),
+                false => Vector3::zeros(),
+            };
+            let w = Wrench::new(Vector3::new(row[0], row[1], row[2]), torque);
+            transform.apply(&w).get(axes.axes()[j])
+        });
+        ds.axes = axes.clone();
+    }
     Ok(file)
 }
 
