@@ -188,7 +188,7 @@ fn benches(c: &mut Criterion) {
         ..recipe(TaskKind::Guarded)
     };
     let six = train("guarded recipe, six axes", &six_axes);
-    let hold = |_: &SimSample, out: &ControlOutput| out.phase == Phase::Hold;
+    let hold = |_: &SimSample, out: &ControlOutput| out.phase == Phase::HOLD;
     let pushed =
         |s: &SimSample, _: &ControlOutput| s.finger.is_some_and(|f| f.velocity != Vector3::zeros());
     let scene = |task, robot| Scene::shipped(task, robot).expect("shipped scene");

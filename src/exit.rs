@@ -75,7 +75,7 @@ mod tests {
     fn a_model_file_error_keeps_its_class_wherever_it_is_wrapped() {
         use crate::learn::evaluate::EvalError;
         use crate::learn::models::wrench_gp::ModelError;
-        use crate::nodes::estimator::EstimatorError;
+        use crate::nodes::wrench_estimator::EstimatorError;
         use crate::runtime::scene::SceneError;
         let io = || std::io::Error::other("disk");
         let refused = || ModelError::Io {

@@ -134,7 +134,7 @@ fn no_press_of_the_calibration_passes_the_force_limit_across_seeds_and_objects()
             if object == "stuffed_animal" {
                 assert_eq!(
                     rec.ended,
-                    Ended::Stopped(StopReason::TravelLimit),
+                    Ended::Stopped(StopReason::TRAVEL_LIMIT),
                     "seed {seed}"
                 );
             } else {
@@ -170,7 +170,7 @@ fn a_calibration_that_cannot_succeed_stops_the_arm_and_says_why() {
     let mut far = calibration(2);
     far.sim.object_gap_mm = 50.0;
     let rec = record(&far, 1, &mut |_, _| {}).unwrap();
-    assert_eq!(rec.ended, Ended::Stopped(StopReason::TravelLimit));
+    assert_eq!(rec.ended, Ended::Stopped(StopReason::TRAVEL_LIMIT));
     assert!(rec.ended.failure().unwrap().contains("no contact found"));
     assert!(rec.peak_force_n < 0.2, "{}", rec.peak_force_n);
     // Three pushes are too few to train on and validate.
@@ -212,12 +212,12 @@ fn a_canceled_calibration_backs_off_out_of_contact_and_the_next_one_starts_clean
     let sensor = BioTacSimConfig::default();
     let (mut c, mut sim, _) = scene.controller_and_sim(&sensor, 3).unwrap();
     let mut rec = CalibrationRecorder::new(0.0);
-    let pressed = (0..3000).any(|_| step(&mut c, &mut sim, &mut rec).0.phase == Phase::Hold);
+    let pressed = (0..3000).any(|_| step(&mut c, &mut sim, &mut rec).0.phase == Phase::HOLD);
     assert!(pressed, "the first press never held");
     c.withdraw();
     let (k, f) = (0..1000)
         .map(|k| (k, step(&mut c, &mut sim, &mut rec)))
-        .find(|(_, (out, _))| out.phase == Phase::Stopped)
+        .find(|(_, (out, _))| out.phase == Phase::STOPPED)
         .map(|(k, (_, f))| (k, f))
         .expect("never stopped");
     let contact_n = scene
@@ -238,13 +238,13 @@ fn a_canceled_calibration_backs_off_out_of_contact_and_the_next_one_starts_clean
     let mut phases = Vec::new();
     for _ in 0..3000 {
         let (out, _) = step(&mut next, &mut sim, &mut rec);
-        assert_ne!(out.reason, Some(StopReason::InContact));
+        assert_ne!(out.reason, Some(StopReason::IN_CONTACT));
         if phases.last() != Some(&out.phase) {
             phases.push(out.phase);
         }
-        if out.phase == Phase::Hold {
+        if out.phase == Phase::HOLD {
             break;
         }
     }
-    assert_eq!(phases.last(), Some(&Phase::Hold), "{phases:?}");
+    assert_eq!(phases.last(), Some(&Phase::HOLD), "{phases:?}");
 }

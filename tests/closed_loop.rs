@@ -170,7 +170,7 @@ fn nothing_touched_within_the_distance_is_a_travel_limit_and_the_arm_stops() {
     let stop = run
         .rows
         .iter()
-        .position(|r| r.phase == Phase::Stopped)
+        .position(|r| r.phase == Phase::STOPPED)
         .unwrap();
     // Commanded zero in the very cycle the distance was reached.
     assert_eq!(run.rows[stop].commanded.norm(), 0.0);
@@ -195,7 +195,7 @@ fn nothing_touched_within_the_approach_time_is_a_timeout_and_the_arm_stops() {
         "{s:?}"
     );
     // 1 s of approach at 10 mm/s from its first fresh input: ~10 mm.
-    let stop = run.rows.iter().position(|r| r.phase == Phase::Stopped);
+    let stop = run.rows.iter().position(|r| r.phase == Phase::STOPPED);
     let travelled = -run.rows[stop.unwrap()].offset.z;
     assert!((0.0095..0.0105).contains(&travelled), "{travelled}");
     assert!(s.rest_speed_mps < 1e-4, "{s:?}");
@@ -224,13 +224,13 @@ fn over_force_retracts_in_the_same_cycle_then_stops() {
     let r = &run.rows[over];
     // Contact was seen a period before: the limit hit while regulating (for
     // the limit hit during the approach see tests/closed_loop_extremes.rs).
-    assert_eq!(run.rows[over - 1].phase, Phase::Regulate);
-    assert_eq!(r.phase, Phase::Retract);
+    assert_eq!(run.rows[over - 1].phase, Phase::REGULATE);
+    assert_eq!(r.phase, Phase::RETRACT);
     // Away from the object (+z of the BioTac frame) at the retract speed.
     assert!((r.commanded.z - 0.01).abs() < 1e-9, "{}", r.commanded);
     assert_eq!(
         run.rows.last().unwrap().reason,
-        Some(StopReason::ForceLimit)
+        Some(StopReason::FORCE_LIMIT)
     );
     assert_eq!(run.summary.final_phase, "stopped");
     // It retracted: the pad is off the object at the end.
@@ -266,7 +266,7 @@ fn a_stale_estimate_stops_the_arm_within_three_periods_and_it_resumes() {
         .all(|r| r.halted && !moving(r)));
     // Back to the task once estimates flow again, and it still holds 1 N.
     assert!(moving(&rows[at(1.3)]) && !rows[at(1.3)].halted);
-    assert_eq!(rows.last().unwrap().phase, Phase::Hold);
+    assert_eq!(rows.last().unwrap().phase, Phase::HOLD);
 }
 
 #[test]

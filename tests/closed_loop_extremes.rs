@@ -37,7 +37,12 @@ fn run_faulty(scene: &Scene, fault: ReadingTamper) -> DemoRun {
             period.expect("the model takes 19 electrodes").row()
         })
         .collect();
-    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name).unwrap();
+    let info = RunInfo::new(
+        &scene.controller,
+        &scene.tasks,
+        &nodes.controller.robot().name,
+    )
+    .unwrap();
     DemoRun {
         summary: summarize(&info, &rows),
         gains: nodes.controller.gains(),
@@ -316,11 +321,11 @@ fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
         assert_sane(&r.rows, MAX_SPEED);
         let i = at(&r.rows, 3.0);
         let (before, row) = (&r.rows[i - 1], &r.rows[i]);
-        assert_eq!((before.phase, before.reason), (Phase::Hold, None), "{what}");
+        assert_eq!((before.phase, before.reason), (Phase::HOLD, None), "{what}");
         // Retract in the very cycle of the first saturated reading.
         assert_eq!(
             (row.phase, row.reason),
-            (Phase::Retract, Some(StopReason::OutOfRange)),
+            (Phase::RETRACT, Some(StopReason::OUT_OF_RANGE)),
             "{what}"
         );
         assert!(
@@ -361,9 +366,9 @@ fn saturated_electrodes_or_pdc_stop_the_move_as_out_of_range() {
     let limit: GuidedParams = short_guided().controller.section().unwrap();
     let mean = r.rows[stop].estimate.unwrap().0;
     assert!(mean.norm() > limit.force_limit_n, "{mean}");
-    assert_eq!(r.rows[stop - 1].phase, Phase::Follow);
-    assert!(r.rows[stop..].iter().all(|r| r.phase == Phase::Stopped
-        && r.reason == Some(StopReason::OutOfRange)
+    assert_eq!(r.rows[stop - 1].phase, Phase::FOLLOW);
+    assert!(r.rows[stop..].iter().all(|r| r.phase == Phase::STOPPED
+        && r.reason == Some(StopReason::OUT_OF_RANGE)
         && r.commanded.norm() == 0.0));
 }
 
@@ -428,7 +433,7 @@ fn the_force_limit_hit_during_the_approach_retracts_in_the_same_cycle() {
     let over = r
         .rows
         .iter()
-        .position(|r| r.phase != Phase::Approach)
+        .position(|r| r.phase != Phase::APPROACH)
         .unwrap();
     let (before, row) = (&r.rows[over - 1], &r.rows[over]);
     assert!((row.t - tick.t).abs() < 1e-9, "{} {}", row.t, tick.t);
@@ -438,7 +443,7 @@ fn the_force_limit_hit_during_the_approach_retracts_in_the_same_cycle() {
     assert!(force(row) > 0.3);
     assert_eq!(
         (row.phase, row.reason),
-        (Phase::Retract, Some(StopReason::ForceLimit))
+        (Phase::RETRACT, Some(StopReason::FORCE_LIMIT))
     );
     assert!((row.commanded.z - 0.01).abs() < 1e-9, "{}", row.commanded);
     let s = &r.summary;

@@ -9,7 +9,7 @@
 
 use tactile_force::control::TaskKind;
 use tactile_force::kinematics::Robot;
-use tactile_force::nodes::controller::task_envelope;
+use tactile_force::nodes::force_controller::controller::task_envelope;
 use tactile_force::nodes::ForceController;
 use tactile_force::report::summary::Summary;
 use tactile_force::runtime::demo::run_scene;

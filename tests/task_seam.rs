@@ -1,7 +1,8 @@
 //! The task seam is open: a task defined here, outside the crate, runs in
-//! the closed loop through its registration alone, and its parameter,
-//! declared once by its field, is checked, described to ROS and listed in
-//! the parameter reference.
+//! the closed loop through its registration alone, with its own phase,
+//! stop reason and report figure; its parameter, declared once by its
+//! field, is checked, described to ROS and listed in the parameter
+//! reference.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -9,14 +10,15 @@ use serde::{Deserialize, Serialize};
 use tactile_force::contact::BodyParams;
 use tactile_force::control::task::{TaskInput, TaskLoop};
 use tactile_force::control::{
-    Envelope, Phase, StopReason, Task, TaskEnvelope, TaskKind, TaskSection,
+    Envelope, Phase, StopReason, Task, TaskEnvelope, TaskFigures, TaskKind, TaskSection,
 };
 use tactile_force::kinematics::Twist;
 use tactile_force::nodes::param_reference::{markdown, RosNode};
 use tactile_force::nodes::tasks;
 use tactile_force::params::reference::check_ranges;
 use tactile_force::params::{Check, Checked, ParamsError};
-use tactile_force::runtime::{run, Pacing, Scene};
+use tactile_force::runtime::demo::run_scene;
+use tactile_force::runtime::{Pacing, Scene};
 use tactile_force::wrench::Axis;
 
 mod common;
@@ -42,13 +44,24 @@ impl Check for HoldStillParams {
 #[derive(Debug, Clone)]
 struct HoldStill {
     left_s: f64,
+    held_s: f64,
+    reason: Option<StopReason>,
 }
+
+/// Its one phase.
+const STILL: Phase = Phase::named("still");
+/// Why it stops on its own.
+const HELD: StopReason = StopReason::named("held_long_enough");
 
 impl TaskSection for HoldStillParams {
     const NAME: &'static str = "hold_still";
 
     fn build(p: Checked<Self>, _: &TaskLoop, _: &BodyParams) -> Box<dyn Task> {
-        Box::new(HoldStill { left_s: p.seconds })
+        Box::new(HoldStill {
+            left_s: p.seconds,
+            held_s: 0.0,
+            reason: None,
+        })
     }
 
     fn envelope(
@@ -76,20 +89,26 @@ impl TaskSection for HoldStillParams {
 
 impl Task for HoldStill {
     fn step(&mut self, i: &TaskInput) -> Twist {
-        self.left_s -= i.dt;
+        if self.left_s > 0.0 {
+            self.left_s -= i.dt;
+            self.held_s += i.dt;
+            if self.left_s <= 0.0 {
+                self.reason = Some(HELD);
+            }
+        }
         Twist::zeros()
     }
 
     fn phase(&self) -> Phase {
         if self.left_s > 0.0 {
-            Phase::Hold
+            STILL
         } else {
-            Phase::Stopped
+            Phase::STOPPED
         }
     }
 
     fn reason(&self) -> Option<StopReason> {
-        None
+        self.reason
     }
 
     fn targets(&self) -> [Option<f64>; 3] {
@@ -114,8 +133,16 @@ impl Task for HoldStill {
         self.left_s = 0.0;
     }
 
-    fn stop_on(&mut self, _: StopReason) {
+    fn stop_on(&mut self, reason: StopReason) {
         self.left_s = 0.0;
+        self.reason = Some(reason);
+    }
+
+    fn figures(&self) -> TaskFigures {
+        TaskFigures {
+            own: vec![("held_s", self.held_s)],
+            ..TaskFigures::default()
+        }
     }
 }
 
@@ -132,20 +159,32 @@ fn hold_still_scene() -> Scene {
 #[test]
 fn a_task_defined_outside_runs_in_the_closed_loop_through_its_registration_alone() {
     let scene = hold_still_scene().with_tasks(tasks::shipped().with::<HoldStillParams>());
-    let mut nodes = scene
-        .build(Box::new(model()), &Default::default(), 1)
-        .unwrap();
-    let rows = run(&mut nodes, Pacing::Lockstep, &mut |_| {}).unwrap();
+    let run = run_scene(&scene, Box::new(model()), 1, Pacing::Lockstep, &mut |_| {}).unwrap();
+    let rows = &run.rows;
     // It holds from its first fresh inputs (the estimator's tare first),
-    // for a second, then stops; the arm never moves.
+    // for a second, then stops on its own reason; the arm never moves.
     let first = rows.iter().position(|r| !r.halted).unwrap();
-    let stop = rows.iter().position(|r| r.phase == Phase::Stopped).unwrap();
+    let stop = rows.iter().position(|r| r.phase == Phase::STOPPED).unwrap();
     let held_s = rows[stop].t - rows[first].t;
     assert!((held_s - 1.0).abs() < 0.011, "held {held_s} s");
-    assert!(rows[first..stop].iter().all(|r| r.phase == Phase::Hold));
+    assert!(rows[first..stop].iter().all(|r| r.phase == STILL));
+    assert_eq!(rows[stop].reason, Some(HELD));
     assert!(rows.iter().all(|r| r.commanded == Vector3::zeros()));
     let moved = rows.iter().map(|r| r.offset.norm()).fold(0.0, f64::max);
     assert!(moved < 1e-9, "moved {moved} m");
+    // Its report: its name, its reason (not an abort), its own figure.
+    let s = &run.summary;
+    assert_eq!(
+        (s.task, s.reason, s.aborted),
+        ("hold_still", Some("held_long_enough"), false)
+    );
+    let own = &s.identified.as_ref().unwrap().task_figures;
+    assert!((own["held_s"] - held_s).abs() < 0.011, "{own:?}");
+    let json = serde_json::to_string(s).unwrap();
+    assert!(
+        json.contains(r#""final_phase":"stopped""#) && json.contains(r#""held_s":"#),
+        "{json}"
+    );
 }
 
 #[test]

@@ -54,15 +54,15 @@ impl Ended {
     pub fn failure(self) -> Option<String> {
         match self {
             Ended::Done => None,
-            Ended::Stopped(StopReason::TravelLimit) => Some(
+            Ended::Stopped(StopReason::TRAVEL_LIMIT) => Some(
                 "no contact found within the approach distance (calibrate.max_distance_m)".into(),
             ),
-            Ended::Stopped(StopReason::Timeout) => Some(
+            Ended::Stopped(StopReason::TIMEOUT) => Some(
                 "out of time, or no contact found within the approach's time \
                  (calibrate.max_duration_s)"
                     .into(),
             ),
-            Ended::Stopped(StopReason::InContact) => Some(
+            Ended::Stopped(StopReason::IN_CONTACT) => Some(
                 "the pad was pressed during a rest, which must be out of contact (its tare): \
                  move it off the surface first"
                     .into(),

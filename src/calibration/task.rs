@@ -24,11 +24,30 @@ use nalgebra::{Isometry3, Rotation3, Vector3};
 use super::pattern::{pattern, CalibrateParams, Push, PushKind};
 use crate::contact::BodyParams;
 use crate::control::guarded::{GuardedInput, GuardedMove, GuardedParams};
-use crate::control::task::{ForceLaw, Task, TaskEnvelope, TaskInput, TaskLoop, TaskSection};
-use crate::control::{Envelope, Phase, StopReason};
+use crate::control::task::{
+    ForceLaw, OffAxis, Task, TaskEnvelope, TaskInput, TaskLoop, TaskReport, TaskSection,
+};
+use crate::control::{Envelope, ForceLimit, Phase, StopReason};
 use crate::kinematics::Twist;
 use crate::params::{Check, Checked, ParamsError};
 use crate::wrench::Axis;
+
+/// The calibration's own phases (with the guarded move's while it presses).
+impl Phase {
+    /// Out of contact, still (a push's tare).
+    pub const REST: Phase = Phase::named("rest");
+    /// Turning the BioTac about its axis.
+    pub const TILT: Phase = Phase::named("tilt");
+    /// Pressed, sliding along the block.
+    pub const SHEAR: Phase = Phase::named("shear");
+}
+
+/// The calibration's own stop reason.
+impl StopReason {
+    /// The pad touched something during a rest, which must be out of
+    /// contact (its tare).
+    pub const IN_CONTACT: StopReason = StopReason::named("in_contact");
+}
 
 /// Where a push is.
 #[derive(Debug, Clone, PartialEq)]
@@ -197,14 +216,14 @@ impl CalibrateMove {
             return match self.press(self.push, i.pose, into) {
                 Ok(g) => (Stage::Press(Box::new(g), None), Twist::zeros()),
                 Err(_) => {
-                    self.finish(Some(StopReason::Unrealisable));
+                    self.finish(Some(StopReason::UNREALISABLE));
                     (Stage::Done, Twist::zeros())
                 }
             };
         }
         if self.stage_s > 3.0 * left.abs() / rate + 2.0 {
             // The arm does not turn as asked (fewer joints, a limit).
-            self.finish(Some(StopReason::Unrealisable));
+            self.finish(Some(StopReason::UNREALISABLE));
             return (Stage::Done, Twist::zeros());
         }
         let w =
@@ -229,21 +248,21 @@ impl CalibrateMove {
         if let Some(block) = g.body() {
             self.block_n_per_m = block;
         }
-        if before == Phase::Approach && g.phase() != Phase::Approach {
+        if before == Phase::APPROACH && g.phase() != Phase::APPROACH {
             self.touched_m = travelled;
         }
         match g.phase() {
             // No contact within the approach distance, or retracted from
             // the force limit.
-            Phase::Stopped => {
-                self.finish(Some(g.reason().unwrap_or(StopReason::Timeout)));
+            Phase::STOPPED => {
+                self.finish(Some(g.reason().unwrap_or(StopReason::TIMEOUT)));
                 return (Stage::Done, Twist::zeros());
             }
-            Phase::Retract => return (Stage::Press(g, hold), v),
+            Phase::RETRACT => return (Stage::Press(g, hold), v),
             _ => {}
         }
         let hold = match hold {
-            None if g.phase() == Phase::Hold => Some(self.p.hold_s),
+            None if g.phase() == Phase::HOLD => Some(self.p.hold_s),
             None => None,
             Some(left) => Some(left - i.dt),
         };
@@ -268,7 +287,6 @@ impl CalibrateMove {
             force_n: -g.direction().dot(i.force),
             pdc_rise: i.pdc_rise,
             travelled_m: travelled,
-            out_of_range: i.out_of_range,
             dt: i.dt,
             fresh: i.fresh,
             position_m: i.force_position.map(|p| (p - from).dot(&into)),
@@ -314,6 +332,14 @@ impl TaskSection for CalibrateParams {
             speed_mps: p.approach_speed_mps,
         })
     }
+
+    /// It slides and turns on purpose: nothing is off-axis.
+    fn report(p: &Checked<Self>) -> TaskReport {
+        TaskReport {
+            approach_speed_mps: Some(p.approach_speed_mps),
+            off_axis: OffAxis::Nothing,
+        }
+    }
 }
 
 impl Task for CalibrateMove {
@@ -324,7 +350,7 @@ impl Task for CalibrateMove {
         self.elapsed_s += i.dt;
         self.stage_s += i.dt;
         if self.elapsed_s > self.p.max_duration_s {
-            self.finish(Some(StopReason::Timeout));
+            self.finish(Some(StopReason::TIMEOUT));
             return Twist::zeros();
         }
         // The block's normal, into it: the pad's -z at the start.
@@ -337,7 +363,7 @@ impl Task for CalibrateMove {
         let (next, twist) = match stage {
             // A rest is the push's tare: out of contact, or no calibration.
             Stage::Rest(_) if i.force.norm() > self.p.contact_force_n => {
-                self.finish(Some(StopReason::InContact));
+                self.finish(Some(StopReason::IN_CONTACT));
                 (Stage::Done, Twist::zeros())
             }
             Stage::Rest(left) if left > i.dt / 2.0 => (Stage::Rest(left - i.dt), Twist::zeros()),
@@ -348,11 +374,11 @@ impl Task for CalibrateMove {
             Stage::Shear(mut g, t, start) => {
                 let speed = g.speed(&self.guarded_input(&g, i, travelled));
                 match g.phase() {
-                    Phase::Stopped => {
-                        self.finish(Some(g.reason().unwrap_or(StopReason::ForceLimit)));
+                    Phase::STOPPED => {
+                        self.finish(Some(g.reason().unwrap_or(StopReason::FORCE_LIMIT)));
                         (Stage::Done, Twist::zeros())
                     }
-                    Phase::Retract => (Stage::Shear(g, t, start), linear(into * speed)),
+                    Phase::RETRACT => (Stage::Shear(g, t, start), linear(into * speed)),
                     _ if (here - start).dot(&t) >= self.p.shear_distance_m => (
                         Stage::Retract(self.touched_m - self.p.clearance_m),
                         linear(into * speed),
@@ -384,16 +410,16 @@ impl Task for CalibrateMove {
 
     fn phase(&self) -> Phase {
         if self.stopped.is_some() {
-            return Phase::Stopped;
+            return Phase::STOPPED;
         }
         match &self.stage {
-            Stage::Rest(_) => Phase::Rest,
-            Stage::Tilt(_) | Stage::Untilt => Phase::Tilt,
+            Stage::Rest(_) => Phase::REST,
+            Stage::Tilt(_) | Stage::Untilt => Phase::TILT,
             Stage::Press(g, None) => g.phase(),
-            Stage::Press(_, Some(_)) => Phase::Hold,
-            Stage::Shear(..) => Phase::Shear,
-            Stage::Retract(_) => Phase::Retract,
-            Stage::Done => Phase::Stopped,
+            Stage::Press(_, Some(_)) => Phase::HOLD,
+            Stage::Shear(..) => Phase::SHEAR,
+            Stage::Retract(_) => Phase::RETRACT,
+            Stage::Done => Phase::STOPPED,
         }
     }
 
@@ -443,7 +469,7 @@ impl Task for CalibrateMove {
         self.withdrawn = true;
         let back = Stage::Retract(self.touched_m - self.p.clearance_m);
         self.stage = match std::mem::replace(&mut self.stage, Stage::Done) {
-            Stage::Press(g, _) if g.phase() == Phase::Approach => Stage::Untilt,
+            Stage::Press(g, _) if g.phase() == Phase::APPROACH => Stage::Untilt,
             Stage::Press(..) | Stage::Shear(..) => back,
             Stage::Rest(_) | Stage::Tilt(_) => Stage::Untilt,
             s @ (Stage::Retract(_) | Stage::Untilt | Stage::Done) => s,
@@ -453,5 +479,21 @@ impl Task for CalibrateMove {
 
     fn stop_on(&mut self, reason: StopReason) {
         self.finish(Some(reason));
+    }
+
+    /// Pressing or sliding, the press's guarded move retracts; out of
+    /// contact (resting, turning, backing off) there is nothing to leave.
+    fn abort(&mut self, reason: StopReason) {
+        if let Stage::Press(g, _) | Stage::Shear(g, ..) = &mut self.stage {
+            g.abort(reason);
+        }
+    }
+
+    /// The press's limit while pressing or sliding; none out of contact.
+    fn force_limit(&self) -> Option<ForceLimit> {
+        match &self.stage {
+            Stage::Press(g, _) | Stage::Shear(g, ..) => g.force_limit(),
+            _ => None,
+        }
     }
 }

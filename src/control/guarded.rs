@@ -39,94 +39,29 @@
 //! minus the approach direction) and returns a speed along the approach
 //! direction (positive = towards the object).
 
+mod section;
+pub use section::GuardedParams;
+
 use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
 
 use super::identify::{ContactStiffness, SAMPLE_SPAN_S};
 use super::oscillation::OscillationDetector;
 use super::pd::PdAxis;
-use super::task::{
-    translation, ForceLaw, Task, TaskEnvelope, TaskFigures, TaskInput, TaskLoop, TaskSection,
-};
+use super::rules::ForceLimit;
+use super::task::{translation, ForceLaw, Task, TaskFigures, TaskInput};
 use super::tuning::LoopTiming;
 use super::{Envelope, Phase, StopReason};
-use crate::contact::BodyParams;
 use crate::kinematics::Twist;
-use crate::params::reference::check_ranges;
-use crate::params::{invalid, Check, Checked, ParamsError};
+use crate::params::Checked;
 use crate::wrench::Axis;
 
-/// Guarded-move settings (`force_controller.guarded` in the scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct GuardedParams {
-    /// Approach direction in the BioTac frame (normalised on validation);
-    /// the pad faces -z.
-    pub direction: [f64; 3],
-    /// Approach speed (m/s).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub approach_speed_mps: f64,
-    /// Force to hold (N).
-    pub target_force_n: f64,
-    /// Estimated force that means contact (N).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub contact_force_n: f64,
-    /// PDC rise above its tare that means contact (counts).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub contact_pdc_counts: f64,
-    /// Estimated force above which the move retracts and stops (N).
-    pub force_limit_n: f64,
-    /// Travel along the direction after which the move stops (m).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub max_distance_m: f64,
-    /// Time of approach without contact after which the move stops (s).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub max_approach_s: f64,
-    /// Retract speed (m/s).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub retract_speed_mps: f64,
-    /// Distance to retract after the force limit (m).
-    #[schemars(range(min = 0.0))]
-    pub retract_distance_m: f64,
-    /// Force band around the target that counts as settled (N).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub settle_band_n: f64,
-    /// Estimates within the band, over this time, before the phase is
-    /// Hold (s; at most a minute: the window's estimates are held in memory).
-    #[schemars(range(min = 0.0, max = 60.0))]
-    pub settle_time_s: f64,
-    /// Largest standard deviation of the force over that time (N).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub settle_sd_n: f64,
-}
-
-/// Normalises the direction.
-impl Check for GuardedParams {
-    fn check(mut self, key: &str) -> Result<Self, ParamsError> {
-        let name = |field: &str| format!("{key}.{field}");
-        let d = Vector3::from(self.direction);
-        let n = d.norm();
-        if !(n.is_finite() && n > 0.0) {
-            return Err(invalid(&name("direction"), n, "a finite non-zero vector"));
-        }
-        self.direction = (d / n).into();
-        check_ranges(&self, key)?;
-        if self.target_force_n.is_nan() || self.target_force_n <= self.contact_force_n {
-            return Err(invalid(
-                &name("target_force_n"),
-                self.target_force_n,
-                &format!("above {}", name("contact_force_n")),
-            ));
-        }
-        if self.force_limit_n.is_nan() || self.force_limit_n <= self.target_force_n {
-            return Err(invalid(
-                &name("force_limit_n"),
-                self.force_limit_n,
-                &format!("above {}", name("target_force_n")),
-            ));
-        }
-        Ok(self)
-    }
+/// The guarded move's own phases (with [`Phase::HOLD`], [`Phase::RETRACT`]
+/// and [`Phase::STOPPED`]).
+impl Phase {
+    /// Moving towards the object at the approach speed.
+    pub const APPROACH: Phase = Phase::named("approach");
+    /// In contact, regulating the force.
+    pub const REGULATE: Phase = Phase::named("regulate");
 }
 
 /// What the guarded move sees each cycle.
@@ -138,8 +73,6 @@ pub struct GuardedInput {
     pub pdc_rise: f64,
     /// Distance travelled along the approach direction since the start (m).
     pub travelled_m: f64,
-    /// True when the input is outside what the estimator knows.
-    pub out_of_range: bool,
     /// Time since the previous cycle (s).
     pub dt: f64,
     /// True when the force is a new estimate.
@@ -226,6 +159,8 @@ pub struct GuardedMove {
     touched_m: Option<f64>,
     /// A withdrawal asked for, begun at the next cycle.
     withdrawing: bool,
+    /// A stability rule's stop, taken at the next cycle.
+    aborted: Option<StopReason>,
 }
 
 /// The feedforward's time constant, in reaction times.
@@ -251,13 +186,14 @@ impl GuardedMove {
             since_rest_s: 0.0,
             law: *law,
             p: *p,
-            phase: Phase::Approach,
+            phase: Phase::APPROACH,
             reason: None,
             approach_s: 0.0,
             retract_from_m: 0.0,
             pressed: false,
             touched_m: None,
             withdrawing: false,
+            aborted: None,
         }
     }
 
@@ -289,7 +225,7 @@ impl GuardedMove {
     }
 
     fn retract(&mut self, reason: StopReason, travelled_m: f64) {
-        self.phase = Phase::Retract;
+        self.phase = Phase::RETRACT;
         self.reason = Some(reason);
         self.retract_from_m = travelled_m;
     }
@@ -301,16 +237,16 @@ impl GuardedMove {
     /// which a retract would drive it into) it stops where it is.
     fn withdraw_from(&mut self, i: &GuardedInput) -> f64 {
         if i.force_n < self.p.contact_force_n {
-            self.phase = Phase::Stopped;
+            self.phase = Phase::STOPPED;
             return 0.0;
         }
-        self.phase = Phase::Retract;
+        self.phase = Phase::RETRACT;
         self.retract_from_m = self.touched_m.unwrap_or(i.travelled_m).min(i.travelled_m);
         -self.p.retract_speed_mps
     }
 
     fn stop_with(&mut self, reason: StopReason) -> f64 {
-        self.phase = Phase::Stopped;
+        self.phase = Phase::STOPPED;
         self.reason = Some(reason);
         0.0
     }
@@ -324,27 +260,20 @@ impl GuardedMove {
             .tune(k, self.law.skin.stiffness_at(p.target_force_n), &i.timing);
         let u = self.pd.step(p.target_force_n, i.force_n, i.dt);
         self.since_fresh_s += i.dt;
-        let active = matches!(self.phase, Phase::Approach | Phase::Regulate | Phase::Hold);
+        let active = matches!(self.phase, Phase::APPROACH | Phase::REGULATE | Phase::HOLD);
         if std::mem::take(&mut self.withdrawing) && active {
             return self.withdraw_from(i);
         }
-        // An estimate outside what the GP knows says nothing about the
-        // force, so it is not read as over the limit.
-        let abort = if i.out_of_range {
-            Some(StopReason::OutOfRange)
-        } else {
-            (i.force_n > p.force_limit_n).then_some(StopReason::ForceLimit)
-        };
-        if let (true, Some(reason)) = (active, abort) {
+        if let (true, Some(reason)) = (active, self.aborted.take()) {
             self.retract(reason, i.travelled_m);
         }
         let reaction_s = i.timing.period_s + i.timing.transport_s + i.timing.arm_s();
         match self.phase {
-            Phase::Approach => {
+            Phase::APPROACH => {
                 self.approach_s += i.dt;
                 self.since_rest_s += i.dt;
                 if i.force_n >= p.contact_force_n || i.pdc_rise >= p.contact_pdc_counts {
-                    self.phase = Phase::Regulate;
+                    self.phase = Phase::REGULATE;
                     self.touched_m = Some(i.travelled_m);
                     return self.regulate(u, i, reaction_s);
                 }
@@ -358,27 +287,27 @@ impl GuardedMove {
                     }
                 }
                 if i.travelled_m >= p.max_distance_m {
-                    return self.stop_with(StopReason::TravelLimit);
+                    return self.stop_with(StopReason::TRAVEL_LIMIT);
                 }
                 if self.approach_s >= p.max_approach_s {
-                    return self.stop_with(StopReason::Timeout);
+                    return self.stop_with(StopReason::TIMEOUT);
                 }
                 self.approach_speed(reaction_s)
             }
             // Never further than the approach distance, even in contact
             // (a PDC rise can mean a touch away from the approach direction).
-            Phase::Regulate | Phase::Hold if i.travelled_m >= p.max_distance_m => {
-                self.stop_with(StopReason::TravelLimit)
+            Phase::REGULATE | Phase::HOLD if i.travelled_m >= p.max_distance_m => {
+                self.stop_with(StopReason::TRAVEL_LIMIT)
             }
-            Phase::Regulate | Phase::Hold => self.regulate(u, i, reaction_s),
-            Phase::Retract => {
+            Phase::REGULATE | Phase::HOLD => self.regulate(u, i, reaction_s),
+            Phase::RETRACT => {
                 if i.travelled_m <= self.retract_from_m - p.retract_distance_m {
-                    self.phase = Phase::Stopped;
+                    self.phase = Phase::STOPPED;
                     return 0.0;
                 }
                 -p.retract_speed_mps
             }
-            Phase::Stopped | Phase::Follow | Phase::Rest | Phase::Tilt | Phase::Shear => 0.0,
+            _ => 0.0,
         }
     }
 
@@ -399,7 +328,7 @@ impl GuardedMove {
                         "the force oscillates again at {hz:.1} Hz with the gain lowered: \
                          retracting"
                     );
-                    self.retract(StopReason::Oscillating, i.travelled_m);
+                    self.retract(StopReason::OSCILLATING, i.travelled_m);
                     return -p.retract_speed_mps;
                 }
                 self.softened += 1;
@@ -415,9 +344,9 @@ impl GuardedMove {
         let settled = self.settle.within(p.target_force_n, p.settle_band_n)
             && self.settle.sd().is_some_and(|sd| sd <= p.settle_sd_n);
         self.phase = if settled {
-            Phase::Hold
+            Phase::HOLD
         } else {
-            Phase::Regulate
+            Phase::REGULATE
         };
         let approach = self.approach_speed(reaction_s);
         match self.feedforward(i, reaction_s) {
@@ -458,38 +387,6 @@ impl GuardedMove {
     }
 }
 
-impl TaskSection for GuardedParams {
-    const NAME: &'static str = "guarded";
-
-    /// The gains for `body` (the stiffest the scene permits) until the
-    /// contact is measured.
-    fn build(p: Checked<Self>, lp: &TaskLoop, body: &BodyParams) -> Box<dyn Task> {
-        Box::new(GuardedMove::new(p, &lp.law(), body.stiffness_n_per_m))
-    }
-
-    fn envelope(
-        p: &Checked<Self>,
-        lp: &TaskLoop,
-        body: &BodyParams,
-        name: &str,
-    ) -> Result<TaskEnvelope, ParamsError> {
-        Ok(TaskEnvelope {
-            envelope: Envelope {
-                skin: **lp.skin,
-                stiffness_n_per_m: body.stiffness_n_per_m,
-                shear: false,
-                trigger_n: p.contact_force_n,
-                target_n: p.target_force_n,
-                limit_n: p.force_limit_n,
-                reaction_s: lp.reaction_s(),
-            },
-            body: name.into(),
-            key: "guarded.approach_speed_mps",
-            speed_mps: p.approach_speed_mps,
-        })
-    }
-}
-
 /// The guarded move as the controller runs it: along its direction in the
 /// BioTac frame at the start, the orientation held.
 impl Task for GuardedMove {
@@ -501,7 +398,6 @@ impl Task for GuardedMove {
             force_n: -d_tool.dot(i.force),
             pdc_rise: i.pdc_rise,
             travelled_m: along(&i.pose.translation.vector),
-            out_of_range: i.out_of_range,
             dt: i.dt,
             fresh: i.fresh,
             position_m: i.force_position.as_ref().map(along),
@@ -555,7 +451,7 @@ impl Task for GuardedMove {
     }
 
     fn stop(&mut self) {
-        self.phase = Phase::Stopped;
+        self.phase = Phase::STOPPED;
     }
 
     /// Out of contact: at the next cycle, a retract from where contact was
@@ -565,8 +461,22 @@ impl Task for GuardedMove {
     }
 
     fn stop_on(&mut self, reason: StopReason) {
-        self.phase = Phase::Stopped;
+        self.phase = Phase::STOPPED;
         self.reason = Some(reason);
+    }
+
+    /// Retracts in this cycle, from wherever it is in contact or
+    /// approaching (a retract or a stop goes on as it was).
+    fn abort(&mut self, reason: StopReason) {
+        self.aborted = Some(reason);
+    }
+
+    /// The pressing force, along minus the approach direction.
+    fn force_limit(&self) -> Option<ForceLimit> {
+        Some(ForceLimit {
+            limit_n: self.p.force_limit_n,
+            along: Some(-self.direction()),
+        })
     }
 
     fn figures(&self) -> TaskFigures {
@@ -580,6 +490,7 @@ impl Task for GuardedMove {
             body_n_per_m: self.stiffness.body(),
             settled_sd_n: self.settle.sd(),
             softened: self.softened,
+            own: Vec::new(),
         }
     }
 }

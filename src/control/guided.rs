@@ -52,24 +52,29 @@
 //! touched for `contact_timeout_s` stops it (`timeout`), and it never moves
 //! further than `max_travel_m` from where it started (`travel_limit`).
 
+mod section;
+pub use section::GuidedParams;
+
 use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
 
 use super::identify::ContactStiffness;
 use super::oscillation::OscillationDetector;
 use super::pd::PdAxis;
 use super::probe::Probe;
-use super::task::{
-    missing_axis, translation, ForceLaw, Task, TaskEnvelope, TaskFigures, TaskInput, TaskLoop,
-    TaskSection,
-};
-use super::tuning::{LoopTiming, Margins};
-use super::{Envelope, Phase, StopReason};
-use crate::contact::{shear_stiffness, BodyParams};
+use super::rules::ForceLimit;
+use super::task::{translation, ForceLaw, Task, TaskFigures, TaskInput};
+use super::tuning::LoopTiming;
+use super::{Phase, StopReason};
 use crate::kinematics::Twist;
-use crate::params::reference::check_ranges;
-use crate::params::{invalid, Check, Checked, ParamsError};
+use crate::params::Checked;
 use crate::wrench::Axis;
+
+/// The guided move's own phase (with [`Phase::RETRACT`] and
+/// [`Phase::STOPPED`]).
+impl Phase {
+    /// Following a person's finger.
+    pub const FOLLOW: Phase = Phase::named("follow");
+}
 
 /// The share of the finger's estimated velocity the arm adds to its PD's.
 const FEEDFORWARD_SHARE: f64 = 0.8;
@@ -82,64 +87,11 @@ const SOFTENINGS: u32 = 3;
 /// The loop's crossover over the integral's corner frequency.
 const INTEGRAL_RATIO: f64 = 5.0;
 
-/// Guided-move settings (`force_controller.guided` in the scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct GuidedParams {
-    /// Force to hold along x, y, z of the BioTac frame (N).
-    pub target_force_n: [f64; 3],
-    /// Deadband on the force error (N).
-    #[schemars(range(min = 0.0))]
-    pub deadband_n: f64,
-    /// Force magnitude above which the arm stops (N).
-    pub force_limit_n: f64,
-    /// Force magnitude that means a finger is there (N).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub contact_force_n: f64,
-    /// Time without a finger after which the move stops (s).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub contact_timeout_s: f64,
-    /// Distance from the start after which the move stops (m).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub max_travel_m: f64,
-    /// Speed of the retract after an oscillation (m/s).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub retract_speed_mps: f64,
-    /// Distance of that retract along the pad's normal (m).
-    #[schemars(extend("exclusiveMinimum" = 0.0))]
-    pub retract_distance_m: f64,
-    /// The margins the gains keep: following a finger trades some of the
-    /// hold's damping (`pd.margins`) for a smaller lag behind it.
-    pub margins: Margins,
-}
-
-impl Check for GuidedParams {
-    fn check(self, key: &str) -> Result<Self, ParamsError> {
-        let t = Vector3::from(self.target_force_n);
-        if !t.iter().all(|v| v.is_finite()) {
-            let key = format!("{key}.target_force_n");
-            return Err(invalid(&key, t.norm(), "finite values"));
-        }
-        check_ranges(&self, key)?;
-        if self.force_limit_n.is_nan() || self.force_limit_n <= t.norm() {
-            return Err(invalid(
-                &format!("{key}.force_limit_n"),
-                self.force_limit_n,
-                "above the target force's magnitude",
-            ));
-        }
-        self.margins.check(&format!("{key}.margins"))?;
-        Ok(self)
-    }
-}
-
 /// What the guided move sees each cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GuidedInput {
     /// Estimated force, BioTac frame (N).
     pub force: Vector3<f64>,
-    /// True when the input is outside what the estimator knows.
-    pub out_of_range: bool,
     /// Time since the previous cycle (s).
     pub dt: f64,
     /// True when the force is a new estimate.
@@ -191,6 +143,8 @@ pub struct GuidedMove {
     retract_from_m: f64,
     phase: Phase,
     reason: Option<StopReason>,
+    /// A stability rule's stop, taken at the next cycle.
+    aborted: Option<StopReason>,
 }
 
 impl GuidedMove {
@@ -226,8 +180,9 @@ impl GuidedMove {
             retract_from_m: 0.0,
             law: *law,
             p: *p,
-            phase: Phase::Follow,
+            phase: Phase::FOLLOW,
             reason: None,
+            aborted: None,
         }
     }
 
@@ -260,7 +215,7 @@ impl GuidedMove {
     }
 
     fn stop_with(&mut self, reason: StopReason) {
-        self.phase = Phase::Stopped;
+        self.phase = Phase::STOPPED;
         self.reason = Some(reason);
     }
 
@@ -313,33 +268,36 @@ impl GuidedMove {
             }
         }
         self.since_fresh_s += i.dt;
+        let aborted = self.aborted.take();
         match self.phase {
-            Phase::Follow => self.follow(i, v),
-            Phase::Retract if i.moved.z < self.retract_from_m + p.retract_distance_m => {
+            Phase::FOLLOW => self.follow(i, v, aborted),
+            Phase::RETRACT if i.moved.z < self.retract_from_m + p.retract_distance_m => {
                 Vector3::new(0.0, 0.0, p.retract_speed_mps)
             }
-            Phase::Retract => {
-                self.phase = Phase::Stopped;
+            Phase::RETRACT => {
+                self.phase = Phase::STOPPED;
                 Vector3::zeros()
             }
             _ => Vector3::zeros(),
         }
     }
 
-    /// Following: the limits, then the fit and the watchdogs on a new
-    /// estimate; the PD's velocity `v` while none stops it.
-    fn follow(&mut self, i: &GuidedInput, v: Vector3<f64>) -> Vector3<f64> {
+    /// Following: a stability rule's stop (`aborted`) and the limits, then
+    /// the fit and the watchdogs on a new estimate; the PD's velocity `v`
+    /// while none stops it.
+    fn follow(
+        &mut self,
+        i: &GuidedInput,
+        v: Vector3<f64>,
+        aborted: Option<StopReason>,
+    ) -> Vector3<f64> {
         let p = self.p;
-        // An estimate outside what the GP knows says nothing about the
-        // force, so it is not read as over the limit.
-        let stop = if i.out_of_range {
-            Some(StopReason::OutOfRange)
-        } else if i.force.norm() > p.force_limit_n {
-            Some(StopReason::ForceLimit)
+        let stop = if aborted.is_some() {
+            aborted
         } else if i.moved.norm() >= p.max_travel_m {
-            Some(StopReason::TravelLimit)
+            Some(StopReason::TRAVEL_LIMIT)
         } else if self.without_contact_s >= p.contact_timeout_s {
-            Some(StopReason::Timeout)
+            Some(StopReason::TIMEOUT)
         } else {
             None
         };
@@ -432,8 +390,8 @@ impl GuidedMove {
                 "the force along {axis} oscillates at {hz:.1} Hz with its gain lowered \
                  {SOFTENINGS} times: retracting"
             );
-            self.phase = Phase::Retract;
-            self.reason = Some(StopReason::Oscillating);
+            self.phase = Phase::RETRACT;
+            self.reason = Some(StopReason::OSCILLATING);
             self.retract_from_m = normal_m;
             return Some(Vector3::new(0.0, 0.0, self.p.retract_speed_mps));
         }
@@ -448,59 +406,6 @@ impl GuidedMove {
     }
 }
 
-impl TaskSection for GuidedParams {
-    const NAME: &'static str = "guided";
-
-    /// The gains for `body` (the stiffest the scene permits) until the
-    /// finger is measured, on the controlled force axes.
-    fn build(p: Checked<Self>, lp: &TaskLoop, body: &BodyParams) -> Box<dyn Task> {
-        Box::new(GuidedMove::new(
-            p,
-            &lp.law(),
-            lp.forces(),
-            body.stiffness_n_per_m,
-        ))
-    }
-
-    /// The controlled axis that allows the slowest motion towards `body`.
-    /// On each axis the PD stops advancing past the target plus the
-    /// deadband, and the axis may take what the force limit leaves beside
-    /// the other axes' targets.
-    fn envelope(
-        p: &Checked<Self>,
-        lp: &TaskLoop,
-        body: &BodyParams,
-        name: &str,
-    ) -> Result<TaskEnvelope, ParamsError> {
-        let forces = lp.forces();
-        let t = p.target_force_n;
-        let total: f64 = t.iter().map(|v| v * v).sum();
-        let envelope = (0..3)
-            .filter(|&i| forces[i])
-            .map(|i| Envelope {
-                skin: **lp.skin,
-                stiffness_n_per_m: if i == 2 {
-                    body.stiffness_n_per_m
-                } else {
-                    shear_stiffness(lp.skin, body)
-                },
-                shear: i != 2,
-                trigger_n: t[i].abs() + p.deadband_n,
-                target_n: t[i].abs(),
-                limit_n: (p.force_limit_n.powi(2) - (total - t[i] * t[i])).sqrt(),
-                reaction_s: lp.reaction_s(),
-            })
-            .min_by(|a, b| a.max_speed_mps().total_cmp(&b.max_speed_mps()))
-            .ok_or_else(|| missing_axis(lp.axes, Axis::Fz))?;
-        Ok(TaskEnvelope {
-            envelope,
-            body: name.into(),
-            key: "pd.max_speed_mps",
-            speed_mps: lp.pd.max_speed_mps,
-        })
-    }
-}
-
 /// The guided move as the controller runs it: in the BioTac's frame as it
 /// turns, the orientation held.
 impl Task for GuidedMove {
@@ -508,7 +413,6 @@ impl Task for GuidedMove {
         let moved = i.pose.translation.vector - i.start.translation.vector;
         let input = GuidedInput {
             force: *i.force,
-            out_of_range: i.out_of_range,
             dt: i.dt,
             fresh: i.fresh,
             position: i.force_position.map(|x| i.pose.rotation.inverse() * x),
@@ -566,11 +470,24 @@ impl Task for GuidedMove {
     }
 
     fn stop(&mut self) {
-        self.phase = Phase::Stopped;
+        self.phase = Phase::STOPPED;
     }
 
     fn stop_on(&mut self, reason: StopReason) {
         self.stop_with(reason);
+    }
+
+    /// Stops in this cycle while following (a retract goes on as it was).
+    fn abort(&mut self, reason: StopReason) {
+        self.aborted = Some(reason);
+    }
+
+    /// The force's magnitude.
+    fn force_limit(&self) -> Option<ForceLimit> {
+        Some(ForceLimit {
+            limit_n: self.p.force_limit_n,
+            along: None,
+        })
     }
 
     fn figures(&self) -> TaskFigures {
@@ -580,6 +497,7 @@ impl Task for GuidedMove {
             body_n_per_m: self.stiffness.body(),
             settled_sd_n: None,
             softened: self.lowered.iter().sum(),
+            own: Vec::new(),
         }
     }
 }

@@ -2,7 +2,7 @@
 //! guarded and guided tasks behind one task seam ([`task`]), the safety
 //! checks and the safety envelope (how fast a task may move towards a
 //! body). Everything here is in the BioTac (tool) frame and in SI units;
-//! [`crate::nodes::controller`] turns the result into joint velocities.
+//! [`crate::nodes::force_controller::controller`] turns the result into joint velocities.
 
 pub mod envelope;
 pub mod guarded;
@@ -12,6 +12,7 @@ pub mod oscillation;
 pub mod params;
 pub mod pd;
 pub mod probe;
+pub mod rules;
 pub mod safety;
 pub mod task;
 pub mod tuning;
@@ -23,88 +24,96 @@ pub use guided::{GuidedMove, GuidedParams};
 pub use oscillation::{OscillationDetector, OscillationParams};
 pub use params::{ControllerParams, Goal, OutOfRangeParams};
 pub use pd::{LoopDelays, PdAxis, PdParams};
+pub use rules::{ForceLimit, Rule, RuleChain};
 pub use safety::{Halt, Watchdog};
-pub use task::{Task, TaskEnvelope, TaskFigures, TaskKind, TaskLoop, TaskRegistry, TaskSection};
+pub use task::{
+    OffAxis, Task, TaskEnvelope, TaskFigures, TaskKind, TaskLoop, TaskRegistry, TaskReport,
+    TaskSection,
+};
 pub use tuning::{LoopTiming, Margins};
 pub use window::Arrivals;
 
-use serde::Serialize;
+use serde::{Serialize, Serializer};
 
-/// Where a task is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Phase {
-    /// Moving towards the object at the approach speed.
-    Approach,
-    /// In contact, regulating the force.
-    Regulate,
-    /// In contact, the force settled within its band.
-    Hold,
-    /// Moving away after the force limit.
-    Retract,
-    /// Following a person's finger (guided move).
-    Follow,
-    /// Calibration: out of contact, still (a push's tare).
-    Rest,
-    /// Calibration: turning the BioTac about its axis.
-    Tilt,
-    /// Calibration: pressed, sliding along the block.
-    Shear,
-    /// Finished: no motion any more.
-    Stopped,
-}
+/// Where a task is: a name the task declares. The phases any task may
+/// pass through are declared here; each task declares its own beside its
+/// code (the guarded move's approach, the guided move's follow, the
+/// calibration's rest).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Phase(&'static str);
 
 impl Phase {
-    /// Lower-case name, as in the JSON and CSV output.
+    /// A phase named `name` (lower case, as in the JSON and CSV output).
+    pub const fn named(name: &'static str) -> Self {
+        Phase(name)
+    }
+
+    /// In contact, the force settled within its band: the report's time to
+    /// hold counts to here.
+    pub const HOLD: Phase = Phase::named("hold");
+    /// Moving away from the contact after a stop.
+    pub const RETRACT: Phase = Phase::named("retract");
+    /// Finished: no motion any more.
+    pub const STOPPED: Phase = Phase::named("stopped");
+
+    /// Its name, as in the JSON and CSV output.
     pub fn name(self) -> &'static str {
-        match self {
-            Phase::Approach => "approach",
-            Phase::Regulate => "regulate",
-            Phase::Hold => "hold",
-            Phase::Retract => "retract",
-            Phase::Follow => "follow",
-            Phase::Rest => "rest",
-            Phase::Tilt => "tilt",
-            Phase::Shear => "shear",
-            Phase::Stopped => "stopped",
-        }
+        self.0
     }
 }
 
-/// Why a task stopped on its own.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StopReason {
-    /// Nothing touched within the task's time limit.
-    Timeout,
-    /// Nothing touched within the task's travel from where it started.
-    TravelLimit,
-    /// The force oscillated on, the gain already lowered.
-    Oscillating,
-    /// The force passed the limit.
-    ForceLimit,
-    /// The BioTac input left what the estimator knows (its uncertainty, or
-    /// PDC near saturation): the force may be larger than estimated.
-    OutOfRange,
-    /// The arm (fewer than six joints) cannot move the BioTac along an axis
-    /// of the task at its start pose.
-    Unrealisable,
-    /// The calibration's pad touched something during a rest, which must be
-    /// out of contact (its tare).
-    InContact,
+impl Serialize for Phase {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.0)
+    }
+}
+
+/// Why a task stopped on its own: a name the task, or the check that
+/// stopped it, declares. A stability rule's reason is an abort (the
+/// report's `aborted`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct StopReason {
+    name: &'static str,
+    abort: bool,
 }
 
 impl StopReason {
-    /// Lower-case name, as in the JSON output.
+    /// A reason named `name` (lower case, as in the JSON output): the task
+    /// ended as it may.
+    pub const fn named(name: &'static str) -> Self {
+        StopReason { name, abort: false }
+    }
+
+    /// A reason named `name` that aborts the task: a stability rule's.
+    pub const fn abort(name: &'static str) -> Self {
+        StopReason { name, abort: true }
+    }
+
+    /// Nothing touched within the task's time limit.
+    pub const TIMEOUT: StopReason = StopReason::named("timeout");
+    /// Nothing touched within the task's travel from where it started.
+    pub const TRAVEL_LIMIT: StopReason = StopReason::named("travel_limit");
+    /// The force oscillated on, the gain already lowered.
+    pub const OSCILLATING: StopReason = StopReason::abort("oscillating");
+    /// The force passed the limit.
+    pub const FORCE_LIMIT: StopReason = StopReason::abort("force_limit");
+    /// The BioTac input left what the estimator knows (its uncertainty, or
+    /// PDC near saturation): the force may be larger than estimated.
+    pub const OUT_OF_RANGE: StopReason = StopReason::abort("out_of_range");
+
+    /// Its name, as in the JSON output.
     pub fn name(self) -> &'static str {
-        match self {
-            StopReason::Timeout => "timeout",
-            StopReason::TravelLimit => "travel_limit",
-            StopReason::Oscillating => "oscillating",
-            StopReason::ForceLimit => "force_limit",
-            StopReason::OutOfRange => "out_of_range",
-            StopReason::Unrealisable => "unrealisable_axis",
-            StopReason::InContact => "in_contact",
-        }
+        self.name
+    }
+
+    /// True when a stability rule aborted the task.
+    pub fn aborted(self) -> bool {
+        self.abort
+    }
+}
+
+impl Serialize for StopReason {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name)
     }
 }

@@ -64,7 +64,11 @@ impl Watchdog {
     /// Ok when `stamp` (s) is at most the limit older than `now` (s).
     pub fn check(&self, what: &'static str, now: f64, stamp: Option<f64>) -> Result<(), Halt> {
         let stamp = stamp.ok_or(Halt::Missing(what))?;
-        let age_s = now - stamp;
+        self.check_age(what, now - stamp)
+    }
+
+    /// Ok when `age_s` (s) is at most the limit.
+    pub fn check_age(&self, what: &'static str, age_s: f64) -> Result<(), Halt> {
         // A NaN age fails this test too.
         if age_s <= self.max_age_s {
             Ok(())

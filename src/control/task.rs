@@ -17,6 +17,7 @@ use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
+use super::rules::ForceLimit;
 use super::tuning::LoopTiming;
 use super::{Envelope, LoopDelays, OscillationParams, PdParams, Phase, StopReason};
 use crate::contact::{BodyParams, SkinParams};
@@ -70,6 +71,19 @@ pub trait Task: fmt::Debug + Send + Any + BoxedClone {
     /// Stops for good with `reason`.
     fn stop_on(&mut self, reason: StopReason);
 
+    /// A stability rule stopped the task (src/control/rules.rs), before it
+    /// steps this cycle: it leaves the contact as it must, then stops with
+    /// `reason`. By default it stops where it is.
+    fn abort(&mut self, reason: StopReason) {
+        self.stop_on(reason);
+    }
+
+    /// The force the stability rules hold to a limit; none by default (a
+    /// task that presses nothing).
+    fn force_limit(&self) -> Option<ForceLimit> {
+        None
+    }
+
     /// What the task measured and chose, for reports; none by default.
     fn figures(&self) -> TaskFigures {
         TaskFigures::default()
@@ -77,7 +91,7 @@ pub trait Task: fmt::Debug + Send + Any + BoxedClone {
 }
 
 /// What a task measured of its contact and how it holds, for reports.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct TaskFigures {
     /// The contact's stiffness per force axis x, y, z (N/m), as the gains
     /// use it: fitted, or the prior until then.
@@ -89,6 +103,9 @@ pub struct TaskFigures {
     pub settled_sd_n: Option<f64>,
     /// Times the stability watchdog lowered a gain.
     pub softened: u32,
+    /// The task's own figures, each with its name (with its unit's
+    /// suffix): the report and the diagnostics show them as they are.
+    pub own: Vec<(&'static str, f64)>,
 }
 
 /// Clones a task behind its trait: implemented for every `Task + Clone`.
@@ -128,6 +145,34 @@ pub trait TaskSection: DeserializeOwned + Serialize + JsonSchema + Check + 'stat
         body: &BodyParams,
         name: &str,
     ) -> Result<TaskEnvelope, ParamsError>;
+
+    /// What a run's report reads of the settings: by default no approach,
+    /// nothing off-axis.
+    fn report(_p: &Checked<Self>) -> TaskReport {
+        TaskReport::default()
+    }
+}
+
+/// What a run's report reads of a task's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TaskReport {
+    /// Its speed towards the object (m/s), when it approaches one.
+    pub approach_speed_mps: Option<f64>,
+    /// What its motion off its axes is measured against.
+    pub off_axis: OffAxis,
+}
+
+/// What a report measures a task's motion off its axes against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OffAxis {
+    /// Nothing: the task slides and turns on purpose.
+    #[default]
+    Nothing,
+    /// The speed across the normal axis, against the approach speed.
+    AcrossNormal,
+    /// The speed along the axes the finger did not push, against the
+    /// finger's speed.
+    Unpushed,
 }
 
 /// A task section as parameters hold it, before it is read.
@@ -141,12 +186,16 @@ type BuildFn = fn(&RawSection, &TaskLoop, &BodyParams) -> Result<Box<dyn Task>, 
 type EnvelopeFn =
     fn(&RawSection, &TaskLoop, &BodyParams, &str) -> Result<TaskEnvelope, ParamsError>;
 
+/// What a report reads of a task's raw section.
+type ReportFn = fn(&RawSection) -> Result<TaskReport, ParamsError>;
+
 /// One task a registry knows: its name and how its section is read.
 #[derive(Clone, Copy)]
 pub struct TaskEntry {
     name: &'static str,
     build: BuildFn,
     envelope: EnvelopeFn,
+    report: ReportFn,
     params: fn() -> Vec<ParamDoc>,
 }
 
@@ -163,6 +212,7 @@ impl TaskEntry {
             name: S::NAME,
             build: |raw, lp, body| Ok(S::build(read_section::<S>(raw)?, lp, body)),
             envelope: |raw, lp, body, name| S::envelope(&read_section::<S>(raw)?, lp, body, name),
+            report: |raw| Ok(S::report(&read_section::<S>(raw)?)),
             params: || params_of::<S>(S::NAME),
         }
     }
@@ -191,6 +241,11 @@ impl TaskEntry {
         name: &str,
     ) -> Result<TaskEnvelope, ParamsError> {
         (self.envelope)(raw, lp, body, name)
+    }
+
+    /// What a run's report reads of the section `raw`.
+    pub fn report(&self, raw: &RawSection) -> Result<TaskReport, ParamsError> {
+        (self.report)(raw)
     }
 }
 
@@ -440,8 +495,6 @@ pub struct TaskInput<'a> {
     pub pose: &'a Isometry3<f64>,
     /// The BioTac's pose at the start of the run, base frame.
     pub start: &'a Isometry3<f64>,
-    /// True when the input is outside what the estimator knows.
-    pub out_of_range: bool,
     /// Time since the previous cycle (s).
     pub dt: f64,
     /// True when the force is a new estimate, not the last one again.

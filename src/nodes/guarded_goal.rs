@@ -45,9 +45,9 @@ impl Goal for GuardedGoal {
 /// How a guarded move ended, for the action result; None while it runs.
 pub fn guarded_outcome(out: &ControlOutput) -> Option<&'static str> {
     match (out.phase, out.reason) {
-        (Phase::Hold, _) => Some("hold"),
-        (Phase::Stopped, Some(reason)) => Some(reason.name()),
-        (Phase::Stopped, None) => Some("stopped"),
+        (Phase::HOLD, _) => Some("hold"),
+        (Phase::STOPPED, Some(reason)) => Some(reason.name()),
+        (Phase::STOPPED, None) => Some("stopped"),
         _ => None,
     }
 }

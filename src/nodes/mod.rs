@@ -2,8 +2,8 @@
 //! node is a plain struct with step methods; the lockstep runtime
 //! ([`crate::runtime`]) and the ROS 2 adapter only move messages between them.
 //!
-//! - [`estimator::EstimatorNode`]: BioTac readings -> wrench estimates (GP);
-//! - [`controller::ForceController`]: estimates and joint states -> joint velocities,
+//! - [`wrench_estimator::EstimatorNode`]: BioTac readings -> wrench estimates (GP);
+//! - [`force_controller::controller::ForceController`]: estimates and joint states -> joint velocities,
 //!   running a task of [`tasks`] (the registration);
 //!   [`force_controller::ForceControllerNode`]: the node around it (robot
 //!   description, task switch, goals, the estimate's halves, status);
@@ -17,21 +17,19 @@
 
 pub mod action_goals;
 pub mod bounds;
-pub mod controller;
-pub mod estimator;
 pub mod force_controller;
 pub mod guarded_goal;
 pub mod loop_delay;
 pub mod own_params;
 pub mod param_reference;
-pub mod reading_source;
 pub mod sim_robot;
 pub mod status;
 pub mod tasks;
+pub mod wrench_estimator;
 
-pub use controller::{ControlOutput, ForceController};
-pub use estimator::EstimatorNode;
+pub use force_controller::controller::{ControlOutput, ForceController};
 pub use sim_robot::{SimRobot, SimRobotParams, SimSample};
+pub use wrench_estimator::EstimatorNode;
 
 use crate::kinematics::{JointVector, Robot};
 use crate::params::ParamsError;

@@ -4,7 +4,7 @@
 //! docs/parameters.md lists them ([`super::param_reference`]).
 
 use super::force_controller::tool_frame;
-use super::reading_source::INPUTS;
+use super::wrench_estimator::reading_source::INPUTS;
 use crate::params::reference::ParamDoc;
 
 /// A parameter an adapter declares itself.

@@ -6,9 +6,9 @@
 
 use serde_yaml_ng::Value;
 
-use super::estimator::EstimatorParams;
 use super::force_controller::shipped_defaults;
 use super::sim_robot::SimRobotParams;
+use super::wrench_estimator::EstimatorParams;
 use crate::control::{ControllerParams, TaskKind, TaskRegistry};
 use crate::params::reference::{describe, params_of, ParamDoc};
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};

@@ -406,17 +406,13 @@ fn draw_phases(chart: &mut Chart, spans: &[PhaseSpan], y: &Range<f64>) -> Drawn 
     Ok(())
 }
 
-fn phase_color(phase: Phase) -> RGBColor {
-    match phase {
-        Phase::Approach => RGBColor(232, 228, 245),
-        Phase::Regulate => RGBColor(255, 240, 200),
-        Phase::Hold => RGBColor(218, 240, 218),
-        Phase::Retract => RGBColor(250, 215, 215),
-        Phase::Follow => RGBColor(218, 232, 250),
-        Phase::Rest | Phase::Tilt => RGBColor(245, 245, 235),
-        Phase::Shear => RGBColor(250, 232, 210),
-        Phase::Stopped => RGBColor(235, 235, 235),
-    }
+/// A pale shade of its own for each phase, from its name (a task declares
+/// its phases, so none is listed here): a hue from the name's FNV-1a hash.
+fn phase_color(phase: Phase) -> HSLColor {
+    let hash = phase.name().bytes().fold(0x811c_9dc5_u32, |h, b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    });
+    HSLColor(f64::from(hash % 360) / 360.0, 0.6, 0.9)
 }
 
 /// The maximal runs of consecutive rows for which `value` is present, as

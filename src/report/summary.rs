@@ -17,9 +17,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::TraceRow;
-use crate::calibration::CalibrateParams;
-use crate::control::TaskKind;
-use crate::control::{ControllerParams, GuardedParams, Phase, StopReason};
+use crate::control::{ControllerParams, OffAxis, Phase, StopReason, TaskRegistry, TaskReport};
 use crate::nodes::ForceController;
 use crate::params::ParamsError;
 use crate::wrench::Axis;
@@ -41,29 +39,28 @@ pub const REST_WINDOW_S: f64 = 0.5;
 pub struct RunInfo {
     /// The robot (its URDF's name).
     pub robot: String,
-    /// The task.
-    pub task: TaskKind,
+    /// The task's name.
+    pub task: &'static str,
     /// The body touched.
     pub object: String,
-    /// Approach speed of a guarded move (m/s).
-    pub approach_speed_mps: Option<f64>,
+    /// What the report reads of the task's settings.
+    pub report: TaskReport,
 }
 
 impl RunInfo {
-    /// The run of a controller with `params` (a shipped task) on the
+    /// The run of a controller with `params` (a task of `tasks`) on the
     /// robot named `robot`.
-    pub fn new(params: &ControllerParams, robot: &str) -> Result<Self, ParamsError> {
-        let task: TaskKind = params.task.parse()?;
-        let approach_speed_mps = match task {
-            TaskKind::Guarded => Some(params.section::<GuardedParams>()?.approach_speed_mps),
-            TaskKind::Calibrate => Some(params.section::<CalibrateParams>()?.approach_speed_mps),
-            TaskKind::Guided => None,
-        };
+    pub fn new(
+        params: &ControllerParams,
+        tasks: &TaskRegistry,
+        robot: &str,
+    ) -> Result<Self, ParamsError> {
+        let task = tasks.get(&params.task)?;
         Ok(RunInfo {
             robot: robot.into(),
-            task,
+            task: task.name(),
             object: params.object.clone(),
-            approach_speed_mps,
+            report: task.report(params.raw_section(task.name())?)?,
         })
     }
 }
@@ -152,6 +149,8 @@ pub struct Identified {
     pub settled_sd_n: Option<f64>,
     /// Times the stability watchdog lowered a gain.
     pub gain_lowered: u32,
+    /// The task's own figures, by name.
+    pub task_figures: BTreeMap<&'static str, f64>,
 }
 
 impl Identified {
@@ -168,6 +167,7 @@ impl Identified {
             gains_m_per_s_per_n: c.gains(),
             settled_sd_n: f.settled_sd_n,
             gain_lowered: f.softened,
+            task_figures: f.own.into_iter().collect(),
         }
     }
 }
@@ -214,7 +214,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         (outside + 1 < rows.len()).then(|| rows[outside + 1].t - rows[c].t)
     });
     let hold_after_contact_s = contact.and_then(|c| {
-        let held = rows[c..].iter().find(|r| r.phase == Phase::Hold)?;
+        let held = rows[c..].iter().find(|r| r.phase == Phase::HOLD)?;
         Some(held.t - rows[c].t)
     });
     let (off_speed, off_ratio) = off_axis(info, rows, normal);
@@ -224,9 +224,9 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
     let reason = last.and_then(|r| r.reason);
     Summary {
         robot: info.robot.clone(),
-        task: info.task.name(),
+        task: info.task,
         object: info.object.clone(),
-        approach_speed_mps: info.approach_speed_mps,
+        approach_speed_mps: info.report.approach_speed_mps,
         contact_time_s: contact.map(|i| rows[i].t),
         peak_force_n,
         overshoot_n: (peak_force_n - target.abs()).max(0.0),
@@ -242,10 +242,7 @@ pub fn summarize(info: &RunInfo, rows: &[TraceRow]) -> Summary {
         halted_periods: rows.iter().filter(|r| r.halted).count(),
         damped_periods: rows.iter().filter(|r| r.damping > 0.0).count(),
         max_damping: rows.iter().map(|r| r.damping).fold(0.0, f64::max),
-        aborted: matches!(
-            reason,
-            Some(StopReason::ForceLimit | StopReason::OutOfRange | StopReason::Oscillating)
-        ),
+        aborted: reason.is_some_and(StopReason::aborted),
         reason: reason.map(|r| r.name()),
         final_phase: last.map_or("none", |r| r.phase.name()),
         duration_s: end_t,
@@ -271,24 +268,22 @@ fn rms_by_axis(targets: &[Option<f64>; 3], after: &[TraceRow]) -> BTreeMap<&'sta
 }
 
 /// The largest speed off the axes the task moves along (m/s), and its
-/// ratio to the commanded or the finger's speed: for the guarded move, off
-/// the `normal` axis; for the guided move, along axes the finger did not
-/// push; none for the calibration, which slides and turns on purpose.
+/// ratio to the approach or the finger's speed, as the task's report says
+/// ([`OffAxis`]).
 fn off_axis(info: &RunInfo, rows: &[TraceRow], normal: usize) -> (f64, Option<f64>) {
-    match info.task {
-        // The calibration slides and turns on purpose: nothing is off-axis.
-        TaskKind::Calibrate => (0.0, None),
-        TaskKind::Guarded => {
+    match info.report.off_axis {
+        OffAxis::Nothing => (0.0, None),
+        OffAxis::AcrossNormal => {
             let d = nalgebra::Vector3::ith(normal, 1.0);
             let s = rows
                 .iter()
                 .map(|r| (r.velocity - d * r.velocity.dot(&d)).norm())
                 .fold(0.0, f64::max);
-            (s, info.approach_speed_mps.map(|v| s / v))
+            (s, info.report.approach_speed_mps.map(|v| s / v))
         }
-        TaskKind::Guided => {
+        OffAxis::Unpushed => {
             let (mut s, mut ratio) = (0.0f64, 0.0f64);
-            for r in rows.iter().filter(|r| r.phase != Phase::Stopped) {
+            for r in rows.iter().filter(|r| r.phase != Phase::STOPPED) {
                 let Some(f) = r.finger.filter(|f| f.peak_speed_mps > 0.0) else {
                     continue;
                 };
@@ -317,9 +312,9 @@ mod tests {
         TraceRow {
             t,
             phase: if t >= 1.5 - 1e-9 {
-                Phase::Hold
+                Phase::HOLD
             } else {
-                Phase::Regulate
+                Phase::REGULATE
             },
             reason: None,
             halted: false,
@@ -355,9 +350,12 @@ mod tests {
             .collect();
         let info = RunInfo {
             robot: "arm".into(),
-            task: TaskKind::Guarded,
+            task: "guarded",
             object: "box".into(),
-            approach_speed_mps: Some(0.01),
+            report: TaskReport {
+                approach_speed_mps: Some(0.01),
+                off_axis: OffAxis::AcrossNormal,
+            },
         };
         let s = summarize(&info, &rows);
         assert_eq!(s.contact_time_s, Some(1.0));
@@ -382,9 +380,12 @@ mod tests {
         let rows: Vec<TraceRow> = (0..10).map(|k| row(k as f64 * 0.01, 0.0, 0.0)).collect();
         let info = RunInfo {
             robot: "arm".into(),
-            task: TaskKind::Guarded,
+            task: "guarded",
             object: "air".into(),
-            approach_speed_mps: Some(0.01),
+            report: TaskReport {
+                approach_speed_mps: Some(0.01),
+                off_axis: OffAxis::AcrossNormal,
+            },
         };
         let s = summarize(&info, &rows);
         assert_eq!(

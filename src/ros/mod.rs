@@ -32,9 +32,9 @@ use crate::exit::{Classify, ExitClass};
 use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
 use crate::learn::models::wrench_gp::ModelError;
-use crate::nodes::estimator::EstimatorError;
 use crate::nodes::own_params::{self, OwnParam};
 use crate::nodes::param_reference::RosNode;
+use crate::nodes::wrench_estimator::EstimatorError;
 use crate::outputs::models_dir::ModelsDir;
 use crate::params::ParamsError;
 use params::RuntimeParams;
@@ -92,7 +92,7 @@ pub enum RosError {
     Estimator(#[from] EstimatorError),
     /// The estimator's `input` names no source it can read.
     #[error(transparent)]
-    Source(#[from] crate::nodes::reading_source::SourceError),
+    Source(#[from] crate::nodes::wrench_estimator::reading_source::SourceError),
     /// The tokio runtime could not start.
     #[error("tokio runtime: {0}")]
     Runtime(std::io::Error),

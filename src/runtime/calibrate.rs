@@ -64,7 +64,7 @@ pub fn record_to(
         recorder = recorder.with_session(w);
     }
     let mut rows = Vec::with_capacity(periods + 1);
-    let mut ended = Ended::Stopped(crate::control::StopReason::Timeout);
+    let mut ended = Ended::Stopped(crate::control::StopReason::TIMEOUT);
     for _ in 0..=periods {
         let sample = sim.sample();
         let mut ft = Some(sample.ft);
@@ -97,7 +97,7 @@ pub fn record_to(
             ended = Ended::FtStale(recorder.motion_s());
             break;
         }
-        if output.phase == Phase::Stopped {
+        if output.phase == Phase::STOPPED {
             ended = Ended::from_stop(output.reason);
             break;
         }

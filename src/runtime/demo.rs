@@ -11,7 +11,7 @@ use crate::biotac::BioTacSimConfig;
 use crate::control::Envelope;
 use crate::exit::{Classify, ExitClass};
 use crate::learn::models::wrench_model::WrenchModel;
-use crate::nodes::controller::task_envelope;
+use crate::nodes::force_controller::controller::task_envelope;
 use crate::report::summary::{summarize, Identified, RunInfo, Summary};
 use crate::report::TraceRow;
 use crate::sensor::SensorSpec;
@@ -72,7 +72,11 @@ pub fn run_scene(
         _ => BioTacSimConfig::default(),
     };
     let mut nodes = scene.build(model, &sensor, seed)?;
-    let info = RunInfo::new(&scene.controller, &nodes.controller.robot().name)?;
+    let info = RunInfo::new(
+        &scene.controller,
+        &scene.tasks,
+        &nodes.controller.robot().name,
+    )?;
     let rows = run(&mut nodes, pacing, on_row)?;
     let mut summary = summarize(&info, &rows);
     summary.identified = Some(Identified::of(&nodes.controller));

@@ -14,7 +14,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::biotac::BioTacReading;
 use crate::control::Phase;
-use crate::nodes::estimator::EstimatorError;
+use crate::nodes::wrench_estimator::EstimatorError;
 use crate::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
 use crate::report::TraceRow;
 use crate::wrench::WrenchEstimate;
@@ -194,7 +194,7 @@ pub fn run(
         let row = nodes.step_period(&mut |_, _| {}, &mut |_, _| {})?.row();
         on_row(&row);
         rows.push(row);
-        if row.phase == Phase::Stopped {
+        if row.phase == Phase::STOPPED {
             let at = *stopped_at.get_or_insert(row.t);
             if row.t - at >= AFTER_STOP_S {
                 break;

@@ -11,11 +11,11 @@ use std::path::{Path, PathBuf};
 
 use crate::biotac::BioTacSimConfig;
 use crate::contact::BodyParams;
-use crate::control::{ControllerParams, GuardedParams, TaskKind, TaskRegistry};
+use crate::control::{ControllerParams, GuardedParams, RuleChain, TaskKind, TaskRegistry};
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{Robot, RobotError, ShippedRobot};
 use crate::learn::models::wrench_model::WrenchModel;
-use crate::nodes::estimator::{EstimatorError, EstimatorParams};
+use crate::nodes::wrench_estimator::{EstimatorError, EstimatorParams};
 use crate::nodes::{tasks, EstimatorNode, ForceController, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError, WORLD_YAML};
 use crate::runtime::lockstep::Link;
@@ -125,6 +125,9 @@ pub struct Scene {
     /// The tasks the controller may run: the shipped ones unless
     /// [`Scene::with_tasks`] says otherwise.
     pub tasks: TaskRegistry,
+    /// The stability rules the controller runs: the shipped ones unless
+    /// [`Scene::with_rules`] says otherwise.
+    pub rules: RuleChain,
 }
 
 impl Scene {
@@ -157,6 +160,7 @@ impl Scene {
             sim: layered_node_params(texts, "sim_robot")?,
             description: description.to_string(),
             tasks: tasks::shipped(),
+            rules: RuleChain::shipped(),
         })
     }
 
@@ -186,6 +190,13 @@ impl Scene {
     /// Lets the controller run the tasks of `tasks` (a task of its own).
     pub fn with_tasks(mut self, tasks: TaskRegistry) -> Self {
         self.tasks = tasks;
+        self
+    }
+
+    /// Lets the controller run the stability rules of `rules` (a rule of
+    /// its own).
+    pub fn with_rules(mut self, rules: RuleChain) -> Self {
+        self.rules = rules;
         self
     }
 
@@ -274,7 +285,8 @@ impl Scene {
         }
         let robot = Robot::from_urdf(&self.description, &cp.robot)?;
         let sim_robot = Robot::from_urdf(&self.description, &sp.robot)?;
-        let mut controller = ForceController::with_tasks(cp, robot, &self.tasks)?;
+        let mut controller =
+            ForceController::with_tasks(cp, robot, &self.tasks)?.with_rules(self.rules.clone());
         let link = Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed);
         let sim = SimRobot::new(sp, sim_robot, sensor, seed)?;
         controller.check_start(sim.joints())?;

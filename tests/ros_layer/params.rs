@@ -42,7 +42,7 @@ fn every_shipped_parameter_survives_the_trip_through_ros_values() {
                     assert_eq!(p, scene.sim);
                 }
                 _ => {
-                    let p: tactile_force::nodes::estimator::EstimatorParams =
+                    let p: tactile_force::nodes::wrench_estimator::EstimatorParams =
                         read(&params, &[], node).unwrap();
                     assert_eq!(p, scene.estimator);
                 }

@@ -1,4 +1,5 @@
 use super::*;
+use crate::params::Check;
 
 fn params() -> GuardedParams {
     GuardedParams {
@@ -63,7 +64,6 @@ fn input(force_n: f64, travelled_m: f64) -> GuardedInput {
         force_n,
         pdc_rise: 0.0,
         travelled_m,
-        out_of_range: false,
         dt: 0.01,
         fresh: true,
         position_m: Some(travelled_m),
@@ -109,7 +109,7 @@ fn approach_contact_regulate_hold_and_the_body_found_on_the_way() {
                 phases.push(g.phase());
             }
         }
-        assert_eq!(phases, [Phase::Approach, Phase::Regulate, Phase::Hold]);
+        assert_eq!(phases, [Phase::APPROACH, Phase::REGULATE, Phase::HOLD]);
         assert!((press(x - 0.005, body) - 1.0).abs() < 0.01, "{body}");
         assert_eq!(g.reason(), None);
         let fitted = g.body().unwrap();
@@ -124,7 +124,7 @@ fn pdc_alone_detects_contact() {
         pdc_rise: 40.0,
         ..input(0.0, 0.001)
     });
-    assert_eq!(g.phase(), Phase::Regulate);
+    assert_eq!(g.phase(), Phase::REGULATE);
 }
 
 #[test]
@@ -134,7 +134,7 @@ fn nothing_touched_stops_at_the_distance_or_the_time() {
     assert_eq!(g.speed(&input(0.0, 0.05)), 0.0);
     assert_eq!(
         (g.phase(), g.reason()),
-        (Phase::Stopped, Some(StopReason::TravelLimit))
+        (Phase::STOPPED, Some(StopReason::TRAVEL_LIMIT))
     );
     assert_eq!(g.speed(&input(0.0, 0.05)), 0.0, "stays stopped");
     // An arm that does not move: the time limit.
@@ -143,7 +143,7 @@ fn nothing_touched_stops_at_the_distance_or_the_time() {
         .position(|_| g.speed(&input(0.0, 0.0)) == 0.0)
         .unwrap();
     assert_eq!(ticks, 800, "8 s of approach");
-    assert_eq!(g.reason(), Some(StopReason::Timeout));
+    assert_eq!(g.reason(), Some(StopReason::TIMEOUT));
 }
 
 /// Presses a body of stiffness `k` (N/m) 2 mm away, the arm acting a
@@ -173,7 +173,7 @@ fn press_with(force: impl Fn(f64) -> f64) -> (f64, f64, f64) {
             timing,
             ..input(f, x)
         });
-        if g.phase() == Phase::Hold {
+        if g.phase() == Phase::HOLD {
             return (n as f64 * 0.01 - contact.unwrap(), peak, worst);
         }
         if f >= 0.15 {
@@ -248,26 +248,26 @@ fn a_hold_is_a_settled_force_and_an_oscillation_lowers_the_gain_then_retracts() 
     let mut k = 0;
     while g.figures().softened == 0 {
         g.speed(&input(swing(k), 0.011));
-        assert_ne!(g.phase(), Phase::Hold);
+        assert_ne!(g.phase(), Phase::HOLD);
         k += 1;
         assert!(k < 100, "never detected");
     }
     assert!(k <= 40, "three cycles and the filter's settling: {k}");
-    while g.phase() == Phase::Regulate {
+    while g.phase() == Phase::REGULATE {
         g.speed(&input(swing(k), 0.011));
         k += 1;
         assert!(k < 200, "never retracted");
     }
     assert_eq!(
         (g.phase(), g.reason()),
-        (Phase::Retract, Some(StopReason::Oscillating))
+        (Phase::RETRACT, Some(StopReason::OSCILLATING))
     );
     // Steady within the band: a hold once the window is full.
     let mut g = guarded();
     g.speed(&input(0.5, 0.010));
     let held = (0..20).position(|_| {
         g.speed(&input(1.01, 0.011));
-        g.phase() == Phase::Hold
+        g.phase() == Phase::HOLD
     });
     assert_eq!(held, Some(9), "the 10th estimate fills the window");
     assert_eq!(g.figures().settled_sd_n, Some(0.0));
@@ -279,7 +279,7 @@ fn a_stopped_move_stays_still() {
     assert_eq!(g.speed(&input(0.0, 0.0)), 0.01);
     g.stop();
     assert_eq!(g.speed(&input(0.0, 0.001)), 0.0);
-    assert_eq!((g.phase(), g.reason()), (Phase::Stopped, None));
+    assert_eq!((g.phase(), g.reason()), (Phase::STOPPED, None));
 }
 
 #[test]
@@ -292,46 +292,44 @@ fn regulating_never_goes_past_the_approach_distance() {
         ..input(-1.0, travelled_m)
     };
     assert!(g.speed(&touch(0.0)) > 0.0);
-    assert_eq!(g.phase(), Phase::Regulate);
+    assert_eq!(g.phase(), Phase::REGULATE);
     assert!(g.speed(&touch(0.049)) > 0.0);
     assert_eq!(g.speed(&touch(0.05)), 0.0);
     assert_eq!(
         (g.phase(), g.reason()),
-        (Phase::Stopped, Some(StopReason::TravelLimit))
+        (Phase::STOPPED, Some(StopReason::TRAVEL_LIMIT))
     );
 }
 
 #[test]
-fn over_force_retracts_in_the_same_cycle_then_stops() {
-    for start in [Phase::Approach, Phase::Regulate] {
+fn a_rules_stop_retracts_in_the_same_cycle_then_stops() {
+    for start in [Phase::APPROACH, Phase::REGULATE] {
         let mut g = guarded();
-        if start == Phase::Regulate {
+        if start == Phase::REGULATE {
             g.speed(&input(0.5, 0.010));
         }
+        g.abort(StopReason::FORCE_LIMIT);
         let v = g.speed(&input(3.5, 0.012));
-        assert_eq!((v, g.phase()), (-0.01, Phase::Retract), "from {start:?}");
+        assert_eq!((v, g.phase()), (-0.01, Phase::RETRACT), "from {start:?}");
+        // Retracting, a second stop changes nothing.
+        g.abort(StopReason::OUT_OF_RANGE);
         assert_eq!(g.speed(&input(0.0, 0.008)), -0.01);
         assert_eq!(g.speed(&input(0.0, 0.007)), 0.0);
         assert_eq!(
             (g.phase(), g.reason()),
-            (Phase::Stopped, Some(StopReason::ForceLimit))
+            (Phase::STOPPED, Some(StopReason::FORCE_LIMIT))
         );
     }
 }
 
 #[test]
-fn out_of_range_input_retracts_like_over_force() {
-    // Even over the limit (3 N): the estimate is not trusted.
-    for force_n in [1.0, 3.5] {
-        let mut g = guarded();
-        g.speed(&input(0.5, 0.010));
-        let v = g.speed(&GuardedInput {
-            out_of_range: true,
-            ..input(force_n, 0.011)
-        });
-        assert_eq!((v, g.phase()), (-0.01, Phase::Retract));
-        assert_eq!(g.reason(), Some(StopReason::OutOfRange), "{force_n} N");
-    }
+fn the_rules_hold_the_pressing_force_to_the_limit() {
+    let g = guarded();
+    let limit = g.force_limit().unwrap();
+    assert_eq!(limit.limit_n, params().force_limit_n);
+    // Pressing: against the approach direction; a lateral force is not.
+    let pressing = -g.direction() * 2.0 + Vector3::new(0.3, 0.0, 0.0);
+    assert!((limit.force_n(&pressing) - 2.0).abs() < 1e-12);
 }
 
 #[test]
@@ -376,7 +374,7 @@ fn a_withdrawal_retracts_past_the_first_touch_when_pressed_and_else_stops() {
     g.withdraw();
     assert_eq!(
         (g.speed(&input(0.0, 0.005)), g.phase()),
-        (0.0, Phase::Stopped)
+        (0.0, Phase::STOPPED)
     );
     assert_eq!(g.reason(), None, "a cancel is no stop reason");
     // Touched at 10 mm, holding at 12 mm: back to 5 mm short of the touch.
@@ -386,16 +384,16 @@ fn a_withdrawal_retracts_past_the_first_touch_when_pressed_and_else_stops() {
     g.withdraw();
     assert_eq!(
         (g.speed(&input(1.0, 0.012)), g.phase()),
-        (-0.01, Phase::Retract)
+        (-0.01, Phase::RETRACT)
     );
     assert_eq!(g.speed(&input(0.0, 0.0051)), -0.01, "not clear yet");
     assert_eq!(g.speed(&input(0.0, 0.0049)), 0.0);
-    assert_eq!((g.phase(), g.reason()), (Phase::Stopped, None));
+    assert_eq!((g.phase(), g.reason()), (Phase::STOPPED, None));
     // Stopped already: nothing more.
     g.withdraw();
     assert_eq!(
         (g.speed(&input(0.0, 0.005)), g.phase()),
-        (0.0, Phase::Stopped)
+        (0.0, Phase::STOPPED)
     );
     // Moving away from a held object (PDC said contact, the force pushes
     // along the direction): a retract would press it, so it stops.
@@ -404,10 +402,10 @@ fn a_withdrawal_retracts_past_the_first_touch_when_pressed_and_else_stops() {
         pdc_rise: 100.0,
         ..input(-1.0, 0.0)
     });
-    assert_eq!(g.phase(), Phase::Regulate);
+    assert_eq!(g.phase(), Phase::REGULATE);
     g.withdraw();
     assert_eq!(
         (g.speed(&input(-1.0, 0.001)), g.phase()),
-        (0.0, Phase::Stopped)
+        (0.0, Phase::STOPPED)
     );
 }

@@ -1,4 +1,6 @@
 use super::*;
+use crate::control::Margins;
+use crate::params::Check;
 
 /// A move whose contact was measured: 250 N/m across the pad (the skin's
 /// 1500 N/m in series with a finger of 300 N/m), the fitted normal.
@@ -31,7 +33,6 @@ fn unprobed() -> GuidedMove {
 fn input(force: Vector3<f64>) -> GuidedInput {
     GuidedInput {
         force,
-        out_of_range: false,
         dt: 0.01,
         fresh: true,
         position: None,
@@ -57,31 +58,20 @@ fn gives_way_to_pushes_and_presses_when_too_light() {
 }
 
 #[test]
-fn out_of_range_input_stops() {
-    for force in [Vector3::new(0.5, 0.0, 1.0), Vector3::new(0.0, 0.0, 8.0)] {
-        let mut g = guided();
-        let i = GuidedInput {
-            out_of_range: true,
-            ..input(force)
-        };
-        assert_eq!(g.velocity(&i), Vector3::zeros());
-        // Even over the limit: the estimate is not trusted.
-        assert_eq!(g.reason(), Some(StopReason::OutOfRange), "{force}");
-    }
-}
-
-#[test]
-fn force_limit_stops_for_good() {
+fn a_rules_stop_stops_for_good_in_the_same_cycle() {
     let mut g = guided();
-    assert_eq!(
-        g.velocity(&input(Vector3::new(0.0, 0.0, 6.0))),
-        Vector3::zeros()
-    );
-    assert_eq!(g.velocity(&input(Vector3::zeros())), Vector3::zeros());
+    let push = input(Vector3::new(0.5, -0.5, 1.0));
+    assert_ne!(g.velocity(&push), Vector3::zeros());
+    g.abort(StopReason::FORCE_LIMIT);
+    assert_eq!(g.velocity(&push), Vector3::zeros());
+    assert_eq!(g.velocity(&push), Vector3::zeros());
     assert_eq!(
         (g.phase(), g.reason()),
-        (Phase::Stopped, Some(StopReason::ForceLimit))
+        (Phase::STOPPED, Some(StopReason::FORCE_LIMIT))
     );
+    // The rules hold the force's magnitude to the limit.
+    let limit = g.force_limit().unwrap();
+    assert_eq!((limit.limit_n, limit.along), (5.0, None));
 }
 
 #[test]
@@ -90,14 +80,14 @@ fn with_nothing_to_follow_it_stops_at_its_time_or_travel() {
     let steps = (0..1000)
         .position(|_| g.velocity(&input(Vector3::zeros())) == Vector3::zeros())
         .unwrap();
-    assert_eq!((steps, g.reason()), (200, Some(StopReason::Timeout)));
+    assert_eq!((steps, g.reason()), (200, Some(StopReason::TIMEOUT)));
     let mut g = guided();
     let far = GuidedInput {
         moved: Vector3::new(0.1, 0.0, 0.0),
         ..input(Vector3::new(0.0, 0.0, 1.0))
     };
     assert_eq!(g.velocity(&far), Vector3::zeros());
-    assert_eq!(g.reason(), Some(StopReason::TravelLimit));
+    assert_eq!(g.reason(), Some(StopReason::TRAVEL_LIMIT));
 }
 
 #[test]
@@ -116,7 +106,7 @@ fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
     g.velocity(&input(swing(k)));
     assert!((g.gains()[0].unwrap() / before - 0.5).abs() < 1e-9);
     assert_eq!(g.gains()[2], z, "z untouched");
-    while g.phase() == Phase::Follow {
+    while g.phase() == Phase::FOLLOW {
         g.velocity(&input(swing(k)));
         k += 1;
         assert!(k < 300, "never retracted");
@@ -124,7 +114,7 @@ fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
     assert_eq!(g.figures().softened, SOFTENINGS, "lowered first");
     assert_eq!(
         (g.phase(), g.reason()),
-        (Phase::Retract, Some(StopReason::Oscillating))
+        (Phase::RETRACT, Some(StopReason::OSCILLATING))
     );
     let away = g.velocity(&input(Vector3::zeros()));
     assert!(away.z > 0.0, "{away}");
@@ -133,7 +123,7 @@ fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
         ..input(Vector3::zeros())
     };
     assert_eq!(g.velocity(&done), Vector3::zeros());
-    assert_eq!(g.phase(), Phase::Stopped);
+    assert_eq!(g.phase(), Phase::STOPPED);
 }
 
 /// The force along x (N) each 10 ms while a finger slides at 30 mm/s
@@ -357,7 +347,7 @@ fn gains_too_high_are_lowered_until_the_follow_settles() {
     g.probed = [Some(100.0), Some(100.0), None];
     let run = follow(&mut g, finger, 0.002, 0.0, 0.03);
     assert!(g.figures().softened > 0, "never lowered");
-    assert_eq!(g.phase(), Phase::Follow);
+    assert_eq!(g.phase(), Phase::FOLLOW);
     assert!(run.rms.max() < 0.3, "RMS {}", run.rms);
 }
 
@@ -392,7 +382,7 @@ fn fingers_nobody_tuned_for_are_followed_at_every_cycle() {
             assert!(run.rms.max() < 0.3, "{about}: RMS {}", run.rms);
             assert_eq!(
                 (g.phase(), g.figures().softened),
-                (Phase::Follow, 0),
+                (Phase::FOLLOW, 0),
                 "{about}"
             );
         }

@@ -5,7 +5,7 @@
 //! what its input guard refused.
 
 use super::ForceControllerNode;
-use crate::nodes::controller::ForceController;
+use crate::nodes::force_controller::controller::ForceController;
 use crate::nodes::status::{Level, Status};
 
 impl ForceControllerNode {
@@ -105,6 +105,9 @@ fn loop_values(s: &mut Status, c: &ForceController, stale_halts: u64) {
         if let Some(k) = k {
             s.push(format!("stiffness_{}_n_per_m", axes[i]), format!("{k:.0}"));
         }
+    }
+    for (name, value) in &f.own {
+        s.value(name, value);
     }
     if f.softened > 0 {
         s.raise(

@@ -163,7 +163,7 @@ impl ForceControllerNode {
         let Some(out) = &self.last else {
             return CalibrationProgress::Starting;
         };
-        if out.phase == Phase::Stopped {
+        if out.phase == Phase::STOPPED {
             return CalibrationProgress::Ended(Ended::from_stop(out.reason));
         }
         let calibration = CalibrateMove::of(c.task());
@@ -194,7 +194,7 @@ impl ForceControllerNode {
     pub fn withdrawn(&mut self, now: f64) -> Option<Result<(), String>> {
         let since = self.withdrawing_since?;
         let c = self.controller.as_mut()?;
-        if c.task().phase() == Phase::Stopped {
+        if c.task().phase() == Phase::STOPPED {
             return Some(Ok(()));
         }
         if now - since < WITHDRAW_S {

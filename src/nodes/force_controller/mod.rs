@@ -18,6 +18,7 @@
 //!   [`InputGuard`] refused: messages over their size, goals and parameter
 //!   sets over their rates.
 
+pub mod controller;
 pub mod estimates;
 pub mod goals;
 pub mod tool_frame;
@@ -29,7 +30,6 @@ use nalgebra::Vector3;
 use std::sync::Arc;
 
 use super::bounds::InputGuard;
-use super::controller::task_envelope;
 use super::loop_delay::LoopDelayMonitor;
 use super::{joint_names, ControlOutput, ForceController, JointState};
 use crate::biotac::BioTacReading;
@@ -38,6 +38,7 @@ use crate::control::{ControllerParams, Halt, Phase, TaskKind, TaskRegistry};
 use crate::kinematics::{Robot, RobotError};
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
 use crate::wrench::{FrameTransform, Wrench};
+use controller::task_envelope;
 use estimates::EstimatePairing;
 use goals::Running;
 
@@ -243,7 +244,7 @@ impl ForceControllerNode {
         let stopped = self
             .last
             .as_ref()
-            .is_some_and(|o| o.phase == Phase::Stopped);
+            .is_some_and(|o| o.phase == Phase::STOPPED);
         self.goal.is_some() || (begun && !stopped)
     }
 

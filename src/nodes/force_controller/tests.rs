@@ -78,7 +78,7 @@ fn a_description_is_taken_once_and_refused_while_a_task_runs() {
     // is refused.
     n.set_task("guarded", true).unwrap();
     let out = estimate(&mut n, 0.0, 0.0).unwrap();
-    assert_eq!((out.phase, out.halt), (Phase::Approach, None));
+    assert_eq!((out.phase, out.halt), (Phase::APPROACH, None));
     let five = include_str!("../../../tests/data/five_joint_arm.urdf");
     let e = n.take_description(five).unwrap_err();
     assert!(matches!(e, DescriptionError::Running), "{e}");
@@ -111,7 +111,7 @@ fn a_task_switch_is_checked_as_at_start_up_and_refused_during_a_goal() {
     // Built with the description: the calibration waits, the arm still.
     n.take_description(pa10()).unwrap();
     let out = estimate(&mut n, 0.0, 0.0).unwrap();
-    assert_eq!(out.phase, Phase::Stopped);
+    assert_eq!(out.phase, Phase::STOPPED);
     assert_eq!(n.controller().unwrap().command(), &JointVector::zeros(7));
     n.set_task("guarded", true).unwrap();
     n.start_guarded(&GuardedGoal::default()).unwrap();
@@ -125,13 +125,13 @@ fn launched_with_estimates_flowing_it_commands_zero_until_asked_and_a_set_restar
     n.take_description(pa10()).unwrap();
     for k in 0..10 {
         let out = estimate(&mut n, k as f64 * 0.01, 0.0).unwrap();
-        assert_eq!(out.phase, Phase::Stopped);
+        assert_eq!(out.phase, Phase::STOPPED);
         assert_eq!(n.controller().unwrap().command(), &JointVector::zeros(7));
     }
     assert!(n.status().message.contains("waiting to be asked"));
     n.set_task("guarded", true).unwrap();
     let out = estimate(&mut n, 0.1, 0.0).unwrap();
-    assert_eq!(out.phase, Phase::Approach);
+    assert_eq!(out.phase, Phase::APPROACH);
     assert!(n.controller().unwrap().command().norm() > 0.0);
     // While it runs, the same task again cannot take effect: refused.
     let e = n.set_task("guarded", true).unwrap_err();
@@ -142,7 +142,7 @@ fn launched_with_estimates_flowing_it_commands_zero_until_asked_and_a_set_restar
     assert!(!n.running());
     n.set_task("guarded", true).unwrap();
     let out = estimate(&mut n, 1.0, 0.0).unwrap();
-    assert_eq!(out.phase, Phase::Approach);
+    assert_eq!(out.phase, Phase::APPROACH);
 }
 
 #[test]
@@ -240,7 +240,7 @@ fn a_guarded_goal_runs_reports_and_ends_and_only_one_goal_at_a_time() {
     assert_eq!(n.guarded_progress(), None, "not stepped yet");
     estimate(&mut n, 0.0, 0.2);
     let p = n.guarded_progress().unwrap();
-    assert_eq!((p.phase, p.outcome), (Phase::Regulate, None));
+    assert_eq!((p.phase, p.outcome), (Phase::REGULATE, None));
     assert!((p.force_n - 0.2).abs() < 1e-12, "{p:?}");
     // What it measured so far: the estimate's age (1 ms); the arm's
     // bounds and the stiffest body as priors.
@@ -253,7 +253,7 @@ fn a_guarded_goal_runs_reports_and_ends_and_only_one_goal_at_a_time() {
     assert_eq!(n.withdrawn(0.005), None);
     estimate(&mut n, 0.01, 0.2);
     let p = n.guarded_progress().unwrap();
-    assert_eq!((p.phase, p.outcome), (Phase::Retract, None));
+    assert_eq!((p.phase, p.outcome), (Phase::RETRACT, None));
     assert!(
         n.controller().unwrap().command().norm() > 0.0,
         "moving away"
@@ -265,7 +265,7 @@ fn a_guarded_goal_runs_reports_and_ends_and_only_one_goal_at_a_time() {
     let p = n.guarded_progress().unwrap();
     assert_eq!(
         (p.force_n, p.phase, p.outcome),
-        (0.2, Phase::Stopped, Some("stopped"))
+        (0.2, Phase::STOPPED, Some("stopped"))
     );
     assert!(
         n.take_recording().is_none(),
@@ -347,7 +347,7 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
     };
     n.on_reading(reading(0.0));
     let out = n.on_force(ForcePart::Ft, 0.0, fz(-0.01), 0.001).unwrap();
-    assert_eq!(out.phase, Phase::Rest);
+    assert_eq!(out.phase, Phase::REST);
     match n.calibration_progress(0.001) {
         CalibrationProgress::Running {
             push,
@@ -362,7 +362,7 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
     n.on_force(ForcePart::Ft, 0.01, fz(-1.0), 0.011);
     assert_eq!(
         n.calibration_progress(0.011),
-        CalibrationProgress::Ended(Ended::Stopped(StopReason::InContact))
+        CalibrationProgress::Ended(Ended::Stopped(StopReason::IN_CONTACT))
     );
     let rec = n.take_recording().unwrap();
     assert_eq!(rec.records().len(), 2, "each wrench with its reading");

@@ -10,15 +10,15 @@ fn rows(controlled: [bool; 3]) -> Vec<TraceRow> {
         .map(|i| {
             let t = f64::from(i) * 0.01;
             let phase = match t {
-                t if t < 1.0 => Phase::Approach,
-                t if t < 1.2 => Phase::Regulate,
-                t if t < 2.5 => Phase::Hold,
-                t if t < 3.0 => Phase::Retract,
-                _ => Phase::Stopped,
+                t if t < 1.0 => Phase::APPROACH,
+                t if t < 1.2 => Phase::REGULATE,
+                t if t < 2.5 => Phase::HOLD,
+                t if t < 3.0 => Phase::RETRACT,
+                _ => Phase::STOPPED,
             };
             let pressed = match phase {
-                Phase::Approach | Phase::Stopped => 0.0,
-                Phase::Retract => 3.0 - t,
+                Phase::APPROACH | Phase::STOPPED => 0.0,
+                Phase::RETRACT => 3.0 - t,
                 _ => 1.0 - (-(t - 1.0) / 0.1).exp() * (20.0 * t).cos(),
             };
             let measured = Vector3::repeat(pressed) + Vector3::repeat(0.02 * (37.0 * t).sin());

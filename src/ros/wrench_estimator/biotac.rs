@@ -10,7 +10,7 @@
 //! leading out is refused), loaded and checked, and estimates come from it from
 //! the next reading on, on the same tare; refused, with the reason, when it
 //! does not load or fit the BioTac, and while the finger is pressed
-//! ([`crate::nodes::estimator::PRESSED_N`]).
+//! ([`crate::nodes::wrench_estimator::PRESSED_N`]).
 
 use std::sync::{Arc, Mutex};
 
@@ -23,7 +23,7 @@ use super::{describe_model, load_model, Outputs, Settings, REPORT};
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::bounds::MESSAGE_MAX_BYTES;
 use crate::nodes::own_params;
-use crate::nodes::reading_source::{ReadingSource, SourceError, Unusable};
+use crate::nodes::wrench_estimator::reading_source::{ReadingSource, SourceError, Unusable};
 use crate::nodes::EstimatorNode;
 use crate::outputs::models_dir::ModelsDir;
 use crate::ros::params::RuntimeParams;

@@ -117,7 +117,11 @@ fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
 /// from its root to its one leaf, the BioTac frame at the flange.
 fn five_joints() -> Robot {
     let p = RobotParams::from_layers(&[crate::params::WORLD_YAML]).unwrap();
-    Robot::from_urdf(include_str!("../../../tests/data/five_joint_arm.urdf"), &p).unwrap()
+    Robot::from_urdf(
+        include_str!("../../../../tests/data/five_joint_arm.urdf"),
+        &p,
+    )
+    .unwrap()
 }
 
 #[test]
@@ -157,7 +161,7 @@ fn an_arm_of_five_joints_runs_the_axes_it_can_realise_and_names_the_one_it_canno
     let out = c.tick(0.001);
     assert_eq!(
         (out.phase, out.reason),
-        (Phase::Stopped, Some(StopReason::Unrealisable))
+        (Phase::STOPPED, Some(StopReason::UNREALISABLE))
     );
     assert_eq!(c.command(), &JointVector::zeros(5));
     assert!(c.refusal().unwrap().contains("y of the BioTac frame"));

@@ -5,6 +5,8 @@
 //! late are dropped and counted ([`EstimatorNode::on_received`]); input over
 //! its bounds is refused before it reaches the node ([`EstimatorNode::guard`]).
 
+pub mod reading_source;
+
 use std::sync::Arc;
 
 use serde::Deserialize;

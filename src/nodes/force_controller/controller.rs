@@ -1,31 +1,38 @@
-//! The force controller node: each tick it checks its inputs (fresh and
-//! finite, else zero velocity), runs the task (guarded or guided move) in the
-//! BioTac frame, and turns the BioTac's velocity into joint velocities with
+//! The force controller node: each tick it checks its inputs (present and
+//! finite, else zero velocity), runs the stability rules, then the task (one
+//! of its registry) in the BioTac frame, and turns the BioTac's velocity into joint velocities with
 //! the damped least-squares inverse. The BioTac's orientation is held (zero
 //! angular velocity). An arm with fewer than six joints runs a task only if
 //! it can move the BioTac along each of the task's directions at the start
 //! pose; otherwise the task stops at once (`unrealisable_axis`), and
 //! [`ForceController::check_start`] names the axis before a run.
 //!
-//! Update pipeline: inputs -> watchdog -> task -> twist (base frame) -> DLS
-//! -> command. A tick allocates nothing: the command is read with
+//! Update pipeline: inputs -> stability rules (control/rules.rs) -> task ->
+//! twist (base frame) -> DLS -> command. A tick allocates nothing: the command is read with
 //! [`ForceController::command`].
 
 use nalgebra::{Isometry3, Vector3};
 
-use super::tasks;
-use super::JointState;
 use crate::control::identify::{ArmResponse, LoopMeter};
+use crate::control::rules::{RuleInput, Verdict};
 use crate::control::task::{missing_axis, TaskInput, TaskRegistry};
 use crate::control::{
     Arrivals, ControllerParams, Envelope, Goal, Halt, LoopTiming, OutOfRangeParams, Phase,
-    StopReason, Task, Watchdog,
+    RuleChain, StopReason, Task, Watchdog,
 };
 use crate::kinematics::{Dls, JointVector, Robot, Twist};
+use crate::nodes::{tasks, JointState};
 use crate::params::ParamsError;
 use crate::wrench::{Axis, AxisSet, WrenchEstimate};
 pub use sections::task_envelope;
 use sections::{stiffest_permitted, Sections};
+
+/// The controller's own stop reason, whatever the task.
+impl StopReason {
+    /// The arm (fewer than six joints) cannot move the BioTac along an
+    /// axis of the task at its start pose.
+    pub const UNREALISABLE: StopReason = StopReason::named("unrealisable_axis");
+}
 
 /// A motion an arm with fewer than six joints may leave undone, as a
 /// fraction of the commanded motion, for a task direction to count as
@@ -61,6 +68,8 @@ pub struct ForceController {
     axes: AxisSet,
     task_axes: Vec<Axis>,
     out_of_range: OutOfRangeParams,
+    /// The stability rules run before the task each cycle.
+    rules: RuleChain,
     /// The joint states' age limit.
     watchdog: Watchdog,
     /// Estimates may come this many of their periods late (`stale_periods`).
@@ -158,6 +167,7 @@ impl ForceController {
             axes: p.axes,
             task_axes: needed,
             out_of_range: p.out_of_range,
+            rules: RuleChain::shipped(),
             // Inputs arrive the transport delay after their stamp.
             watchdog: Watchdog::new(
                 p.stale_periods + p.loop_delays.transport_delay_s / p.control_period_s,
@@ -181,6 +191,13 @@ impl ForceController {
             rejected: 0,
             refusal: None,
         })
+    }
+
+    /// The controller running the stability rules of `rules` (the shipped
+    /// ones unless told).
+    pub fn with_rules(mut self, rules: RuleChain) -> Self {
+        self.rules = rules;
+        self
     }
 
     /// A controller for the task `task` with the other parameters of
@@ -241,7 +258,7 @@ impl ForceController {
     }
 
     /// Why the task was refused at its start pose, if it was
-    /// ([`StopReason::Unrealisable`]).
+    /// ([`StopReason::UNREALISABLE`]).
     pub fn refusal(&self) -> Option<&str> {
         self.refusal.as_deref()
     }
@@ -389,14 +406,24 @@ impl ForceController {
         let js = self.joints.as_ref().ok_or(Halt::Missing("joint state"))?;
         self.watchdog.check("joint state", now, Some(js.stamp_s))?;
         let est = self.estimate.ok_or(Halt::Missing("wrench estimate"))?;
-        Watchdog::seconds(self.stale_after_s()).check("wrench estimate", now, Some(est.stamp_s))?;
+        let rules = RuleInput {
+            force: &est.mean.force,
+            out_of_range: self.is_out_of_range(&est),
+            estimate_age_s: now - est.stamp_s,
+            stale_after_s: self.stale_after_s(),
+            limit: self.task.force_limit(),
+        };
+        match self.rules.check(&rules) {
+            Some(Verdict::Halt(halt)) => return Err(halt),
+            Some(Verdict::Stop(reason)) => self.task.abort(reason),
+            None => {}
+        }
         let fresh = self.stepped_stamp != Some(est.stamp_s);
         self.stepped_stamp = Some(est.stamp_s);
-        let out_of_range = self.is_out_of_range(&est);
         let pose = self.robot.chain.forward(&js.q);
         if self.start.is_none() {
             if let Err(e) = realisable(&self.robot, &mut self.dls, self.task.as_ref(), &js.q) {
-                self.task.stop_on(StopReason::Unrealisable);
+                self.task.stop_on(StopReason::UNREALISABLE);
                 self.refusal = Some(e.to_string());
             }
         }
@@ -407,7 +434,6 @@ impl ForceController {
             pdc_rise: est.pdc_rise,
             pose: &pose,
             start: &start,
-            out_of_range,
             dt,
             fresh,
             force_position: self.meter.position_at(est.stamp_s),
