@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use tactile_force::contact::BodyParams;
 use tactile_force::control::task::{TaskInput, TaskLoop};
 use tactile_force::control::{
-    Envelope, Phase, StopReason, Task, TaskEnvelope, TaskFigures, TaskKind, TaskSection,
+    Phase, StopReason, Task, TaskEnvelope, TaskFigures, TaskKind, TaskSection,
 };
 use tactile_force::kinematics::Twist;
 use tactile_force::nodes::param_reference::{markdown, RosNode};
@@ -71,15 +71,7 @@ impl TaskSection for HoldStillParams {
         name: &str,
     ) -> Result<TaskEnvelope, ParamsError> {
         Ok(TaskEnvelope {
-            envelope: Envelope {
-                skin: **lp.skin,
-                stiffness_n_per_m: body.stiffness_n_per_m,
-                shear: false,
-                trigger_n: 0.1,
-                target_n: 0.1,
-                limit_n: 1.0,
-                reaction_s: lp.reaction_s(),
-            },
+            envelope: lp.press_envelope(body, 0.1, 0.1, 1.0),
             body: name.into(),
             key: "hold_still",
             speed_mps: 0.0,

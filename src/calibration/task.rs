@@ -27,7 +27,7 @@ use crate::control::guarded::{GuardedInput, GuardedMove, GuardedParams};
 use crate::control::task::{
     ForceLaw, OffAxis, Task, TaskEnvelope, TaskInput, TaskLoop, TaskReport, TaskSection,
 };
-use crate::control::{Envelope, ForceLimit, Phase, StopReason};
+use crate::control::{ForceLimit, Phase, StopReason};
 use crate::kinematics::Twist;
 use crate::params::{Check, Checked, ParamsError};
 use crate::wrench::Axis;
@@ -318,15 +318,7 @@ impl TaskSection for CalibrateParams {
             .copied()
             .fold(0.0, f64::max);
         Ok(TaskEnvelope {
-            envelope: Envelope {
-                skin: **lp.skin,
-                stiffness_n_per_m: body.stiffness_n_per_m,
-                shear: false,
-                trigger_n: p.contact_force_n,
-                target_n: top,
-                limit_n: p.force_limit_n,
-                reaction_s: lp.reaction_s(),
-            },
+            envelope: lp.press_envelope(body, p.contact_force_n, top, p.force_limit_n),
             body: name.into(),
             key: "calibrate.approach_speed_mps",
             speed_mps: p.approach_speed_mps,

@@ -414,6 +414,27 @@ impl TaskLoop<'_> {
         self.period_s + self.delays.total_s()
     }
 
+    /// The envelope of a press along the pad's normal towards `body` in
+    /// this loop: advancing until `trigger_n`, regulating to `target_n`,
+    /// never past `limit_n` (N).
+    pub fn press_envelope(
+        &self,
+        body: &BodyParams,
+        trigger_n: f64,
+        target_n: f64,
+        limit_n: f64,
+    ) -> Envelope {
+        Envelope {
+            skin: **self.skin,
+            stiffness_n_per_m: body.stiffness_n_per_m,
+            shear: false,
+            trigger_n,
+            target_n,
+            limit_n,
+            reaction_s: self.reaction_s(),
+        }
+    }
+
     /// What a task's force loop needs of this loop.
     pub fn law(&self) -> ForceLaw {
         ForceLaw {

@@ -7,7 +7,6 @@ use serde::{Deserialize, Serialize};
 use super::GuardedMove;
 use crate::contact::BodyParams;
 use crate::control::task::{OffAxis, Task, TaskEnvelope, TaskLoop, TaskReport, TaskSection};
-use crate::control::Envelope;
 use crate::params::reference::check_ranges;
 use crate::params::{invalid, Check, Checked, ParamsError};
 
@@ -100,15 +99,7 @@ impl TaskSection for GuardedParams {
         name: &str,
     ) -> Result<TaskEnvelope, ParamsError> {
         Ok(TaskEnvelope {
-            envelope: Envelope {
-                skin: **lp.skin,
-                stiffness_n_per_m: body.stiffness_n_per_m,
-                shear: false,
-                trigger_n: p.contact_force_n,
-                target_n: p.target_force_n,
-                limit_n: p.force_limit_n,
-                reaction_s: lp.reaction_s(),
-            },
+            envelope: lp.press_envelope(body, p.contact_force_n, p.target_force_n, p.force_limit_n),
             body: name.into(),
             key: "guarded.approach_speed_mps",
             speed_mps: p.approach_speed_mps,

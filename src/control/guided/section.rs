@@ -95,18 +95,18 @@ impl TaskSection for GuidedParams {
         let total: f64 = t.iter().map(|v| v * v).sum();
         let envelope = (0..3)
             .filter(|&i| forces[i])
-            .map(|i| Envelope {
-                skin: **lp.skin,
-                stiffness_n_per_m: if i == 2 {
-                    body.stiffness_n_per_m
-                } else {
-                    shear_stiffness(lp.skin, body)
-                },
-                shear: i != 2,
-                trigger_n: t[i].abs() + p.deadband_n,
-                target_n: t[i].abs(),
-                limit_n: (p.force_limit_n.powi(2) - (total - t[i] * t[i])).sqrt(),
-                reaction_s: lp.reaction_s(),
+            .map(|i| {
+                let limit_n = (p.force_limit_n.powi(2) - (total - t[i] * t[i])).sqrt();
+                let normal =
+                    lp.press_envelope(body, t[i].abs() + p.deadband_n, t[i].abs(), limit_n);
+                match i {
+                    2 => normal,
+                    _ => Envelope {
+                        stiffness_n_per_m: shear_stiffness(lp.skin, body),
+                        shear: true,
+                        ..normal
+                    },
+                }
             })
             .min_by(|a, b| a.max_speed_mps().total_cmp(&b.max_speed_mps()))
             .ok_or_else(|| missing_axis(lp.axes, Axis::Fz))?;
