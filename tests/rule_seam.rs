@@ -4,7 +4,7 @@
 //! own way.
 
 use tactile_force::control::rules::{Rule, RuleInput, Verdict};
-use tactile_force::control::{Phase, RuleChain, StopReason, TaskKind};
+use tactile_force::control::{Phase, StopReason, TaskKind};
 use tactile_force::runtime::demo::run_scene;
 use tactile_force::runtime::{Pacing, Scene};
 
@@ -29,9 +29,7 @@ impl Rule for Gentle {
 #[test]
 fn a_rule_added_to_the_chain_stops_every_task_which_leaves_the_contact_its_own_way() {
     for task in TaskKind::ALL {
-        let scene = Scene::builtin(task)
-            .unwrap()
-            .with_rules(RuleChain::shipped().with(Gentle));
+        let scene = Scene::builtin(task).unwrap().with_rule(Gentle);
         let run = run_scene(&scene, Box::new(model()), 1, Pacing::Lockstep, &mut |_| {}).unwrap();
         let rows = &run.rows;
         // Where the task leaves the contact or stops: the rule's doing,

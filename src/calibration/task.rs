@@ -24,6 +24,7 @@ use nalgebra::{Isometry3, Rotation3, Vector3};
 use super::pattern::{pattern, CalibrateParams, Push, PushKind};
 use crate::contact::BodyParams;
 use crate::control::guarded::{GuardedInput, GuardedMove, GuardedParams};
+use crate::control::rules::Watch;
 use crate::control::task::{
     ForceLaw, OffAxis, Task, TaskEnvelope, TaskInput, TaskLoop, TaskReport, TaskSection,
 };
@@ -486,6 +487,21 @@ impl Task for CalibrateMove {
         match &self.stage {
             Stage::Press(g, _) | Stage::Shear(g, ..) => g.force_limit(),
             _ => None,
+        }
+    }
+
+    /// The press's while pressing or sliding; nowhere out of contact.
+    fn watch(&self) -> Watch {
+        match &self.stage {
+            Stage::Press(g, _) | Stage::Shear(g, ..) => g.watch(),
+            _ => Watch::Nothing,
+        }
+    }
+
+    /// The press's guarded move lowers its gain, or retracts.
+    fn soften(&mut self, hz: [Option<f64>; 3]) {
+        if let Stage::Press(g, _) | Stage::Shear(g, ..) = &mut self.stage {
+            g.soften(hz);
         }
     }
 }

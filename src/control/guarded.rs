@@ -17,8 +17,8 @@
 //! loop's measured timing ([`PdAxis::tune`]); until then, for the stiffest
 //! body the scene permits and the delays' bounds. An approach in a loop
 //! slower than the safety envelope assumed slows by the same share. A
-//! sustained oscillation ([`OscillationDetector`]) halves the gain; a second
-//! one retracts.
+//! sustained oscillation (the stability rules' watchdog, src/control/rules.rs)
+//! halves the gain; a second one retracts.
 //!
 //! On a soft body the force rises slowly under the gain the skin's margin
 //! allows (src/control/tuning.rs): once the body is fitted (at least twice
@@ -45,9 +45,8 @@ pub use section::GuardedParams;
 use nalgebra::Vector3;
 
 use super::identify::{ContactStiffness, SAMPLE_SPAN_S};
-use super::oscillation::OscillationDetector;
 use super::pd::PdAxis;
-use super::rules::ForceLimit;
+use super::rules::{ForceLimit, Watch};
 use super::task::{translation, ForceLaw, Task, TaskFigures, TaskInput};
 use super::tuning::LoopTiming;
 use super::{Envelope, Phase, StopReason};
@@ -142,13 +141,10 @@ pub struct GuardedMove {
     stiffness: ContactStiffness,
     /// The body's stiffness assumed until fitted (N/m).
     prior_body: f64,
-    watchdog: OscillationDetector,
     softened: u32,
     settle: SettleWindow,
     /// Time since the last fresh estimate (s).
     since_fresh_s: f64,
-    /// Time since the last fresh estimate of the approach (s).
-    since_rest_s: f64,
     phase: Phase,
     reason: Option<StopReason>,
     approach_s: f64,
@@ -179,11 +175,9 @@ impl GuardedMove {
             pd: PdAxis::new(&law.pd, law.pd.margins, 0.0),
             stiffness: ContactStiffness::new(law.skin, SAMPLE_SPAN_S),
             prior_body,
-            watchdog: OscillationDetector::new(law.oscillation.threshold_n),
             softened: 0,
             settle: SettleWindow::new(window),
             since_fresh_s: 0.0,
-            since_rest_s: 0.0,
             law: *law,
             p: *p,
             phase: Phase::APPROACH,
@@ -271,20 +265,10 @@ impl GuardedMove {
         match self.phase {
             Phase::APPROACH => {
                 self.approach_s += i.dt;
-                self.since_rest_s += i.dt;
                 if i.force_n >= p.contact_force_n || i.pdc_rise >= p.contact_pdc_counts {
                     self.phase = Phase::REGULATE;
                     self.touched_m = Some(i.travelled_m);
                     return self.regulate(u, i, reaction_s);
-                }
-                // The estimate's noise out of contact (below half the
-                // contact force: not the first rise) sets the watchdog's
-                // floor.
-                if i.fresh {
-                    let dt = std::mem::take(&mut self.since_rest_s);
-                    if i.force_n.abs() < 0.5 * p.contact_force_n {
-                        self.watchdog.rest(i.force_n, dt);
-                    }
                 }
                 if i.travelled_m >= p.max_distance_m {
                     return self.stop_with(StopReason::TRAVEL_LIMIT);
@@ -311,8 +295,8 @@ impl GuardedMove {
         }
     }
 
-    /// In contact: the stiffness fit, the watchdog and the settling window
-    /// take each new estimate; the speed is the PD's, never towards the
+    /// In contact: the stiffness fit and the settling window take each new
+    /// estimate; the speed is the PD's, never towards the
     /// object faster than the approach.
     fn regulate(&mut self, u: f64, i: &GuardedInput, reaction_s: f64) -> f64 {
         let p = self.p;
@@ -320,24 +304,6 @@ impl GuardedMove {
             let dt = std::mem::take(&mut self.since_fresh_s);
             if let (Some(x), true) = (i.position_m, i.force_n >= p.contact_force_n) {
                 self.stiffness.push(dt, x, i.force_n);
-            }
-            if self.watchdog.step(i.force_n, dt) {
-                let hz = self.watchdog.frequency_hz();
-                if self.softened > 0 {
-                    tracing::warn!(
-                        "the force oscillates again at {hz:.1} Hz with the gain lowered: \
-                         retracting"
-                    );
-                    self.retract(StopReason::OSCILLATING, i.travelled_m);
-                    return -p.retract_speed_mps;
-                }
-                self.softened += 1;
-                self.pd.soften(self.law.oscillation.gain_factor);
-                self.settle.clear();
-                tracing::warn!(
-                    "the force oscillates at {hz:.1} Hz: gain lowered by a factor {}",
-                    self.law.oscillation.gain_factor
-                );
             }
             self.settle.push(i.force_n);
         }
@@ -445,7 +411,6 @@ impl Task for GuardedMove {
 
     fn pause(&mut self) {
         self.pd.reset();
-        self.watchdog.reset();
         self.settle.clear();
         self.since_fresh_s = 0.0;
     }
@@ -477,6 +442,41 @@ impl Task for GuardedMove {
             limit_n: self.p.force_limit_n,
             along: Some(-self.direction()),
         })
+    }
+
+    /// Approaching, the estimate's noise out of contact (below half the
+    /// contact force: not the first rise) sets the watchdog's floor; in
+    /// contact, the pressing force.
+    fn watch(&self) -> Watch {
+        let along = -self.direction();
+        match self.phase {
+            Phase::APPROACH => Watch::Rest {
+                along,
+                below_n: 0.5 * self.p.contact_force_n,
+            },
+            Phase::REGULATE | Phase::HOLD => Watch::Regulating([Some(along), None, None]),
+            _ => Watch::Nothing,
+        }
+    }
+
+    /// The first oscillation halves the gain (by `oscillation.gain_factor`)
+    /// and restarts the settling; the next retracts.
+    fn soften(&mut self, hz: [Option<f64>; 3]) {
+        let Some(hz) = hz[0] else { return };
+        if self.softened > 0 {
+            tracing::warn!(
+                "the force oscillates again at {hz:.1} Hz with the gain lowered: retracting"
+            );
+            self.abort(StopReason::OSCILLATING);
+            return;
+        }
+        self.softened += 1;
+        self.pd.soften(self.law.oscillation.gain_factor);
+        self.settle.clear();
+        tracing::warn!(
+            "the force oscillates at {hz:.1} Hz: gain lowered by a factor {}",
+            self.law.oscillation.gain_factor
+        );
     }
 
     fn figures(&self) -> TaskFigures {

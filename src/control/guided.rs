@@ -58,10 +58,9 @@ pub use section::GuidedParams;
 use nalgebra::Vector3;
 
 use super::identify::ContactStiffness;
-use super::oscillation::OscillationDetector;
 use super::pd::PdAxis;
 use super::probe::Probe;
-use super::rules::ForceLimit;
+use super::rules::{ForceLimit, Watch};
 use super::task::{translation, ForceLaw, Task, TaskFigures, TaskInput};
 use super::tuning::LoopTiming;
 use super::{Phase, StopReason};
@@ -118,7 +117,6 @@ pub struct GuidedMove {
     stiffness: ContactStiffness,
     /// The finger's stiffness assumed until fitted (N/m).
     prior_body: f64,
-    watchdogs: [OscillationDetector; 3],
     /// The probe under way, the probes left and the dynamic stiffness each
     /// axis showed (N/m; src/control/probe.rs).
     probe: Option<Probe>,
@@ -158,14 +156,12 @@ impl GuidedMove {
         prior_body: f64,
     ) -> Self {
         let axis = || PdAxis::new(&law.pd, p.margins, p.deadband_n);
-        let watchdog = || OscillationDetector::new(law.oscillation.threshold_n);
         GuidedMove {
             pd: controlled.map(|c| c.then(axis)),
             // Each reading a sample: averaged over 40 ms, the x/y loop missed
             // off-axis (14.5 % at a 16 ms cycle, the embedded hold_sweep).
             stiffness: ContactStiffness::new(law.skin, 0.0),
             prior_body,
-            watchdogs: [watchdog(), watchdog(), watchdog()],
             probe: None,
             probes_left: PROBES,
             probed: [None; 3],
@@ -282,9 +278,9 @@ impl GuidedMove {
         }
     }
 
-    /// Following: a stability rule's stop (`aborted`) and the limits, then
-    /// the fit and the watchdogs on a new estimate; the PD's velocity `v`
-    /// while none stops it.
+    /// Following: a stability rule's stop (`aborted`: an oscillation
+    /// retracts) and the limits, then the fit and the probe on a new
+    /// estimate; the PD's velocity `v` while none stops it.
     fn follow(
         &mut self,
         i: &GuidedInput,
@@ -292,6 +288,12 @@ impl GuidedMove {
         aborted: Option<StopReason>,
     ) -> Vector3<f64> {
         let p = self.p;
+        if aborted == Some(StopReason::OSCILLATING) {
+            self.phase = Phase::RETRACT;
+            self.reason = aborted;
+            self.retract_from_m = i.moved.z;
+            return Vector3::new(0.0, 0.0, p.retract_speed_mps);
+        }
         let stop = if aborted.is_some() {
             aborted
         } else if i.moved.norm() >= p.max_travel_m {
@@ -326,18 +328,10 @@ impl GuidedMove {
         }
         self.run_probe(i);
         if self.probe.is_some() {
-            // The probe's swings are the pad's own: no watchdog counts them.
-            return v + probing;
+            v + probing
+        } else {
+            v
         }
-        for j in 0..3 {
-            if self.pd[j].is_none() || !self.watchdogs[j].step(i.force[j], dt) {
-                continue;
-            }
-            if let Some(v) = self.on_oscillation(j, i.moved.z) {
-                return v;
-            }
-        }
-        v
     }
 
     /// Once the first press holds, probes the contact (src/control/probe.rs)
@@ -369,31 +363,23 @@ impl GuidedMove {
             }
         }
         self.probe = None;
-        self.watchdogs
-            .iter_mut()
-            .for_each(OscillationDetector::reset);
         let [x, y, z] = self.probed.map(|k| k.map(f64::round));
         tracing::info!("the contact measured (N/m; None: not measured): x {x:?}, y {y:?}, z {z:?}");
     }
 
-    /// The watchdog saw axis `j` oscillate: the contact is stiffer than
-    /// taken, so its stiffness is raised by the inverse of the gain factor
-    /// (which lowers the gain by that factor, and the finger's velocity
-    /// the feedforward reads from the force's rate), up to [`SOFTENINGS`]
-    /// times; then the pad retracts along its normal from `normal_m`, the
-    /// retract's velocity returned.
-    fn on_oscillation(&mut self, j: usize, normal_m: f64) -> Option<Vector3<f64>> {
-        let hz = self.watchdogs[j].frequency_hz();
+    /// The watchdog saw axis `j` oscillate at `hz`: the contact is stiffer
+    /// than taken, so its stiffness is raised by the inverse of the gain
+    /// factor (which lowers the gain by that factor, and the finger's
+    /// velocity the feedforward reads from the force's rate), up to
+    /// [`SOFTENINGS`] times; then false.
+    fn lower(&mut self, j: usize, hz: f64) -> bool {
         let axis = ["x", "y", "z"][j];
         if self.lowered[j] >= SOFTENINGS {
             tracing::warn!(
                 "the force along {axis} oscillates at {hz:.1} Hz with its gain lowered \
                  {SOFTENINGS} times: retracting"
             );
-            self.phase = Phase::RETRACT;
-            self.reason = Some(StopReason::OSCILLATING);
-            self.retract_from_m = normal_m;
-            return Some(Vector3::new(0.0, 0.0, self.p.retract_speed_mps));
+            return false;
         }
         self.lowered[j] += 1;
         self.integral[j] = 0.0;
@@ -402,7 +388,7 @@ impl GuidedMove {
         tracing::warn!(
             "the force along {axis} oscillates at {hz:.1} Hz: its gain lowered by a factor {factor}"
         );
-        None
+        true
     }
 }
 
@@ -462,9 +448,6 @@ impl Task for GuidedMove {
         self.finger = [0.0; 2];
         self.integral = [0.0; 3];
         self.arm = None;
-        self.watchdogs
-            .iter_mut()
-            .for_each(OscillationDetector::reset);
         self.since_fresh_s = 0.0;
         self.probe = None;
     }
@@ -488,6 +471,29 @@ impl Task for GuidedMove {
             limit_n: self.p.force_limit_n,
             along: None,
         })
+    }
+
+    /// Following, each controlled axis; probing (the probe's swings are the
+    /// pad's own) or retracting, none.
+    fn watch(&self) -> Watch {
+        if self.phase != Phase::FOLLOW || self.probe.is_some() {
+            return Watch::Nothing;
+        }
+        let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
+        Watch::Regulating(std::array::from_fn(|j| {
+            self.pd[j].as_ref().map(|_| axes[j])
+        }))
+    }
+
+    /// Lowers each oscillating axis's gain; an axis already lowered as
+    /// often as it may be (`SOFTENINGS`) retracts the pad along its normal.
+    fn soften(&mut self, hz: [Option<f64>; 3]) {
+        for (j, hz) in hz.into_iter().enumerate() {
+            if hz.is_some_and(|hz| !self.lower(j, hz)) {
+                self.abort(StopReason::OSCILLATING);
+                return;
+            }
+        }
     }
 
     fn figures(&self) -> TaskFigures {

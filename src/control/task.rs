@@ -9,23 +9,24 @@
 //! [`TaskKind`] names the shipped tasks' scene files (the demos, the ROS
 //! nodes' defaults), not the tasks a controller can run.
 
+mod kind;
+pub use kind::TaskKind;
+
 use std::any::Any;
 use std::fmt;
 
 use nalgebra::{Isometry3, Vector3};
 use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use super::rules::ForceLimit;
+use super::rules::{ForceLimit, Watch};
 use super::tuning::LoopTiming;
 use super::{Envelope, LoopDelays, OscillationParams, PdParams, Phase, StopReason};
 use crate::contact::{BodyParams, SkinParams};
-use crate::kinematics::{ShippedRobot, Twist};
+use crate::kinematics::Twist;
 use crate::params::reference::{params_of, ParamDoc};
-use crate::params::{
-    Check, Checked, ParamsError, CALIBRATE_YAML, GUARDED_YAML, GUIDED_YAML, WORLD_YAML,
-};
+use crate::params::{Check, Checked, ParamsError};
 use crate::wrench::{Axis, AxisSet};
 
 /// A task the controller runs: each cycle it turns the force on the BioTac
@@ -82,6 +83,21 @@ pub trait Task: fmt::Debug + Send + Any + BoxedClone {
     /// task that presses nothing).
     fn force_limit(&self) -> Option<ForceLimit> {
         None
+    }
+
+    /// Where the task regulates the force now, for the oscillation
+    /// watchdog (src/control/rules.rs); nowhere by default.
+    fn watch(&self) -> Watch {
+        Watch::Nothing
+    }
+
+    /// The force oscillates along the directions of [`Task::watch`] that
+    /// have a frequency in `hz` (Hz): the task lowers those gains, or
+    /// leaves the contact and stops (`oscillating`) where it cannot. By
+    /// default it stops where it is.
+    fn soften(&mut self, hz: [Option<f64>; 3]) {
+        let _ = hz;
+        self.abort(StopReason::OSCILLATING);
     }
 
     /// What the task measured and chose, for reports; none by default.
@@ -308,79 +324,11 @@ impl TaskRegistry {
 }
 
 /// "a, b or c".
-fn or_list<'a>(names: impl Iterator<Item = &'a str>) -> String {
+pub(crate) fn or_list<'a>(names: impl Iterator<Item = &'a str>) -> String {
     let names: Vec<&str> = names.collect();
     match names.split_last() {
         Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
         _ => names.join(""),
-    }
-}
-
-/// The shipped tasks, each with its scene file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TaskKind {
-    /// Approach, touch, hold a force (`config/guarded_move.yaml`).
-    Guarded,
-    /// Follow a person's finger (`config/guided_move.yaml`).
-    Guided,
-    /// Press a calibration block in a pattern, the F/T sensor as the force
-    /// (`config/calibrate.yaml`).
-    Calibrate,
-}
-
-impl TaskKind {
-    /// Every shipped task.
-    pub const ALL: [TaskKind; 3] = [TaskKind::Guarded, TaskKind::Guided, TaskKind::Calibrate];
-
-    /// The name in the parameters, the JSON output and the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            TaskKind::Guarded => "guarded",
-            TaskKind::Guided => "guided",
-            TaskKind::Calibrate => "calibrate",
-        }
-    }
-
-    /// The shipped scene file of the task.
-    pub fn scene_yaml(self) -> &'static str {
-        match self {
-            TaskKind::Guarded => GUARDED_YAML,
-            TaskKind::Guided => GUIDED_YAML,
-            TaskKind::Calibrate => CALIBRATE_YAML,
-        }
-    }
-
-    /// The shipped parameter files of a run of the task on `robot`, in
-    /// order: the world, the robot, the task's scene.
-    pub fn shipped_layers(self, robot: ShippedRobot) -> [&'static str; 3] {
-        [WORLD_YAML, robot.yaml(), self.scene_yaml()]
-    }
-
-    /// The names of every shipped task, for messages.
-    pub fn names() -> String {
-        or_list(Self::ALL.iter().map(|t| t.name()))
-    }
-}
-
-impl fmt::Display for TaskKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for TaskKind {
-    type Err = ParamsError;
-
-    fn from_str(s: &str) -> Result<Self, ParamsError> {
-        Self::ALL
-            .into_iter()
-            .find(|t| t.name() == s)
-            .ok_or_else(|| ParamsError::Invalid {
-                key: "task".into(),
-                value: s.into(),
-                expected: Self::names(),
-            })
     }
 }
 
@@ -543,19 +491,36 @@ pub fn translation(v: Vector3<f64>) -> Twist {
     Twist::new(v.x, v.y, v.z, 0.0, 0.0, 0.0)
 }
 
+/// What the controller does with the oscillation watchdog `rule` alone
+/// before `task` steps on `force` (N, BioTac frame): the task lowers a
+/// gain where the force oscillates.
+#[cfg(test)]
+pub(crate) fn watched_by(
+    rule: &mut super::rules::Oscillation,
+    task: &mut dyn Task,
+    force: &Vector3<f64>,
+    dt: f64,
+    fresh: bool,
+) {
+    use super::rules::{Rule, RuleInput, Verdict};
+    let seen = RuleInput {
+        force,
+        out_of_range: false,
+        estimate_age_s: 0.0,
+        stale_after_s: 1.0,
+        limit: None,
+        watch: task.watch(),
+        dt,
+        fresh,
+    };
+    if let Some(Verdict::Oscillating(hz)) = rule.check(&seen) {
+        task.soften(hz);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn task_names_parse_back_and_others_are_refused_with_the_list() {
-        for t in TaskKind::ALL {
-            assert_eq!(t.name().parse::<TaskKind>().unwrap(), t);
-            assert!(!t.scene_yaml().is_empty());
-        }
-        let e = "joystick".parse::<TaskKind>().unwrap_err().to_string();
-        assert!(e.contains("guarded, guided or calibrate"), "{e}");
-    }
 
     #[test]
     fn a_registry_finds_its_tasks_by_name_and_lists_them_when_it_cannot() {

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use crate::biotac::BioTacSimConfig;
 use crate::contact::BodyParams;
-use crate::control::{ControllerParams, GuardedParams, RuleChain, TaskKind, TaskRegistry};
+use crate::control::{ControllerParams, GuardedParams, Rule, RuleChain, TaskKind, TaskRegistry};
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{Robot, RobotError, ShippedRobot};
 use crate::learn::models::wrench_model::WrenchModel;
@@ -125,8 +125,8 @@ pub struct Scene {
     /// The tasks the controller may run: the shipped ones unless
     /// [`Scene::with_tasks`] says otherwise.
     pub tasks: TaskRegistry,
-    /// The stability rules the controller runs: the shipped ones unless
-    /// [`Scene::with_rules`] says otherwise.
+    /// Stability rules the controller runs after the shipped ones (none
+    /// unless [`Scene::with_rule`] adds one).
     pub rules: RuleChain,
 }
 
@@ -160,7 +160,7 @@ impl Scene {
             sim: layered_node_params(texts, "sim_robot")?,
             description: description.to_string(),
             tasks: tasks::shipped(),
-            rules: RuleChain::shipped(),
+            rules: RuleChain::default(),
         })
     }
 
@@ -193,10 +193,10 @@ impl Scene {
         self
     }
 
-    /// Lets the controller run the stability rules of `rules` (a rule of
-    /// its own).
-    pub fn with_rules(mut self, rules: RuleChain) -> Self {
-        self.rules = rules;
+    /// Lets the controller run `rule` after the shipped stability rules (a
+    /// rule of its own).
+    pub fn with_rule(mut self, rule: impl Rule + Clone + 'static) -> Self {
+        self.rules = self.rules.with(rule);
         self
     }
 
@@ -286,7 +286,7 @@ impl Scene {
         let robot = Robot::from_urdf(&self.description, &cp.robot)?;
         let sim_robot = Robot::from_urdf(&self.description, &sp.robot)?;
         let mut controller =
-            ForceController::with_tasks(cp, robot, &self.tasks)?.with_rules(self.rules.clone());
+            ForceController::with_tasks(cp, robot, &self.tasks)?.with_rules(&self.rules);
         let link = Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed);
         let sim = SimRobot::new(sp, sim_robot, sensor, seed)?;
         controller.check_start(sim.joints())?;

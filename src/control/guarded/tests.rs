@@ -1,4 +1,6 @@
 use super::*;
+use crate::control::rules::Oscillation;
+use crate::control::task::watched_by;
 use crate::params::Check;
 
 fn params() -> GuardedParams {
@@ -57,6 +59,14 @@ const TIMING: LoopTiming = LoopTiming {
 /// A move with [`params`] expecting a stiff body.
 fn guarded() -> GuardedMove {
     GuardedMove::new(params().checked("guarded").unwrap(), &law(), 1e5)
+}
+
+/// One cycle as the controller runs it: the stability rules' oscillation
+/// watchdog (`rule`) on the pressing force, then the move.
+fn watched(g: &mut GuardedMove, rule: &mut Oscillation, i: &GuardedInput) -> f64 {
+    let force = -g.direction() * i.force_n;
+    watched_by(rule, g, &force, i.dt, i.fresh);
+    g.speed(i)
 }
 
 fn input(force_n: f64, travelled_m: f64) -> GuardedInput {
@@ -240,21 +250,21 @@ fn a_slower_loop_than_the_envelope_assumed_slows_the_approach() {
 
 #[test]
 fn a_hold_is_a_settled_force_and_an_oscillation_lowers_the_gain_then_retracts() {
-    let mut g = guarded();
-    g.speed(&input(1.0, 0.010));
+    let (mut g, mut rule) = (guarded(), Oscillation::new(&law().oscillation));
+    watched(&mut g, &mut rule, &input(1.0, 0.010));
     // In the band but swinging +-0.04 N at 12.5 Hz: never settled; the
     // gain lowered once, then a retract.
     let swing = |k: usize| 1.0 + if k % 8 < 4 { 0.04 } else { -0.04 };
     let mut k = 0;
     while g.figures().softened == 0 {
-        g.speed(&input(swing(k), 0.011));
+        watched(&mut g, &mut rule, &input(swing(k), 0.011));
         assert_ne!(g.phase(), Phase::HOLD);
         k += 1;
         assert!(k < 100, "never detected");
     }
     assert!(k <= 40, "three cycles and the filter's settling: {k}");
     while g.phase() == Phase::REGULATE {
-        g.speed(&input(swing(k), 0.011));
+        watched(&mut g, &mut rule, &input(swing(k), 0.011));
         k += 1;
         assert!(k < 200, "never retracted");
     }

@@ -1,4 +1,6 @@
 use super::*;
+use crate::control::rules::Oscillation;
+use crate::control::task::watched_by;
 use crate::control::Margins;
 use crate::params::Check;
 
@@ -28,6 +30,18 @@ fn unprobed() -> GuidedMove {
     };
     let law = crate::control::guarded::tests::law();
     GuidedMove::new(p.checked("guided").unwrap(), &law, [true; 3], 300.0)
+}
+
+/// One cycle as the controller runs it: the stability rules' oscillation
+/// watchdog (`rule`), then the move.
+fn cycle(g: &mut GuidedMove, rule: &mut Oscillation, i: &GuidedInput) -> Vector3<f64> {
+    watched_by(rule, g, &i.force, i.dt, i.fresh);
+    g.velocity(i)
+}
+
+/// The watchdog of the tests' loop.
+fn watchdog() -> Oscillation {
+    Oscillation::new(&crate::control::guarded::tests::law().oscillation)
 }
 
 fn input(force: Vector3<f64>) -> GuidedInput {
@@ -92,22 +106,22 @@ fn with_nothing_to_follow_it_stops_at_its_time_or_travel() {
 
 #[test]
 fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
-    let mut g = guided();
-    g.velocity(&input(Vector3::new(0.0, 0.0, 1.0)));
+    let (mut g, mut rule) = (guided(), watchdog());
+    cycle(&mut g, &mut rule, &input(Vector3::new(0.0, 0.0, 1.0)));
     let (before, z) = (g.gains()[0].unwrap(), g.gains()[2]);
     let swing = |k: usize| Vector3::new(if k % 8 < 4 { 0.5 } else { -0.5 }, 0.0, 1.0);
     let mut k = 0;
     while g.figures().softened == 0 {
-        g.velocity(&input(swing(k)));
+        cycle(&mut g, &mut rule, &input(swing(k)));
         k += 1;
         assert!(k < 100, "never detected");
     }
     // The stiffness taken doubled: the next cycle's gain is half.
-    g.velocity(&input(swing(k)));
+    cycle(&mut g, &mut rule, &input(swing(k)));
     assert!((g.gains()[0].unwrap() / before - 0.5).abs() < 1e-9);
     assert_eq!(g.gains()[2], z, "z untouched");
     while g.phase() == Phase::FOLLOW {
-        g.velocity(&input(swing(k)));
+        cycle(&mut g, &mut rule, &input(swing(k)));
         k += 1;
         assert!(k < 300, "never retracted");
     }
@@ -116,13 +130,13 @@ fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
         (g.phase(), g.reason()),
         (Phase::RETRACT, Some(StopReason::OSCILLATING))
     );
-    let away = g.velocity(&input(Vector3::zeros()));
+    let away = cycle(&mut g, &mut rule, &input(Vector3::zeros()));
     assert!(away.z > 0.0, "{away}");
     let done = GuidedInput {
         moved: Vector3::new(0.0, 0.0, 0.006),
         ..input(Vector3::zeros())
     };
-    assert_eq!(g.velocity(&done), Vector3::zeros());
+    assert_eq!(cycle(&mut g, &mut rule, &done), Vector3::zeros());
     assert_eq!(g.phase(), Phase::STOPPED);
 }
 
@@ -130,7 +144,7 @@ fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
 /// along x over a contact of 250 N/m for 3 s, the arm tracking commands
 /// 40 ms late, its velocity read by the feedforward or not.
 fn slide(feedforward: bool) -> Vec<f64> {
-    let mut g = guided();
+    let (mut g, mut rule) = (guided(), watchdog());
     let (k, dt) = (250.0, 0.01);
     let (mut arm, mut finger, mut queue) = (0.0, 0.0, vec![0.0; 4]);
     let mut v_arm = 0.0;
@@ -146,7 +160,7 @@ fn slide(feedforward: bool) -> Vec<f64> {
                 },
                 ..input(Vector3::new(f, 0.0, 1.0))
             };
-            queue.push(g.velocity(&i).x);
+            queue.push(cycle(&mut g, &mut rule, &i).x);
             v_arm = queue.remove(0);
             arm += v_arm * dt;
             f
@@ -213,6 +227,7 @@ fn follow(g: &mut GuidedMove, finger: Finger, period_s: f64, lag_s: f64, speed: 
     let (mut estimate, mut fresh, mut command) = (None, false, Vector3::zeros());
     let mut lagged = Vector3::zeros();
     let (mut sq, mut n, mut previous, mut worst) = (Vector3::zeros(), 0.0f64, 0.0, 0.0f64);
+    let mut rule = watchdog();
     let mut seed = 1u64;
     let mut noise = move || {
         seed = seed
@@ -259,7 +274,7 @@ fn follow(g: &mut GuidedMove, finger: Finger, period_s: f64, lag_s: f64, speed: 
                     },
                     ..input(f)
                 };
-                command = g.velocity(&i);
+                command = cycle(g, &mut rule, &i);
             }
         }
         queue.push(command);

@@ -167,7 +167,7 @@ impl ForceController {
             axes: p.axes,
             task_axes: needed,
             out_of_range: p.out_of_range,
-            rules: RuleChain::shipped(),
+            rules: RuleChain::shipped(&p.oscillation),
             // Inputs arrive the transport delay after their stamp.
             watchdog: Watchdog::new(
                 p.stale_periods + p.loop_delays.transport_delay_s / p.control_period_s,
@@ -193,10 +193,10 @@ impl ForceController {
         })
     }
 
-    /// The controller running the stability rules of `rules` (the shipped
-    /// ones unless told).
-    pub fn with_rules(mut self, rules: RuleChain) -> Self {
-        self.rules = rules;
+    /// The controller running the rules of `extra` after the shipped
+    /// stability rules.
+    pub fn with_rules(mut self, extra: &RuleChain) -> Self {
+        self.rules.extend(extra);
         self
     }
 
@@ -394,6 +394,7 @@ impl ForceController {
 
     fn halt(&mut self, now: f64, halt: Halt) -> ControlOutput {
         self.task.pause();
+        self.rules.pause();
         self.command.fill(0.0);
         self.twist = Twist::zeros();
         self.meter.on_step(now, Vector3::zeros(), None);
@@ -412,10 +413,14 @@ impl ForceController {
             estimate_age_s: now - est.stamp_s,
             stale_after_s: self.stale_after_s(),
             limit: self.task.force_limit(),
+            watch: self.task.watch(),
+            dt,
+            fresh: self.stepped_stamp != Some(est.stamp_s),
         };
         match self.rules.check(&rules) {
             Some(Verdict::Halt(halt)) => return Err(halt),
             Some(Verdict::Stop(reason)) => self.task.abort(reason),
+            Some(Verdict::Oscillating(hz)) => self.task.soften(hz),
             None => {}
         }
         let fresh = self.stepped_stamp != Some(est.stamp_s);
