@@ -1,15 +1,15 @@
 //! The force controller node: each tick it checks its inputs (present and
 //! finite, else zero velocity), runs the stability rules, then the task (one
-//! of its registry) in the BioTac frame, and turns the BioTac's velocity into joint velocities with
-//! the damped least-squares inverse. The BioTac's orientation is held (zero
-//! angular velocity). An arm with fewer than six joints runs a task only if
+//! of its registry) in the BioTac frame, and turns the BioTac's velocity
+//! into joint velocities with the damped least-squares inverse. The
+//! BioTac's orientation is held (zero angular velocity). An arm with fewer than six joints runs a task only if
 //! it can move the BioTac along each of the task's directions at the start
 //! pose; otherwise the task stops at once (`unrealisable_axis`), and
 //! [`ForceController::check_start`] names the axis before a run.
 //!
 //! Update pipeline: inputs -> stability rules (control/rules.rs) -> task ->
-//! twist (base frame) -> DLS -> command. A tick allocates nothing: the command is read with
-//! [`ForceController::command`].
+//! twist (base frame) -> DLS -> command. A tick allocates nothing: the
+//! command is read with [`ForceController::command`].
 
 use nalgebra::{Isometry3, Vector3};
 
@@ -407,6 +407,7 @@ impl ForceController {
         let js = self.joints.as_ref().ok_or(Halt::Missing("joint state"))?;
         self.watchdog.check("joint state", now, Some(js.stamp_s))?;
         let est = self.estimate.ok_or(Halt::Missing("wrench estimate"))?;
+        let fresh = self.stepped_stamp != Some(est.stamp_s);
         let rules = RuleInput {
             force: &est.mean.force,
             out_of_range: self.is_out_of_range(&est),
@@ -415,7 +416,7 @@ impl ForceController {
             limit: self.task.force_limit(),
             watch: self.task.watch(),
             dt,
-            fresh: self.stepped_stamp != Some(est.stamp_s),
+            fresh,
         };
         match self.rules.check(&rules) {
             Some(Verdict::Halt(halt)) => return Err(halt),
@@ -423,7 +424,6 @@ impl ForceController {
             Some(Verdict::Oscillating(hz)) => self.task.soften(hz),
             None => {}
         }
-        let fresh = self.stepped_stamp != Some(est.stamp_s);
         self.stepped_stamp = Some(est.stamp_s);
         let pose = self.robot.chain.forward(&js.q);
         if self.start.is_none() {
