@@ -27,12 +27,11 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::Vector3;
 use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::biotac::BioTacReading;
-use tactile_force::control::Phase;
-use tactile_force::control::TaskKind;
+use tactile_force::control::{ControlOutput, ForceController, Phase, TaskKind};
 use tactile_force::kinematics::ShippedRobot;
 use tactile_force::learn::default_model::{self, Recipe};
 use tactile_force::learn::models::wrench_gp::WrenchGp;
-use tactile_force::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
+use tactile_force::nodes::{EstimatorNode, SimRobot, SimSample};
 use tactile_force::runtime::{Nodes, Scene};
 use tactile_force::wrench::{Axis, AxisSet};
 

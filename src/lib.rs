@@ -16,8 +16,8 @@
 //!   workflows on top (selection, evaluation, adaptation, calibration);
 //! - [`kinematics`]: the serial chain between two links of a URDF, its
 //!   Jacobian and damped least-squares inverse;
-//! - [`control`]: the PD force law, the tasks (guarded, guided, calibrate),
-//!   safety;
+//! - [`control`]: the force controller's stages, the PD force law, the
+//!   tasks (guarded, guided, calibrate), the stability rules, safety;
 //! - [`nodes`]: the transport-free nodes (estimator, controller, simulated robot);
 //! - [`runtime`]: the lockstep runner, scenes, the demos;
 //! - [`report`]: run traces, summaries and plots;

@@ -11,14 +11,13 @@ use tactile_force::biotac::sim::BioTacSimConfig;
 use tactile_force::calibration::{
     pattern, CalibrateMove, CalibrateParams, CalibrationRecorder, Ended,
 };
-use tactile_force::control::{Phase, StopReason, TaskKind};
+use tactile_force::control::{ControlOutput, ForceController, Phase, StopReason, TaskKind};
 use tactile_force::kinematics::ShippedRobot;
 use tactile_force::learn::calibration::{fit, gp_params, CalibrationError, Recorded};
 use tactile_force::learn::data::Dataset;
 use tactile_force::learn::evaluate::score_model;
 use tactile_force::learn::models::wrench_model::WrenchModel;
 use tactile_force::nodes::sim_robot::SimRobot;
-use tactile_force::nodes::{ControlOutput, ForceController};
 use tactile_force::runtime::calibrate::{record, Recording};
 use tactile_force::runtime::demo::run_scene;
 use tactile_force::runtime::{Pacing, Scene};

@@ -3,9 +3,8 @@
 //! five, six and seven joints, counted by a global allocator (this binary
 //! holds one test so nothing else allocates).
 
-use tactile_force::control::TaskKind;
+use tactile_force::control::{ForceController, JointState, TaskKind};
 use tactile_force::kinematics::{JointVector, Robot, RobotParams, ShippedRobot};
-use tactile_force::nodes::{ForceController, JointState};
 use tactile_force::params::WORLD_YAML;
 use tactile_force::runtime::Scene;
 use tactile_force::wrench::WrenchEstimate;
@@ -42,7 +41,7 @@ fn a_control_period_allocates_nothing_after_the_first() {
         if n == 5 {
             js.q = JointVector::from_column_slice(&[0.3, 0.2, 0.4, -0.5, 0.0]);
         }
-        let mut c = ForceController::new(scene.controller, robot).unwrap();
+        let mut c = ForceController::new(scene.controller, robot, &scene.tasks).unwrap();
         let mut estimate = WrenchEstimate {
             stamp_s: 0.0,
             seq: 0,

@@ -7,10 +7,8 @@
 //! limit named, and the delayed loop still meets the guarded and guided
 //! bounds. Figures from the measured (F/T) force.
 
-use tactile_force::control::TaskKind;
+use tactile_force::control::{task_envelope, ForceController, TaskKind};
 use tactile_force::kinematics::Robot;
-use tactile_force::nodes::force_controller::controller::task_envelope;
-use tactile_force::nodes::ForceController;
 use tactile_force::report::summary::Summary;
 use tactile_force::runtime::demo::run_scene;
 use tactile_force::runtime::{Pacing, Scene};
@@ -56,7 +54,9 @@ fn every_accepted_speed_peaks_within_the_force_limit() {
     for periods in [0, 1, 2] {
         for object in OBJECTS {
             let scene = with_transport_delay(guarded_alone(object), periods);
-            let envelope = task_envelope(&scene.controller).unwrap().envelope;
+            let envelope = task_envelope(&scene.controller, &scene.tasks)
+                .unwrap()
+                .envelope;
             let limit = envelope.max_speed_mps();
             let mut worst = (0.0f64, 0.0);
             for fraction in [0.25, 0.5, 0.75, 1.0] {
@@ -125,7 +125,7 @@ fn a_ros_like_transport_delay_still_follows_the_finger() {
 }
 
 fn refusal(scene: Scene) -> String {
-    ForceController::new(scene.controller, Robot::pa10())
+    ForceController::new(scene.controller, Robot::pa10(), &scene.tasks)
         .expect_err("refused")
         .to_string()
 }
@@ -145,11 +145,9 @@ fn the_stiffest_permitted_object_sets_the_limit() {
         e.contains("at most 0.0238 m/s") && e.contains("unknown") && e.contains("85 ms"),
         "{e}"
     );
-    ForceController::new(
-        soft.with_only_object("stuffed_animal").controller,
-        Robot::pa10(),
-    )
-    .expect("alone, the stuffed animal takes 60 mm/s");
+    let alone = soft.with_only_object("stuffed_animal");
+    ForceController::new(alone.controller, Robot::pa10(), &alone.tasks)
+        .expect("alone, the stuffed animal takes 60 mm/s");
     // A longer loop lowers the limit: a bound of two periods of transport,
     // 95 ms in all, 21.6 mm/s on the wooden box.
     let e = refusal(
@@ -165,7 +163,7 @@ fn the_stiffest_permitted_object_sets_the_limit() {
     let unknown = Scene::builtin(TaskKind::Guarded)
         .unwrap()
         .with_only_object("unknown");
-    let speed = task_envelope(&unknown.controller).unwrap();
+    let speed = task_envelope(&unknown.controller, &unknown.tasks).unwrap();
     assert_eq!(speed.envelope.stiffness_n_per_m, 1e6);
     assert!((speed.envelope.max_speed_mps() - 0.0238).abs() < 5e-4);
     // A body the scene does not permit.
@@ -186,7 +184,7 @@ fn the_guided_moves_largest_speed_is_held_to_the_envelope_too() {
     // 1.2 N (target + deadband) to the 5 N limit over the 85 ms of the
     // loop's bounds; 0.5 m/s is refused.
     let guided = Scene::builtin(TaskKind::Guided).unwrap();
-    let speed = task_envelope(&guided.controller).unwrap();
+    let speed = task_envelope(&guided.controller, &guided.tasks).unwrap();
     assert_eq!(
         (speed.key, speed.body.as_str()),
         ("pd.max_speed_mps", "fingertip")

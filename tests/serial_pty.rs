@@ -253,16 +253,17 @@ fn a_lost_port_goes_stale_and_the_stream_resumes_when_it_returns() {
 
 #[test]
 fn when_the_sensor_goes_stale_the_controller_stops_the_arm() {
-    use tactile_force::control::TaskKind;
+    use tactile_force::control::{ForceController, JointState, TaskKind};
     use tactile_force::learn::default_model;
-    use tactile_force::nodes::{EstimatorNode, ForceController, JointState};
+    use tactile_force::nodes::EstimatorNode;
     use tactile_force::runtime::Scene;
 
     let scene = Scene::builtin(TaskKind::Guarded).unwrap();
     let robot = tactile_force::kinematics::Robot::pa10();
     let q0 = scene.sim.start_joints_deg.clone().unwrap();
     let q = robot.positions_from_deg_mm("start", &q0).unwrap();
-    let mut controller = ForceController::new(scene.controller.clone(), robot).unwrap();
+    let mut controller =
+        ForceController::new(scene.controller.clone(), robot, &scene.tasks).unwrap();
     let recipe = scene.estimator.clone().default_model;
     let model = default_model::train(&recipe).unwrap();
     let mut estimator: EstimatorNode = EstimatorNode::new(Box::new(model), false).unwrap();

@@ -115,9 +115,9 @@ impl Goal for CalibrateGoal {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::control::TaskKind;
+    use crate::control::{ForceController, TaskKind};
     use crate::kinematics::Robot;
-    use crate::nodes::ForceController;
+    use crate::nodes::tasks::shipped;
     use crate::outputs::models_dir::Refusal;
     use crate::runtime::scene::Scene;
 
@@ -140,12 +140,13 @@ mod tests {
             (DEFAULT_SURFACE, &[DEFAULT_SURFACE.to_string()][..])
         );
         assert_eq!(p.axes, AxisSet::forces());
-        ForceController::for_goal(&CalibrateGoal::default(), &base, Robot::pa10()).unwrap();
+        ForceController::for_goal(&CalibrateGoal::default(), &base, Robot::pa10(), &shipped())
+            .unwrap();
         let granite = CalibrateGoal {
             surface: "granite".into(),
             ..Default::default()
         };
-        let e = ForceController::for_goal(&granite, &base, Robot::pa10())
+        let e = ForceController::for_goal(&granite, &base, Robot::pa10(), &shipped())
             .unwrap_err()
             .to_string();
         assert!(e.contains("granite"), "{e}");

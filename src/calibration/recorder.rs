@@ -10,8 +10,9 @@
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
+use super::CalibrateMove;
 use crate::biotac::BioTacReading;
-use crate::control::StopReason;
+use crate::control::{StopReason, Task};
 use crate::learn::data::bag::{BagError, SessionWriter};
 use crate::record::Record;
 use crate::wrench::{Wrench, WrenchEstimate};
@@ -170,6 +171,13 @@ impl CalibrationRecorder {
             }
             None => keep_last(&mut self.readings, r),
         }
+    }
+
+    /// [`CalibrationRecorder::on_ft`] while `task` runs: labelled with its
+    /// push when it is a calibration.
+    pub fn on_ft_while(&mut self, stamp_s: f64, w: Wrench, task: &dyn Task) -> WrenchEstimate {
+        let label = CalibrateMove::of(task).and_then(CalibrateMove::label);
+        self.on_ft(stamp_s, w, label)
     }
 
     /// Takes the F/T wrench (BioTac frame) stamped `stamp_s` while the

@@ -22,13 +22,14 @@ use std::any::Any;
 use nalgebra::{Isometry3, Rotation3, Vector3};
 
 use super::pattern::{pattern, CalibrateParams, Push, PushKind};
+use super::CalibrateGoal;
 use crate::contact::BodyParams;
 use crate::control::guarded::{GuardedInput, GuardedMove, GuardedParams};
 use crate::control::rules::Watch;
 use crate::control::task::{
     ForceLaw, OffAxis, Task, TaskEnvelope, TaskInput, TaskLoop, TaskReport, TaskSection,
 };
-use crate::control::{ForceLimit, Phase, StopReason};
+use crate::control::{ControllerParams, ForceLimit, Goal, OutsideGoal, Phase, StopReason};
 use crate::kinematics::Twist;
 use crate::params::{Check, Checked, ParamsError};
 use crate::wrench::Axis;
@@ -332,6 +333,15 @@ impl TaskSection for CalibrateParams {
             approach_speed_mps: Some(p.approach_speed_mps),
             off_axis: OffAxis::Nothing,
         }
+    }
+
+    /// Outside a goal it waits, the arm still, for a `calibrate` goal (the
+    /// default goal's surface and axes).
+    fn outside_goal(p: ControllerParams) -> Result<OutsideGoal, ParamsError> {
+        Ok(OutsideGoal {
+            params: CalibrateGoal::default().apply(&p)?,
+            waits: true,
+        })
     }
 }
 

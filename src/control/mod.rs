@@ -1,9 +1,11 @@
-//! Force control: the controller's parameters, the PD force law, the
-//! guarded and guided tasks behind one task seam ([`task`]), the safety
-//! checks and the safety envelope (how fast a task may move towards a
-//! body). Everything here is in the BioTac (tool) frame and in SI units;
-//! [`crate::nodes::force_controller::controller`] turns the result into joint velocities.
+//! Force control: the controller ([`controller`], its stages), its
+//! parameters, the PD force law, the guarded and guided tasks behind one
+//! task seam ([`task`]), the stability rules ([`rules`]) and the safety
+//! envelope (how fast a task may move towards a body). The tasks work in
+//! the BioTac (tool) frame and in SI units; the controller turns their
+//! velocity into joint velocities.
 
+pub mod controller;
 pub mod envelope;
 pub mod guarded;
 pub mod guided;
@@ -18,6 +20,7 @@ pub mod task;
 pub mod tuning;
 pub mod window;
 
+pub use controller::{task_envelope, ControlOutput, ForceController, JointState};
 pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
 pub use guided::{GuidedMove, GuidedParams};
@@ -27,8 +30,8 @@ pub use pd::{LoopDelays, PdAxis, PdParams};
 pub use rules::{ForceLimit, Rule, RuleChain};
 pub use safety::{Halt, Watchdog};
 pub use task::{
-    OffAxis, Task, TaskEnvelope, TaskFigures, TaskKind, TaskLoop, TaskRegistry, TaskReport,
-    TaskSection,
+    OffAxis, OutsideGoal, Task, TaskEnvelope, TaskFigures, TaskKind, TaskLoop, TaskRegistry,
+    TaskReport, TaskSection,
 };
 pub use tuning::{LoopTiming, Margins};
 pub use window::Arrivals;

@@ -22,7 +22,9 @@ use serde::Serialize;
 
 use super::rules::{ForceLimit, Watch};
 use super::tuning::LoopTiming;
-use super::{Envelope, LoopDelays, OscillationParams, PdParams, Phase, StopReason};
+use super::{
+    ControllerParams, Envelope, LoopDelays, OscillationParams, PdParams, Phase, StopReason,
+};
 use crate::contact::{BodyParams, SkinParams};
 use crate::kinematics::Twist;
 use crate::params::reference::{params_of, ParamDoc};
@@ -167,6 +169,24 @@ pub trait TaskSection: DeserializeOwned + Serialize + JsonSchema + Check + 'stat
     fn report(_p: &Checked<Self>) -> TaskReport {
         TaskReport::default()
     }
+
+    /// Outside a goal: the parameters the task is built with, and whether
+    /// it then waits, the arm still, for a goal. By default it runs on `p`.
+    fn outside_goal(p: ControllerParams) -> Result<OutsideGoal, ParamsError> {
+        Ok(OutsideGoal {
+            params: p,
+            waits: false,
+        })
+    }
+}
+
+/// How a task runs outside a goal (a `task` parameter, not an action).
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutsideGoal {
+    /// The parameters it is built with.
+    pub params: ControllerParams,
+    /// True: it waits, the arm still, for a goal of its action.
+    pub waits: bool,
 }
 
 /// What a run's report reads of a task's settings.
@@ -212,6 +232,7 @@ pub struct TaskEntry {
     build: BuildFn,
     envelope: EnvelopeFn,
     report: ReportFn,
+    outside_goal: fn(ControllerParams) -> Result<OutsideGoal, ParamsError>,
     params: fn() -> Vec<ParamDoc>,
 }
 
@@ -229,6 +250,7 @@ impl TaskEntry {
             build: |raw, lp, body| Ok(S::build(read_section::<S>(raw)?, lp, body)),
             envelope: |raw, lp, body, name| S::envelope(&read_section::<S>(raw)?, lp, body, name),
             report: |raw| Ok(S::report(&read_section::<S>(raw)?)),
+            outside_goal: S::outside_goal,
             params: || params_of::<S>(S::NAME),
         }
     }
@@ -262,6 +284,11 @@ impl TaskEntry {
     /// What a run's report reads of the section `raw`.
     pub fn report(&self, raw: &RawSection) -> Result<TaskReport, ParamsError> {
         (self.report)(raw)
+    }
+
+    /// How the task runs outside a goal on `p` ([`TaskSection::outside_goal`]).
+    pub fn outside_goal(&self, p: ControllerParams) -> Result<OutsideGoal, ParamsError> {
+        (self.outside_goal)(p)
     }
 }
 

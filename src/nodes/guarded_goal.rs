@@ -3,8 +3,7 @@
 //! parameters with the goal's fields applied, checked like any scene (the
 //! safety envelope included), and how the move ended, for the result.
 
-use super::ControlOutput;
-use crate::control::{ControllerParams, Goal, GuardedParams, Phase, TaskSection};
+use crate::control::{ControlOutput, ControllerParams, Goal, GuardedParams, Phase, TaskSection};
 use crate::params::ParamsError;
 
 /// A guarded-move goal; zero fields keep the parameter's value.
@@ -55,9 +54,9 @@ pub fn guarded_outcome(out: &ControlOutput) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::control::TaskKind;
+    use crate::control::{ForceController, TaskKind};
     use crate::kinematics::Robot;
-    use crate::nodes::ForceController;
+    use crate::nodes::tasks::shipped;
     use crate::runtime::scene::Scene;
 
     fn goal(speed_mps: f64) -> GuardedGoal {
@@ -83,15 +82,17 @@ mod tests {
         assert_eq!(g.approach_speed_mps, 0.02);
         assert_eq!(g.target_force_n, b.target_force_n);
         assert_eq!(g.direction, b.direction);
-        ForceController::for_goal(&goal(0.02), &base, Robot::pa10()).unwrap();
-        assert!(ForceController::for_goal(&goal(f64::NAN), &base, Robot::pa10()).is_err());
+        ForceController::for_goal(&goal(0.02), &base, Robot::pa10(), &shipped()).unwrap();
+        assert!(
+            ForceController::for_goal(&goal(f64::NAN), &base, Robot::pa10(), &shipped()).is_err()
+        );
     }
 
     #[test]
     fn a_goal_beyond_the_safety_envelope_is_refused_with_the_limit() {
         let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
         for speed in [0.2, 5.0] {
-            let e = ForceController::for_goal(&goal(speed), &base, Robot::pa10())
+            let e = ForceController::for_goal(&goal(speed), &base, Robot::pa10(), &shipped())
                 .unwrap_err()
                 .to_string();
             assert!(
@@ -103,7 +104,7 @@ mod tests {
             target_force_n: 4.0,
             ..goal(0.01)
         };
-        let e = ForceController::for_goal(&over, &base, Robot::pa10())
+        let e = ForceController::for_goal(&over, &base, Robot::pa10(), &shipped())
             .unwrap_err()
             .to_string();
         assert!(e.contains("force_limit_n"), "a target past the limit: {e}");
@@ -112,7 +113,8 @@ mod tests {
     #[test]
     fn the_outcome_is_known_only_when_the_move_holds_or_stops() {
         let base = Scene::builtin(TaskKind::Guarded).unwrap().controller;
-        let mut c = ForceController::for_goal(&goal(0.0), &base, Robot::pa10()).unwrap();
+        let mut c =
+            ForceController::for_goal(&goal(0.0), &base, Robot::pa10(), &shipped()).unwrap();
         let out = c.tick(0.0);
         assert!(out.halt.is_some(), "no input yet: the watchdog halts");
         assert_eq!(guarded_outcome(&out), None);

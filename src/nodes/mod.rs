@@ -2,11 +2,11 @@
 //! node is a plain struct with step methods; the lockstep runtime
 //! ([`crate::runtime`]) and the ROS 2 adapter only move messages between them.
 //!
-//! - [`wrench_estimator::EstimatorNode`]: BioTac readings -> wrench estimates (GP);
-//! - [`force_controller::controller::ForceController`]: estimates and joint states -> joint velocities,
-//!   running a task of [`tasks`] (the registration);
-//!   [`force_controller::ForceControllerNode`]: the node around it (robot
-//!   description, task switch, goals, the estimate's halves, status);
+//! - [`wrench_estimator::EstimatorNode`]: BioTac readings -> wrench estimates;
+//! - [`force_controller::ForceControllerNode`]: the node around the
+//!   controller ([`crate::control::ForceController`], running a task of
+//!   [`tasks`], the registration): robot description, task switch, goals,
+//!   the estimate's halves, status;
 //!   [`guarded_goal`]: a guarded-move goal applied to it, and its outcome;
 //!   [`loop_delay`]: the delay it actually sees, from header stamps;
 //! - [`bounds`]: what a peer may send a node (message sizes, goal and
@@ -27,21 +27,11 @@ pub mod status;
 pub mod tasks;
 pub mod wrench_estimator;
 
-pub use force_controller::controller::{ControlOutput, ForceController};
 pub use sim_robot::{SimRobot, SimRobotParams, SimSample};
 pub use wrench_estimator::EstimatorNode;
 
-use crate::kinematics::{JointVector, Robot};
+use crate::kinematics::Robot;
 use crate::params::ParamsError;
-
-/// Joint positions at a time (the `joint_states` topic).
-#[derive(Debug, Clone, PartialEq)]
-pub struct JointState {
-    /// Time of the measurement (s).
-    pub stamp_s: f64,
-    /// Joint positions (rad or m), one per joint in chain order.
-    pub q: JointVector,
-}
 
 /// The arm's joint names on `joint_states`: `remap` (one per joint of the
 /// chain), or the URDF's when `remap` is empty.

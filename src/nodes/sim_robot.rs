@@ -19,11 +19,11 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::JointState;
 use crate::biotac::geometry::SurfacePoint;
 use crate::biotac::sim::{gaussian, BioTacSim, BioTacSimConfig, Contact};
 use crate::biotac::BioTacReading;
 use crate::contact::{object_body, BodyParams, SkinParams};
+use crate::control::JointState;
 use crate::kinematics::{JointVector, Robot, RobotParams};
 use crate::params::reference::check_ranges;
 use crate::params::{invalid, Check, Checked, ParamsError};

@@ -17,8 +17,9 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::TraceRow;
-use crate::control::{ControllerParams, OffAxis, Phase, StopReason, TaskRegistry, TaskReport};
-use crate::nodes::ForceController;
+use crate::control::{
+    ControllerParams, ForceController, OffAxis, Phase, StopReason, TaskRegistry, TaskReport,
+};
 use crate::params::ParamsError;
 use crate::wrench::Axis;
 

@@ -14,12 +14,12 @@ use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiAr
 use r2r::tf2_msgs::msg::TFMessage;
 
 use crate::biotac::msg::{join_stamp, split_stamp};
+use crate::control::JointState;
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{JointVector, Twist as TwistVector};
 use crate::nail::NailFrame;
 use crate::nodes::force_controller::tool_frame::StaticTransform;
 use crate::nodes::status::{Level, Status};
-use crate::nodes::JointState;
 use crate::wrench::Wrench;
 use crate::wrench::WrenchEstimate;
 

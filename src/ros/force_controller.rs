@@ -1,5 +1,5 @@
 //! `force_controller`: `joint_states` (sensor_msgs/JointState),
-//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`](crate::nodes::force_controller::controller::ForceController) ->
+//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`](crate::control::ForceController) ->
 //! `velocity_controller/commands` (std_msgs/Float64MultiArray, one velocity
 //! per joint in chain order: the ros2_control JointGroupVelocityController
 //! convention), or with `command_interface: twist`, `twist_commands`
@@ -22,7 +22,7 @@
 //! up to a period later on a timer of its own. With no estimate for longer
 //! than the bound it measured, it commands zero velocity, every period,
 //! until estimates return
-//! ([`estimate_late`](crate::nodes::force_controller::controller::ForceController::estimate_late)).
+//! ([`estimate_late`](crate::control::ForceController::estimate_late)).
 //! The age of each estimate's reading when stepped on is measured from its
 //! stamp ([`LoopDelayMonitor`](crate::nodes::loop_delay::LoopDelayMonitor)) and
 //! reported on `/diagnostics` once a second, with a warning when it exceeds

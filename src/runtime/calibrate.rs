@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use crate::biotac::BioTacSimConfig;
-use crate::calibration::{CalibrateMove, CalibrationRecorder, Ended, SessionEnd};
+use crate::calibration::{CalibrationRecorder, Ended, SessionEnd};
 use crate::control::Phase;
 use crate::learn::data::bag::SessionWriter;
 use crate::record::Record;
@@ -72,8 +72,8 @@ pub fn record_to(
         recorder.on_reading(sample.reading);
         if let Some(w) = ft {
             // Refused when not finite: the watchdog then halts the arm.
-            let label = CalibrateMove::of(controller.task()).and_then(CalibrateMove::label);
-            let _ = controller.on_estimate(recorder.on_ft(sample.t, w, label));
+            let e = recorder.on_ft_while(sample.t, w, controller.task());
+            let _ = controller.on_estimate(e);
         }
         let _ = controller.on_joint_state(&sample.joints);
         let output = controller.tick(sample.t);

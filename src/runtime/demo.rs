@@ -8,10 +8,9 @@ use serde::Serialize;
 use super::scene::{Scene, SceneError};
 use super::{run, Pacing};
 use crate::biotac::BioTacSimConfig;
-use crate::control::Envelope;
+use crate::control::{task_envelope, Envelope};
 use crate::exit::{Classify, ExitClass};
 use crate::learn::models::wrench_model::WrenchModel;
-use crate::nodes::force_controller::controller::task_envelope;
 use crate::report::summary::{summarize, Identified, RunInfo, Summary};
 use crate::report::TraceRow;
 use crate::sensor::SensorSpec;
@@ -142,7 +141,8 @@ pub fn sweep_speeds(
     let envelopes = objects
         .iter()
         .map(|o| {
-            let speed = task_envelope(&scene.clone().with_only_object(o).controller)?;
+            let only = scene.clone().with_only_object(o);
+            let speed = task_envelope(&only.controller, &only.tasks)?;
             Ok(SweepObject {
                 object: o.clone(),
                 stiffness_n_per_m: speed.envelope.stiffness_n_per_m,

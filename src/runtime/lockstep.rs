@@ -13,9 +13,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::biotac::BioTacReading;
-use crate::control::Phase;
+use crate::control::{ControlOutput, ForceController, Phase};
 use crate::nodes::wrench_estimator::EstimatorError;
-use crate::nodes::{ControlOutput, EstimatorNode, ForceController, SimRobot, SimSample};
+use crate::nodes::{EstimatorNode, SimRobot, SimSample};
 use crate::report::TraceRow;
 use crate::wrench::WrenchEstimate;
 

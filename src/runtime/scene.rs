@@ -11,12 +11,14 @@ use std::path::{Path, PathBuf};
 
 use crate::biotac::BioTacSimConfig;
 use crate::contact::BodyParams;
-use crate::control::{ControllerParams, GuardedParams, Rule, RuleChain, TaskKind, TaskRegistry};
+use crate::control::{
+    ControllerParams, ForceController, GuardedParams, Rule, RuleChain, TaskKind, TaskRegistry,
+};
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{Robot, RobotError, ShippedRobot};
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::wrench_estimator::{EstimatorError, EstimatorParams};
-use crate::nodes::{tasks, EstimatorNode, ForceController, SimRobot, SimRobotParams};
+use crate::nodes::{tasks, EstimatorNode, SimRobot, SimRobotParams};
 use crate::params::{layered_node_params, ParamsError, WORLD_YAML};
 use crate::runtime::lockstep::Link;
 use crate::runtime::Nodes;
@@ -285,8 +287,7 @@ impl Scene {
         }
         let robot = Robot::from_urdf(&self.description, &cp.robot)?;
         let sim_robot = Robot::from_urdf(&self.description, &sp.robot)?;
-        let mut controller =
-            ForceController::with_tasks(cp, robot, &self.tasks)?.with_rules(&self.rules);
+        let mut controller = ForceController::new(cp, robot, &self.tasks)?.with_rules(&self.rules);
         let link = Link::new(sp.transport_delay_s, sp.transport_jitter_s, seed);
         let sim = SimRobot::new(sp, sim_robot, sensor, seed)?;
         controller.check_start(sim.joints())?;
@@ -353,7 +354,7 @@ mod tests {
         let s = Scene::builtin(TaskKind::Guarded)
             .unwrap()
             .with_object("teapot");
-        let e = ForceController::new(s.controller, Robot::pa10())
+        let e = ForceController::new(s.controller, Robot::pa10(), &s.tasks)
             .unwrap_err()
             .to_string();
         assert!(e.contains("teapot") && e.contains("wooden_box"), "{e}");
@@ -365,7 +366,7 @@ mod tests {
             .to_string();
         assert!(e.contains("gap_mm"), "{e}");
         let s = layers("force_controller:\n  ros__parameters:\n    task: guided\n").unwrap();
-        let e = ForceController::new(s.controller, Robot::pa10())
+        let e = ForceController::new(s.controller, Robot::pa10(), &s.tasks)
             .unwrap_err()
             .to_string();
         assert!(e.contains("guided"), "a guided task needs its section: {e}");

@@ -6,9 +6,9 @@ use r2r::builtin_interfaces::msg::Time;
 use r2r::geometry_msgs::msg::{Vector3, Wrench as WrenchMsg, WrenchStamped};
 use r2r::sensor_msgs::msg::Image;
 use r2r::std_msgs::msg::{Float64MultiArray, Header};
+use tactile_force::control::JointState;
 use tactile_force::kinematics::{JointVector, Twist as TwistVector};
 use tactile_force::nodes::force_controller::tool_frame::StaticTransform;
-use tactile_force::nodes::JointState;
 use tactile_force::ros::convert::*;
 use tactile_force::wrench::{Wrench, WrenchEstimate};
 

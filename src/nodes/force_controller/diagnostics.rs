@@ -5,7 +5,7 @@
 //! what its input guard refused.
 
 use super::ForceControllerNode;
-use crate::nodes::force_controller::controller::ForceController;
+use crate::control::ForceController;
 use crate::nodes::status::{Level, Status};
 
 impl ForceControllerNode {

@@ -9,24 +9,14 @@
 
 use super::ForceControllerNode;
 use crate::calibration::{CalibrateGoal, CalibrateMove, CalibrationRecorder, Ended};
-use crate::control::{Phase, TaskKind};
+use crate::control::{ForceController, Phase, TaskKind};
 use crate::learn::data::bag::SessionWriter;
 use crate::nodes::guarded_goal::{guarded_outcome, GuardedGoal};
-use crate::nodes::ForceController;
 
 /// How long a canceled goal's pad may take to leave contact before it is
 /// stopped where it is (s): a retract of a few millimetres and a turn back
 /// take 1-3 s.
 pub const WITHDRAW_S: f64 = 10.0;
-
-/// The goal running.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Running {
-    /// A guarded move.
-    Guarded,
-    /// A calibration: the F/T wrench is the force.
-    Calibrate,
-}
 
 /// Where a guarded move is.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,7 +64,7 @@ impl ForceControllerNode {
         &self,
         build: impl FnOnce(&Self, crate::kinematics::Robot) -> Result<ForceController, String>,
     ) -> Result<ForceController, String> {
-        if self.goal.is_some() {
+        if self.goal {
             return Err("a goal is running: cancel it first".into());
         }
         let robot = self
@@ -89,9 +79,9 @@ impl ForceControllerNode {
     /// Starts a guarded move, or says why not.
     pub fn start_guarded(&mut self, goal: &GuardedGoal) -> Result<(), String> {
         let c = self.goal_controller(|n, robot| {
-            ForceController::for_goal(goal, &n.base, robot).map_err(|e| e.to_string())
+            ForceController::for_goal(goal, &n.base, robot, &n.tasks).map_err(|e| e.to_string())
         })?;
-        self.begin(c, Running::Guarded, TaskKind::Guarded);
+        self.begin(c, TaskKind::Guarded);
         Ok(())
     }
 
@@ -105,9 +95,9 @@ impl ForceControllerNode {
         session: Option<SessionWriter>,
     ) -> Result<(), String> {
         let c = self.goal_controller(|n, robot| {
-            ForceController::for_goal(goal, &n.base, robot).map_err(|e| e.to_string())
+            ForceController::for_goal(goal, &n.base, robot, &n.tasks).map_err(|e| e.to_string())
         })?;
-        self.begin(c, Running::Calibrate, TaskKind::Calibrate);
+        self.begin(c, TaskKind::Calibrate);
         let recorder = CalibrationRecorder::new(now);
         self.calibration = Some(match session {
             Some(w) => recorder.with_session(w),
@@ -119,14 +109,14 @@ impl ForceControllerNode {
 
     /// Runs `c` for a goal; it goes on from what the controller it
     /// replaces measured of the loop (the same arm).
-    fn begin(&mut self, mut c: ForceController, goal: Running, task: TaskKind) {
+    fn begin(&mut self, mut c: ForceController, task: TaskKind) {
         if let Some(before) = &self.controller {
             c.measured_from(before);
         }
         self.asked = true;
         self.controller = Some(c);
         self.task = task.name().into();
-        self.goal = Some(goal);
+        self.goal = true;
         self.last = None;
         self.withdrawing_since = None;
     }
@@ -216,7 +206,7 @@ impl ForceControllerNode {
     /// The goal is over (done, aborted, canceled, or never accepted): a
     /// task switch or a new goal may come.
     pub fn end_goal(&mut self) {
-        self.goal = None;
+        self.goal = false;
         self.calibration = None;
         self.withdrawing_since = None;
     }

@@ -7,7 +7,8 @@
 //!   does; the joints' names on `joint_states`; the BioTac frame on its
 //!   tip ([`tool_frame`]);
 //! - the task: the parameter `task`, switched while running, checked as at
-//!   start-up; `calibrate` waits, the arm still, for a calibration goal;
+//!   start-up; a task that waits for its goal (the calibration) waits, the arm
+//!   still ([`crate::control::TaskSection::outside_goal`]);
 //! - the goals of its actions and their life cycle ([`goals`]);
 //! - the force: the estimate's mean and std paired by stamp
 //!   ([`estimates`]), or while a calibration records, the F/T wrench
@@ -18,7 +19,6 @@
 //!   [`InputGuard`] refused: messages over their size, goals and parameter
 //!   sets over their rates.
 
-pub mod controller;
 pub mod estimates;
 pub mod goals;
 pub mod tool_frame;
@@ -30,17 +30,18 @@ use nalgebra::Vector3;
 use std::sync::Arc;
 
 use super::bounds::InputGuard;
+use super::joint_names;
 use super::loop_delay::LoopDelayMonitor;
-use super::{joint_names, ControlOutput, ForceController, JointState};
 use crate::biotac::BioTacReading;
-use crate::calibration::{CalibrateGoal, CalibrateMove, CalibrationRecorder};
-use crate::control::{ControllerParams, Halt, Phase, TaskKind, TaskRegistry};
+use crate::calibration::CalibrationRecorder;
+use crate::control::{
+    task_envelope, ControlOutput, ControllerParams, ForceController, Halt, JointState, OutsideGoal,
+    Phase, TaskKind, TaskRegistry,
+};
 use crate::kinematics::{Robot, RobotError};
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
 use crate::wrench::{FrameTransform, Wrench};
-use controller::task_envelope;
 use estimates::EstimatePairing;
-use goals::Running;
 
 /// What the node publishes (the parameter `command_interface`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -138,7 +139,8 @@ pub struct ForceControllerNode {
     /// False until a goal or a `task` set asks for motion (true from the
     /// start with `autostart`): until then the controller commands zero.
     asked: bool,
-    goal: Option<Running>,
+    /// True while a goal runs (from its start until it ends).
+    goal: bool,
     /// When the goal running was canceled: its pad withdraws.
     withdrawing_since: Option<f64>,
     /// While a calibration runs, its recording: the F/T wrench, not the
@@ -187,7 +189,7 @@ impl ForceControllerNode {
         remap: Vec<String>,
         ft_to_biotac: Option<FrameTransform>,
     ) -> Result<Self, ParamsError> {
-        ForceController::check_with(&base, &tasks)?;
+        ForceController::check(&base, &tasks)?;
         Ok(ForceControllerNode {
             task: base.task.clone(),
             asked: base.autostart,
@@ -198,7 +200,7 @@ impl ForceControllerNode {
             ft_to_biotac,
             arm: None,
             controller: None,
-            goal: None,
+            goal: false,
             withdrawing_since: None,
             calibration: None,
             pairing: EstimatePairing::default(),
@@ -245,7 +247,7 @@ impl ForceControllerNode {
             .last
             .as_ref()
             .is_some_and(|o| o.phase == Phase::STOPPED);
-        self.goal.is_some() || (begun && !stopped)
+        self.goal || (begun && !stopped)
     }
 
     /// Takes a robot description: the controller is built for its arm with
@@ -279,27 +281,30 @@ impl ForceControllerNode {
         Ok(true)
     }
 
-    /// The controller of `task` outside a goal; the calibration's waits,
-    /// the arm still, for a calibration goal.
-    fn built(&self, task: &str, robot: Robot) -> Result<ForceController, ParamsError> {
+    /// How `task` runs outside a goal, on the start-up parameters.
+    fn outside_goal(&self, task: &str) -> Result<OutsideGoal, ParamsError> {
         let p = ControllerParams {
             task: task.into(),
             ..self.base.clone()
         };
-        if task != TaskKind::Calibrate.name() {
-            let mut c = ForceController::with_tasks(p, robot, &self.tasks)?;
-            if !self.asked {
-                c.stop();
-                tracing::info!(
-                    "task {task}: commanding zero velocity until asked (a goal, or the \
-                     parameter task set; autostart: false)"
-                );
-            }
-            return Ok(c);
+        self.tasks.get(task)?.outside_goal(p)
+    }
+
+    /// The controller of `task` outside a goal: still until asked, or,
+    /// for a task that waits for its goal, until that goal.
+    fn built(&self, task: &str, robot: Robot) -> Result<ForceController, ParamsError> {
+        let OutsideGoal { params, waits } = self.outside_goal(task)?;
+        let mut c = ForceController::new(params, robot, &self.tasks)?;
+        if waits {
+            c.stop();
+            tracing::info!("task {task}: the arm waits for a goal of its action");
+        } else if !self.asked {
+            c.stop();
+            tracing::info!(
+                "task {task}: commanding zero velocity until asked (a goal, or the parameter \
+                 task set; autostart: false)"
+            );
         }
-        let mut c = ForceController::for_goal(&CalibrateGoal::default(), &p, robot)?;
-        c.stop();
-        tracing::info!("task calibrate: the arm waits for a ~/calibrate goal");
         Ok(c)
     }
 
@@ -309,7 +314,7 @@ impl ForceControllerNode {
     /// one arrives.
     pub fn set_task(&mut self, name: &str, apply: bool) -> Result<(), String> {
         self.tasks.get(name).map_err(|e| e.to_string())?;
-        if self.goal.is_some() {
+        if self.goal {
             return Err("a goal is running (guarded_move or calibrate): cancel it first".into());
         }
         if name == self.task && self.running() {
@@ -325,16 +330,8 @@ impl ForceControllerNode {
             ),
             // Checked now, built when a description arrives.
             None => {
-                let p = ControllerParams {
-                    task: name.into(),
-                    ..self.base.clone()
-                };
-                let p = if name == TaskKind::Calibrate.name() {
-                    crate::control::Goal::apply(&CalibrateGoal::default(), &p)
-                } else {
-                    Ok(p)
-                };
-                p.and_then(|p| ForceController::check_with(&p, &self.tasks))
+                self.outside_goal(name)
+                    .and_then(|o| ForceController::check(&o.params, &self.tasks))
                     .map_err(|e| e.to_string())?;
                 None
             }
@@ -425,14 +422,9 @@ impl ForceControllerNode {
             ForcePart::Std if !calibrating => self.pairing.std((stamp_s, w), self.pdc_rise),
             ForcePart::Ft if calibrating => {
                 let w = self.ft_to_biotac.map_or(w, |t| t.apply(&w));
-                let label = self
-                    .controller
-                    .as_ref()
-                    .and_then(|c| CalibrateMove::of(c.task()))
-                    .and_then(CalibrateMove::label);
-                self.calibration
-                    .as_mut()
-                    .map(|r| r.on_ft(stamp_s, w, label))
+                let task = self.controller.as_ref()?.task();
+                let recorder = self.calibration.as_mut()?;
+                Some(recorder.on_ft_while(stamp_s, w, task))
             }
             _ => None,
         }?;
@@ -498,7 +490,7 @@ impl ForceControllerNode {
     /// What the node runs, for its start-up log line.
     pub fn summary(&self) -> Result<String, ParamsError> {
         let p = &self.base;
-        let envelope = task_envelope(p)?.envelope;
+        let envelope = task_envelope(p, &self.tasks)?.envelope;
         Ok(format!(
             "task {} on {}, loop delays {:?}, speed limit {:.1} mm/s (safety envelope for the \
              stiffest permitted body, {:.1e} N/m)",

@@ -2,7 +2,7 @@ use nalgebra::Vector3;
 
 use super::goals::{CalibrationProgress, WITHDRAW_S};
 use super::*;
-use crate::calibration::Ended;
+use crate::calibration::{CalibrateGoal, Ended};
 use crate::control::{Halt, StopReason};
 use crate::kinematics::{JointVector, ShippedRobot};
 use crate::nodes::guarded_goal::GuardedGoal;

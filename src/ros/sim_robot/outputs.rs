@@ -7,7 +7,8 @@ use r2r::QosProfile;
 
 use super::settings::Settings;
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
-use crate::nodes::{JointState, SimRobot};
+use crate::control::JointState;
+use crate::nodes::SimRobot;
 use crate::ros::{convert, RosError};
 
 /// What the node publishes.

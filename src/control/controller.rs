@@ -1,29 +1,36 @@
-//! The force controller node: each tick it checks its inputs (present and
-//! finite, else zero velocity), runs the stability rules, then the task (one
-//! of its registry) in the BioTac frame, and turns the BioTac's velocity
-//! into joint velocities with the damped least-squares inverse. The
-//! BioTac's orientation is held (zero angular velocity). An arm with fewer than six joints runs a task only if
-//! it can move the BioTac along each of the task's directions at the start
-//! pose; otherwise the task stops at once (`unrealisable_axis`), and
-//! [`ForceController::check_start`] names the axis before a run.
+//! The force controller: each cycle runs named stages, a halt ending it
+//! with zero velocity:
 //!
-//! Update pipeline: inputs -> stability rules (control/rules.rs) -> task ->
-//! twist (base frame) -> DLS -> command. A tick allocates nothing: the
-//! command is read with [`ForceController::command`].
+//! 1. estimate in (controller/inputs.rs): the newest wrench estimate and
+//!    joint state, present, finite and fresh;
+//! 2. checks: the stability rules ([`RuleChain`], src/control/rules.rs,
+//!    each a [`crate::control::Rule`]): halt, stop the task, or soften it;
+//! 3. task (a [`Task`] of the controller's [`TaskRegistry`]): the BioTac's
+//!    velocity from the force, in the BioTac frame, its orientation held;
+//! 4. inverse kinematics -> command (controller/joint_command.rs): the joint
+//!    velocities by the damped least-squares inverse.
+//!
+//! There is no filter stage: the estimate's own std is what the rules and
+//! the tasks read. An arm with fewer than six joints runs a task only if it
+//! can move the BioTac along each of the task's directions at the start
+//! pose; otherwise the task stops at once (`unrealisable_axis`), and
+//! [`ForceController::check_start`] names the axis before a run. A cycle
+//! allocates nothing: the command is read with [`ForceController::command`].
 
 use nalgebra::{Isometry3, Vector3};
 
-use crate::control::identify::{ArmResponse, LoopMeter};
-use crate::control::rules::{RuleInput, Verdict};
-use crate::control::task::{missing_axis, TaskInput, TaskRegistry};
-use crate::control::{
-    Arrivals, ControllerParams, Envelope, Goal, Halt, LoopTiming, OutOfRangeParams, Phase,
-    RuleChain, StopReason, Task, Watchdog,
+use super::identify::{ArmResponse, LoopMeter};
+use super::rules::{RuleInput, Verdict};
+use super::task::{missing_axis, TaskInput, TaskRegistry};
+use super::{
+    Arrivals, ControllerParams, Envelope, Goal, Halt, LoopTiming, Phase, RuleChain, StopReason,
+    Task,
 };
-use crate::kinematics::{Dls, JointVector, Robot, Twist};
-use crate::nodes::{tasks, JointState};
+use crate::kinematics::{JointVector, Robot, Twist};
 use crate::params::ParamsError;
 use crate::wrench::{Axis, AxisSet, WrenchEstimate};
+use inputs::{Inputs, Reading};
+use joint_command::JointCommand;
 pub use sections::task_envelope;
 use sections::{stiffest_permitted, Sections};
 
@@ -38,6 +45,15 @@ impl StopReason {
 /// fraction of the commanded motion, for a task direction to count as
 /// realisable at the start pose.
 pub const REALISABLE_TOLERANCE: f64 = 0.01;
+
+/// Joint positions at a time (the `joint_states` topic).
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointState {
+    /// Time of the measurement (s).
+    pub stamp_s: f64,
+    /// Joint positions (rad or m), one per joint in chain order.
+    pub q: JointVector,
+}
 
 /// What the controller commands this tick (the joint velocities are
 /// [`ForceController::command`]).
@@ -61,29 +77,21 @@ pub struct ControlOutput {
 #[derive(Debug, Clone)]
 pub struct ForceController {
     robot: Robot,
-    dls: Dls,
-    command: JointVector,
-    twist: Twist,
-    task: Box<dyn Task>,
-    axes: AxisSet,
-    task_axes: Vec<Axis>,
-    out_of_range: OutOfRangeParams,
-    /// The stability rules run before the task each cycle.
+    /// Estimate in.
+    inputs: Inputs,
+    /// Checks: the stability rules, run before the task each cycle.
     rules: RuleChain,
-    /// The joint states' age limit.
-    watchdog: Watchdog,
+    task: Box<dyn Task>,
+    /// Inverse kinematics -> command.
+    out: JointCommand,
+    axes: AxisSet,
     /// Estimates may come this many of their periods late (`stale_periods`).
     stale_periods: f64,
     meter: LoopMeter,
     envelope: Envelope,
     period_s: f64,
-    estimate: Option<WrenchEstimate>,
-    /// The stamp of the estimate last stepped on.
-    stepped_stamp: Option<f64>,
-    joints: Option<JointState>,
     start: Option<Isometry3<f64>>,
     last_tick: Option<f64>,
-    rejected: u64,
     refusal: Option<String>,
 }
 
@@ -119,22 +127,10 @@ impl CheckedTask {
 
 impl ForceController {
     /// Checks every parameter but the robot's (`robot.*` is checked with
-    /// the robot description): what a ROS node does at start-up, before a
-    /// description arrives. The task is one of the shipped ones.
-    pub fn check(p: &ControllerParams) -> Result<(), ParamsError> {
-        Self::check_with(p, &tasks::shipped())
-    }
-
-    /// [`ForceController::check`] for a task of `tasks`.
-    pub fn check_with(p: &ControllerParams, tasks: &TaskRegistry) -> Result<(), ParamsError> {
+    /// the robot description), the task one of `tasks`: what a ROS node
+    /// does at start-up, before a description arrives.
+    pub fn check(p: &ControllerParams, tasks: &TaskRegistry) -> Result<(), ParamsError> {
         CheckedTask::new(p, tasks).map(|_| ())
-    }
-
-    /// Checks the parameters and builds the controller for `robot` (built
-    /// from the robot description with `p.robot`), its task one of the
-    /// shipped ones.
-    pub fn new(p: ControllerParams, robot: Robot) -> Result<Self, ParamsError> {
-        Self::with_tasks(p, robot, &tasks::shipped())
     }
 
     /// The controller that runs `goal` applied to `base`, or why the goal
@@ -144,12 +140,14 @@ impl ForceController {
         goal: &impl Goal,
         base: &ControllerParams,
         robot: Robot,
+        tasks: &TaskRegistry,
     ) -> Result<Self, ParamsError> {
-        Self::new(goal.apply(base)?, robot)
+        Self::new(goal.apply(base)?, robot, tasks)
     }
 
-    /// [`ForceController::new`] for a task of `tasks`.
-    pub fn with_tasks(
+    /// Checks the parameters and builds the controller for `robot` (built
+    /// from the robot description with `p.robot`), its task one of `tasks`.
+    pub fn new(
         p: ControllerParams,
         robot: Robot,
         tasks: &TaskRegistry,
@@ -160,19 +158,12 @@ impl ForceController {
             needed,
         } = CheckedTask::new(&p, tasks)?;
         Ok(ForceController {
-            dls: Dls::new(&robot),
-            command: JointVector::zeros(robot.dof()),
-            robot,
-            task,
-            axes: p.axes,
-            task_axes: needed,
-            out_of_range: p.out_of_range,
+            inputs: Inputs::new(&p, needed),
             rules: RuleChain::shipped(&p.oscillation),
-            // Inputs arrive the transport delay after their stamp.
-            watchdog: Watchdog::new(
-                p.stale_periods + p.loop_delays.transport_delay_s / p.control_period_s,
-                p.control_period_s,
-            ),
+            task,
+            out: JointCommand::new(&robot),
+            robot,
+            axes: p.axes,
             stale_periods: p.stale_periods,
             meter: LoopMeter::new(LoopTiming {
                 transport_s: p.loop_delays.transport_delay_s,
@@ -182,13 +173,8 @@ impl ForceController {
             }),
             envelope,
             period_s: p.control_period_s,
-            twist: Twist::zeros(),
-            estimate: None,
-            stepped_stamp: None,
-            joints: None,
             start: None,
             last_tick: None,
-            rejected: 0,
             refusal: None,
         })
     }
@@ -198,24 +184,6 @@ impl ForceController {
     pub fn with_rules(mut self, extra: &RuleChain) -> Self {
         self.rules.extend(extra);
         self
-    }
-
-    /// A controller for the task `task` with the other parameters of
-    /// `base`: a task switch while running, checked as at start-up (the
-    /// other task's section, its safety envelope against the scene's
-    /// bodies).
-    pub fn switched(
-        base: &ControllerParams,
-        task: &str,
-        robot: Robot,
-    ) -> Result<Self, ParamsError> {
-        ForceController::new(
-            ControllerParams {
-                task: task.into(),
-                ..base.clone()
-            },
-            robot,
-        )
     }
 
     /// The axes the task controls.
@@ -231,7 +199,7 @@ impl ForceController {
     /// The joint velocities of the last tick (rad/s or m/s, one per joint in
     /// chain order); zero when halted or stopped.
     pub fn command(&self) -> &JointVector {
-        &self.command
+        self.out.command()
     }
 
     /// Goes on from what `before` measured of the loop (same arm and link).
@@ -249,7 +217,7 @@ impl ForceController {
     /// What an arm driven by a Cartesian controller is sent instead of
     /// [`ForceController::command`].
     pub fn twist(&self) -> &Twist {
-        &self.twist
+        self.out.twist()
     }
 
     /// True once the task has begun (a first tick with fresh inputs).
@@ -268,7 +236,7 @@ impl ForceController {
     /// its orientation, naming the direction. Arms with six joints or more
     /// pass (near a singularity the damping slows them instead).
     pub fn check_start(&mut self, q: &JointVector) -> Result<(), ParamsError> {
-        realisable(&self.robot, &mut self.dls, self.task.as_ref(), q)
+        self.out.realisable(&self.robot, self.task.as_ref(), q)
     }
 
     /// Proportional gain of each force axis x, y, z (m/s per N), None where
@@ -286,41 +254,19 @@ impl ForceController {
 
     /// Inputs rejected for NaN or infinity so far.
     pub fn rejected(&self) -> u64 {
-        self.rejected
+        self.inputs.rejected()
     }
 
     /// Takes an estimate; a non-finite one is rejected (the previous one
     /// then ages and the watchdog stops the arm).
     pub fn on_estimate(&mut self, e: WrenchEstimate) -> Result<(), Halt> {
-        if !e.is_finite() {
-            self.rejected += 1;
-            return Err(Halt::NonFinite("the wrench estimate"));
-        }
-        self.estimate = Some(e);
-        Ok(())
+        self.inputs.on_estimate(e)
     }
 
     /// Takes the joint positions (copied: no heap work after the first);
     /// non-finite ones, or not one per joint, are rejected.
     pub fn on_joint_state(&mut self, js: &JointState) -> Result<(), Halt> {
-        if js.q.len() != self.robot.dof() {
-            self.rejected += 1;
-            return Err(Halt::JointCount {
-                expected: self.robot.dof(),
-                found: js.q.len(),
-            });
-        }
-        if !(js.stamp_s.is_finite() && js.q.iter().all(|v| v.is_finite())) {
-            self.rejected += 1;
-            return Err(Halt::NonFinite("the joint state"));
-        }
-        match &mut self.joints {
-            Some(j) => {
-                j.stamp_s = js.stamp_s;
-                j.q.copy_from(&js.q);
-            }
-            None => self.joints = Some(js.clone()),
-        }
+        self.inputs.on_joint_state(js, self.robot.dof())?;
         let p = self.robot.chain.forward(&js.q).translation.vector;
         self.meter.on_position(js.stamp_s, p);
         Ok(())
@@ -338,7 +284,7 @@ impl ForceController {
 
     /// The newest estimate's age at `now` (s), once one has come.
     pub fn estimate_age_s(&self, now: f64) -> Option<f64> {
-        self.estimate.map(|e| now - e.stamp_s)
+        self.inputs.estimate().map(|e| now - e.stamp_s)
     }
 
     /// How old the newest estimate may be before the arm halts (s): its usual
@@ -367,7 +313,7 @@ impl ForceController {
     pub fn tick(&mut self, now: f64) -> ControlOutput {
         let dt = self.last_tick.map_or(self.period_s, |t| now - t);
         self.last_tick = Some(now);
-        if let Some(e) = &self.estimate {
+        if let Some(e) = self.inputs.estimate() {
             self.meter.on_arrival(now, e.stamp_s);
         }
         match self.step(now, dt) {
@@ -381,7 +327,7 @@ impl ForceController {
     /// each estimate): zero velocity, the task paused, until one comes.
     pub fn estimate_late(&mut self, now: f64) -> ControlOutput {
         self.last_tick = Some(now);
-        let age_s = self.estimate.map_or(f64::INFINITY, |e| now - e.stamp_s);
+        let age_s = self.estimate_age_s(now).unwrap_or(f64::INFINITY);
         self.halt(
             now,
             Halt::Stale {
@@ -395,79 +341,68 @@ impl ForceController {
     fn halt(&mut self, now: f64, halt: Halt) -> ControlOutput {
         self.task.pause();
         self.rules.pause();
-        self.command.fill(0.0);
-        self.twist = Twist::zeros();
+        self.out.zero();
         self.meter.on_step(now, Vector3::zeros(), None);
         self.output(Vector3::zeros(), 0.0, Some(halt))
     }
 
-    /// One step of the task; the command goes to `self.command`, the
-    /// commanded velocity and the damping come back.
+    /// One cycle's stages: estimate in -> checks -> task -> inverse
+    /// kinematics -> command. The commanded velocity (start frame) and the
+    /// damping come back; a halt stops the cycle where it is raised.
     fn step(&mut self, now: f64, dt: f64) -> Result<(Vector3<f64>, f64), Halt> {
-        let js = self.joints.as_ref().ok_or(Halt::Missing("joint state"))?;
-        self.watchdog.check("joint state", now, Some(js.stamp_s))?;
-        let est = self.estimate.ok_or(Halt::Missing("wrench estimate"))?;
-        let fresh = self.stepped_stamp != Some(est.stamp_s);
-        let rules = RuleInput {
-            force: &est.mean.force,
-            out_of_range: self.is_out_of_range(&est),
-            estimate_age_s: now - est.stamp_s,
-            stale_after_s: self.stale_after_s(),
-            limit: self.task.force_limit(),
-            watch: self.task.watch(),
-            dt,
-            fresh,
-        };
-        match self.rules.check(&rules) {
-            Some(Verdict::Halt(halt)) => return Err(halt),
-            Some(Verdict::Stop(reason)) => self.task.abort(reason),
-            Some(Verdict::Oscillating(hz)) => self.task.soften(hz),
-            None => {}
-        }
-        self.stepped_stamp = Some(est.stamp_s);
+        let r = self.inputs.read(now)?;
+        self.run_rules(&r, now, dt)?;
+        let js = self.inputs.step_on(&r)?;
+        // The task, in the BioTac frame; at its first step, refused if the
+        // arm cannot make its directions.
         let pose = self.robot.chain.forward(&js.q);
         if self.start.is_none() {
-            if let Err(e) = realisable(&self.robot, &mut self.dls, self.task.as_ref(), &js.q) {
+            if let Err(e) = self.out.realisable(&self.robot, self.task.as_ref(), &js.q) {
                 self.task.stop_on(StopReason::UNREALISABLE);
                 self.refusal = Some(e.to_string());
             }
         }
         let start = *self.start.get_or_insert(pose);
         let timing = *self.meter.timing();
-        self.twist = self.task.step(&TaskInput {
-            force: &est.mean.force,
-            pdc_rise: est.pdc_rise,
+        let twist = self.task.step(&TaskInput {
+            force: &r.est.mean.force,
+            pdc_rise: r.est.pdc_rise,
             pose: &pose,
             start: &start,
             dt,
-            fresh,
-            force_position: self.meter.position_at(est.stamp_s),
-            force_velocity: self.meter.velocity_at(est.stamp_s),
+            fresh: r.fresh,
+            force_position: self.meter.position_at(r.est.stamp_s),
+            force_velocity: self.meter.velocity_at(r.est.stamp_s),
             timing: &timing,
         });
-        let age = fresh.then_some(now - est.stamp_s);
-        let v_world: Vector3<f64> = self.twist.fixed_rows::<3>(0).into();
-        if self.twist == Twist::zeros() {
-            self.command.fill(0.0);
-            self.meter.on_step(now, v_world, age);
-            return Ok((v_world, 0.0));
-        }
-        let motion = self.dls.solve(&self.robot, &js.q, &self.twist, None)?;
-        self.command.copy_from(self.dls.qdot());
-        self.meter.on_step(now, v_world * motion.scale, age);
+        let made = self.out.solve(&self.robot, &js.q, twist)?;
+        let v_world = Vector3::new(twist[0], twist[1], twist[2]) * made.scale;
+        self.meter
+            .on_step(now, v_world, r.fresh.then_some(now - r.est.stamp_s));
         // What the arm will do after the speed scaling, in the start frame.
-        let velocity = start.rotation.inverse() * v_world * motion.scale;
-        Ok((velocity, motion.damping))
+        Ok((start.rotation.inverse() * v_world, made.damping))
     }
 
-    /// True when a controlled axis is too uncertain or PDC nearly saturated.
-    fn is_out_of_range(&self, est: &WrenchEstimate) -> bool {
-        let limits = &self.out_of_range;
-        let uncertain = self
-            .task_axes
-            .iter()
-            .any(|a| est.std.get(*a) > limits.max_std_n);
-        uncertain || est.pdc_rise > limits.max_pdc_rise_counts
+    /// The stability rules on the reading `r`: a halt ends the cycle; a
+    /// stop or an oscillation goes to the task.
+    fn run_rules(&mut self, r: &Reading, now: f64, dt: f64) -> Result<(), Halt> {
+        let input = RuleInput {
+            force: &r.est.mean.force,
+            out_of_range: r.out_of_range,
+            estimate_age_s: now - r.est.stamp_s,
+            stale_after_s: self.stale_after_s(),
+            limit: self.task.force_limit(),
+            watch: self.task.watch(),
+            dt,
+            fresh: r.fresh,
+        };
+        match self.rules.check(&input) {
+            Some(Verdict::Halt(halt)) => return Err(halt),
+            Some(Verdict::Stop(reason)) => self.task.abort(reason),
+            Some(Verdict::Oscillating(hz)) => self.task.soften(hz),
+            None => {}
+        }
+        Ok(())
     }
 
     fn output(&self, velocity: Vector3<f64>, damping: f64, halt: Option<Halt>) -> ControlOutput {
@@ -482,40 +417,8 @@ impl ForceController {
     }
 }
 
-/// Refuses a pose `q` at which an arm with fewer than six joints cannot
-/// move the BioTac along a direction of `task` (see
-/// [`ForceController::check_start`]).
-fn realisable(
-    robot: &Robot,
-    dls: &mut Dls,
-    task: &dyn Task,
-    q: &JointVector,
-) -> Result<(), ParamsError> {
-    let dof = robot.dof();
-    if dof >= 6 {
-        return Ok(());
-    }
-    let pose = robot.chain.forward(q);
-    for (name, d) in task.directions() {
-        let v = pose.rotation * d;
-        let unmade = dls.unmade(robot, q, &Twist::new(v.x, v.y, v.z, 0.0, 0.0, 0.0));
-        if unmade > REALISABLE_TOLERANCE {
-            return Err(ParamsError::Invalid {
-                key: "start pose".into(),
-                value: format!("{:?} rad", q.as_slice()),
-                expected: format!(
-                    "a pose where the arm ({dof} joints) can move the BioTac along {name} \
-                     while holding its orientation: {:.0} % of that motion cannot be made \
-                     (at most {:.0} %); choose another start pose or a task without that axis",
-                    unmade * 100.0,
-                    REALISABLE_TOLERANCE * 100.0
-                ),
-            });
-        }
-    }
-    Ok(())
-}
-
+mod inputs;
+mod joint_command;
 mod sections;
 
 #[cfg(test)]

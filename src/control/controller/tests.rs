@@ -1,7 +1,22 @@
 use super::*;
 use crate::control::TaskKind;
 use crate::kinematics::RobotParams;
+use crate::nodes::tasks::shipped;
 use crate::runtime::scene::Scene;
+
+/// A controller for the task `task` with the other parameters of `base`:
+/// a task switch while running, checked as at start-up.
+fn switched(
+    base: &ControllerParams,
+    task: &str,
+    robot: Robot,
+) -> Result<ForceController, ParamsError> {
+    let p = ControllerParams {
+        task: task.into(),
+        ..base.clone()
+    };
+    ForceController::new(p, robot, &shipped())
+}
 
 /// A scene's parameters with both tasks' sections, as the ROS node
 /// declares them.
@@ -29,16 +44,16 @@ fn a_task_switch_is_checked_as_at_start_up() {
     let pa10 = Robot::pa10;
     // The joystick scene may switch to the guarded move, and back.
     let guided = both_sections(TaskKind::Guided);
-    let c = ForceController::switched(&guided, "guarded", pa10()).unwrap();
+    let c = switched(&guided, "guarded", pa10()).unwrap();
     assert!(c.gains()[2].is_some() && c.gains()[0].is_none());
-    ForceController::switched(&guided, "guided", pa10()).unwrap();
+    switched(&guided, "guided", pa10()).unwrap();
     // Without the other task's section the switch names what is missing.
     let only = Scene::builtin(TaskKind::Guided).unwrap().controller;
-    let err = ForceController::switched(&only, "guarded", pa10()).unwrap_err();
+    let err = switched(&only, "guarded", pa10()).unwrap_err();
     assert!(err.to_string().contains("guarded"), "{err}");
     // The guided move's speeds are beyond the envelope of a wooden box.
     let guarded = both_sections(TaskKind::Guarded);
-    let err = ForceController::switched(&guarded, "guided", pa10())
+    let err = switched(&guarded, "guided", pa10())
         .unwrap_err()
         .to_string();
     assert!(
@@ -65,7 +80,7 @@ fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
     let q = robot
         .positions_from_deg_mm("start", scene.sim.start_joints_deg.as_ref().unwrap())
         .unwrap();
-    let mut c = ForceController::new(scene.controller, robot).unwrap();
+    let mut c = ForceController::new(scene.controller, robot, &scene.tasks).unwrap();
     let inputs = |c: &mut ForceController, t: f64| {
         let js = JointState {
             stamp_s: t,
@@ -117,11 +132,7 @@ fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
 /// from its root to its one leaf, the BioTac frame at the flange.
 fn five_joints() -> Robot {
     let p = RobotParams::from_layers(&[crate::params::WORLD_YAML]).unwrap();
-    Robot::from_urdf(
-        include_str!("../../../../tests/data/five_joint_arm.urdf"),
-        &p,
-    )
-    .unwrap()
+    Robot::from_urdf(include_str!("../../../tests/data/five_joint_arm.urdf"), &p).unwrap()
 }
 
 #[test]
@@ -131,7 +142,7 @@ fn an_arm_of_five_joints_runs_the_axes_it_can_realise_and_names_the_one_it_canno
     // The guarded move presses along the pad's normal: the planar
     // joints make that motion exactly.
     let guarded = Scene::builtin(TaskKind::Guarded).unwrap().controller;
-    let mut c = ForceController::new(guarded, five_joints()).unwrap();
+    let mut c = ForceController::new(guarded, five_joints(), &shipped()).unwrap();
     c.check_start(&q).unwrap();
     let js = JointState {
         stamp_s: 0.0,
@@ -149,7 +160,7 @@ fn an_arm_of_five_joints_runs_the_axes_it_can_realise_and_names_the_one_it_canno
 
     // The guided move needs y as well, which only the pan could give.
     let guided = Scene::builtin(TaskKind::Guided).unwrap().controller;
-    let mut c = ForceController::new(guided, five_joints()).unwrap();
+    let mut c = ForceController::new(guided, five_joints(), &shipped()).unwrap();
     let e = c.check_start(&q).unwrap_err().to_string();
     assert!(
         e.contains("y of the BioTac frame") && e.contains("5 joints"),
@@ -169,7 +180,7 @@ fn an_arm_of_five_joints_runs_the_axes_it_can_realise_and_names_the_one_it_canno
     // Rolled, the pad's normal leaves that plane: refused too.
     let rolled = JointVector::from_column_slice(&[0.3, 0.2, 0.4, -0.5, 0.1]);
     let guarded = Scene::builtin(TaskKind::Guarded).unwrap().controller;
-    let mut c = ForceController::new(guarded, five_joints()).unwrap();
+    let mut c = ForceController::new(guarded, five_joints(), &shipped()).unwrap();
     let e = c.check_start(&rolled).unwrap_err().to_string();
     assert!(e.contains("the approach direction [0, 0, -1]"), "{e}");
 }

@@ -8,14 +8,16 @@ use crate::control::{
     ControllerParams, LoopDelays, OscillationParams, PdParams, SafetyParams, Task, TaskEnvelope,
     TaskLoop, UNKNOWN_OBJECT,
 };
-use crate::nodes::tasks;
 use crate::params::reference::check_ranges;
 use crate::params::{Check, Checked, ParamsError};
 
-/// The safety envelope of the task of `p` (src/control/envelope.rs)
-/// against the stiffest body the scene permits.
-pub fn task_envelope(p: &ControllerParams) -> Result<TaskEnvelope, ParamsError> {
-    Sections::check(p, &tasks::shipped())?.envelope(p)
+/// The safety envelope of the task of `p`, one of `tasks`
+/// (src/control/envelope.rs), against the stiffest body the scene permits.
+pub fn task_envelope(
+    p: &ControllerParams,
+    tasks: &TaskRegistry,
+) -> Result<TaskEnvelope, ParamsError> {
+    Sections::check(p, tasks)?.envelope(p)
 }
 
 /// The checked sections of the parameters that the task is built from.
