@@ -44,15 +44,21 @@ fn recorded(r: &Recording) -> Recorded {
 fn guarded(
     unit: u64,
     object: &str,
-    m: &dyn WrenchModel,
+    m: &(dyn WrenchModel + 'static),
 ) -> tactile_force::report::summary::Summary {
     let mut s = Scene::builtin(TaskKind::Guarded)
         .unwrap()
         .with_object(object);
     s.sim.sensor_unit = unit;
-    run_scene(&s, m.boxed_clone(), 1, Pacing::Lockstep, &mut |_| {})
-        .unwrap()
-        .summary
+    run_scene(
+        &s,
+        dyn_clone::clone_box(m),
+        1,
+        Pacing::Lockstep,
+        &mut |_| {},
+    )
+    .unwrap()
+    .summary
 }
 
 #[test]

@@ -330,7 +330,7 @@ fn print_summary(s: &Summary, gains: &[Option<f64>; 3]) {
     );
 }
 
-fn run_sweep(a: &DemoArgs, scene: &Scene, model: &dyn WrenchModel) -> Result<()> {
+fn run_sweep(a: &DemoArgs, scene: &Scene, model: &(dyn WrenchModel + 'static)) -> Result<()> {
     let speeds: Vec<f64> = a.speeds_mm_s.iter().map(|v| v * 1e-3).collect();
     if let Some(bad) = speeds.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
         let msg = format!("--speeds-mm-s: {} is not a positive speed", bad * 1e3);

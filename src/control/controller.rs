@@ -8,7 +8,8 @@
 //! 3. task (a [`Task`] of the controller's [`TaskRegistry`]): the BioTac's
 //!    velocity from the force, in the BioTac frame, its orientation held;
 //! 4. inverse kinematics -> command (controller/joint_command.rs): the joint
-//!    velocities by the damped least-squares inverse.
+//!    velocities by an [`InverseKinematics`], the damped least-squares
+//!    inverse unless [`ForceController::with_inverse`] gives another.
 //!
 //! There is no filter stage: the estimate's own std is what the rules and
 //! the tasks read. An arm with fewer than six joints runs a task only if it
@@ -26,11 +27,12 @@ use super::{
     Arrivals, ControllerParams, Envelope, Goal, Halt, LoopTiming, Phase, RuleChain, StopReason,
     Task,
 };
-use crate::kinematics::{JointVector, Robot, Twist};
+use crate::kinematics::{Dls, JointVector, Robot, Twist};
 use crate::params::ParamsError;
 use crate::wrench::{Axis, AxisSet, WrenchEstimate};
 use inputs::{Inputs, Reading};
 use joint_command::JointCommand;
+pub use joint_command::{InverseKinematics, Made};
 pub use sections::task_envelope;
 use sections::{stiffest_permitted, Sections};
 
@@ -161,7 +163,7 @@ impl ForceController {
             inputs: Inputs::new(&p, needed),
             rules: RuleChain::shipped(&p.oscillation),
             task,
-            out: JointCommand::new(&robot),
+            out: JointCommand::new(&robot, Box::new(Dls::new(&robot))),
             robot,
             axes: p.axes,
             stale_periods: p.stale_periods,
@@ -183,6 +185,13 @@ impl ForceController {
     /// stability rules.
     pub fn with_rules(mut self, extra: &RuleChain) -> Self {
         self.rules.extend(extra);
+        self
+    }
+
+    /// The controller with `inverse` as its inverse kinematics instead of
+    /// the damped least-squares inverse.
+    pub fn with_inverse(mut self, inverse: impl InverseKinematics + 'static) -> Self {
+        self.out = JointCommand::new(&self.robot, Box::new(inverse));
         self
     }
 

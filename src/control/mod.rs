@@ -20,7 +20,9 @@ pub mod task;
 pub mod tuning;
 pub mod window;
 
-pub use controller::{task_envelope, ControlOutput, ForceController, JointState};
+pub use controller::{
+    task_envelope, ControlOutput, ForceController, InverseKinematics, JointState, Made,
+};
 pub use envelope::{Envelope, SafetyParams, UNKNOWN_OBJECT};
 pub use guarded::{GuardedMove, GuardedParams};
 pub use guided::{GuidedMove, GuidedParams};

@@ -10,6 +10,7 @@
 
 use std::fmt;
 
+use dyn_clone::DynClone;
 use nalgebra::Vector3;
 
 use super::oscillation::{OscillationDetector, OscillationParams};
@@ -86,7 +87,7 @@ pub enum Verdict {
 }
 
 /// One stability rule.
-pub trait Rule: fmt::Debug + Send + Sync + BoxedRule {
+pub trait Rule: fmt::Debug + Send + Sync + DynClone {
     /// One cycle: the verdict, if the rule objects.
     fn check(&mut self, i: &RuleInput) -> Option<Verdict>;
 
@@ -94,23 +95,7 @@ pub trait Rule: fmt::Debug + Send + Sync + BoxedRule {
     fn pause(&mut self) {}
 }
 
-/// Clones a rule behind its trait: implemented for every `Rule + Clone`.
-pub trait BoxedRule {
-    /// A copy, boxed.
-    fn boxed_clone(&self) -> Box<dyn Rule>;
-}
-
-impl<T: Rule + Clone + 'static> BoxedRule for T {
-    fn boxed_clone(&self) -> Box<dyn Rule> {
-        Box::new(self.clone())
-    }
-}
-
-impl Clone for Box<dyn Rule> {
-    fn clone(&self) -> Self {
-        self.boxed_clone()
-    }
-}
+dyn_clone::clone_trait_object!(Rule);
 
 /// An estimate older than its stream allows halts the arm (MoveIt Servo
 /// halts on a stale command: architecture page, "anchors' safety habits").
@@ -237,7 +222,7 @@ impl RuleChain {
     }
 
     /// The chain with `rule` last.
-    pub fn with(mut self, rule: impl Rule + Clone + 'static) -> Self {
+    pub fn with(mut self, rule: impl Rule + 'static) -> Self {
         self.rules.push(Box::new(rule));
         self
     }

@@ -15,6 +15,7 @@ pub use kind::TaskKind;
 use std::any::Any;
 use std::fmt;
 
+use dyn_clone::DynClone;
 use nalgebra::{Isometry3, Vector3};
 use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
@@ -34,7 +35,7 @@ use crate::wrench::{Axis, AxisSet};
 /// A task the controller runs: each cycle it turns the force on the BioTac
 /// into the BioTac's twist. A task is `Clone` (a controller is copied to
 /// restart a run from a snapshot).
-pub trait Task: fmt::Debug + Send + Any + BoxedClone {
+pub trait Task: fmt::Debug + Send + Any + DynClone {
     /// One cycle: the BioTac's twist (m/s, rad/s, base frame).
     fn step(&mut self, i: &TaskInput) -> Twist;
 
@@ -126,23 +127,7 @@ pub struct TaskFigures {
     pub own: Vec<(&'static str, f64)>,
 }
 
-/// Clones a task behind its trait: implemented for every `Task + Clone`.
-pub trait BoxedClone {
-    /// A copy, boxed.
-    fn boxed_clone(&self) -> Box<dyn Task>;
-}
-
-impl<T: Task + Clone> BoxedClone for T {
-    fn boxed_clone(&self) -> Box<dyn Task> {
-        Box::new(self.clone())
-    }
-}
-
-impl Clone for Box<dyn Task> {
-    fn clone(&self) -> Self {
-        self.boxed_clone()
-    }
-}
+dyn_clone::clone_trait_object!(Task);
 
 /// A task's section of the `force_controller` parameters (its key is the
 /// task's name): the settings, their checks, and the task they make.

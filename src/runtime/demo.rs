@@ -133,7 +133,7 @@ pub struct SweepPoint {
 /// it accepts, the runs in parallel; points come back by object, then speed.
 pub fn sweep_speeds(
     scene: &Scene,
-    model: &dyn WrenchModel,
+    model: &(dyn WrenchModel + 'static),
     objects: &[String],
     speeds: &[f64],
     seed: u64,
@@ -164,8 +164,14 @@ pub fn sweep_speeds(
                     .clone()
                     .with_only_object(&o.object)
                     .with_approach_speed(speed)?;
-                let s = run_scene(&s, model.boxed_clone(), seed, Pacing::Lockstep, &mut |_| {})?
-                    .summary;
+                let s = run_scene(
+                    &s,
+                    dyn_clone::clone_box(model),
+                    seed,
+                    Pacing::Lockstep,
+                    &mut |_| {},
+                )?
+                .summary;
                 Some(SweepRun {
                     peak_force_n: s.peak_force_n,
                     overshoot_n: s.overshoot_n,

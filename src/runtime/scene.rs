@@ -197,7 +197,7 @@ impl Scene {
 
     /// Lets the controller run `rule` after the shipped stability rules (a
     /// rule of its own).
-    pub fn with_rule(mut self, rule: impl Rule + Clone + 'static) -> Self {
+    pub fn with_rule(mut self, rule: impl Rule + 'static) -> Self {
         self.rules = self.rules.with(rule);
         self
     }

@@ -1,7 +1,12 @@
 //! The controller's last stages, inverse kinematics -> command: the joint
-//! velocities that move the BioTac with the task's twist, by the damped
-//! least-squares inverse (src/kinematics/dls.rs); and, for an arm with
-//! fewer than six joints, whether it can make the task's directions at all.
+//! velocities that move the BioTac with the task's twist, by an
+//! [`InverseKinematics`] (the shipped one: the damped least-squares
+//! inverse, src/kinematics/dls.rs); and, for an arm with fewer than six
+//! joints, whether it can make the task's directions at all.
+
+use std::fmt;
+
+use dyn_clone::DynClone;
 
 use crate::control::{Halt, Task};
 use crate::kinematics::{Dls, JointVector, Robot, Twist};
@@ -9,17 +14,61 @@ use crate::params::ParamsError;
 
 use super::REALISABLE_TOLERANCE;
 
+/// The inverse-kinematics stage: the joint velocities that move the BioTac
+/// with a twist. The shipped one is [`Dls`]; another joins a controller
+/// with [`super::ForceController::with_inverse`].
+pub trait InverseKinematics: fmt::Debug + Send + DynClone {
+    /// Writes to `qdot` the joint velocities at `q` that make `twist`
+    /// (base frame, not zero), and says what the solve did to it; Err halts
+    /// the arm for the cycle.
+    fn solve(
+        &mut self,
+        robot: &Robot,
+        q: &JointVector,
+        twist: &Twist,
+        qdot: &mut JointVector,
+    ) -> Result<Made, Halt>;
+
+    /// The share of `twist` at `q` that no joint velocities make (0: all of
+    /// it is made).
+    fn unmade(&mut self, robot: &Robot, q: &JointVector, twist: &Twist) -> f64;
+}
+
+/// The damped least-squares inverse, speeds scaled to the joints' limits.
+impl InverseKinematics for Dls {
+    fn solve(
+        &mut self,
+        robot: &Robot,
+        q: &JointVector,
+        twist: &Twist,
+        qdot: &mut JointVector,
+    ) -> Result<Made, Halt> {
+        let motion = Dls::solve(self, robot, q, twist, None)?;
+        qdot.copy_from(self.qdot());
+        Ok(Made {
+            scale: motion.scale,
+            damping: motion.damping,
+        })
+    }
+
+    fn unmade(&mut self, robot: &Robot, q: &JointVector, twist: &Twist) -> f64 {
+        Dls::unmade(self, robot, q, twist)
+    }
+}
+
+dyn_clone::clone_trait_object!(InverseKinematics);
+
 /// The joint velocities of the last cycle and the twist they make.
 #[derive(Debug, Clone)]
 pub(super) struct JointCommand {
-    dls: Dls,
+    inverse: Box<dyn InverseKinematics>,
     command: JointVector,
     twist: Twist,
 }
 
-/// What the solve did to a twist.
+/// What an [`InverseKinematics`] did to a twist.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Made {
+pub struct Made {
     /// The factor every velocity was scaled by for the speed limits (1: none).
     pub scale: f64,
     /// The damping factor of the inverse (0: away from singularity).
@@ -27,10 +76,10 @@ pub(super) struct Made {
 }
 
 impl JointCommand {
-    /// Zero velocity for `robot`'s joints.
-    pub(super) fn new(robot: &Robot) -> Self {
+    /// Zero velocity for `robot`'s joints, solved by `inverse`.
+    pub(super) fn new(robot: &Robot, inverse: Box<dyn InverseKinematics>) -> Self {
         JointCommand {
-            dls: Dls::new(robot),
+            inverse,
             command: JointVector::zeros(robot.dof()),
             twist: Twist::zeros(),
         }
@@ -67,12 +116,7 @@ impl JointCommand {
                 damping: 0.0,
             });
         }
-        let motion = self.dls.solve(robot, q, &twist, None)?;
-        self.command.copy_from(self.dls.qdot());
-        Ok(Made {
-            scale: motion.scale,
-            damping: motion.damping,
-        })
+        self.inverse.solve(robot, q, &twist, &mut self.command)
     }
 
     /// Refuses a pose `q` at which an arm with fewer than six joints cannot
@@ -93,7 +137,7 @@ impl JointCommand {
         for (name, d) in task.directions() {
             let v = pose.rotation * d;
             let twist = Twist::new(v.x, v.y, v.z, 0.0, 0.0, 0.0);
-            let unmade = self.dls.unmade(robot, q, &twist);
+            let unmade = self.inverse.unmade(robot, q, &twist);
             if unmade > REALISABLE_TOLERANCE {
                 return Err(ParamsError::Invalid {
                     key: "start pose".into(),

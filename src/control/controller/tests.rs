@@ -184,3 +184,65 @@ fn an_arm_of_five_joints_runs_the_axes_it_can_realise_and_names_the_one_it_canno
     let e = c.check_start(&rolled).unwrap_err().to_string();
     assert!(e.contains("the approach direction [0, 0, -1]"), "{e}");
 }
+
+/// An inverse kinematics of the test's own: the damped least-squares
+/// inverse's joint velocities halved, its solves counted.
+#[derive(Debug, Clone)]
+struct HalfSpeed {
+    dls: Dls,
+    solves: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl InverseKinematics for HalfSpeed {
+    fn solve(
+        &mut self,
+        robot: &Robot,
+        q: &JointVector,
+        twist: &Twist,
+        qdot: &mut JointVector,
+    ) -> Result<Made, Halt> {
+        self.solves
+            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        let made = InverseKinematics::solve(&mut self.dls, robot, q, twist, qdot)?;
+        *qdot *= 0.5;
+        Ok(Made {
+            scale: made.scale * 0.5,
+            ..made
+        })
+    }
+
+    fn unmade(&mut self, robot: &Robot, q: &JointVector, twist: &Twist) -> f64 {
+        self.dls.unmade(robot, q, twist)
+    }
+}
+
+#[test]
+fn the_inverse_kinematics_stage_takes_any_solver() {
+    let scene = Scene::builtin(TaskKind::Guarded).unwrap();
+    let robot = Robot::pa10();
+    let q = robot
+        .positions_from_deg_mm("start", scene.sim.start_joints_deg.as_ref().unwrap())
+        .unwrap();
+    let build = || ForceController::new(scene.controller.clone(), Robot::pa10(), &scene.tasks);
+    let solves = std::sync::Arc::default();
+    let mut shipped = build().unwrap();
+    let mut half = build().unwrap().with_inverse(HalfSpeed {
+        dls: Dls::new(&robot),
+        solves: std::sync::Arc::clone(&solves),
+    });
+    let cycle = |c: &mut ForceController| {
+        let js = JointState {
+            stamp_s: 0.0,
+            q: q.clone(),
+        };
+        c.on_joint_state(&js).unwrap();
+        c.on_estimate(estimate(0.0)).unwrap();
+        c.tick(0.002)
+    };
+    let (a, b) = (cycle(&mut shipped), cycle(&mut half));
+    assert_eq!(solves.load(std::sync::atomic::Ordering::SeqCst), 1);
+    assert!(shipped.command().norm() > 0.0, "approaching");
+    assert!((half.command() - shipped.command() * 0.5).norm() < 1e-12);
+    // What the arm will do: the solver's scale, in the start frame.
+    assert!((b.velocity - a.velocity * 0.5).norm() < 1e-12, "{b:?}");
+}

@@ -7,6 +7,7 @@ use std::any::Any;
 use std::fmt::Debug;
 use std::path::Path;
 
+use dyn_clone::DynClone;
 use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};
 
@@ -159,7 +160,7 @@ pub struct Estimate {
 }
 
 /// A fitted wrench model of any family.
-pub trait WrenchModel: Send + Sync + Debug + CloneModel + AsAny {
+pub trait WrenchModel: Send + Sync + Debug + DynClone + AsAny {
     /// Its family's name (`gp`, `ensemble`), for tables.
     fn family(&self) -> &'static str;
 
@@ -250,19 +251,6 @@ pub trait WrenchModel: Send + Sync + Debug + CloneModel + AsAny {
     }
 }
 
-/// Clones a model behind its trait: implemented for every
-/// `WrenchModel + Clone`.
-pub trait CloneModel {
-    /// A copy, boxed.
-    fn boxed_clone(&self) -> Box<dyn WrenchModel>;
-}
-
-impl<T: WrenchModel + Clone + 'static> CloneModel for T {
-    fn boxed_clone(&self) -> Box<dyn WrenchModel> {
-        Box::new(self.clone())
-    }
-}
-
 /// A model behind its trait as [`Any`], to find its family's own type (a
 /// GP, which `adapt` and the calibration adapt): implemented for every
 /// `WrenchModel`.
@@ -277,11 +265,7 @@ impl<T: WrenchModel + 'static> AsAny for T {
     }
 }
 
-impl Clone for Box<dyn WrenchModel> {
-    fn clone(&self) -> Self {
-        self.boxed_clone()
-    }
-}
+dyn_clone::clone_trait_object!(WrenchModel);
 
 impl<'a> dyn WrenchModel + 'a {
     /// Feature names, in input order.
