@@ -73,22 +73,30 @@ fn estimate(t: f64) -> WrenchEstimate {
     }
 }
 
-#[test]
-fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
+/// The guarded scene and the PA10's start pose in it.
+fn guarded_on_pa10() -> (Scene, JointVector) {
     let scene = Scene::builtin(TaskKind::Guarded).unwrap();
-    let robot = Robot::pa10();
-    let q = robot
+    let q = Robot::pa10()
         .positions_from_deg_mm("start", scene.sim.start_joints_deg.as_ref().unwrap())
         .unwrap();
-    let mut c = ForceController::new(scene.controller, robot, &scene.tasks).unwrap();
-    let inputs = |c: &mut ForceController, t: f64| {
-        let js = JointState {
-            stamp_s: t,
-            q: q.clone(),
-        };
-        c.on_joint_state(&js).unwrap();
-        c.on_estimate(estimate(t)).unwrap();
+    (scene, q)
+}
+
+/// Hands `c` the joint positions `q` and a zero estimate, both stamped `t`.
+fn feed(c: &mut ForceController, q: &JointVector, t: f64) {
+    let js = JointState {
+        stamp_s: t,
+        q: q.clone(),
     };
+    c.on_joint_state(&js).unwrap();
+    c.on_estimate(estimate(t)).unwrap();
+}
+
+#[test]
+fn a_late_estimate_stops_the_arm_at_once_and_the_next_one_resumes() {
+    let (scene, q) = guarded_on_pa10();
+    let mut c = ForceController::new(scene.controller, Robot::pa10(), &scene.tasks).unwrap();
+    let inputs = |c: &mut ForceController, t: f64| feed(c, &q, t);
     inputs(&mut c, 0.0);
     let out = c.tick(0.002);
     assert!(
@@ -218,25 +226,16 @@ impl InverseKinematics for HalfSpeed {
 
 #[test]
 fn the_inverse_kinematics_stage_takes_any_solver() {
-    let scene = Scene::builtin(TaskKind::Guarded).unwrap();
-    let robot = Robot::pa10();
-    let q = robot
-        .positions_from_deg_mm("start", scene.sim.start_joints_deg.as_ref().unwrap())
-        .unwrap();
+    let (scene, q) = guarded_on_pa10();
     let build = || ForceController::new(scene.controller.clone(), Robot::pa10(), &scene.tasks);
     let solves = std::sync::Arc::default();
     let mut shipped = build().unwrap();
     let mut half = build().unwrap().with_inverse(HalfSpeed {
-        dls: Dls::new(&robot),
+        dls: Dls::new(&Robot::pa10()),
         solves: std::sync::Arc::clone(&solves),
     });
     let cycle = |c: &mut ForceController| {
-        let js = JointState {
-            stamp_s: 0.0,
-            q: q.clone(),
-        };
-        c.on_joint_state(&js).unwrap();
-        c.on_estimate(estimate(0.0)).unwrap();
+        feed(c, &q, 0.0);
         c.tick(0.002)
     };
     let (a, b) = (cycle(&mut shipped), cycle(&mut half));
