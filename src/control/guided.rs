@@ -26,27 +26,31 @@
 //! stop; a fourth retracts the pad along its normal, naming the axis and
 //! the frequency.
 //!
-//! Across the pad the arm adds most of the finger's velocity to its PD's:
-//! the arm's measured velocity and the force's rate through the contact's
-//! stiffness. That estimate comes from the arm's own motion, so it closes a
-//! loop through the arm, and it holds for a massless finger only: a finger
-//! with mass on its hand's spring (MuJoCo's, 20 g on 300 N/m) makes the
-//! contact look about 2.5 times stiffer than fitted, with a 90 deg lead, at
-//! 25 Hz, and on an arm without servo lag that loop rang at 25 Hz until the
-//! watchdog stopped the move (docs/results.md). The estimate is low-passed
-//! over the loop's delay and lag: at the frequency where the delay alone
-//! turns 180 deg less than a third of it passes, a person's pushes (about
-//! 1 Hz) pass nearly whole.
+//! On each axis whose contact is measured the arm adds most of the finger's
+//! velocity to its PD's: the arm's measured velocity and the force's rate
+//! through the contact's stiffness, along the normal too (without it a
+//! fingertip of 1000 N/m on the embedded plant of guided/tests.rs missed 0.3
+//! N along the normal at a 16 ms cycle). That estimate comes from the
+//! arm's own motion, so it closes a loop through the arm, and it holds for a
+//! massless finger only: a finger with mass on its hand's spring (MuJoCo's, 20
+//! g on 300 N/m) makes the contact look about 2.5 times stiffer than fitted,
+//! with a 90 deg lead, at 25 Hz, and on an arm without servo lag that loop rang
+//! at 25 Hz until the watchdog stopped the move (docs/results.md). The estimate
+//! is low-passed over the loop's delay and lag: at the frequency where the
+//! delay alone turns 180 deg less than a third of it passes, a person's pushes
+//! (about 1 Hz) pass nearly whole.
 //!
-//! Once an axis's contact is measured, and while in contact, the PD's
-//! velocity is integrated too (a PI law whose integral's corner sits at a
-//! fifth of the loop's crossover, `gain * stiffness / 5`, about 11 deg of
-//! phase there): a push of steady speed is then followed with the error at
-//! the deadband's edge instead of the speed over the gain, which at a 16 ms
-//! cycle and 600 N/m across cost up to 0.39 N RMS over DDS on MuJoCo
-//! (docs/results.md). The deadbanded error feeds it, so an estimate's bias
-//! under the deadband moves nothing; a gain lowered by the watchdog empties
-//! it.
+//! Once an axis's contact is measured, and while in contact, the PD's velocity
+//! is integrated too (a PI law whose integral's corner sits at half the loop's
+//! crossover, `gain * stiffness / 2`, about 27 deg of phase there): a push of
+//! steady speed is then followed with the error at the deadband's edge instead
+//! of the speed over the gain, which at a 16 ms cycle and 600 N/m across cost
+//! up to 0.39 N RMS over DDS on MuJoCo (docs/results.md). With the corner at
+//! a fifth of the crossover (11 deg) and the finger's velocity added across
+//! the pad only, 79 of issue 48's 90 MuJoCo runs kept 0.3 N; at half, 85,
+//! none stopped (docs/results.md). The deadbanded error feeds it, so an
+//! estimate's bias under the deadband moves nothing; a gain lowered by the
+//! watchdog empties it.
 //!
 //! Without a finger to follow, the arm does not search for ever: nothing
 //! touched for `contact_timeout_s` stops it (`timeout`), and it never moves
@@ -84,7 +88,7 @@ const PROBES: u32 = 3;
 /// Times the watchdog may lower one axis's gain before the pad retracts.
 const SOFTENINGS: u32 = 3;
 /// The loop's crossover over the integral's corner frequency.
-const INTEGRAL_RATIO: f64 = 5.0;
+const INTEGRAL_RATIO: f64 = 2.0;
 
 /// What the guided move sees each cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,8 +130,8 @@ pub struct GuidedMove {
     lowered: [u32; 3],
     /// The factor the watchdog raised each axis's stiffness by.
     stiffer: [f64; 3],
-    /// The finger's velocity across the pad, x and y, low-passed (m/s).
-    finger: [f64; 2],
+    /// The finger's velocity per axis, low-passed (m/s).
+    finger: [f64; 3],
     /// Each axis's integral term: the PD's velocity integrated at the
     /// integral's corner (m/s).
     integral: [f64; 3],
@@ -167,7 +171,7 @@ impl GuidedMove {
             probed: [None; 3],
             lowered: [0; 3],
             stiffer: [1.0; 3],
-            finger: [0.0; 2],
+            finger: [0.0; 3],
             integral: [0.0; 3],
             arm: None,
             since_fresh_s: 0.0,
@@ -235,7 +239,6 @@ impl GuidedMove {
         let touched = i.force.norm() >= p.contact_force_n;
         let known = self.measured();
         let integrates = [0, 1, 2].map(|j| touched && self.probe.is_none() && known[j].is_some());
-        let feeds = [0, 1, 2].map(|j| j < 2 && integrates[j]);
         let max_speed = self.law.pd.max_speed_mps;
         let mut v = Vector3::zeros();
         for (j, pd) in self.pd.iter_mut().enumerate() {
@@ -248,11 +251,11 @@ impl GuidedMove {
                     0.0
                 };
                 v[j] = u + self.integral[j];
-                // Across the pad, the finger's velocity: the arm's, and the
-                // force's rate through the contact's stiffness
-                // (F = k (x_finger - x_arm)), low-passed over the loop's
-                // delay and lag (the module's doc).
-                if let (Some(arm), true) = (self.arm, feeds[j]) {
+                // The finger's velocity: the arm's, and the force's rate
+                // through the contact's stiffness (F = k (x_finger -
+                // x_arm)), low-passed over the loop's delay and lag (the
+                // module's doc).
+                if let (Some(arm), true) = (self.arm, integrates[j]) {
                     let raw = arm[j] + pd.force_rate() / k[j];
                     self.finger[j] += (raw - self.finger[j]) * i.dt / (smooth_s + i.dt);
                     let finger = self.finger[j];
@@ -445,7 +448,7 @@ impl Task for GuidedMove {
 
     fn pause(&mut self) {
         self.pd.iter_mut().flatten().for_each(PdAxis::reset);
-        self.finger = [0.0; 2];
+        self.finger = [0.0; 3];
         self.integral = [0.0; 3];
         self.arm = None;
         self.since_fresh_s = 0.0;
