@@ -25,10 +25,34 @@ fn a_network_mean_carries_the_estimate_the_gps_its_doubt_and_the_file_both() {
     let (mean, std) = model.predict(data.x.view(), true).unwrap();
     let worst = (&mean - &data.y).iter().fold(0.0f64, |m, e| m.max(e.abs()));
     assert!(worst < 0.3, "{worst}");
-    // One row at a time, as the estimator runs it, and after a round trip.
     let f = tempfile::NamedTempFile::new().unwrap();
     model.save(f.path()).unwrap();
-    let back = WrenchGp::load(f.path()).unwrap();
+    estimates_one_row_at_a_time_as_the_batch(
+        &WrenchGp::load(f.path()).unwrap(),
+        &data,
+        &mean,
+        &std,
+    );
+    a_given_network_is_taken_as_it_is(&model, &data, &mean);
+    // The observed std adds each GP's noise to its doubt.
+    let observed = model.predict_observed(data.x.view(), true).unwrap();
+    let s = observed.std.unwrap();
+    assert!(s.iter().zip(&std).all(|(o, l)| o > l));
+    a_network_of_other_inputs_is_refused_by_name(
+        &data,
+        &std::fs::read_to_string(f.path()).unwrap(),
+    );
+}
+
+/// One row at a time, as the estimator runs it, `back` (a model after a
+/// round trip) estimates as the batch did (`mean`, `std`), and far from
+/// every training row its GPs doubt, whatever the network says.
+fn estimates_one_row_at_a_time_as_the_batch(
+    back: &WrenchGp,
+    data: &Dataset,
+    mean: &Array2<f64>,
+    std: &Array2<f64>,
+) {
     let mut ws = back.workspace();
     let mut one = [Estimate::default(); 2];
     for (i, row) in data.x.rows().into_iter().enumerate().step_by(37) {
@@ -47,7 +71,6 @@ fn a_network_mean_carries_the_estimate_the_gps_its_doubt_and_the_file_both() {
             );
         }
     }
-    // Far from every training row the GPs doubt, whatever the network says.
     back.predict_one(&[40.0, -40.0, 40.0], &mut ws, true, &mut one)
         .unwrap();
     let inside = std.iter().fold(0.0f64, |m, s| m.max(*s));
@@ -55,8 +78,11 @@ fn a_network_mean_carries_the_estimate_the_gps_its_doubt_and_the_file_both() {
         one.iter().all(|e| e.std > 3.0 * inside),
         "{one:?} vs {inside}"
     );
-    // Given that network (another GP on the same rows, as `--select` does),
-    // a fit takes it as it is, and estimates as the first did.
+}
+
+/// Given `model`'s network (another GP on the same rows, as `--select`
+/// does), a fit takes it as it is, and estimates as `model` did (`mean`).
+fn a_given_network_is_taken_as_it_is(model: &WrenchGp, data: &Dataset, mean: &Array2<f64>) {
     let params = crate::learn::models::gp::GpParams {
         restarts: 1,
         mean: MeanKind::Network,
@@ -67,7 +93,7 @@ fn a_network_mean_carries_the_estimate_the_gps_its_doubt_and_the_file_both() {
         network: model.network(),
     };
     let again = WrenchGp::train_from(
-        &data,
+        data,
         model.tare().clone(),
         model.scaling(),
         &params.validate().unwrap(),
@@ -77,23 +103,22 @@ fn a_network_mean_carries_the_estimate_the_gps_its_doubt_and_the_file_both() {
     .unwrap();
     assert_eq!(again.network(), model.network());
     let (again_mean, _) = again.predict(data.x.view(), false).unwrap();
-    let apart = (&again_mean - &mean)
+    let apart = (&again_mean - mean)
         .iter()
         .fold(0.0f64, |m, e| m.max(e.abs()));
     assert!(apart < 1e-3, "{apart}");
-    // The observed std adds each GP's noise to its doubt.
-    let observed = model.predict_observed(data.x.view(), true).unwrap();
-    let s = observed.std.unwrap();
-    assert!(s.iter().zip(&std).all(|(o, l)| o > l));
-    // A network of other inputs is refused by name.
+}
+
+/// A saved model (`saved`) given a network of other inputs is refused by
+/// name.
+fn a_network_of_other_inputs_is_refused_by_name(data: &Dataset, saved: &str) {
     let two = Dataset {
         features: vec!["e1".into(), "e2".into()],
         x: data.x.slice(ndarray::s![.., ..2]).to_owned(),
         ..data.clone()
     };
     let other = serde_json::to_value(train_with_mean(&two, MeanKind::Network)).unwrap();
-    let mut value: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(f.path()).unwrap()).unwrap();
+    let mut value: serde_json::Value = serde_json::from_str(saved).unwrap();
     value["network"] = other["network"].clone();
     let err = load_text(&value.to_string()).unwrap_err().to_string();
     assert!(
