@@ -13,7 +13,13 @@
 //! force against the pad's position while the pad first presses it (until
 //! then the stiffest body the scene permits); across the pad, until
 //! measured, the contact is taken as stiff as the skin's shear spring alone
-//! (src/contact.rs), the stiffest it can be. Once the first press holds,
+//! (src/contact.rs), the stiffest it can be. Once the first press holds
+//! (the normal force within two deadbands of its target for half a period
+//! at the watchdog's lowest frequency, 0.17 s: a press that rings is the
+//! watchdog's to answer first; probed through the ringing, on
+//! MuJoCo's 1000 N/m fingers at a 16 ms cycle the normal's fit failed, and
+//! in one run of three three probes lost the contact and the move, its
+//! normal gain left low, stopped on its timeout: docs/results.md),
 //! the pad probes the contact on every axis for half a second (a 0.2 mm
 //! dither, src/control/probe.rs), and the stiffness it shows sets each
 //! axis's gain (along the normal, the larger of it and the fit; across the
@@ -24,7 +30,8 @@
 //! A sustained oscillation on an axis halves that axis's gain, up to three
 //! times, a slower follow rather than a
 //! stop; a fourth retracts the pad along its normal, naming the axis and
-//! the frequency.
+//! the frequency. A gain lowered before the probe measured its axis was
+//! lowered on a guess: the probe's measure replaces it.
 //!
 //! On each axis whose contact is measured the arm adds most of the finger's
 //! velocity to its PD's: the arm's measured velocity and the force's rate
@@ -62,6 +69,7 @@ pub use section::GuidedParams;
 use nalgebra::Vector3;
 
 use super::identify::ContactStiffness;
+use super::oscillation::LOW_HZ;
 use super::pd::PdAxis;
 use super::probe::Probe;
 use super::rules::{ForceLimit, Watch};
@@ -89,6 +97,14 @@ const PROBES: u32 = 3;
 const SOFTENINGS: u32 = 3;
 /// The loop's crossover over the integral's corner frequency.
 const INTEGRAL_RATIO: f64 = 2.0;
+/// Time the normal force must stay within [`HOLD_BAND`] deadbands of its
+/// target before the probe (s): half a period at the watchdog's lowest
+/// frequency, which a ring beyond that band never stays within it for, so
+/// that a first press that rings is the watchdog's to answer.
+const HOLD_BEFORE_PROBE_S: f64 = 0.5 / LOW_HZ;
+/// The band of a held press, in deadbands: the force rests at the
+/// deadband's edge, where its noise crosses it.
+const HOLD_BAND: f64 = 2.0;
 
 /// What the guided move sees each cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -128,7 +144,8 @@ pub struct GuidedMove {
     probed: [Option<f64>; 3],
     /// The times the watchdog lowered each axis's gain.
     lowered: [u32; 3],
-    /// The factor the watchdog raised each axis's stiffness by.
+    /// The factor the watchdog raised each axis's stiffness by (reset by
+    /// the probe's first measure of the axis).
     stiffer: [f64; 3],
     /// The finger's velocity per axis, low-passed (m/s).
     finger: [f64; 3],
@@ -142,6 +159,9 @@ pub struct GuidedMove {
     /// True once the first press reached the normal target: the finger
     /// moves by itself from then on, so the stiffness fit stops.
     pressed: bool,
+    /// Time the normal force has stayed within [`HOLD_BAND`] deadbands of
+    /// its target (s): the probe waits for a hold.
+    held_s: f64,
     retract_from_m: f64,
     phase: Phase,
     reason: Option<StopReason>,
@@ -177,6 +197,7 @@ impl GuidedMove {
             since_fresh_s: 0.0,
             without_contact_s: 0.0,
             pressed: false,
+            held_s: 0.0,
             retract_from_m: 0.0,
             law: *law,
             p: *p,
@@ -326,6 +347,8 @@ impl GuidedMove {
         }
         self.pressed |= i.force.z >= p.target_force_n[2] - p.deadband_n;
         let dt = std::mem::take(&mut self.since_fresh_s);
+        let holds = (i.force.z - p.target_force_n[2]).abs() <= HOLD_BAND * p.deadband_n;
+        self.held_s = if holds { self.held_s + dt } else { 0.0 };
         if let (Some(x), true, false) = (i.position, i.force.z >= p.contact_force_n, self.pressed) {
             self.stiffness.push(dt, -x.z, i.force.z);
         }
@@ -337,15 +360,18 @@ impl GuidedMove {
         }
     }
 
-    /// Once the first press holds, probes the contact (src/control/probe.rs)
-    /// until every controlled axis is measured or [`PROBES`] were tried; a
-    /// probe that loses the contact is dropped.
+    /// Once the first press holds ([`HOLD_BEFORE_PROBE_S`]), probes the
+    /// contact (src/control/probe.rs) until every controlled axis is
+    /// measured or [`PROBES`] were tried; a probe that loses the contact is
+    /// dropped. An axis's first measure replaces what the watchdog raised
+    /// its stiffness by.
     fn run_probe(&mut self, i: &GuidedInput) {
         let controlled = |j: usize| self.pd[j].is_some();
         let in_contact = i.force.z >= self.p.contact_force_n;
         let missing = (0..3).any(|j| controlled(j) && self.probed[j].is_none());
         let Some(probe) = self.probe.as_mut() else {
-            if self.pressed && in_contact && missing && self.probes_left > 0 {
+            let held = self.held_s >= HOLD_BEFORE_PROBE_S;
+            if held && in_contact && missing && self.probes_left > 0 {
                 self.probes_left -= 1;
                 self.probe = Some(Probe::default());
             }
@@ -361,8 +387,9 @@ impl GuidedMove {
             return;
         }
         for (j, k) in probe.stiffness().into_iter().enumerate() {
-            if controlled(j) {
-                self.probed[j] = self.probed[j].or(k);
+            if controlled(j) && self.probed[j].is_none() && k.is_some() {
+                self.probed[j] = k;
+                self.stiffer[j] = 1.0;
             }
         }
         self.probe = None;

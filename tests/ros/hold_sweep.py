@@ -20,15 +20,19 @@ config/guided_move.yaml, RMS error per axis <= 0.3 N from contact on,
 off-axis speed <= 10 % of the finger's.
 
     python tests/ros/hold_sweep.py [--plants ours,mujoco] [--moves guarded,guided] [--grid full|ci]
-        [--cycles 2,4] [--lags 0,10] [--bodies 50,rigid] [--fingers default,issue48,...] [--logs]
+        [--cycles 2,4] [--lags 0,10] [--bodies 50,rigid] [--fingers default,issue48,...]
+        [--finger-speed 0.035] [--logs]
 
 `--cycles`, `--lags` and `--bodies` run only those rows of the grid;
 `--fingers` the MuJoCo guided runs' fingers (FINGERS below: stiffness
 along the pad's normal and across it, damping, mass, friction, and the
-estimates' averaging, noise and jitter). A guided run also misses when the
-task stopped by itself or halted on a stale estimate. `--logs` prints the
-nodes' last log lines after each run (the contact the guided move
-measured, the watchdog's answers).
+estimates' averaging, noise and jitter); `--finger-speed` their pushes and
+circle at that peak speed (m/s) instead of the scene's 0.05. A guided run
+also misses when the task stopped by itself or halted on a stale estimate.
+`--logs` prints the nodes' last log lines after each run (the contact the
+guided move measured, the watchdog's answers) and, for MuJoCo's guided
+runs, which lines of the finger's path hold most of each axis's squared
+error and how long the contact was lost.
 
 Prints one row per run and a summary; exits 1 when a run misses a bound.
 Run after scripts/ros2-jazzy.sh, with `. target/ros2/env.sh`.
@@ -36,6 +40,7 @@ Run after scripts/ros2-jazzy.sh, with `. target/ros2/env.sh`.
 
 import argparse
 import contextlib
+import functools
 import math
 import os
 import statistics
@@ -276,11 +281,16 @@ class Watch:
                 self.stale_halts = int(values.get("stale_halts", self.stale_halts))
 
 
-def guided_mujoco(cycle_ms, lag_ms, finger="default"):
+def guided_mujoco(cycle_ms, lag_ms, finger="default", speed=None):
+    """The guided scene's finger path on MuJoCo's UR5; `speed`: every push
+    and circle at this peak speed (m/s) instead of the scene's."""
     import mujoco_ur5
     with open(os.path.join(dds.REPO, "config", "guided_move.yaml")) as f:
         path = [line.strip().strip("-").strip() for line in f if line.strip().startswith("- ")
                 and line.strip()[2:].split()[0] in ("wait", "push", "circle")]
+    if speed is not None:
+        path = [line if line.startswith("wait") else " ".join(line.split()[:-1] + [str(speed)])
+                for line in path]
     n = mujoco_nodes("guided_move.yaml")
     rclpy.init(domain_id=n.domain)
     spec, estimates = FINGERS[finger]
@@ -291,6 +301,9 @@ def guided_mujoco(cycle_ms, lag_ms, finger="default"):
     spinner = Spinner(plant, node)
     try:
         plant.run(plant.path.duration + 2.0)
+        forces = plant.guided_record()[0]
+        if LOGS:
+            where_the_error_is(forces, plant.truth_segments, plant.path.lines)
         return dict(guided_figures(*plant.guided_record(), watch, plant.longest_gap_s), behind=plant.behind_s)
     finally:
         spinner.stop()
@@ -298,6 +311,28 @@ def guided_mujoco(cycle_ms, lag_ms, finger="default"):
         plant.destroy_node()
         rclpy.shutdown()
         n.stop(keep_logs=LOGS)
+
+
+def where_the_error_is(forces, segments, lines):
+    """Prints, from contact on, each axis's squared error by the finger
+    path's line under way (its share of the run's) and how long the contact
+    was lost (fz under CONTACT_N)."""
+    t0 = next((t for t, f in forces if abs(f[2]) > CONTACT_N), None)
+    if t0 is None:
+        return
+    after = [(s, f) for (t, f), s in zip(forces, segments) if t >= t0]
+    target = (0.0, 0.0, 1.0)
+    for i, axis in enumerate(("fx", "fy", "fz")):
+        total = sum((f[i] - target[i]) ** 2 for _, f in after) or 1.0
+        shares = {}
+        for s, f in after:
+            shares[s] = shares.get(s, 0.0) + (f[i] - target[i]) ** 2 / total
+        top = sorted(shares.items(), key=lambda kv: -kv[1])[:3]
+        print(f"  {axis}'s squared error: " + ", ".join(
+            f"{100 * share:.0f} % during '{'the end' if s is None else lines[s]}' (line {s})"
+            for s, share in top), flush=True)
+    lost = sum(ESTIMATE_PERIOD_S for _, f in after if f[2] < CONTACT_N)
+    print(f"  contact lost for {lost:.2f} s after the first", flush=True)
 
 
 def guided_figures(forces, arm, finger, watch=None, longest_gap_s=0.0):
@@ -336,8 +371,14 @@ def main():
     ap.add_argument("--bodies", help="only these bodies (N/m or rigid), comma-separated")
     ap.add_argument("--fingers", default="default",
                     help=f"MuJoCo's guided fingers, comma-separated, of {', '.join(FINGERS)}")
-    ap.add_argument("--logs", action="store_true", help="print the nodes' last log lines after each run")
+    ap.add_argument("--finger-speed", type=float,
+                    help="MuJoCo's guided finger: every push and circle at this peak speed (m/s)")
+    ap.add_argument("--logs", action="store_true",
+                    help="print the nodes' last log lines after each run, and where a guided run's error is")
     a = ap.parse_args()
+    if a.finger_speed is not None and not 0 < a.finger_speed <= 0.1:
+        print(f"hold_sweep: --finger-speed: {a.finger_speed} m/s, not in (0, 0.1]", file=sys.stderr)
+        return 2
     global LOGS
     LOGS = a.logs
     os.environ.setdefault("TACTILE_FORCE_CACHE", os.path.join(dds.REPO, "target", "ros-test-cache"))
@@ -349,7 +390,7 @@ def main():
     failed = 0
     for plant in a.plants.split(","):
         guarded = {"ours": guarded_ours, "mujoco": guarded_mujoco}[plant]
-        guided = {"ours": guided_ours, "mujoco": guided_mujoco}[plant]
+        guided = {"ours": guided_ours, "mujoco": functools.partial(guided_mujoco, speed=a.finger_speed)}[plant]
         if "guarded" in a.moves.split(","):
             failed += sweep_guarded(guarded, plant, cycles, lags, bodies)
         if "guided" in a.moves.split(","):

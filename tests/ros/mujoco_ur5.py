@@ -132,6 +132,7 @@ class FingerPath:
     the BioTac frame at the start (m)."""
 
     def __init__(self, lines):
+        self.lines = list(lines)
         self.segments = []
         t, at = 0.0, np.zeros(3)
         for line in lines:
@@ -151,6 +152,11 @@ class FingerPath:
             t, at = t + d, end
         self.duration = t
         self.end = at
+
+    def segment_at(self, t):
+        """The index of the path's line under way at `t` (s), None after
+        its end."""
+        return next((i for i, (start, d, _, _) in enumerate(self.segments) if start <= t < start + d), None)
 
     def at(self, t):
         for start, d, frm, (kind, arg) in self.segments:
@@ -187,6 +193,7 @@ class Ur5Plant(Node):
         self.acting = np.zeros(6)
         self.servo = np.zeros(6)  # the command through the servo lag
         self.truth = []  # (stamp, force in the BioTac frame) every 10 ms
+        self.truth_segments = []  # with a finger, its path's segment under way at each
         # (stamp, BioTac velocity, finger velocity), start BioTac frame (m/s)
         self.motion = []
         self.commands = 0
@@ -380,6 +387,8 @@ class Ur5Plant(Node):
         f = self.pad_force()
         t = self.now()
         self.truth.append((t, f))
+        if self.path is not None:
+            self.truth_segments.append(self.path.segment_at(tick * TICK))
         self.record_motion(t)
         e = self.estimates
         seen = np.mean(self.frame, axis=0) if e.averaged else f

@@ -143,6 +143,26 @@ fn an_oscillating_axis_is_softened_then_the_pad_retracts() {
     assert_eq!(g.phase(), Phase::STOPPED);
 }
 
+/// The probe waits for the first press to hold: while the normal force
+/// swings out of two deadbands (a press that rings, the watchdog's to
+/// answer) it does not start; after half a period of the watchdog's
+/// lowest frequency within them, at the deadband's edge, it does.
+#[test]
+fn the_probe_waits_for_the_first_press_to_hold() {
+    let mut g = unprobed();
+    for k in 0..100 {
+        let z = if k % 10 < 5 { 0.55 } else { 1.45 };
+        g.velocity(&input(Vector3::new(0.0, 0.0, z)));
+        assert!(g.probe.is_none(), "probing a press that rings, at {k}");
+    }
+    let held = (1..100).find(|_| {
+        g.velocity(&input(Vector3::new(0.0, 0.0, 0.75)));
+        g.probe.is_some()
+    });
+    let after = (HOLD_BEFORE_PROBE_S / 0.01).ceil() as usize;
+    assert_eq!(held, Some(after), "estimates 10 ms apart");
+}
+
 /// The force along x (N) each 10 ms while a finger slides at 30 mm/s
 /// along x over a contact of 250 N/m for 3 s, the arm tracking commands
 /// 40 ms late.
@@ -395,14 +415,12 @@ fn gains_too_high_are_lowered_until_the_follow_settles() {
 /// The corners of issue 48's grid on this plant: fingers of 100-1000 N/m
 /// (normal and shear apart), 1-10 N s/m and 2-20 g, on the guided scene's
 /// path at 50 mm/s, followed at 2, 8 and 16 ms cycles with 0 or 30 ms of
-/// servo lag (and 10 ms at 16 ms), within 0.3 N RMS per axis, no gain
-/// lowered. Two corners miss on this plant and are held to what they show
-/// (issue 48 stays open on them): the stiff light finger at 16 ms with 30 ms
-/// of lag, along the normal (0.33 N; over DDS on MuJoCo's arm 0.29 N
-/// there, 0.31-0.34 N on the other stiff fingers at 16 ms with 10-30 ms of
-/// lag), and the soft heavy finger on an arm commanded every 2 ms without lag,
-/// whose fingertip rings on the skin at the estimates' Nyquist frequency
-/// (0.44 N; 0.15 N on MuJoCo, whose pad holds a finger across by
+/// servo lag (and 10 ms at 16 ms), within 0.3 N RMS per axis, at most one
+/// gain lowered (the watchdog's answer to a first press that rings) and no
+/// stop. One corner misses on this plant and is held to what it shows
+/// (issue 48): the soft heavy finger on an arm commanded every 2 ms without
+/// lag, whose fingertip rings on the skin at the estimates' Nyquist
+/// frequency (0.44 N; 0.15 N on MuJoCo, whose pad holds a finger across by
 /// friction, not by a shear spring).
 #[test]
 fn fingers_nobody_tuned_for_are_followed_at_every_cycle() {
@@ -412,14 +430,12 @@ fn fingers_nobody_tuned_for_are_followed_at_every_cycle() {
         damping,
         mass_kg,
     };
-    let stiff_light = finger(1000.0, 1000.0, 1.0, 0.002);
     let soft_heavy = finger(100.0, 100.0, 1.0, 0.02);
-    let misses = [(stiff_light, 0.016, 0.03), (soft_heavy, 0.002, 0.0)];
     for finger in [
         FINGER,
         finger(1000.0, 100.0, 3.0, 0.003),
         finger(1000.0, 1000.0, 10.0, 0.02),
-        stiff_light,
+        STIFF_LIGHT,
         finger(100.0, 100.0, 1.0, 0.002),
         soft_heavy,
     ] {
@@ -439,16 +455,39 @@ fn fingers_nobody_tuned_for_are_followed_at_every_cycle() {
                 finger.across,
                 finger.mass_kg * 1e3
             );
-            let missed = misses.contains(&(finger, period_s, lag_s));
+            let missed = (finger, period_s, lag_s) == (soft_heavy, 0.002, 0.0);
             let bound = if missed { 0.5 } else { 0.3 };
             assert!(run.rms.max() < bound, "{about}: RMS {}", run.rms);
-            assert_eq!(
-                (g.phase(), g.figures().softened),
-                (Phase::FOLLOW, 0),
-                "{about}"
-            );
+            assert_eq!(g.phase(), Phase::FOLLOW, "{about}");
+            assert!(g.figures().softened <= 1, "{about}: {:?}", g.lowered);
         }
     }
+}
+
+/// A fingertip of 1000 N/m, 1 N s/m and 2 g: stiffer than the scene's.
+const STIFF_LIGHT: Finger = Finger {
+    across: 1000.0,
+    along: 1000.0,
+    damping: 1.0,
+    mass_kg: 0.002,
+};
+
+/// On an arm at a 16 ms cycle with 30 ms of lag the first press on
+/// [`STIFF_LIGHT`] rings with the gain of the fingertip assumed: the
+/// watchdog lowers the normal gain once, then the probe measures the contact
+/// and its measure replaces the lowered gain (before, the probe ran through
+/// the ringing, failed on the normal and left the gain lowered: 0.33 N).
+#[test]
+fn a_press_that_rings_is_lowered_then_measured() {
+    let mut g = unprobed();
+    let run = follow(&mut g, STIFF_LIGHT, 0.016, 0.03, true);
+    assert_eq!(g.lowered, [0, 0, 1]);
+    assert!(
+        g.probed[2].is_some() && g.stiffer[2] == 1.0,
+        "{:?}",
+        g.probed
+    );
+    assert!(run.rms.max() < 0.3, "RMS {}", run.rms);
 }
 
 #[test]
