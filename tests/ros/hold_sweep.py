@@ -61,6 +61,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import test_over_dds as dds  # noqa: E402
 
 CONTACT_N = 0.05
+# The guided move's force targets along x, y, z (N; config/guided_move.yaml).
+GUIDED_TARGET = (0.0, 0.0, 1.0)
 # --logs: print the nodes' last log lines after each run.
 LOGS = False
 ESTIMATE_PERIOD_S = 0.01
@@ -313,20 +315,25 @@ def guided_mujoco(cycle_ms, lag_ms, finger="default", speed=None):
         n.stop(keep_logs=LOGS)
 
 
+def first_contact(forces):
+    """The stamp of the first (stamp, force) whose normal force passes
+    CONTACT_N; None without contact."""
+    return next((t for t, f in forces if abs(f[2]) > CONTACT_N), None)
+
+
 def where_the_error_is(forces, segments, lines):
     """Prints, from contact on, each axis's squared error by the finger
     path's line under way (its share of the run's) and how long the contact
     was lost (fz under CONTACT_N)."""
-    t0 = next((t for t, f in forces if abs(f[2]) > CONTACT_N), None)
+    t0 = first_contact(forces)
     if t0 is None:
         return
     after = [(s, f) for (t, f), s in zip(forces, segments) if t >= t0]
-    target = (0.0, 0.0, 1.0)
     for i, axis in enumerate(("fx", "fy", "fz")):
-        total = sum((f[i] - target[i]) ** 2 for _, f in after) or 1.0
+        total = sum((f[i] - GUIDED_TARGET[i]) ** 2 for _, f in after) or 1.0
         shares = {}
         for s, f in after:
-            shares[s] = shares.get(s, 0.0) + (f[i] - target[i]) ** 2 / total
+            shares[s] = shares.get(s, 0.0) + (f[i] - GUIDED_TARGET[i]) ** 2 / total
         top = sorted(shares.items(), key=lambda kv: -kv[1])[:3]
         print(f"  {axis}'s squared error: " + ", ".join(
             f"{100 * share:.0f} % during '{'the end' if s is None else lines[s]}' (line {s})"
@@ -340,12 +347,11 @@ def guided_figures(forces, arm, finger, watch=None, longest_gap_s=0.0):
     controller's `watch`, whether the task stopped itself and its stale
     halts, which miss only when no estimate was missing for two periods
     (`longest_gap_s`: the longest time between two estimates sent)."""
-    t0 = next((t for t, f in forces if abs(f[2]) > CONTACT_N), None)
+    t0 = first_contact(forces)
     if t0 is None:
         return {"ok": False, "why": "no contact"}
     after = [f for t, f in forces if t >= t0]
-    target = (0.0, 0.0, 1.0)
-    rms = [(sum((f[i] - target[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
+    rms = [(sum((f[i] - GUIDED_TARGET[i]) ** 2 for f in after) / len(after)) ** 0.5 for i in range(3)]
     off, where = dds.off_axis_ratio(arm, finger, t0 + 1.0)
     if LOGS:
         print(f"  the largest off-axis speed: {where}", flush=True)
