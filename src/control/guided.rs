@@ -16,21 +16,16 @@
 //! (src/contact.rs), the stiffest it can be. Once the first press holds
 //! (the normal force within two deadbands of its target for half a period
 //! at the watchdog's lowest frequency, 0.17 s: a press that rings is the
-//! watchdog's to answer first; probed through the ringing, on
-//! MuJoCo's 1000 N/m fingers at a 16 ms cycle the normal's fit failed, and
-//! in one run of three three probes lost the contact and the move, its
-//! normal gain left low, stopped on its timeout: docs/results.md),
-//! the pad probes the contact on every axis for half a second (a 0.2 mm
-//! dither, src/control/probe.rs), and the stiffness it shows sets each
-//! axis's gain (along the normal, the larger of it and the fit; across the
-//! pad, an axis the probe misses takes the other's): a fingertip may be far
-//! stiffer across the pad than along it. Until then the follow across the
-//! pad is slow.
+//! watchdog's to answer first), the pad probes the contact on every axis
+//! for half a second (a 0.2 mm dither, src/control/probe.rs), and the
+//! stiffness it shows sets each axis's gain (along the normal, the larger
+//! of it and the fit; across the pad, an axis the probe misses takes the
+//! other's): a fingertip may be far stiffer across the pad than along it.
+//! Until then the follow across the pad is slow.
 //!
 //! A sustained oscillation on an axis halves that axis's gain, up to three
-//! times, a slower follow rather than a
-//! stop; a fourth retracts the pad along its normal, naming the axis and
-//! the frequency. A gain lowered before the probe measured its axis was
+//! times, a slower follow rather than a stop; a fourth retracts the pad
+//! along its normal, naming the axis and the frequency. A gain lowered before the probe measured its axis was
 //! lowered on a guess: the probe's measure replaces it.
 //!
 //! On each axis whose contact is measured the arm adds most of the finger's
