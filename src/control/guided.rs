@@ -25,8 +25,9 @@
 //!
 //! A sustained oscillation on an axis halves that axis's gain, up to three
 //! times, a slower follow rather than a stop; a fourth retracts the pad
-//! along its normal, naming the axis and the frequency. A gain lowered before the probe measured its axis was
-//! lowered on a guess: the probe's measure replaces it.
+//! along its normal, naming the axis and the frequency. A gain lowered
+//! before the probe measured its axis was lowered on a guess: the probe's
+//! measure replaces it.
 //!
 //! On each axis whose contact is measured the arm adds most of the finger's
 //! velocity to its PD's: the arm's measured velocity and the force's rate

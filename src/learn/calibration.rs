@@ -131,13 +131,13 @@ pub fn fit(
         &rec.cut(&rec.test, &current_features)?.0,
         &rec.sd,
     )?];
-    let mut scales = Vec::with_capacity(candidates.len());
+    let mut fitted = Vec::with_capacity(candidates.len());
     for c in &candidates {
         let (train, tare) = rec.cut(&rec.train, &features(c))?;
         let (test, _) = rec.cut(&rec.test, &features(c))?;
         let m = fitter.fit(c, &train, tare)?;
         validation.push(validate(c.name(), m.model(), &test, &rec.sd)?);
-        scales.push(std_scales(m.model(), &test)?);
+        fitted.push((m, test));
     }
     let at = match best(&validation[1..]) {
         Some(v) if v.score < validation[0].score => {
@@ -148,7 +148,10 @@ pub fn fit(
     let Some(at) = at else {
         return Err(CalibrationError::NotBetter(validation));
     };
-    // The winner again, on every push.
+    // The winner's standard deviation scale, from its held-out errors; then
+    // the winner again, on every push.
+    let scales = std_scales(fitted[at].0.model(), &fitted[at].1)?;
+    drop(fitted);
     let chosen = &candidates[at];
     let (data, tare) = rec.cut(&rec.all, &features(chosen))?;
     let model = fitter.fit(chosen, &data, tare)?;
@@ -169,7 +172,7 @@ pub fn fit(
         session: recorded.session,
         pooling: Some(pooling),
     };
-    let model = model.finish(&scales[at], trained_on, record.clone());
+    let model = model.finish(&scales, trained_on, record.clone());
     Ok((model, record))
 }
 

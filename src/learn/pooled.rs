@@ -385,23 +385,21 @@ impl Adaptation<'_> {
         let (train, test) = (self.data.select(&train), self.data.select(&test));
         let sd = spread(self.data);
         let mut validation = Vec::with_capacity(names.len());
-        let mut scales = Vec::with_capacity(names.len());
+        let mut fitted = Vec::with_capacity(names.len());
         for name in &names {
             let m: Box<dyn WrenchModel> = match *name {
                 NEW_ENSEMBLE => Box::new(self.ensemble(&train)?),
                 _ => Box::new(fit(name, &train, progress)?),
             };
             validation.push(validate(name, m.as_ref(), &test, &sd)?);
-            let z = m.standardised_errors(&test, CALIBRATION_ROWS)?;
-            scales.push(
-                z.iter()
-                    .map(|z| std_scale(z).unwrap_or(1.0))
-                    .collect::<Vec<_>>(),
-            );
+            fitted.push(m);
         }
         let at = best(&validation)
             .and_then(|v| names.iter().position(|n| *n == v.model))
             .unwrap_or(0);
+        // The winner's standard deviation scale, from its held-out errors.
+        let scales = std_scales(fitted[at].as_ref(), &test)?;
+        drop(fitted);
         let chosen = names[at];
         let choice = AdaptChoice {
             chosen: chosen.into(),
@@ -413,7 +411,7 @@ impl Adaptation<'_> {
             validation,
         };
         if chosen == NEW_ENSEMBLE {
-            let model = (self.ensemble(self.data)?.with_std_scales(&scales[at]))
+            let model = (self.ensemble(self.data)?.with_std_scales(&scales))
                 .with_adapt_choice(choice.clone());
             return Ok((Box::new(model), choice));
         }
@@ -421,7 +419,7 @@ impl Adaptation<'_> {
             NEW_GP | NEW_NETWORK => self.new_only.clone(),
             _ => self.trained_on.clone(),
         };
-        let model = (fit(chosen, self.data, progress)?.with_std_scales(&scales[at]))
+        let model = (fit(chosen, self.data, progress)?.with_std_scales(&scales))
             .with_trained_on(trained_on)
             .with_adapt_choice(choice.clone());
         Ok((Box::new(model), choice))

@@ -303,10 +303,10 @@ def guided_mujoco(cycle_ms, lag_ms, finger="default", speed=None):
     spinner = Spinner(plant, node)
     try:
         plant.run(plant.path.duration + 2.0)
-        forces = plant.guided_record()[0]
+        record = plant.guided_record()
         if LOGS:
-            where_the_error_is(forces, plant.truth_segments, plant.path.lines)
-        return dict(guided_figures(*plant.guided_record(), watch, plant.longest_gap_s), behind=plant.behind_s)
+            where_the_error_is(record[0], plant.truth_segments, plant.path.lines)
+        return dict(guided_figures(*record, watch, plant.longest_gap_s), behind=plant.behind_s)
     finally:
         spinner.stop()
         node.destroy_node()
