@@ -20,7 +20,8 @@ independent rclpy peer that checks them from the topics and the action.
   joint states are dropped and counted (/diagnostics) with every node alive;
   a burst of readings at 10x the rate grows neither the loop delay (the
   median of its per-second p99 during the burst, and after it, within one
-  period of the quiet seconds' before it) nor the memory; the estimator killed -> zero commands within the stale bound it reports
+  period of the quiet seconds' just before it) nor the memory; the
+  estimator killed -> zero commands within the stale bound it reports
   (at most 4 periods beyond the estimates' usual age: 3 and the jitter); restarted
   -> it takes up its saved tare and the hold resumes.
 - Start-up: every node says what it loaded, on /rosout.
@@ -639,11 +640,11 @@ def faults(n, peer):
     rss_after = n.rss_kib()
     # A queue that builds up grows the delay through the burst and outlasts
     # it, by far more than a period. The p99 of a quiet second on a loaded
-    # 2-core machine already reaches 5-9 ms (the peer's copying shares the
-    # cores), so the burst is judged against the quiet seconds just before
-    # it: the median during the burst, and after it, within one period
-    # (10 ms) of theirs. One slow second is the scheduler: reported, not
-    # judged.
+    # 2-core machine already reaches 5-9 ms, and during the burst the peer's
+    # copying shares the cores, so the burst is judged against the quiet
+    # seconds just before it: the median during the burst, and after it,
+    # within one period (10 ms) of theirs. One slow second is the
+    # scheduler: reported, not judged.
     median = lambda ds: statistics.median(ds or [float("nan")])  # noqa: E731
     quiet, during, after = median(p99_quiet), median(p99_during), median(p99_after)
     per_s = lambda ds: ", ".join(f"{d:.2f}" for d in ds)  # noqa: E731
