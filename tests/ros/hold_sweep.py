@@ -115,7 +115,9 @@ class Spinner:
         self.thread.start()
 
     def stop(self):
+        """Returns once no callback runs: the records are then still."""
         self.executor.shutdown()
+        self.thread.join(timeout=10.0)
 
 
 def guarded_ours(cycle_ms, lag_ms, k):
@@ -233,12 +235,12 @@ def guided_ours(cycle_ms, lag_ms):
     spinner = Spinner(node)
     try:
         time.sleep(23.0)
-        return guided_figures(forces, arm, finger)
     finally:
         spinner.stop()
         node.destroy_node()
         rclpy.shutdown()
         n.stop(keep_logs=LOGS)
+    return guided_figures(forces, arm, finger)
 
 
 # Fingers of the MuJoCo guided runs: (mujoco_ur5.Finger's, mujoco_ur5.Estimates'
