@@ -39,9 +39,10 @@
 //! g on 300 N/m) makes the contact look about 2.5 times stiffer than fitted,
 //! with a 90 deg lead, at 25 Hz, and on an arm without servo lag that loop rang
 //! at 25 Hz until the watchdog stopped the move (docs/results.md). The estimate
-//! is low-passed over the loop's delay and lag: at the frequency where the
-//! delay alone turns 180 deg less than a third of it passes, a person's pushes
-//! (about 1 Hz) pass nearly whole.
+//! is low-passed twice over the loop's delay and lag and carried forward by
+//! its own rate to when the command acts (guided/finger.rs): a person's
+//! pushes (about 1 Hz) are met when they come, a ring at 25 Hz passes less
+//! than a third.
 //!
 //! Once an axis's contact is measured, and while in contact, the PD's velocity
 //! is integrated too (a PI law whose integral's corner sits at half the loop's
@@ -59,6 +60,7 @@
 //! touched for `contact_timeout_s` stops it (`timeout`), and it never moves
 //! further than `max_travel_m` from where it started (`travel_limit`).
 
+mod finger;
 mod section;
 pub use section::GuidedParams;
 
@@ -75,6 +77,7 @@ use super::{Phase, StopReason};
 use crate::kinematics::Twist;
 use crate::params::Checked;
 use crate::wrench::Axis;
+use finger::FingerVelocity;
 
 /// The guided move's own phase (with [`Phase::RETRACT`] and
 /// [`Phase::STOPPED`]).
@@ -143,8 +146,8 @@ pub struct GuidedMove {
     /// The factor the watchdog raised each axis's stiffness by (reset by
     /// the probe's first measure of the axis).
     stiffer: [f64; 3],
-    /// The finger's velocity per axis, low-passed (m/s).
-    finger: [f64; 3],
+    /// The finger's velocity per axis (guided/finger.rs).
+    finger: [FingerVelocity; 3],
     /// Each axis's integral term: the PD's velocity integrated at the
     /// integral's corner (m/s).
     integral: [f64; 3],
@@ -187,7 +190,7 @@ impl GuidedMove {
             probed: [None; 3],
             lowered: [0; 3],
             stiffer: [1.0; 3],
-            finger: [0.0; 3],
+            finger: Default::default(),
             integral: [0.0; 3],
             arm: None,
             since_fresh_s: 0.0,
@@ -245,7 +248,7 @@ impl GuidedMove {
                 axis.tune(k, k, &i.timing);
             }
         }
-        let smooth_s = i.timing.dead_s() + i.timing.lag_s;
+        let delay_s = i.timing.dead_s() + i.timing.lag_s;
         // A reading whose joint state has not come yet (a 16 ms stream):
         // the arm's last velocity stands, so the feedforward does not
         // switch off and on.
@@ -270,12 +273,11 @@ impl GuidedMove {
                 v[j] = u + self.integral[j];
                 // The finger's velocity: the arm's, and the force's rate
                 // through the contact's stiffness (F = k (x_finger -
-                // x_arm)), low-passed over the loop's delay and lag (the
+                // x_arm)), as it will be when the command acts (the
                 // module's doc).
                 if let (Some(arm), true) = (self.arm, integrates[j]) {
-                    let raw = arm[j] + pd.force_rate() / k[j];
-                    self.finger[j] += (raw - self.finger[j]) * i.dt / (smooth_s + i.dt);
-                    let finger = self.finger[j];
+                    let measured = arm[j] + pd.force_rate() / k[j];
+                    let finger = self.finger[j].step(measured, i.dt, delay_s);
                     let along =
                         finger.signum() * (finger.abs() - FEEDFORWARD_DEADBAND_MPS).max(0.0);
                     v[j] += FEEDFORWARD_SHARE * along;
@@ -471,7 +473,7 @@ impl Task for GuidedMove {
 
     fn pause(&mut self) {
         self.pd.iter_mut().flatten().for_each(PdAxis::reset);
-        self.finger = [0.0; 3];
+        self.finger = Default::default();
         self.integral = [0.0; 3];
         self.arm = None;
         self.since_fresh_s = 0.0;

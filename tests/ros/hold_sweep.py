@@ -63,6 +63,8 @@ import test_over_dds as dds  # noqa: E402
 CONTACT_N = 0.05
 # The guided move's force targets along x, y, z (N; config/guided_move.yaml).
 GUIDED_TARGET = (0.0, 0.0, 1.0)
+# How often force_controller reports on /diagnostics, with a margin (s).
+REPORT_S = 1.1
 # --logs: print the nodes' last log lines after each run.
 LOGS = False
 ESTIMATE_PERIOD_S = 0.01
@@ -271,13 +273,19 @@ FINGERS = {
 
 class Watch:
     """force_controller's /diagnostics during a run: every phase it
-    reported and its latest count of stale halts."""
+    reported and its latest count of stale halts, until `stop`."""
 
     def __init__(self, node):
-        self.phases, self.stale_halts = set(), 0
+        self.phases, self.stale_halts, self.stopped = set(), 0, False
         node.create_subscription(DiagnosticArray, "/diagnostics", self._on, 10)
 
+    def stop(self):
+        """Takes no more reports: the run is over."""
+        self.stopped = True
+
     def _on(self, m):
+        if self.stopped:
+            return
         for st in m.status:
             if st.name == "force_controller":
                 values = {kv.key: kv.value for kv in st.values}
@@ -304,8 +312,15 @@ def guided_mujoco(cycle_ms, lag_ms, finger="default", speed=None):
     watch = Watch(node)
     spinner = Spinner(plant, node)
     try:
-        plant.run(plant.path.duration + 2.0)
-        record = plant.guided_record()
+        # The controller reports its stale halts once a second (REPORT_S):
+        # the plant runs a report longer than the figures take, and the
+        # count is read as it stops, before the controller halts on the
+        # estimates that stopped with it (a halt of the harness, not of the
+        # run).
+        end = plant.now() + plant.path.duration + 2.0
+        plant.run(plant.path.duration + 2.0 + REPORT_S)
+        watch.stop()
+        record = plant.guided_record(until=end)
         if LOGS:
             where_the_error_is(record[0], plant.truth_segments, plant.path.lines)
         return dict(guided_figures(*record, watch, plant.longest_gap_s), behind=plant.behind_s)

@@ -32,6 +32,8 @@ over the 10 ms frame with 7 mN, sent after a random delay of up to
 `jitter_s` (an ordinary process's timing) and stamped when sent.
 """
 
+import contextlib
+import gc
 import math
 import os
 import re
@@ -169,6 +171,21 @@ class FingerPath:
                     return frm + np.array([arg * (math.cos(th) - 1), arg * math.sin(th), 0.0])
                 return frm
         return np.zeros(3) if t <= 0 else self.end
+
+
+@contextlib.contextmanager
+def without_gc_pauses():
+    """Python's cyclic collector off while the plant runs: a full collection
+    of the records paused the physics 29-44 ms (a real arm's cycle does not
+    wait), which made the plant run late and the estimates go stale."""
+    gc.collect()
+    gc.freeze()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.enable()
+        gc.unfreeze()
 
 
 class Ur5Plant(Node):
@@ -328,12 +345,12 @@ class Ur5Plant(Node):
             self.motion.append((t, v[0], v[1]))
         self._last = here
 
-    def guided_record(self):
+    def guided_record(self, until=math.inf):
         """(stamp, force) and the BioTac's and the finger's velocities by
-        stamp, for the guided move's figures."""
-        arm = {t: tuple(a) for t, a, _ in self.motion}
-        finger = {t: tuple(f) for t, _, f in self.motion}
-        forces = [(t, tuple(f)) for t, f in self.truth]
+        stamp up to the stamp `until`, for the guided move's figures."""
+        arm = {t: tuple(a) for t, a, _ in self.motion if t <= until}
+        finger = {t: tuple(f) for t, _, f in self.motion if t <= until}
+        forces = [(t, tuple(f)) for t, f in self.truth if t <= until]
         return forces, arm, finger
 
     def now(self):
@@ -347,6 +364,10 @@ class Ur5Plant(Node):
     def run(self, seconds):
         """Runs the plant in real time for `seconds`, publishing as it goes:
         the servos and the finger move every TICK, the physics in between."""
+        with without_gc_pauses():
+            self._run(seconds)
+
+    def _run(self, seconds):
         start = time.monotonic()
         steps = round(TICK / PHYSICS_DT)
         ticks_per_cycle = max(1, round(self.cycle_s / TICK))
