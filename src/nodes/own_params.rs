@@ -132,7 +132,7 @@ pub const TARE_FILE: OwnParam<&str> = OwnParam {
 pub const TARE_MAX_AGE: OwnParam<f64> = OwnParam {
     name: "tare_max_age_s",
     default: 60.0,
-    description: "A saved tare younger than this is taken up at start (s); 0: always tare anew.",
+    description: "A saved tare younger than this is taken up at start (s); 0: always tare anew. An older one of the same sensor is kept as a check: no new tare while PDC shows the finger pressed against it.",
 };
 /// `wrench_estimator`'s `input`.
 pub const INPUT: OwnParam<&str> = OwnParam {

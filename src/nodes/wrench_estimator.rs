@@ -359,6 +359,13 @@ impl EstimatorNode<BioTacInput> {
         self.sensor.set_tare(tare);
     }
 
+    /// Takes `reference`, a tare of this BioTac too old to take up, as the
+    /// one a new tare is checked against: none is taken while the finger
+    /// is pressed ([`BioTacInput::set_reference`]).
+    pub fn set_tare_reference(&mut self, reference: Tare) {
+        self.sensor.set_reference(reference);
+    }
+
     /// Why [`EstimatorNode::take_model`] would refuse `model` now, if it
     /// would: not a model of this BioTac's readings, or the finger pressed.
     pub fn check_model(&self, model: &dyn WrenchModel) -> Result<(), EstimatorError> {

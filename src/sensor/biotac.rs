@@ -1,6 +1,7 @@
 //! The BioTac as the estimator reads it: the model's channels (by name,
-//! [`Column`]), tared on the first readings ([`Tare`]), and the PDC rise
-//! as the contact cue.
+//! [`Column`]), tared on the first readings ([`Tare`]; checked against an
+//! earlier tare, not while PDC shows a press), and the PDC rise as the
+//! contact cue.
 
 use super::{ModelInput, SensorError, SensorInput, SensorSpec};
 use crate::biotac::reading::Column;
@@ -13,6 +14,11 @@ pub const NAME: &str = "biotac";
 /// when the model does not say (its data were tared before training).
 pub const DEFAULT_TARE_SAMPLES: usize = 50;
 
+/// How far PDC may rise above a reference tare, or vary while a tare
+/// checked against one is taken, before it is taken for a press (counts):
+/// the serial driver's `tare_pdc_limit` default.
+pub const TARE_PDC_LIMIT: f64 = 30.0;
+
 /// A BioTac feeding a model: its channels and its tare.
 #[derive(Debug, Clone)]
 pub struct BioTacInput {
@@ -21,6 +27,9 @@ pub struct BioTacInput {
     tare_samples: usize,
     tare_readings: Vec<BioTacReading>,
     tare: Option<Tare>,
+    /// An earlier tare of this sensor, too old to take up, that a new one
+    /// is checked against ([`BioTacInput::set_reference`]).
+    reference: Option<Tare>,
 }
 
 impl BioTacInput {
@@ -32,6 +41,33 @@ impl BioTacInput {
     /// Takes `tare` as the baseline (a saved one): no readings are spent on it.
     pub fn set_tare(&mut self, tare: Tare) {
         self.tare = Some(tare);
+        self.tare_readings.clear();
+    }
+
+    /// Checks the tare to come against `reference`, an earlier tare of this
+    /// sensor: while PDC stays more than [`TARE_PDC_LIMIT`] above it, or
+    /// varies by more, the finger is pressed, and the readings are not
+    /// taken for a tare.
+    pub fn set_reference(&mut self, reference: Tare) {
+        self.reference = Some(reference);
+    }
+
+    /// Takes the readings gathered as the tare, once there are enough;
+    /// against a reference, refused (and gathered anew) when PDC rose above
+    /// it or varied by more than [`TARE_PDC_LIMIT`].
+    fn take_tare(&mut self) {
+        if self.tare_readings.len() < self.tare_samples {
+            return;
+        }
+        let readings = &self.tare_readings;
+        let taken = match &self.reference {
+            Some(r) => Tare::from_readings_out_of_contact(readings, TARE_PDC_LIMIT, Some(r)),
+            None => Tare::from_readings(readings),
+        };
+        match taken {
+            Ok(tare) => self.set_tare(tare),
+            Err(e) => tracing::warn!("{e}"),
+        }
         self.tare_readings.clear();
     }
 }
@@ -74,6 +110,7 @@ impl SensorInput for BioTacInput {
             tare_samples,
             tare_readings: Vec::with_capacity(tare_samples),
             tare: None,
+            reference: None,
         })
     }
 
@@ -98,11 +135,7 @@ impl SensorInput for BioTacInput {
         }
         let Some(tare) = &self.tare else {
             self.tare_readings.push(*r);
-            if self.tare_readings.len() == self.tare_samples {
-                // Cannot fail: the buffer is not empty.
-                self.tare = Tare::from_readings(&self.tare_readings).ok();
-                self.tare_readings.clear();
-            }
+            self.take_tare();
             return Ok(None);
         };
         for (f, c) in out.iter_mut().zip(&self.columns) {

@@ -56,3 +56,32 @@ fn a_biotac_model_cannot_take_an_electrode_the_biotac_lacks() {
     assert!(err.to_string().contains("e1..e19"), "{err}");
     assert!(input(ElectrodeLayout::BiotacSp, &["e1", "e20"]).is_ok());
 }
+
+/// Restarted with a tare of this sensor too old to take up: no new tare
+/// while PDC stands above it (the finger pressed), one once released; the
+/// first start, with nothing to compare, tares on what it reads.
+#[test]
+fn against_an_earlier_tare_a_pressed_finger_is_not_tared() {
+    let rest = reading([3000; 19].into());
+    let pressed = BioTacReading {
+        pdc: rest.pdc + 100,
+        ..rest
+    };
+    let mut out = [0.0; 2];
+    let mut bt = input(ElectrodeLayout::Biotac, &["e1", "pdc"]).unwrap();
+    bt.set_reference(Tare::from_readings(&[rest]).unwrap());
+    for _ in 0..3 {
+        assert_eq!(bt.features(&pressed, &mut out), Ok(None));
+        assert!(!bt.is_ready(), "tared on a press");
+    }
+    let released = BioTacReading {
+        pdc: rest.pdc + 20,
+        ..rest
+    };
+    assert_eq!(bt.features(&released, &mut out), Ok(None), "the tare");
+    assert_eq!(bt.tare().map(Tare::pdc), Some(f64::from(released.pdc)));
+
+    let mut first = input(ElectrodeLayout::Biotac, &["e1", "pdc"]).unwrap();
+    assert_eq!(first.features(&pressed, &mut out), Ok(None));
+    assert!(first.is_ready());
+}

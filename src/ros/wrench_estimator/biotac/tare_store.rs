@@ -14,15 +14,17 @@ fn unix_s() -> f64 {
         .map_or(0.0, |d| d.as_secs_f64())
 }
 
-/// Where the tare is saved, and the saved one still to be taken up.
+/// Where the tare is saved, and the saved one still to be taken up (or,
+/// too old, checked against).
 pub struct TareStore {
     path: Option<PathBuf>,
     saved: Option<SavedTare>,
+    max_age_s: f64,
 }
 
 impl TareStore {
     /// The tare file (`tare_file`, or "" for the cache's) and the tare saved
-    /// there, if at most `max_age_s` old.
+    /// there, taken up if at most `max_age_s` old.
     pub fn open(tare_file: &str, max_age_s: f64) -> Self {
         let path = match tare_file {
             "" => crate::learn::default_model::cache_dir()
@@ -33,32 +35,44 @@ impl TareStore {
             tracing::info!("no cache folder ($HOME unset) and no tare_file: the tare is not saved");
         }
         let saved = match path.as_deref().map(SavedTare::load) {
-            Some(Ok(saved)) => {
-                saved.filter(|saved| (0.0..=max_age_s).contains(&(unix_s() - saved.taken_unix_s)))
-            }
+            Some(Ok(saved)) => saved,
             Some(Err(e)) => {
                 tracing::warn!("{e}; taking a new tare");
                 None
             }
             None => None,
         };
-        TareStore { path, saved }
+        TareStore {
+            path,
+            saved,
+            max_age_s,
+        }
     }
 
-    /// On the first reading, takes up the saved tare if it is of the same
-    /// sensor (`serial`) and the estimator has none.
+    /// On the first reading, if the estimator has no tare, the saved one of
+    /// the same sensor (`serial`): taken up if recent enough, else the one a
+    /// new tare is checked against, so that none is taken while pressed.
     pub fn take_up(&mut self, estimator: &mut EstimatorNode<BioTacInput>, serial: &str) {
         let Some(saved) = self.saved.take() else {
             return;
         };
-        if saved.serial == serial && !estimator.is_tared() {
+        if saved.serial != serial || estimator.is_tared() {
+            return;
+        }
+        let age_s = unix_s() - saved.taken_unix_s;
+        if (0.0..=self.max_age_s).contains(&age_s) {
             tracing::info!(
-                "taking up the tare saved {:.0} s ago (same sensor, \"{}\"): \
+                "taking up the tare saved {age_s:.0} s ago (same sensor, \"{}\"): \
                  the skin may be pressed now; tare_max_age_s:=0 tares anew",
-                unix_s() - saved.taken_unix_s,
                 saved.serial,
             );
             estimator.set_tare(saved.tare);
+        } else {
+            tracing::info!(
+                "the tare saved {age_s:.0} s ago is older than tare_max_age_s: taring anew, \
+                 not while PDC shows the finger pressed against it"
+            );
+            estimator.set_tare_reference(saved.tare);
         }
     }
 
