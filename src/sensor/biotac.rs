@@ -66,7 +66,10 @@ impl BioTacInput {
         };
         match taken {
             Ok(tare) => self.set_tare(tare),
-            Err(e) => tracing::warn!("{e}"),
+            Err(e) => tracing::warn!(
+                "{e} (checked against the saved tare: delete the tare file if the skin's \
+                 baseline truly moved)"
+            ),
         }
         self.tare_readings.clear();
     }

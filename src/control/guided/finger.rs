@@ -14,12 +14,8 @@
 //! `tau` is the loop's delay and lag, at least [`MIN_SMOOTH_S`]: at 25 Hz,
 //! where a fingertip of 20 g on 300 N/m makes the contact look 2.5 times
 //! stiffer than fitted (src/control/guided.rs), 0.29 of it passes on an arm
-//! of 16 ms of delay and lag and 0.22 on one of 85 ms. The single low-pass
-//! over the delay it replaces let 0.37 and 0.08 pass, and lagged a push by
-//! the delay twice over (once in the filter, once in the loop): at a 16 ms
-//! arm cycle with 10-30 ms of lag on 1000 N/m fingertips, MuJoCo's UR5
-//! missed 0.3 N in 3 of 30 runs with it, none of 30 with this
-//! (docs/results.md).
+//! of 16 ms of delay and lag and 0.22 on one of 85 ms (docs/results.md
+//! has what that did on MuJoCo's UR5).
 
 /// The shortest time constant of the two stages (s).
 const MIN_SMOOTH_S: f64 = 0.05;
