@@ -43,6 +43,7 @@ def make(scene=SCENE):
             description=description,
             links=links,
             biotac_frame=value("biotac_frame"),
+            start_state=value("start_state"),
         )
         started = nodes(scene, value("use_sim") == "true", **args)
         return [
@@ -74,6 +75,9 @@ def make(scene=SCENE):
                               description="Take the URDF from /robot_description, not the file."),
         DeclareLaunchArgument("biotac_frame", default_value="biotac",
                               description="The BioTac frame: the wrenches' frame_id, on /tf_static in the tip link."),
+        DeclareLaunchArgument("start_state", default_value="active",
+                              description="Where force_controller and biotac_driver (managed nodes) go at start: "
+                                          "active, inactive (then `ros2 lifecycle set NODE activate`) or unconfigured."),
         DeclareLaunchArgument("model", default_value="",
                               description="GP model file; empty: the default model."),
         DeclareLaunchArgument("port", default_value="/dev/ttyACM0",

@@ -20,7 +20,7 @@ def param_files(scene, robot="pa10"):
 
 
 def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_factor=1.0,
-          robot="pa10", description=None, links=None, biotac_frame="biotac"):
+          robot="pa10", description=None, links=None, biotac_frame="biotac", start_state="active"):
     """(executable, parameter files, overrides) for each node to start.
 
     scene: guarded_move.yaml or guided_move.yaml; use_sim: the simulated arm
@@ -33,7 +33,10 @@ def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_fa
     /robot_description topic; links: (base_link, tip_link) of the chain, or
     None for the robot file's (a URDF of the user's: its root and its one
     leaf); biotac_frame: the BioTac frame, the estimator's `frame_id` (the
-    wrenches' frame) and the frame force_controller places on /tf_static.
+    wrenches' frame) and the frame force_controller places on /tf_static;
+    start_state: where the managed nodes (force_controller, biotac_driver)
+    go at start, active by default, inactive or unconfigured to be brought
+    up with `ros2 lifecycle set`.
     """
     files = param_files(scene, robot)
     # Passed to every node, as Scene::with_object does in the embedded runtime.
@@ -44,11 +47,12 @@ def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_fa
     if links is not None:
         arm["robot.base_link"], arm["robot.tip_link"] = links
     sim = ("sim_robot", files, dict(arm, real_time_factor=real_time_factor))
-    first = sim if use_sim else ("biotac_driver", [], dict(shared, port=port))
+    first = sim if use_sim else ("biotac_driver", [], dict(shared, port=port, start_state=start_state))
     # In simulation the task starts at once; on a real arm the controller
     # commands zero until a goal, or a set of its `task`, asks for motion.
     return [
         first,
         ("wrench_estimator", files, dict(shared, model_file=model, frame_id=biotac_frame)),
-        ("force_controller", files, dict(arm, autostart=use_sim, biotac_frame=biotac_frame)),
+        ("force_controller", files, dict(arm, autostart=use_sim, biotac_frame=biotac_frame,
+                                         start_state=start_state)),
     ]

@@ -3,6 +3,6 @@
 fn main() -> std::process::ExitCode {
     tactile_force::ros::main(
         "force_controller",
-        tactile_force::ros::force_controller::run(),
+        tactile_force::ros::force_controller::run,
     )
 }

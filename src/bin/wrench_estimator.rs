@@ -3,6 +3,6 @@
 fn main() -> std::process::ExitCode {
     tactile_force::ros::main(
         "wrench_estimator",
-        tactile_force::ros::wrench_estimator::run(),
+        tactile_force::ros::wrench_estimator::run,
     )
 }

@@ -13,12 +13,16 @@
 //!   parameter-set rates), refused before any work and counted;
 //!   [`action_goals`]: the goals of an action server and their results,
 //!   each kept for a bounded time;
-//! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac.
+//! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac;
+//! - [`lifecycle`]: the managed node's states and transitions; [`input_watch`]:
+//!   which input is silent, and why the graph says so.
 
 pub mod action_goals;
 pub mod bounds;
 pub mod force_controller;
 pub mod guarded_goal;
+pub mod input_watch;
+pub mod lifecycle;
 pub mod loop_delay;
 pub mod own_params;
 pub mod param_reference;

@@ -77,6 +77,20 @@ pub const MODELS_DIR: OwnParam<&str> = OwnParam {
     description: "The folder of the files a calibration goal writes and of a model_file set while running: names inside it, nothing outside, no `..`, no symlink leading out; empty: the model cache folder.",
 };
 
+/// `start_state` (force_controller, biotac_driver): where the managed
+/// node's lifecycle goes at start.
+pub const START_STATE: OwnParam<&str> = OwnParam {
+    name: "start_state",
+    default: "active",
+    description: "The lifecycle state the node goes to at start: active (as a plain node), inactive (configured, waiting for `ros2 lifecycle set NODE activate`) or unconfigured.",
+};
+/// `silent_input_s` (force_controller, wrench_estimator).
+pub const SILENT_INPUT: OwnParam<f64> = OwnParam {
+    name: "silent_input_s",
+    default: 2.0,
+    description: "An input the node needs with no message for this long is named, with what the ROS graph shows of its publishers, in the log and on /diagnostics (s).",
+};
+
 /// `force_controller`'s `command_interface`.
 pub const COMMAND_INTERFACE: OwnParam<&str> = OwnParam {
     name: "command_interface",
@@ -88,6 +102,12 @@ pub const FT_TO_BIOTAC: OwnParam<&str> = OwnParam {
     name: "ft_to_biotac",
     default: "",
     description: "Where the F/T sensor sits in the BioTac frame, roll,pitch,yaw,x,y,z (deg, fixed-axis x-y-z; m): its wrenches are moved to the BioTac frame for the calibration; empty: they are in it already.",
+};
+/// `force_controller`'s `ft_frame`.
+pub const FT_FRAME: OwnParam<&str> = OwnParam {
+    name: "ft_frame",
+    default: "",
+    description: "The frame_id the F/T sensor's wrenches must carry; a wrench in another frame is refused. Empty: the BioTac frame (biotac_frame); must be named when ft_to_biotac is set.",
 };
 /// `force_controller`'s `estimator_node`.
 pub const ESTIMATOR_NODE: OwnParam<&str> = OwnParam {
@@ -170,6 +190,13 @@ pub const REAL_TIME_FACTOR: OwnParam<f64> = OwnParam {
     name: "real_time_factor",
     default: 1.0,
     description: "Simulated seconds per wall-clock second (with use_sim_time:=true); at least 1.",
+};
+
+/// `sim_robot`'s `command_timeout_s`.
+pub const COMMAND_TIMEOUT: OwnParam<f64> = OwnParam {
+    name: "command_timeout_s",
+    default: 0.0,
+    description: "With no command for this long the simulated arm stops (s); 0: it holds the last command for ever, as ros2_control's forward command controllers do.",
 };
 
 /// `biotac_driver`'s `frame_id`.

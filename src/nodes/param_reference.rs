@@ -55,8 +55,11 @@ impl RosNode {
                 MODELS_DIR.row(),
                 COMMAND_INTERFACE.row(),
                 FT_TO_BIOTAC.row(),
+                FT_FRAME.row(),
                 ESTIMATOR_NODE.row(),
                 BIOTAC_FRAME.row(),
+                START_STATE.row(),
+                SILENT_INPUT.row(),
             ],
             RosNode::WrenchEstimator => vec![
                 MODEL_FILE.row(),
@@ -67,6 +70,7 @@ impl RosNode {
                 TARE_MAX_AGE.row(),
                 INPUT.row(),
                 FINGER.row(),
+                SILENT_INPUT.row(),
             ],
             RosNode::SimRobot => vec![
                 ROBOT_DESCRIPTION.row(),
@@ -75,6 +79,7 @@ impl RosNode {
                 SEED.row(),
                 USE_SIM_TIME.row(),
                 REAL_TIME_FACTOR.row(),
+                COMMAND_TIMEOUT.row(),
             ],
             RosNode::BiotacDriver => vec![
                 READINGS_FRAME.row(),
@@ -86,6 +91,7 @@ impl RosNode {
                 CHEETAH_LIBRARY.row(),
                 SENSORS.row(),
                 ELECTRODES.row(),
+                START_STATE.row(),
             ],
         }
     }

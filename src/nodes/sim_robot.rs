@@ -407,6 +407,51 @@ pub fn check_real_time_factor(speed: f64, sim_time: bool) -> Result<(), ParamsEr
     })
 }
 
+/// The joint velocities the simulated arm follows: the latest command,
+/// held for ever as ros2_control's forward command controllers hold it
+/// (`command_timeout_s` 0), or zero once none came for `command_timeout_s`.
+#[derive(Debug, Clone)]
+pub struct HeldCommand {
+    timeout_s: f64,
+    qdot: JointVector,
+    zero: JointVector,
+    at_s: f64,
+}
+
+impl HeldCommand {
+    /// Zero for `dof` joints until a command comes; a timeout below 0 or
+    /// not finite is refused.
+    pub fn new(dof: usize, timeout_s: f64) -> Result<Self, ParamsError> {
+        if !(timeout_s >= 0.0 && timeout_s.is_finite()) {
+            return Err(ParamsError::Invalid {
+                key: "command_timeout_s".into(),
+                value: timeout_s.to_string(),
+                expected: "0 (hold the last command) or a timeout in seconds".into(),
+            });
+        }
+        Ok(HeldCommand {
+            timeout_s,
+            qdot: JointVector::zeros(dof),
+            zero: JointVector::zeros(dof),
+            at_s: f64::NEG_INFINITY,
+        })
+    }
+
+    /// A command came at `now_s`.
+    pub fn command(&mut self, qdot: JointVector, now_s: f64) {
+        self.qdot = qdot;
+        self.at_s = now_s;
+    }
+
+    /// What the arm does at `now_s`.
+    pub fn at(&self, now_s: f64) -> &JointVector {
+        match self.timeout_s > 0.0 && now_s - self.at_s > self.timeout_s {
+            true => &self.zero,
+            false => &self.qdot,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -447,6 +492,7 @@ mod tests {
     #[test]
     fn a_real_time_factor_needs_simulated_time_and_stays_within_100() {
         check_real_time_factor(1.0, false).unwrap();
+        assert!(HeldCommand::new(6, -1.0).is_err());
         check_real_time_factor(20.0, true).unwrap();
         for (speed, sim_time) in [(2.0, false), (0.5, true), (101.0, true), (f64::NAN, true)] {
             let e = check_real_time_factor(speed, sim_time)
@@ -457,5 +503,18 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    #[test]
+    fn a_command_is_held_for_ever_or_until_its_timeout() {
+        let v = JointVector::from_element(2, 0.1);
+        let mut held = HeldCommand::new(2, 0.0).unwrap();
+        assert_eq!(held.at(0.0).norm(), 0.0, "zero until a command");
+        held.command(v.clone(), 1.0);
+        assert_eq!(held.at(1000.0), &v, "a forward command controller holds it");
+        let mut timed = HeldCommand::new(2, 0.1).unwrap();
+        timed.command(v.clone(), 1.0);
+        assert_eq!(timed.at(1.05), &v);
+        assert_eq!(timed.at(1.15).norm(), 0.0);
     }
 }

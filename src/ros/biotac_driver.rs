@@ -10,31 +10,60 @@
 //! publishes the simulated BioTac.
 
 mod link;
+mod managed;
 
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::QosProfile;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex};
 
 use super::convert::level::{ERROR, OK, WARN};
+use super::ending::Endings;
 use super::params::RuntimeParams;
 use super::{convert, RosClock, RosError};
 use crate::biotac::driver::{Driver, DriverEvent};
 use crate::biotac::msg::{self as biotac_msg, BioTacMeta, BIOTAC_MSG_TYPE};
 use crate::nodes::bounds::InputGuard;
+use crate::nodes::lifecycle::State;
 use crate::nodes::own_params;
 
-/// Runs the node until the process ends: the link and the readings'
-/// settings declared, the topics and `~/tare` wired, then the driver polled
-/// on a thread of its own until it fails.
-pub async fn run() -> Result<(), RosError> {
+/// Runs the node until a signal ends it or the driver fails: the link's
+/// and the readings' settings declared (and checked: a refused one ends
+/// it at once), the topics and `~/tare` wired, its lifecycle brought to
+/// `start_state` (`configure` opens the link on a thread of its own,
+/// `activate` publishes its readings); at the end the link is closed.
+pub async fn run(mut endings: Endings) -> Result<(), RosError> {
     let mut node = super::create_node("biotac_driver")?;
-    let (driver, link) = link::declare(&node)?;
-    let out = Outputs::declare(&mut node, link)?;
-    let tare_requests = serve_tare(&mut node)?;
-    let guard = std::sync::Arc::new(InputGuard::new());
+    link::declare(&node)?;
+    let start = super::own_string(&node, &own_params::START_STATE)?;
+    let start =
+        State::start(&start).map_err(|expected| super::invalid("start_state", &start, expected))?;
+    let publishers = Publishers {
+        readings: node.create_publisher_untyped(
+            "biotac/readings",
+            BIOTAC_MSG_TYPE,
+            QosProfile::sensor_data(),
+        )?,
+        diagnostics: node.create_publisher("/diagnostics", QosProfile::default())?,
+    };
+    let tare_requests = Arc::new(Mutex::new(serve_tare(&mut node)?));
+    let guard = Arc::new(InputGuard::new());
     let clock = super::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
-    super::spin(node);
-    tokio::task::spawn_blocking(move || out.drive(driver, &tare_requests, &clock)).await?
+    let (failed, mut failures) = tokio::sync::mpsc::unbounded_channel();
+    let params = node.params.clone();
+    let link = managed::Link::new(params, publishers, tare_requests, clock, failed);
+    let lifecycle = super::lifecycle::serve(&mut node, link, start)?;
+    let _spinning = super::spin(node);
+    let ended = tokio::select! {
+        ending = endings.next() => ending.into_result(),
+        Some(failure) = failures.recv() => Err(failure),
+    };
+    let mut l = super::lock(&lifecycle);
+    if l.state() != State::Finalized {
+        let _ = l.change(0, "shutdown");
+    }
+    ended
 }
 
 /// The `~/tare` service (std_srvs/Trigger): each request, answered at once,
@@ -67,48 +96,61 @@ fn serve_tare(node: &mut r2r::Node) -> Result<Receiver<()>, RosError> {
     Ok(tare_rx)
 }
 
-/// Where and how the driver's events are published.
-struct Outputs {
+/// The node's publishers.
+#[derive(Clone)]
+struct Publishers {
     readings: r2r::PublisherUntyped,
     diagnostics: r2r::Publisher<DiagnosticArray>,
+}
+
+/// Where and how the driver's events are published.
+struct Outputs {
+    to: Publishers,
     frame_id: String,
     serial: String,
     tare_samples: usize,
     /// The link's name on /diagnostics (`port`, or `cheetah <adapter>`).
     link: String,
+    /// True while active: readings are published.
+    publishing: Arc<AtomicBool>,
 }
 
 impl Outputs {
-    /// Declares the readings' settings and advertises both topics.
-    fn declare(node: &mut r2r::Node, link: String) -> Result<Self, RosError> {
+    /// Reads the readings' settings.
+    fn read(
+        node: &impl super::HasParams,
+        to: Publishers,
+        link: String,
+        publishing: Arc<AtomicBool>,
+    ) -> Result<Self, RosError> {
         let frame_id = super::own_string(node, &own_params::READINGS_FRAME)?;
         let serial = super::own_string(node, &own_params::SERIAL)?;
         let tare_samples = super::own_f64(node, &own_params::TARE_SAMPLES)?;
         Ok(Outputs {
-            readings: node.create_publisher_untyped(
-                "biotac/readings",
-                BIOTAC_MSG_TYPE,
-                QosProfile::sensor_data(),
-            )?,
-            diagnostics: node.create_publisher("/diagnostics", QosProfile::default())?,
+            to,
             frame_id,
             serial,
             tare_samples: tare_samples.max(1.0) as usize,
             link,
+            publishing,
         })
     }
 
     /// Polls `driver`, tares it on request, publishes what it sends, until
-    /// it fails (the error says why).
+    /// `stop` is set (Ok) or it fails (the error says why).
     fn drive(
         &self,
         mut driver: Driver,
-        tare_requests: &Receiver<()>,
+        tare_requests: &Mutex<Receiver<()>>,
         clock: &RosClock,
+        stop: &AtomicBool,
     ) -> Result<(), RosError> {
         let mut failed = None;
         while failed.is_none() {
-            if tare_requests.try_recv().is_ok() {
+            if stop.load(Ordering::Relaxed) {
+                return Ok(());
+            }
+            if super::lock(tare_requests).try_recv().is_ok() {
                 driver.request_tare(self.tare_samples);
             }
             driver.poll(&mut |event| {
@@ -129,6 +171,9 @@ impl Outputs {
                 frame,
                 reading: Some(mut r),
             } => {
+                if !self.publishing.load(Ordering::Relaxed) {
+                    return;
+                }
                 r.stamp_s = now;
                 let meta = BioTacMeta {
                     frame_id: self.frame_id.clone(),
@@ -136,7 +181,7 @@ impl Outputs {
                     sensor_index: frame.sensor,
                     invalid_channels: frame.invalid_names().collect(),
                 };
-                if let Err(e) = self.readings.publish(biotac_msg::to_json(&r, &meta)) {
+                if let Err(e) = self.to.readings.publish(biotac_msg::to_json(&r, &meta)) {
                     tracing::warn!("biotac/readings: {e}");
                 }
                 return;
@@ -172,7 +217,7 @@ impl Outputs {
         let (level, message, values) = diag;
         let name = "biotac_driver: link";
         let msg = convert::diagnostics_msg(now, level, name, message, &self.link, values);
-        if let Err(e) = self.diagnostics.publish(&msg) {
+        if let Err(e) = self.to.diagnostics.publish(&msg) {
             tracing::warn!("diagnostics: {e}");
         }
     }

@@ -154,6 +154,15 @@ pub fn wrench_from_msg(
     Ok((stamp, w))
 }
 
+/// What decides whether a publisher of `q` reaches a subscription (a
+/// publisher the graph lists has its actual policies, not defaults).
+pub fn qos(q: &r2r::QosProfile) -> crate::nodes::input_watch::Qos {
+    crate::nodes::input_watch::Qos {
+        reliable: q.reliability == r2r::qos::ReliabilityPolicy::Reliable,
+        transient_local: q.durability == r2r::qos::DurabilityPolicy::TransientLocal,
+    }
+}
+
 /// A wrench as `WrenchStamped` (e.g. `ft_sensor/wrench`).
 pub fn wrench_stamped(stamp_s: f64, frame_id: &str, w: &Wrench) -> WrenchStamped {
     WrenchStamped {

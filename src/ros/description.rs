@@ -56,7 +56,7 @@ pub fn robot_description(
 
 /// The `joint_names` parameter: the names of the arm's joints on
 /// `joint_states`, in chain order; empty: the URDF's names.
-pub fn joint_names_param(node: &r2r::Node) -> Result<Vec<String>, RosError> {
+pub fn joint_names_param(node: &impl super::HasParams) -> Result<Vec<String>, RosError> {
     super::own_strings(node, &own_params::JOINT_NAMES)
 }
 

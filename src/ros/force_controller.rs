@@ -17,6 +17,14 @@
 //! estimator's `frame_id` stamps its wrenches with) on `/tf_static`, in the
 //! tip link, from the tool mount `robot.tool_*` ([`crate::nodes::force_controller::tool_frame`]).
 //!
+//! Every way out stops the arm (`force_controller/way_out.rs`): SIGINT,
+//! SIGTERM, a panic in any thread, a fatal error, `~/stop`
+//! (std_srvs/Trigger) and the lifecycle's `deactivate` publish a zero on
+//! both command outputs and end the goal running with the reason. It is a
+//! managed node (`force_controller/managed.rs`, `start_state`); its inputs
+//! are best effort, each named when silent, and its wrenches' frames are
+//! checked ([`crate::nodes::force_controller::frames`]).
+//!
 //! The controller steps on each new estimate (the mean and the std of one
 //! reading both in), so an estimate acts as soon as it arrives rather than
 //! up to a period later on a timer of its own. With no estimate for longer
@@ -62,18 +70,20 @@
 mod calibrate_action;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod cancel;
+mod commands;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod estimator_link;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod guarded_move_action;
+mod managed;
 mod settings;
 mod stepping;
 mod tool_frame;
+mod way_out;
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
 use r2r::QosProfile;
 
@@ -81,44 +91,48 @@ use r2r::QosProfile;
 use super::action_server;
 use super::bounded;
 use super::description::{robot_description, Description};
-use super::params::RuntimeParams;
+use super::ending::Endings;
+use super::inputs::Inputs;
 use super::{convert, lock, RosError};
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
 use crate::nodes::force_controller::ForceControllerNode;
 use crate::nodes::tasks;
-use stepping::Commands;
+use commands::Commands;
 
 #[cfg(not(feature = "ros2-doc-only"))]
 impl action_server::Served for r2r::tactile_force_msgs::action::GuardedMove::Action {}
 #[cfg(not(feature = "ros2-doc-only"))]
 impl action_server::Served for r2r::tactile_force_msgs::action::Calibrate::Action {}
 
-/// Runs the node until the process ends: its settings declared, the
-/// controller made, every input and output wired, the robot description
-/// taken, then one step a period.
-pub async fn run() -> Result<(), RosError> {
+/// Runs the node until a signal, a panic or a fatal error ends it: its
+/// settings declared, the node made, every input and output wired, its
+/// lifecycle brought to `start_state`, then one step a period; at the end
+/// the arm is stopped (`force_controller/way_out.rs`).
+pub async fn run(endings: Endings) -> Result<(), RosError> {
     let mut node = super::create_node("force_controller")?;
     let tasks = tasks::shipped();
     let settings = settings::declare(&node, &tasks)?;
-    let host =
-        ForceControllerNode::new(settings.base, tasks, settings.remap, settings.ft_to_biotac)?;
+    let guard = Arc::new(InputGuard::with_goals());
+    let host = settings.node(tasks.clone(), &guard)?.managed();
     let period = Duration::from_secs_f64(host.params().control_period_s);
-    let interface = settings.interface;
-    tracing::info!("{}, commands: {interface:?}", host.summary()?);
-    let guard = host.guard().clone();
+    tracing::info!("{}, commands: {:?}", host.summary()?, settings.interface);
     let shared = Arc::new(Mutex::new(host));
     let description = robot_description(&mut node, &guard)?;
 
     // Every input bounded in size, refused before it is decoded.
+    let qos = super::input_qos();
+    let watched = ForceControllerNode::INPUTS.map(|t| (t, &qos));
+    let inputs = Inputs::new(&watched, settings.silent_after_s);
     let forces = stepping::forces(&mut node, &guard)?;
-    hand_on(&mut node, &guard, &shared)?;
-    let commands = Commands {
-        interface,
-        joints: node.create_publisher("velocity_controller/commands", QosProfile::default())?,
-        twists: node.create_publisher("twist_commands", QosProfile::default())?,
+    hand_on(&mut node, &guard, &shared, &inputs)?;
+    let commands = Arc::new(Commands::create(&mut node, settings.interface)?);
+    let c = commands.clone();
+    endings.on_panic(move || c.zero_on_panic());
+    let out = stepping::Outputs {
+        commands: commands.clone(),
+        diagnostics: node.create_publisher("/diagnostics", QosProfile::default())?,
+        inputs,
     };
-    let diagnostics =
-        node.create_publisher::<DiagnosticArray>("/diagnostics", QosProfile::default())?;
     #[cfg(not(feature = "ros2-doc-only"))]
     let goals = bounded::goals(
         action_server::create(&mut node, "~/guarded_move")?,
@@ -133,23 +147,22 @@ pub async fn run() -> Result<(), RosError> {
     );
     #[cfg(not(feature = "ros2-doc-only"))]
     let link = estimator_link::EstimatorLink::new(&mut node, &settings.estimator)?;
-    let s = shared.clone();
-    let live = RuntimeParams::new(
-        &["task"],
-        Box::new(move |_, value, apply| {
-            let r2r::ParameterValue::String(name) = value else {
-                return Err(format!("{value:?}: expected a task's name"));
-            };
-            lock(&s)
-                .set_task(name, apply)
-                .inspect_err(|e| tracing::warn!("task refused: {e}"))
-        }),
-        &guard,
-    );
-    let clock = super::serve_parameters(&mut node, live)?;
-    let tf = tool_frame::ToolFrame::new(&mut node, settings.child, clock.clone())?;
-    take_description(description, &shared, tf)?;
-    super::spin(node);
+    let clock = super::serve_parameters(&mut node, settings::live(&shared, &guard))?;
+    let tf = tool_frame::ToolFrame::new(&mut node, settings.child.clone(), clock.clone())?;
+    take_description(description, &shared, &tf)?;
+    #[cfg(not(feature = "ros2-doc-only"))]
+    way_out::serve_stop(&mut node, shared.clone(), commands.clone(), clock.clone())?;
+    let managed = managed::Controller {
+        params: node.params.clone(),
+        tasks,
+        guard,
+        shared: shared.clone(),
+        commands: commands.clone(),
+        tf,
+        clock: clock.clone(),
+    };
+    let _lifecycle = super::lifecycle::serve(&mut node, managed, settings.start)?;
+    let graph = super::spin(node);
 
     #[cfg(not(feature = "ros2-doc-only"))]
     tokio::spawn(guarded_move_action::serve(
@@ -170,7 +183,8 @@ pub async fn run() -> Result<(), RosError> {
     #[cfg(feature = "ros2-doc-only")]
     let _ = (settings.estimator, settings.models);
 
-    stepping::run(shared, forces, commands, diagnostics, clock, period).await
+    let stepping = stepping::run(&shared, forces, &out, &graph, &clock, period);
+    way_out::run_to_the_end(stepping, endings, &shared, &commands, &clock, period).await
 }
 
 /// The arm from the `robot_description` parameter, or from each description
@@ -178,7 +192,7 @@ pub async fn run() -> Result<(), RosError> {
 fn take_description(
     description: Description,
     shared: &Arc<Mutex<ForceControllerNode>>,
-    tf: tool_frame::ToolFrame,
+    tf: &tool_frame::ToolFrame,
 ) -> Result<(), RosError> {
     match description {
         Description::Given(text) => {
@@ -192,6 +206,7 @@ fn take_description(
                  (or set the robot_description parameter)",
                 super::description::DESCRIPTION_TOPIC
             );
+            let tf = tf.clone();
             super::each(topic, shared, move |n, text: String| {
                 match n.take_description(&text) {
                     Ok(true) => tf.publish(n),
@@ -211,10 +226,12 @@ fn hand_on(
     node: &mut r2r::Node,
     guard: &Arc<InputGuard>,
     shared: &Arc<Mutex<ForceControllerNode>>,
+    inputs: &Arc<Inputs>,
 ) -> Result<(), RosError> {
-    let (qos, max) = (QosProfile::default, MESSAGE_MAX_BYTES);
+    let (qos, max) = (super::input_qos, MESSAGE_MAX_BYTES);
     let joint_type = "sensor_msgs/msg/JointState";
     let joints = bounded::typed(node, "joint_states", joint_type, qos(), max, guard)?;
+    let joints = inputs.watched("joint_states", joints);
     super::each(
         joints,
         shared,
@@ -225,6 +242,7 @@ fn hand_on(
     );
     let pdc_type = "sensor_msgs/msg/FluidPressure";
     let pdc = bounded::typed(node, "biotac/pdc_rise", pdc_type, qos(), max, guard)?;
+    let pdc = inputs.watched("biotac/pdc_rise", pdc);
     super::each(pdc, shared, |n, m: FluidPressure| {
         n.on_pdc_rise(m.fluid_pressure)
     });
@@ -238,6 +256,7 @@ fn hand_on(
         max,
         guard,
     )?;
+    let readings = inputs.watched("biotac/readings", readings);
     super::each(readings, shared, |n, bytes: Vec<u8>| {
         if n.wants_readings() {
             match crate::biotac::msg::from_cdr(&bytes) {

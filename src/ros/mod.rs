@@ -18,7 +18,10 @@ pub mod biotac_driver;
 pub mod bounded;
 pub mod convert;
 pub mod description;
+pub mod ending;
 pub mod force_controller;
+pub mod inputs;
+pub mod lifecycle;
 pub mod log;
 pub mod params;
 pub mod sim_robot;
@@ -49,16 +52,24 @@ use params::RuntimeParams;
 r2r::assert_compiled_with_use_sim_time_support!();
 
 /// The main of a node executable: logs through ROS logging ([`log`]), runs
-/// `node` on a tokio runtime and turns its end into the exit code (1, with
-/// the reason, on an error).
-pub fn main(
-    name: &str,
-    node: impl std::future::Future<Output = Result<(), RosError>>,
-) -> std::process::ExitCode {
+/// `node` on a tokio runtime, hearing signals and panics from its start
+/// ([`ending`]), and turns its end into the exit code (0 after SIGINT or
+/// SIGTERM; 1, with the reason, on an error). Threads still blocked at the
+/// end are not waited for.
+pub fn main<F, Fut>(name: &str, node: F) -> std::process::ExitCode
+where
+    F: FnOnce(ending::Endings) -> Fut,
+    Fut: std::future::Future<Output = Result<(), RosError>>,
+{
     log::init(name);
-    let ended = tokio::runtime::Runtime::new()
-        .map_err(RosError::Runtime)
-        .and_then(|rt| rt.block_on(node));
+    let ended = match tokio::runtime::Runtime::new() {
+        Ok(rt) => {
+            let ended = rt.block_on(async { node(ending::Endings::listen()?).await });
+            rt.shutdown_timeout(Duration::from_millis(500));
+            ended
+        }
+        Err(e) => Err(RosError::Runtime(e)),
+    };
     match ended {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -103,6 +114,9 @@ pub enum RosError {
     /// library, a sensor the reading type cannot hold).
     #[error("BioTac driver: {0}")]
     Driver(String),
+    /// A thread of the node panicked (Rust's report of it came first).
+    #[error("a thread panicked: the node ended")]
+    Panicked,
 }
 
 impl From<crate::nodes::force_controller::DescriptionError> for RosError {
@@ -133,7 +147,9 @@ impl Classify for RosError {
             RosError::DefaultModel(e) => e.class(),
             RosError::Estimator(e) => e.class(),
             RosError::Source(e) => e.class(),
-            RosError::R2r(_) | RosError::Runtime(_) | RosError::Join(_) => ExitClass::Failure,
+            RosError::R2r(_) | RosError::Runtime(_) | RosError::Join(_) | RosError::Panicked => {
+                ExitClass::Failure
+            }
             // Only configuration stops the driver: refused input.
             RosError::Driver(_) => ExitClass::Refused,
         }
@@ -179,19 +195,41 @@ pub fn serve_parameters(node: &mut r2r::Node, live: RuntimeParams) -> Result<Ros
     Ok(RosClock::of(node))
 }
 
+/// A node's parameter map, as r2r keeps it.
+pub type ParamMap = Arc<Mutex<indexmap::IndexMap<String, r2r::Parameter>>>;
+
+/// What holds a node's parameters: the node, or its map kept to read them
+/// again later (a lifecycle `configure`, the node being spun by then).
+pub trait HasParams {
+    /// The parameter map.
+    fn param_map(&self) -> &ParamMap;
+}
+
+impl HasParams for r2r::Node {
+    fn param_map(&self) -> &ParamMap {
+        &self.params
+    }
+}
+
+impl HasParams for ParamMap {
+    fn param_map(&self) -> &ParamMap {
+        self
+    }
+}
+
 /// Declares the parameters of `shared` with the shipped files' values as
 /// defaults and their descriptions (a controller's with those of `tasks`),
 /// and reads them into `T`, the adapter's own parameters (read
 /// separately) left out.
 pub fn node_params<T: serde::de::DeserializeOwned>(
-    node: &r2r::Node,
+    node: &impl HasParams,
     shared: RosNode,
     tasks: &TaskRegistry,
 ) -> Result<T, RosError> {
     let defaults = shared.defaults()?;
     let own = shared.own_names();
     let skip: Vec<&str> = own.iter().map(String::as_str).collect();
-    let mut p = lock(&node.params);
+    let mut p = lock(node.param_map());
     params::declare(&mut p, &defaults, &shared.descriptions(tasks));
     Ok(params::read(&p, &skip, shared.name())?)
 }
@@ -199,12 +237,12 @@ pub fn node_params<T: serde::de::DeserializeOwned>(
 /// One of the adapter's own parameters, declared with its default and
 /// description if absent.
 fn own_param(
-    node: &r2r::Node,
+    node: &impl HasParams,
     name: &str,
     default: r2r::ParameterValue,
     description: &'static str,
 ) -> Result<r2r::ParameterValue, RosError> {
-    let mut p = lock(&node.params);
+    let mut p = lock(node.param_map());
     let entry = p.entry(name.to_string()).or_insert(r2r::Parameter {
         value: default,
         description,
@@ -223,7 +261,7 @@ pub fn set_own_string(node: &r2r::Node, name: &str, value: &str) {
 }
 
 /// A string parameter of the adapter.
-pub fn own_string(node: &r2r::Node, p: &OwnParam<&str>) -> Result<String, RosError> {
+pub fn own_string(node: &impl HasParams, p: &OwnParam<&str>) -> Result<String, RosError> {
     let default = r2r::ParameterValue::String(p.default.into());
     match own_param(node, p.name, default, p.description)? {
         r2r::ParameterValue::String(s) => Ok(s),
@@ -234,7 +272,7 @@ pub fn own_string(node: &r2r::Node, p: &OwnParam<&str>) -> Result<String, RosErr
 /// The `models_dir` parameter (empty: the model cache folder): the folder
 /// that the files a goal or a run-time parameter set names stay in
 /// ([`ModelsDir`]); made if missing.
-pub fn models_dir(node: &r2r::Node) -> Result<ModelsDir, RosError> {
+pub fn models_dir(node: &impl HasParams) -> Result<ModelsDir, RosError> {
     let given = own_string(node, &own_params::MODELS_DIR)?;
     let cache = crate::learn::default_model::cache_dir().unwrap_or_default();
     let dir = match given.is_empty() {
@@ -255,7 +293,7 @@ pub fn models_dir(node: &r2r::Node) -> Result<ModelsDir, RosError> {
 }
 
 /// A floating-point parameter of the adapter (integers accepted).
-pub fn own_f64(node: &r2r::Node, p: &OwnParam<f64>) -> Result<f64, RosError> {
+pub fn own_f64(node: &impl HasParams, p: &OwnParam<f64>) -> Result<f64, RosError> {
     let default = r2r::ParameterValue::Double(p.default);
     match own_param(node, p.name, default, p.description)? {
         r2r::ParameterValue::Double(d) if d.is_finite() => Ok(d),
@@ -265,7 +303,7 @@ pub fn own_f64(node: &r2r::Node, p: &OwnParam<f64>) -> Result<f64, RosError> {
 }
 
 /// A non-negative integer parameter of the adapter.
-pub fn own_u64(node: &r2r::Node, p: &OwnParam<u32>) -> Result<u64, RosError> {
+pub fn own_u64(node: &impl HasParams, p: &OwnParam<u32>) -> Result<u64, RosError> {
     let default = r2r::ParameterValue::Integer(i64::from(p.default));
     match own_param(node, p.name, default, p.description)? {
         r2r::ParameterValue::Integer(i) if i >= 0 => Ok(i.unsigned_abs()),
@@ -274,7 +312,7 @@ pub fn own_u64(node: &r2r::Node, p: &OwnParam<u32>) -> Result<u64, RosError> {
 }
 
 /// A boolean parameter of the adapter.
-pub fn own_bool(node: &r2r::Node, p: &OwnParam<bool>) -> Result<bool, RosError> {
+pub fn own_bool(node: &impl HasParams, p: &OwnParam<bool>) -> Result<bool, RosError> {
     let default = r2r::ParameterValue::Bool(p.default);
     match own_param(node, p.name, default, p.description)? {
         r2r::ParameterValue::Bool(b) => Ok(b),
@@ -283,7 +321,7 @@ pub fn own_bool(node: &r2r::Node, p: &OwnParam<bool>) -> Result<bool, RosError> 
 }
 
 /// A string-array parameter of the adapter.
-pub fn own_strings(node: &r2r::Node, p: &OwnParam<&[&str]>) -> Result<Vec<String>, RosError> {
+pub fn own_strings(node: &impl HasParams, p: &OwnParam<&[&str]>) -> Result<Vec<String>, RosError> {
     let d = p.default.iter().map(|s| s.to_string()).collect();
     match own_param(
         node,
@@ -294,6 +332,15 @@ pub fn own_strings(node: &r2r::Node, p: &OwnParam<&[&str]>) -> Result<Vec<String
         r2r::ParameterValue::StringArray(a) => Ok(a),
         other => Err(wrong_type(p.name, "a list of strings", &other)),
     }
+}
+
+/// A parameter refused: `key` = `value` is not what it must be (`expected`).
+pub fn invalid(key: &str, value: &str, expected: String) -> RosError {
+    RosError::Params(ParamsError::Invalid {
+        key: key.into(),
+        value: value.into(),
+        expected,
+    })
 }
 
 fn wrong_type(name: &str, expected: &str, found: &r2r::ParameterValue) -> RosError {
@@ -325,9 +372,62 @@ pub fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Spins the node on a blocking task until the process ends.
-pub fn spin(mut node: r2r::Node) -> tokio::task::JoinHandle<()> {
-    tokio::task::spawn_blocking(move || loop {
-        node.spin_once(Duration::from_millis(5));
-    })
+/// Spins the node on a blocking task until [`Spinning`] is dropped (the
+/// node is then destroyed, and leaves the ROS graph at once).
+pub fn spin(node: r2r::Node) -> Spinning {
+    let node = Arc::new(Mutex::new(node));
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let (spun, stopped) = (node.clone(), stop.clone());
+    tokio::task::spawn_blocking(move || {
+        while !stopped.load(std::sync::atomic::Ordering::Relaxed) {
+            lock(&spun).spin_once(Duration::from_millis(5));
+        }
+    });
+    Spinning { node, stop }
+}
+
+/// A node being spun: the ROS graph as it sees it.
+pub struct Spinning {
+    node: Arc<Mutex<r2r::Node>>,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Spinning {
+    /// The publishers on `topic` (empty if the graph cannot be read).
+    pub fn publishers(&self, topic: &str) -> Vec<crate::nodes::input_watch::Publisher> {
+        let node = lock(&self.node);
+        let Ok(name) = node.namespace().map(|ns| resolve(&ns, topic)) else {
+            return Vec::new();
+        };
+        let found = node.get_publishers_info_by_topic(&name, false);
+        found
+            .unwrap_or_default()
+            .into_iter()
+            .map(|p| crate::nodes::input_watch::Publisher {
+                node: format!("{}/{}", p.node_namespace.trim_end_matches('/'), p.node_name),
+                qos: convert::qos(&p.qos_profile),
+            })
+            .collect()
+    }
+}
+
+impl Drop for Spinning {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// `topic` in the namespace `ns` (an absolute name stays).
+fn resolve(ns: &str, topic: &str) -> String {
+    match topic.starts_with('/') {
+        true => topic.to_string(),
+        false => format!("{}/{topic}", ns.trim_end_matches('/')),
+    }
+}
+
+/// The QoS the nodes' sensor inputs subscribe with: best effort, volatile,
+/// so that every publisher reaches them, reliable ones and those with
+/// SensorDataQoS alike (docs/ros2.md, "QoS").
+pub fn input_qos() -> r2r::QosProfile {
+    r2r::QosProfile::default().best_effort()
 }

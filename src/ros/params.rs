@@ -128,6 +128,14 @@ pub struct RuntimeParams {
     live: &'static [&'static str],
     apply: ApplyParam,
     guard: Arc<InputGuard>,
+    unconfigured: Option<Unconfigured>,
+}
+
+/// A managed node's rule for sets while it is unconfigured: any parameter
+/// but those read at start only may be set, for its next `configure`.
+struct Unconfigured {
+    now: Box<dyn Fn() -> bool + Send>,
+    start_only: &'static [&'static str],
 }
 
 impl RuntimeParams {
@@ -137,6 +145,21 @@ impl RuntimeParams {
             live,
             apply,
             guard: guard.clone(),
+            unconfigured: None,
+        }
+    }
+
+    /// While `now` says the node is unconfigured, any parameter but those
+    /// in `start_only` may be set: the next lifecycle `configure` reads it.
+    pub fn unless_unconfigured(
+        self,
+        now: Box<dyn Fn() -> bool + Send>,
+        start_only: &'static [&'static str],
+    ) -> Self {
+        let unconfigured = Some(Unconfigured { now, start_only });
+        RuntimeParams {
+            unconfigured,
+            ..self
         }
     }
 
@@ -153,6 +176,14 @@ impl RuntimeParams {
         self.guard
             .admit_parameter_set()
             .map_err(|e| refused(format!("refused: {e}")))?;
+        if let Some(u) = self.unconfigured.as_ref().filter(|u| (u.now)()) {
+            return match u.start_only.contains(&name) {
+                true => Err(refused(
+                    "read at process start only: restart the node to change it".into(),
+                )),
+                false => Ok(()),
+            };
+        }
         if !self.live.contains(&name) {
             let live = match self.live {
                 [] => "none".to_string(),

@@ -7,7 +7,10 @@
 //! `joint_states`, `ft_sensor/wrench` (ground truth, BioTac frame) and
 //! `biotac/readings` (the simulated BioTac lives here, as in the embedded
 //! runtime: its contact comes from this node's physics), then applies the
-//! latest `velocity_controller/commands`. Stamps are the ROS clock's.
+//! latest `velocity_controller/commands`: held for ever, as ros2_control's
+//! forward command controllers hold it, or with `command_timeout_s` zero
+//! once none came for that long ([`HeldCommand`]). Stamps are the ROS
+//! clock's. SIGINT and SIGTERM end it (exit code 0).
 //! Ground truth for tests and plots, in the BioTac frame at the start
 //! (frame_id `<frame_id>_start`): `~/biotac_twist`, the BioTac's velocity
 //! over the last period, and, when a finger moves the body, `~/finger_twist`
@@ -35,19 +38,26 @@ use std::sync::{Arc, Mutex};
 
 use super::bounded::{self, Messages};
 use super::description::{first_taken, robot_description, Description};
+use super::ending::Endings;
 use super::params::RuntimeParams;
 use super::{convert, RosError};
 use crate::biotac::msg::BioTacMeta;
 use crate::biotac::BioTacSimConfig;
-use crate::kinematics::{JointVector, Robot};
+use crate::kinematics::Robot;
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
+use crate::nodes::sim_robot::HeldCommand;
 use crate::nodes::{joint_names, SimRobot};
 use outputs::{Outputs, Step};
 use settings::{declare, Settings};
 
-/// Runs the node until the process ends: its settings declared, its topics
-/// wired, the arm built from its description, then one step a period.
-pub async fn run() -> Result<(), RosError> {
+/// Runs the node until a signal ends it: its settings declared, its
+/// topics wired, the arm built from its description, then one step a
+/// period.
+pub async fn run(mut endings: Endings) -> Result<(), RosError> {
+    endings.until(simulate()).await
+}
+
+async fn simulate() -> Result<(), RosError> {
     let mut node = super::create_node("sim_robot")?;
     let settings = declare(&node)?;
     let guard = Arc::new(InputGuard::new());
@@ -67,20 +77,22 @@ pub async fn run() -> Result<(), RosError> {
             &mut node,
             "biotac/wrench",
             "geometry_msgs/msg/WrenchStamped",
-            QosProfile::default(),
+            super::input_qos(),
             max,
             &guard,
         )?),
         None => None,
     };
     let clock = super::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
-    super::spin(node);
+    let _spinning = super::spin(node);
 
     let Some((mut sim, names)) = build_arm(description, &settings).await? else {
         return Ok(());
     };
     let estimating = estimates.map(|e| wait_for_estimate(e, &mut sim));
-    let qdot = follow_commands(commands, sim.robot().dof());
+    let held = HeldCommand::new(sim.robot().dof(), settings.command_timeout_s)?;
+    let start = std::time::Instant::now();
+    let qdot = follow_commands(commands, held, start);
     let step = Step {
         settings: &settings,
         outputs: &outputs,
@@ -110,7 +122,7 @@ pub async fn run() -> Result<(), RosError> {
             clock.now_s()
         };
         step.publish(&mut sim, now);
-        sim.command(&super::lock(&qdot));
+        sim.command(super::lock(&qdot).at(start.elapsed().as_secs_f64()));
         sim.advance();
     }
     Ok(())
@@ -170,18 +182,21 @@ fn wait_for_estimate(
     flag
 }
 
-/// The latest joint velocity command of `dof` values (zero until one comes;
-/// one that does not convert is refused).
+/// The joint velocity commands as `held` follows them (zero until one
+/// comes; one that does not convert is refused), each stamped with the
+/// seconds since `start`.
 fn follow_commands(
     mut commands: impl Messages<Float64MultiArray>,
-    dof: usize,
-) -> Arc<Mutex<JointVector>> {
-    let qdot = Arc::new(Mutex::new(JointVector::zeros(dof)));
+    held: HeldCommand,
+    start: std::time::Instant,
+) -> Arc<Mutex<HeldCommand>> {
+    let dof = held.at(0.0).len();
+    let qdot = Arc::new(Mutex::new(held));
     let latest = qdot.clone();
     tokio::spawn(async move {
         while let Some(m) = commands.next().await {
             match convert::qdot_from_msg(&m, dof) {
-                Ok(v) => *super::lock(&latest) = v,
+                Ok(v) => super::lock(&latest).command(v, start.elapsed().as_secs_f64()),
                 Err(e) => tracing::debug!("command refused: {e}"),
             }
         }

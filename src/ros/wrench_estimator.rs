@@ -19,7 +19,9 @@
 //!
 //! Nothing is published for a message that does not decode, a reading with
 //! invalid channels, a reading older than `stale_timeout_s`, or a non-finite
-//! estimate: each is counted, on `/diagnostics` once a second.
+//! estimate: each is counted, on `/diagnostics` once a second, with its
+//! input named when silent for `silent_input_s` ([`super::inputs`]).
+//! SIGINT and SIGTERM end it (exit code 0).
 
 mod biotac;
 mod nail;
@@ -32,7 +34,9 @@ use r2r::geometry_msgs::msg::WrenchStamped;
 use r2r::sensor_msgs::msg::FluidPressure;
 use r2r::QosProfile;
 
-use super::{convert, RosClock, RosError};
+use super::ending::Endings;
+use super::inputs::Inputs;
+use super::{convert, RosClock, RosError, Spinning};
 use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::models::model_file;
 use crate::learn::models::wrench_model::WrenchModel;
@@ -45,14 +49,19 @@ use crate::nodes::EstimatorNode;
 use crate::sensor::{SensorInput, SensorSpec};
 use crate::wrench::WrenchEstimate;
 
-/// Runs the node until the process ends.
-pub async fn run() -> Result<(), RosError> {
+/// Runs the node until a signal ends it.
+pub async fn run(mut endings: Endings) -> Result<(), RosError> {
+    endings.until(estimate()).await
+}
+
+async fn estimate() -> Result<(), RosError> {
     let mut node = super::create_node("wrench_estimator")?;
     let model_file = super::own_string(&node, &own_params::MODEL_FILE)?;
     let frame_id = super::own_string(&node, &own_params::ESTIMATE_FRAME)?;
     let stale_s = super::own_f64(&node, &own_params::STALE_TIMEOUT)?;
     let tare_file = super::own_string(&node, &own_params::TARE_FILE)?;
     let tare_max_age_s = super::own_f64(&node, &own_params::TARE_MAX_AGE)?;
+    let silent_after_s = super::own_f64(&node, &own_params::SILENT_INPUT)?;
     let models = super::models_dir(&node)?;
     let params: EstimatorParams =
         super::node_params(&node, RosNode::WrenchEstimator, &tasks::shipped())?;
@@ -80,6 +89,7 @@ pub async fn run() -> Result<(), RosError> {
         ready_after_s,
         tare_file,
         tare_max_age_s,
+        silent_after_s,
         models,
     };
     match model.input().sensor {
@@ -151,6 +161,8 @@ struct Settings {
     ready_after_s: f64,
     tare_file: String,
     tare_max_age_s: f64,
+    /// Its input silent this long is named (s).
+    silent_after_s: f64,
     /// Where a `model_file` set while running must be.
     models: crate::outputs::models_dir::ModelsDir,
 }
@@ -199,8 +211,13 @@ impl Outputs {
     }
 
     /// The once-a-second report: what was dropped (logged when it grew) and
-    /// the node's status, on `/diagnostics`.
-    fn report<S: SensorInput>(&mut self, estimator: &EstimatorNode<S>, clock: &RosClock) {
+    /// the node's status, on `/diagnostics`, its input named if silent.
+    fn report<S: SensorInput>(
+        &mut self,
+        estimator: &EstimatorNode<S>,
+        clock: &RosClock,
+        (inputs, graph): (&Inputs, &Spinning),
+    ) {
         let d = estimator.dropped();
         if let Some(said) = d.since(&self.reported) {
             match estimator.refusal() {
@@ -209,7 +226,9 @@ impl Outputs {
             }
         }
         self.reported = d;
-        self.publish_status(estimator.status(), clock);
+        let mut status = estimator.status();
+        inputs.report(&mut status, graph, |_| true);
+        self.publish_status(status, clock);
     }
 
     /// Publishes the node's status on `/diagnostics`.

@@ -110,15 +110,17 @@ class Nodes:
     machine shared with other DDS runs, else a random one: nothing of another
     scenario reaches them); the estimator first, until its model is loaded (training it on first use
     takes 10-30 s), so that the others start with estimates flowing, or, `together`, every node at
-    once as the launch files start them; `fresh_cache`: from an empty model cache, as on a new machine."""
+    once as the launch files start them; `fresh_cache`: from an empty model cache, as on a new machine;
+    `remaps`: {executable: {topic: remapped topic}}."""
 
     def __init__(self, scene, object_name, port=None, only=None, speed=None, robot="pa10",
                  description_topic=False, controller=None, sim=None, estimator=None, domain=None,
-                 together=False, fresh_cache=False):
+                 together=False, fresh_cache=False, remaps=None):
         self.domain = domain or int(os.environ.get("TACTILE_FORCE_ROS_DOMAIN") or random.randint(10, 200))
         os.environ["ROS_DOMAIN_ID"] = str(self.domain)
         self.logs = tempfile.mkdtemp(prefix="tactile_force_ros_")
         self.procs = {}
+        self.remaps = remaps or {}
         cache = {"TACTILE_FORCE_CACHE": os.path.join(self.logs, "cache")} if fresh_cache else {}
         self.env = dict(os.environ, **cache)
         # The URDF as a parameter, as the launch files give it, or none: the
@@ -167,11 +169,27 @@ class Nodes:
                 f.write(f"    {k}: {value}\n")
         # As the launch files start it: its SROS2 enclave named.
         cmd = [exe, "--ros-args", "--enclave", f"/tactile_force/{exe}", "-r", f"__node:={exe}"]
+        for topic, to in self.remaps.get(exe, {}).items():
+            cmd += ["-r", f"{topic}:={to}"]
         for name in files:
             cmd += ["--params-file", os.path.join(REPO, "config", name)]
         cmd += ["--params-file", extra]
         log = open(os.path.join(self.logs, f"{exe}.log"), "a")
         self.procs[exe] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=REPO, env=self.env)
+
+    def restart_fresh(self, exe, env=None):
+        """Starts `exe` anew with its own parameters (stopped first if it
+        runs), `env` added to its environment."""
+        p = self.procs.get(exe)
+        if p is not None and p.poll() is None:
+            p.terminate()
+            p.wait(timeout=10)
+        saved = self.env
+        self.env = dict(saved, **(env or {}))
+        try:
+            self.start(exe)
+        finally:
+            self.env = saved
 
     def restart(self, exe, scene, object_name, overrides):
         """Stops `exe` and starts it again as the launch files would for

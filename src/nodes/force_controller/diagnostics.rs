@@ -6,15 +6,47 @@
 
 use super::ForceControllerNode;
 use crate::control::ForceController;
+use crate::nodes::lifecycle::State;
 use crate::nodes::status::{Level, Status};
 
 impl ForceControllerNode {
+    /// The topics the node takes.
+    pub const INPUTS: [&'static str; 6] = [
+        "biotac/wrench",
+        "biotac/wrench_stddev",
+        "biotac/pdc_rise",
+        "ft_sensor/wrench",
+        "joint_states",
+        "biotac/readings",
+    ];
+
+    /// True when the node needs messages on `topic` now (a silent one is
+    /// named): the estimate and the joint states while configured; the
+    /// F/T wrench and the BioTac readings while a calibration records.
+    pub fn needs(&self, topic: &str) -> bool {
+        if !matches!(self.state, State::Inactive | State::Active) {
+            return false;
+        }
+        match topic {
+            "ft_sensor/wrench" | "biotac/readings" => self.calibration.is_some(),
+            "joint_states" => self.arm.is_some(),
+            other => Self::INPUTS.contains(&other),
+        }
+    }
+
     /// The node's status: task, robot, phase, halt, the loop
     /// delay it sees against what the gains assume (warned once when it
     /// goes beyond, and once when it is back), messages refused.
     pub fn status(&mut self) -> Status {
         let mut s = Status::ok(self.task.clone());
         s.value("task", &self.task);
+        s.value("lifecycle", self.state.label());
+        if self.state != State::Active {
+            s.raise(
+                Level::Ok,
+                &format!(", {}: commanding nothing", self.state.label()),
+            );
+        }
         if !self.asked {
             s.raise(Level::Ok, ", waiting to be asked (a goal or task set)");
         }
@@ -35,6 +67,10 @@ impl ForceControllerNode {
         }
         self.delay_values(&mut s);
         s.value("rejected", self.rejected);
+        for m in self.frames.refused() {
+            s.raise(Level::Error, &format!("; {m}"));
+            s.push(format!("frame_refused {}", m.topic), m.to_string());
+        }
         self.guard.report(&mut s);
         s
     }

@@ -55,6 +55,9 @@ pub enum CalibrationProgress {
     },
     /// The arm has stopped.
     Ended(Ended),
+    /// The arm was stopped from outside the task, or the F/T wrench came
+    /// in the wrong frame: why ([`ForceControllerNode::goal_end`]).
+    Stopped(String),
 }
 
 impl ForceControllerNode {
@@ -64,6 +67,7 @@ impl ForceControllerNode {
         &self,
         build: impl FnOnce(&Self, crate::kinematics::Robot) -> Result<ForceController, String>,
     ) -> Result<ForceController, String> {
+        self.not_acting()?;
         if self.goal {
             return Err("a goal is running: cancel it first".into());
         }
@@ -117,6 +121,7 @@ impl ForceControllerNode {
         self.controller = Some(c);
         self.task = task.name().into();
         self.goal = true;
+        self.goal_end = None;
         self.last = None;
         self.withdrawing_since = None;
     }
@@ -143,6 +148,9 @@ impl ForceControllerNode {
     /// The calibration's feedback, or how its motion ended: a silent F/T
     /// sensor halts it at `now`.
     pub fn calibration_progress(&mut self, now: f64) -> CalibrationProgress {
+        if let Some(why) = &self.goal_end {
+            return CalibrationProgress::Stopped(why.clone());
+        }
         let (Some(c), Some(rec)) = (self.controller.as_mut(), self.calibration.as_ref()) else {
             return CalibrationProgress::Ended(Ended::Canceled);
         };
@@ -207,6 +215,7 @@ impl ForceControllerNode {
     /// task switch or a new goal may come.
     pub fn end_goal(&mut self) {
         self.goal = false;
+        self.goal_end = None;
         self.calibration = None;
         self.withdrawing_since = None;
     }

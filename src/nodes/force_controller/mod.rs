@@ -17,10 +17,14 @@
 //!   halt ([`ForceController::estimate_late`]);
 //! - what changed (logged) and its status (`/diagnostics`), with what its
 //!   [`InputGuard`] refused: messages over their size, goals and parameter
-//!   sets over their rates.
+//!   sets over their rates;
+//! - the frames its wrenches come in ([`frames`]), its lifecycle state, and
+//!   the stop from outside the task ([`stop`]).
 
 pub mod estimates;
+pub mod frames;
 pub mod goals;
+pub mod stop;
 pub mod tool_frame;
 
 mod diagnostics;
@@ -39,9 +43,11 @@ use crate::control::{
     Phase, TaskKind, TaskRegistry,
 };
 use crate::kinematics::{Robot, RobotError};
+use crate::nodes::lifecycle::State;
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
 use crate::wrench::{FrameTransform, Wrench};
 use estimates::EstimatePairing;
+use frames::Frames;
 
 /// What the node publishes (the parameter `command_interface`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -93,6 +99,17 @@ pub enum ForcePart {
     Std,
     /// The F/T sensor's wrench (`ft_sensor/wrench`), in its own frame.
     Ft,
+}
+
+impl ForcePart {
+    /// The topic it comes on.
+    pub fn topic(self) -> &'static str {
+        match self {
+            ForcePart::Mean => "biotac/wrench",
+            ForcePart::Std => "biotac/wrench_stddev",
+            ForcePart::Ft => "ft_sensor/wrench",
+        }
+    }
 }
 
 /// Why a robot description is refused.
@@ -159,6 +176,12 @@ pub struct ForceControllerNode {
     delay_warned: bool,
     /// The bounds of its input, shared with the adapter that asks them.
     guard: Arc<InputGuard>,
+    /// Where it is in its lifecycle: it commands only while active.
+    state: State,
+    /// Why the goal running must end: the arm was stopped from outside
+    /// its task ([`stop`]), or a wrench it uses came in the wrong frame.
+    goal_end: Option<String>,
+    frames: Frames,
 }
 
 /// The shipped defaults of the `force_controller` parameters: the guarded
@@ -211,7 +234,22 @@ impl ForceControllerNode {
             stale_halts: 0,
             delay_warned: false,
             guard: Arc::new(InputGuard::with_goals()),
+            state: State::Active,
+            goal_end: None,
+            // Until `with_frames`: every wrench in the BioTac frame.
+            frames: Frames::new(tool_frame::BIOTAC_FRAME, "", false)?,
         })
+    }
+
+    /// The node with the frames its wrenches must come in ([`frames`]).
+    pub fn with_frames(self, frames: Frames) -> Self {
+        ForceControllerNode { frames, ..self }
+    }
+
+    /// The node sharing the input bounds of `guard` (those a transport
+    /// made its subscriptions with).
+    pub fn with_guard(self, guard: Arc<InputGuard>) -> Self {
+        ForceControllerNode { guard, ..self }
     }
 
     /// The start-up parameters.
@@ -314,6 +352,7 @@ impl ForceControllerNode {
     /// one arrives.
     pub fn set_task(&mut self, name: &str, apply: bool) -> Result<(), String> {
         self.tasks.get(name).map_err(|e| e.to_string())?;
+        self.not_acting()?;
         if self.goal {
             return Err("a goal is running (guarded_move or calibrate): cancel it first".into());
         }
@@ -387,19 +426,46 @@ impl ForceControllerNode {
         }
     }
 
-    /// [`ForceControllerNode::on_force`] for a message as it came: one that
-    /// could not be read (`Err`, why) is counted. True when it stepped.
+    /// [`ForceControllerNode::on_force`] for a message as it came in
+    /// `frame`: one that could not be read (`Err`, why) is counted; one in
+    /// another frame than its topic's is refused ([`frames`]). True when
+    /// it stepped.
     pub fn on_force_msg(
         &mut self,
         part: ForcePart,
+        frame: &str,
         msg: Result<Stamped, String>,
         now: f64,
     ) -> bool {
+        if let Err((m, new)) = self.frames.check(part, frame) {
+            self.refuse_frame(part, m.to_string(), new);
+            return false;
+        }
         match msg {
             Ok((stamp_s, w)) => self.on_force(part, stamp_s, w, now).is_some(),
             Err(why) => {
                 self.reject(&why);
                 false
+            }
+        }
+    }
+
+    /// A wrench of `part` in the wrong frame (`why`): counted, said once
+    /// (`new`); if the task uses it, the task stops and the goal running
+    /// ends with the reason.
+    fn refuse_frame(&mut self, part: ForcePart, why: String, new: bool) {
+        self.reject(&why);
+        if new {
+            tracing::error!("{why}: refused, not used");
+        }
+        let used = (part == ForcePart::Ft) == self.calibration.is_some();
+        if used && self.running() {
+            if let Some(c) = self.controller.as_mut() {
+                c.stop();
+            }
+            self.asked = false;
+            if self.goal {
+                self.goal_end.get_or_insert(format!("refused: {why}"));
             }
         }
     }
@@ -435,6 +501,7 @@ impl ForceControllerNode {
     /// counted and not stepped on (if none follows, the late-estimate halt
     /// stops the arm).
     fn step_on(&mut self, e: crate::wrench::WrenchEstimate, now: f64) -> Option<&ControlOutput> {
+        self.not_acting().ok()?;
         let c = self.controller.as_mut()?;
         if let Err(why) = c.on_estimate(e) {
             self.reject(&format!("estimate: {why}"));
@@ -462,6 +529,7 @@ impl ForceControllerNode {
     /// velocity, the task paused, until estimates return (logged with the
     /// figures); None while it is not stale yet.
     pub fn on_late(&mut self, now: f64) -> Option<&ControlOutput> {
+        self.not_acting().ok()?;
         let c = self.controller.as_mut()?;
         let age = c.estimate_age_s(now).unwrap_or(f64::INFINITY);
         if age < c.stale_after_s() {

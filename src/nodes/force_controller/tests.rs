@@ -13,12 +13,12 @@ use crate::runtime::scene::Scene;
 
 /// A node with the shipped defaults (every task's section), as the ROS
 /// node starts.
-fn node(ft_to_biotac: Option<FrameTransform>) -> ForceControllerNode {
+pub(super) fn node(ft_to_biotac: Option<FrameTransform>) -> ForceControllerNode {
     let base = from_flat_params(&shipped_defaults().unwrap(), "force_controller").unwrap();
     ForceControllerNode::new(base, tasks::shipped(), Vec::new(), ft_to_biotac).unwrap()
 }
 
-fn pa10() -> &'static str {
+pub(super) fn pa10() -> &'static str {
     ShippedRobot::Pa10.urdf()
 }
 
@@ -30,19 +30,19 @@ fn start_pose() -> JointVector {
         .unwrap()
 }
 
-fn joints(t: f64) -> JointState {
+pub(super) fn joints(t: f64) -> JointState {
     JointState {
         stamp_s: t,
         q: start_pose(),
     }
 }
 
-fn fz(v: f64) -> Wrench {
+pub(super) fn fz(v: f64) -> Wrench {
     Wrench::new(Vector3::new(0.0, 0.0, v), Vector3::zeros())
 }
 
 /// One estimate at `t`, both halves: the output when it stepped.
-fn estimate(n: &mut ForceControllerNode, t: f64, force: f64) -> Option<ControlOutput> {
+pub(super) fn estimate(n: &mut ForceControllerNode, t: f64, force: f64) -> Option<ControlOutput> {
     n.on_joint_state(&joints(t));
     let half = n.on_force(ForcePart::Mean, t, fz(force), t + 0.001);
     assert!(half.is_none(), "half an estimate");

@@ -9,7 +9,7 @@ use crate::ros::{self, RosError};
 
 /// Declares the link's parameters and opens nothing yet: the driver for
 /// them, and the link's name for /diagnostics.
-pub fn declare(node: &r2r::Node) -> Result<(Driver, String), RosError> {
+pub fn declare(node: &impl ros::HasParams) -> Result<(Driver, String), RosError> {
     let port = ros::own_string(node, &own_params::PORT)?;
     let interface = ros::own_string(node, &own_params::LINK)?;
     let cheetah = ros::own_string(node, &own_params::CHEETAH)?;

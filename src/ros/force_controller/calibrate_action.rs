@@ -174,6 +174,7 @@ async fn motion(
         }
         match n.calibration_progress(now) {
             CalibrationProgress::Starting => {}
+            CalibrationProgress::Stopped(why) => return Some((why, false)),
             CalibrationProgress::Ended(e) => {
                 let canceled = e == Ended::Canceled;
                 return e.failure().map(|why| (why, canceled));

@@ -78,6 +78,17 @@ async fn follow(
         ticker.tick().await;
         let progress = {
             let mut n = lock(&shared);
+            // Stopped from outside the task (a signal, ~/stop, deactivate),
+            // or its estimate came in the wrong frame.
+            if let Some(reason) = n.goal_end() {
+                tracing::warn!("guarded_move goal aborted: {reason}");
+                handle.abort(GuardedMove::Result {
+                    reason: reason.into(),
+                    force_n: n.guarded_progress().map_or(0.0, |p| p.force_n),
+                    ..Default::default()
+                });
+                break;
+            }
             match cancel.poll(&mut n, clock.now_s()) {
                 Canceling::No => n.guarded_progress(),
                 Canceling::Withdrawing => continue,

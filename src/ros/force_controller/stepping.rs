@@ -16,44 +16,20 @@ use std::time::Duration;
 
 use futures::stream::BoxStream;
 use futures::StreamExt;
-use r2r::diagnostic_msgs::msg::DiagnosticArray;
-use r2r::geometry_msgs::msg::{TwistStamped, WrenchStamped};
-use r2r::std_msgs::msg::Float64MultiArray;
-use r2r::QosProfile;
+use r2r::geometry_msgs::msg::WrenchStamped;
 
+use r2r::diagnostic_msgs::msg::DiagnosticArray;
+
+use super::commands::Commands;
 use super::lock;
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
-use crate::nodes::force_controller::{CommandInterface, ForceControllerNode, ForcePart, Stamped};
-use crate::ros::{bounded, convert, RosClock, RosError};
+use crate::nodes::force_controller::{ForceControllerNode, ForcePart, Stamped};
+use crate::ros::inputs::Inputs;
+use crate::ros::{bounded, convert, ending, RosClock, RosError, Spinning};
 
-/// A force message as the node takes it.
-pub(super) type ForceMsg = (ForcePart, Result<Stamped, String>);
-
-/// Publishes the command of the last step, in the node's interface.
-pub(super) struct Commands {
-    pub(super) interface: CommandInterface,
-    pub(super) joints: r2r::Publisher<Float64MultiArray>,
-    pub(super) twists: r2r::Publisher<TwistStamped>,
-}
-
-impl Commands {
-    fn publish(&self, n: &ForceControllerNode, now: f64) {
-        let Some(c) = n.controller() else { return };
-        let sent = match self.interface {
-            CommandInterface::JointVelocities => {
-                self.joints.publish(&convert::commands_msg(c.command()))
-            }
-            CommandInterface::Twist => {
-                let frame = &c.robot().links.0;
-                self.twists
-                    .publish(&convert::twist_msg(now, frame, c.twist()))
-            }
-        };
-        if let Err(e) = sent {
-            tracing::warn!("command: {e}");
-        }
-    }
-}
+/// A force message as the node takes it: its part, its frame, its
+/// stamp and wrench (or why it could not be read).
+pub(super) type ForceMsg = (ForcePart, String, Result<Stamped, String>);
 
 /// The estimate's mean and standard deviation and the F/T sensor's wrench,
 /// merged into one stream of the parts the node steps on.
@@ -62,18 +38,14 @@ pub(super) fn forces(
     guard: &Arc<InputGuard>,
 ) -> Result<impl futures::Stream<Item = ForceMsg> + Unpin, RosError> {
     let wrench_type = "geometry_msgs/msg/WrenchStamped";
-    let parts = [
-        ("biotac/wrench", ForcePart::Mean),
-        ("biotac/wrench_stddev", ForcePart::Std),
-        ("ft_sensor/wrench", ForcePart::Ft),
-    ]
-    .map(|(name, part)| {
-        let qos = QosProfile::default();
-        let topic = bounded::typed(node, name, wrench_type, qos, MESSAGE_MAX_BYTES, guard)?;
-        Ok(force(topic, part, name))
-    })
-    .into_iter()
-    .collect::<Result<Vec<_>, RosError>>()?;
+    let parts = [ForcePart::Mean, ForcePart::Std, ForcePart::Ft]
+        .map(|part| {
+            let (name, qos) = (part.topic(), crate::ros::input_qos());
+            let topic = bounded::typed(node, name, wrench_type, qos, MESSAGE_MAX_BYTES, guard)?;
+            Ok(force(topic, part, name))
+        })
+        .into_iter()
+        .collect::<Result<Vec<_>, RosError>>()?;
     Ok(futures::stream::select_all(parts))
 }
 
@@ -85,57 +57,73 @@ fn force(
 ) -> BoxStream<'static, ForceMsg> {
     topic
         .map(move |m| {
-            (
-                part,
-                convert::wrench_from_msg(&m, name).map_err(|e| e.to_string()),
-            )
+            let read = convert::wrench_from_msg(&m, name).map_err(|e| e.to_string());
+            (part, m.header.frame_id, read)
         })
         .boxed()
 }
 
-/// Steps the node until the force topics end.
+/// Where the loop's steps and status go.
+pub(super) struct Outputs {
+    /// The commands, and the zero every way out sends.
+    pub(super) commands: Arc<Commands>,
+    /// The once-a-second status.
+    pub(super) diagnostics: r2r::Publisher<DiagnosticArray>,
+    /// The inputs watched for silence.
+    pub(super) inputs: Arc<Inputs>,
+}
+
+/// Steps the node until the force topics end; a test may make it panic
+/// ([`ending::injected_panic`]).
 pub(super) async fn run(
-    shared: Arc<Mutex<ForceControllerNode>>,
+    shared: &Mutex<ForceControllerNode>,
     mut forces: impl futures::Stream<Item = ForceMsg> + Unpin,
-    commands: Commands,
-    diagnostics: r2r::Publisher<DiagnosticArray>,
-    clock: RosClock,
+    out: &Outputs,
+    graph: &Spinning,
+    clock: &RosClock,
     period: Duration,
 ) -> Result<(), RosError> {
     let mut deadline = tokio::time::Instant::now() + period;
     let mut report = tokio::time::interval(Duration::from_secs(1));
+    let injected = ending::injected_panic("control");
+    tokio::pin!(injected);
     loop {
         // Each step publishes under the lock it ran in, so that a goal or
         // a task switch in between cannot see the old command.
         tokio::select! {
             part = forces.next() => {
-                let Some((part, msg)) = part else { return Ok(()) };
+                let Some((part, frame, msg)) = part else { return Ok(()) };
+                out.inputs.heard(part.topic());
                 let now = clock.now_s();
-                let mut n = lock(&shared);
-                if n.on_force_msg(part, msg, now) {
+                let mut n = lock(shared);
+                if n.on_force_msg(part, &frame, msg, now) {
                     deadline = tokio::time::Instant::now()
                         + Duration::from_secs_f64(n.until_stale_s(now));
-                    commands.publish(&n, now);
+                    out.commands.publish(&n, now);
                 }
             }
             // No estimate in time: once the newest is stale, zero velocity,
             // every period.
             _ = tokio::time::sleep_until(deadline) => {
                 let now = clock.now_s();
-                let mut n = lock(&shared);
+                let mut n = lock(shared);
                 deadline = tokio::time::Instant::now()
                     + Duration::from_secs_f64(n.until_stale_s(now));
                 if n.on_late(now).is_some() {
-                    commands.publish(&n, now);
+                    out.commands.publish(&n, now);
                 }
             }
             _ = report.tick() => {
-                let status = lock(&shared).status();
+                let mut n = lock(shared);
+                let mut status = n.status();
+                out.inputs.report(&mut status, graph, |topic| n.needs(topic));
+                drop(n);
                 let msg = convert::status_msg(clock.now_s(), "force_controller", "", status);
-                if let Err(e) = diagnostics.publish(&msg) {
+                if let Err(e) = out.diagnostics.publish(&msg) {
                     tracing::warn!("diagnostics: {e}");
                 }
             }
+            () = &mut injected => panic!("injected panic (TACTILE_FORCE_INJECT_PANIC=control)"),
         }
     }
 }

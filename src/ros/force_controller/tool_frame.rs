@@ -11,6 +11,7 @@ use crate::nodes::force_controller::ForceControllerNode;
 use crate::ros::{convert, RosClock, RosError};
 
 /// The `/tf_static` publisher and the BioTac frame's name.
+#[derive(Clone)]
 pub(super) struct ToolFrame {
     tf: r2r::Publisher<TFMessage>,
     child: String,

@@ -20,18 +20,21 @@ pub struct Settings {
     pub sim_time: bool,
     /// Simulated seconds per wall-clock second.
     pub speed: f64,
+    /// With no command this long the arm stops (s); 0: it holds.
+    pub command_timeout_s: f64,
     /// The scene's parameters.
     pub p: SimRobotParams,
 }
 
 /// Declares the node's parameters and reads them.
-pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
+pub fn declare(node: &impl ros::HasParams) -> Result<Settings, RosError> {
     let remap = joint_names_param(node)?;
     let frame_id = ros::own_string(node, &own_params::SIM_FRAME)?;
     let seed = ros::own_u64(node, &own_params::SEED)?;
     let sim_time = ros::own_bool(node, &own_params::USE_SIM_TIME)?;
     let speed = ros::own_f64(node, &own_params::REAL_TIME_FACTOR)?;
     check_real_time_factor(speed, sim_time)?;
+    let command_timeout_s = ros::own_f64(node, &own_params::COMMAND_TIMEOUT)?;
     let p: SimRobotParams = ros::node_params(node, RosNode::SimRobot, &tasks::shipped())?;
     Ok(Settings {
         remap,
@@ -39,6 +42,7 @@ pub fn declare(node: &r2r::Node) -> Result<Settings, RosError> {
         seed,
         sim_time,
         speed,
+        command_timeout_s,
         p,
     })
 }
@@ -47,7 +51,7 @@ impl Settings {
     /// Logs what it simulates.
     pub fn log(&self) {
         tracing::info!(
-            "object {}, BioTac unit {}, noise seed {}, period {} s, {}",
+            "object {}, BioTac unit {}, noise seed {}, period {} s, {}, {}",
             self.p.object,
             self.p.sensor_unit,
             self.seed,
@@ -56,6 +60,10 @@ impl Settings {
                 format!("simulated time on /clock, {}x real time", self.speed)
             } else {
                 "system time".to_string()
+            },
+            match self.command_timeout_s {
+                0.0 => "the last command held until another comes".to_string(),
+                t => format!("no command for {t} s stops the arm"),
             }
         );
     }

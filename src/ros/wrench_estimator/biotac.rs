@@ -26,6 +26,7 @@ use crate::nodes::own_params;
 use crate::nodes::wrench_estimator::reading_source::{ReadingSource, SourceError, Unusable};
 use crate::nodes::EstimatorNode;
 use crate::outputs::models_dir::ModelsDir;
+use crate::ros::inputs::Inputs;
 use crate::ros::params::RuntimeParams;
 use crate::ros::{bounded, lock, RosError};
 use crate::sensor::biotac::BioTacInput;
@@ -80,13 +81,22 @@ pub(super) async fn run(
     let mut tares = TareStore::open(&s.tare_file, s.tare_max_age_s);
     let (qos, guard) = (QosProfile::sensor_data(), estimator.guard().clone());
     let (topic, kind) = (source.topic(), source.type_name());
-    let mut readings = match bounded::raw(&mut node, topic, kind, qos, MESSAGE_MAX_BYTES, &guard) {
+    let readings = match bounded::raw(
+        &mut node,
+        topic,
+        kind,
+        qos.clone(),
+        MESSAGE_MAX_BYTES,
+        &guard,
+    ) {
         Err(RosError::R2r(r2r::Error::InvalidMessageType { .. })) => {
             return Err(SourceError::NotBuilt(source.type_name()).into())
         }
         subscribed => subscribed?,
     };
     tracing::info!("reading {} on {}", source.type_name(), source.topic());
+    let inputs = Inputs::new(&[(topic, &qos)], s.silent_after_s);
+    let mut readings = inputs.watched(topic, readings);
     let estimator = Arc::new(Mutex::new(estimator));
     let shared = estimator.clone();
     let (recipe, models) = (s.default_model, s.models);
@@ -99,7 +109,7 @@ pub(super) async fn run(
         &guard,
     );
     let clock = crate::ros::serve_parameters(&mut node, live)?;
-    crate::ros::spin(node);
+    let graph = crate::ros::spin(node);
 
     let mut report = tokio::time::interval(REPORT);
     loop {
@@ -109,7 +119,7 @@ pub(super) async fn run(
                 None => return Ok(()),
             },
             _ = report.tick() => {
-                out.report(&lock(&estimator), &clock);
+                out.report(&lock(&estimator), &clock, (&inputs, &graph));
                 continue;
             }
         };

@@ -15,6 +15,7 @@ use super::{Outputs, Settings, REPORT};
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::bounds::image_max_bytes;
 use crate::nodes::EstimatorNode;
+use crate::ros::inputs::Inputs;
 use crate::ros::params::RuntimeParams;
 use crate::ros::{bounded, convert, RosError};
 use crate::sensor::nail::NailInput;
@@ -33,10 +34,18 @@ pub(super) async fn run(
     let (width, height) = estimator.sensor().frame_size();
     let (qos, max) = (QosProfile::sensor_data(), image_max_bytes(width, height));
     let image_type = "sensor_msgs/msg/Image";
-    let mut images =
-        bounded::typed::<Image>(&mut node, "camera/image", image_type, qos, max, &guard)?;
+    let images = bounded::typed::<Image>(
+        &mut node,
+        "camera/image",
+        image_type,
+        qos.clone(),
+        max,
+        &guard,
+    )?;
+    let inputs = Inputs::new(&[("camera/image", &qos)], s.silent_after_s);
+    let mut images = inputs.watched("camera/image", images);
     let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
-    crate::ros::spin(node);
+    let graph = crate::ros::spin(node);
 
     let mut report = tokio::time::interval(REPORT);
     let mut seq = 0u16;
@@ -47,7 +56,7 @@ pub(super) async fn run(
                 None => return Ok(()),
             },
             _ = report.tick() => {
-                out.report(&estimator, &clock);
+                out.report(&estimator, &clock, (&inputs, &graph));
                 continue;
             }
         };
