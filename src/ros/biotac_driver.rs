@@ -49,10 +49,24 @@ pub async fn run(mut endings: Endings) -> Result<(), RosError> {
     };
     let tare_requests = Arc::new(Mutex::new(serve_tare(&mut node)?));
     let guard = Arc::new(InputGuard::new());
-    let clock = super::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
+    let unconfigured = Arc::new(AtomicBool::new(true));
+    let now = unconfigured.clone();
+    let live = RuntimeParams::none(&guard).unless_unconfigured(
+        Box::new(move || now.load(Ordering::Relaxed)),
+        &[own_params::START_STATE.name],
+        node.params.clone(),
+    );
+    let clock = super::serve_parameters(&mut node, live)?;
     let (failed, mut failures) = tokio::sync::mpsc::unbounded_channel();
     let params = node.params.clone();
-    let link = managed::Link::new(params, publishers, tare_requests, clock, failed);
+    let link = managed::Link::new(
+        params,
+        publishers,
+        tare_requests,
+        clock,
+        failed,
+        unconfigured,
+    );
     let lifecycle = super::lifecycle::serve(&mut node, link, start)?;
     let _spinning = super::spin(node);
     let ended = tokio::select! {

@@ -120,19 +120,13 @@ pub async fn run(endings: Endings) -> Result<(), RosError> {
     let description = robot_description(&mut node, &guard)?;
 
     // Every input bounded in size, refused before it is decoded.
-    let qos = super::input_qos();
-    let watched = ForceControllerNode::INPUTS.map(|t| (t, &qos));
-    let inputs = Inputs::new(&watched, settings.silent_after_s);
+    let inputs = stepping::watched(settings.silent_after_s);
     let forces = stepping::forces(&mut node, &guard)?;
     hand_on(&mut node, &guard, &shared, &inputs)?;
     let commands = Arc::new(Commands::create(&mut node, settings.interface)?);
     let c = commands.clone();
     endings.on_panic(move || c.zero_on_panic());
-    let out = stepping::Outputs {
-        commands: commands.clone(),
-        diagnostics: node.create_publisher("/diagnostics", QosProfile::default())?,
-        inputs,
-    };
+    let diagnostics = node.create_publisher("/diagnostics", QosProfile::default())?;
     #[cfg(not(feature = "ros2-doc-only"))]
     let goals = bounded::goals(
         action_server::create(&mut node, "~/guarded_move")?,
@@ -147,7 +141,8 @@ pub async fn run(endings: Endings) -> Result<(), RosError> {
     );
     #[cfg(not(feature = "ros2-doc-only"))]
     let link = estimator_link::EstimatorLink::new(&mut node, &settings.estimator)?;
-    let clock = super::serve_parameters(&mut node, settings::live(&shared, &guard))?;
+    let live = settings::live(&shared, &guard, node.params.clone());
+    let clock = super::serve_parameters(&mut node, live)?;
     let tf = tool_frame::ToolFrame::new(&mut node, settings.child.clone(), clock.clone())?;
     take_description(description, &shared, &tf)?;
     #[cfg(not(feature = "ros2-doc-only"))]
@@ -162,7 +157,14 @@ pub async fn run(endings: Endings) -> Result<(), RosError> {
         clock: clock.clone(),
     };
     let _lifecycle = super::lifecycle::serve(&mut node, managed, settings.start)?;
-    let graph = super::spin(node);
+    let spinning = super::spin(node);
+    tokio::spawn(stepping::report(
+        shared.clone(),
+        inputs.clone(),
+        diagnostics,
+        spinning.graph(),
+        clock.clone(),
+    ));
 
     #[cfg(not(feature = "ros2-doc-only"))]
     tokio::spawn(guarded_move_action::serve(
@@ -183,7 +185,7 @@ pub async fn run(endings: Endings) -> Result<(), RosError> {
     #[cfg(feature = "ros2-doc-only")]
     let _ = (settings.estimator, settings.models);
 
-    let stepping = stepping::run(&shared, forces, &out, &graph, &clock, period);
+    let stepping = stepping::run(&shared, forces, &commands, &inputs, &clock, period);
     way_out::run_to_the_end(stepping, endings, &shared, &commands, &clock, period).await
 }
 

@@ -10,7 +10,7 @@ use std::time::Instant;
 use futures::StreamExt;
 
 use super::bounded::Messages;
-use super::{convert, lock, Spinning};
+use super::{convert, lock, Graph};
 use crate::nodes::input_watch::{why_silent, InputWatch, Qos};
 use crate::nodes::status::{Level, Status};
 
@@ -51,7 +51,7 @@ impl Inputs {
 
     /// Names in `status` each input `needed` names that is silent, with
     /// what `graph` shows of its publishers; logs it when newly silent.
-    pub fn report(&self, status: &mut Status, graph: &Spinning, needed: impl Fn(&str) -> bool) {
+    pub async fn report(&self, status: &mut Status, graph: &Graph, needed: impl Fn(&str) -> bool) {
         let now = self.start.elapsed().as_secs_f64();
         let silent = lock(&self.watch).silent(now, needed);
         for s in silent {
@@ -60,7 +60,8 @@ impl Inputs {
                 .iter()
                 .find(|(t, _)| *t == s.topic)
                 .map_or(Qos::ANY_PUBLISHER, |(_, q)| *q);
-            let why = why_silent(s.topic, s.silent_s, wanted, &graph.publishers(s.topic));
+            let publishers = graph.publishers(s.topic).await;
+            let why = why_silent(s.topic, s.silent_s, wanted, &publishers);
             if s.new {
                 tracing::warn!("silent input: {why}");
             }

@@ -35,6 +35,7 @@ use crate::exit::{Classify, ExitClass};
 use crate::kinematics::RobotError;
 use crate::learn::default_model::DefaultModelError;
 use crate::learn::models::wrench_gp::ModelError;
+use crate::nodes::input_watch::Publisher;
 use crate::nodes::own_params::{self, OwnParam};
 use crate::nodes::param_reference::RosNode;
 use crate::nodes::wrench_estimator::EstimatorError;
@@ -373,41 +374,39 @@ pub fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 }
 
 /// Spins the node on a blocking task until [`Spinning`] is dropped (the
-/// node is then destroyed, and leaves the ROS graph at once).
-pub fn spin(node: r2r::Node) -> Spinning {
-    let node = Arc::new(Mutex::new(node));
+/// node is then destroyed, and leaves the ROS graph at once). Between two
+/// spins it answers the [`Graph`]'s questions: the node is its alone.
+pub fn spin(mut node: r2r::Node) -> Spinning {
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let (spun, stopped) = (node.clone(), stop.clone());
+    let (ask, asked) = std::sync::mpsc::channel::<Question>();
+    let stopped = stop.clone();
     tokio::task::spawn_blocking(move || {
         while !stopped.load(std::sync::atomic::Ordering::Relaxed) {
-            lock(&spun).spin_once(Duration::from_millis(5));
+            node.spin_once(Duration::from_millis(5));
+            while let Ok((topic, reply)) = asked.try_recv() {
+                let _ = reply.send(publishers(&node, &topic));
+            }
         }
     });
-    Spinning { node, stop }
+    Spinning {
+        graph: Graph(ask),
+        stop,
+    }
 }
 
-/// A node being spun: the ROS graph as it sees it.
+/// A question to the spin thread: the publishers on a topic.
+type Question = (String, tokio::sync::oneshot::Sender<Vec<Publisher>>);
+
+/// A node being spun; dropped, it stops.
 pub struct Spinning {
-    node: Arc<Mutex<r2r::Node>>,
+    graph: Graph,
     stop: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl Spinning {
-    /// The publishers on `topic` (empty if the graph cannot be read).
-    pub fn publishers(&self, topic: &str) -> Vec<crate::nodes::input_watch::Publisher> {
-        let node = lock(&self.node);
-        let Ok(name) = node.namespace().map(|ns| resolve(&ns, topic)) else {
-            return Vec::new();
-        };
-        let found = node.get_publishers_info_by_topic(&name, false);
-        found
-            .unwrap_or_default()
-            .into_iter()
-            .map(|p| crate::nodes::input_watch::Publisher {
-                node: format!("{}/{}", p.node_namespace.trim_end_matches('/'), p.node_name),
-                qos: convert::qos(&p.qos_profile),
-            })
-            .collect()
+    /// The ROS graph as the node sees it.
+    pub fn graph(&self) -> Graph {
+        self.graph.clone()
     }
 }
 
@@ -415,6 +414,38 @@ impl Drop for Spinning {
     fn drop(&mut self) {
         self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
     }
+}
+
+/// The ROS graph as a spun node sees it, asked of its spin thread.
+#[derive(Clone)]
+pub struct Graph(std::sync::mpsc::Sender<Question>);
+
+impl Graph {
+    /// The publishers on `topic` (none if the graph cannot be read, or the
+    /// node no longer spins).
+    pub async fn publishers(&self, topic: &str) -> Vec<Publisher> {
+        let (reply, answer) = tokio::sync::oneshot::channel();
+        if self.0.send((topic.to_string(), reply)).is_err() {
+            return Vec::new();
+        }
+        answer.await.unwrap_or_default()
+    }
+}
+
+/// The publishers on `topic` of the graph `node` sees.
+fn publishers(node: &r2r::Node, topic: &str) -> Vec<Publisher> {
+    let Ok(name) = node.namespace().map(|ns| resolve(&ns, topic)) else {
+        return Vec::new();
+    };
+    let found = node.get_publishers_info_by_topic(&name, false);
+    found
+        .unwrap_or_default()
+        .into_iter()
+        .map(|p| Publisher {
+            node: format!("{}/{}", p.node_namespace.trim_end_matches('/'), p.node_name),
+            qos: convert::qos(&p.qos_profile),
+        })
+        .collect()
 }
 
 /// `topic` in the namespace `ns` (an absolute name stays).

@@ -132,10 +132,12 @@ pub struct RuntimeParams {
 }
 
 /// A managed node's rule for sets while it is unconfigured: any parameter
-/// but those read at start only may be set, for its next `configure`.
+/// it declared but those read at start only may be set, for its next
+/// `configure` (which checks it).
 struct Unconfigured {
     now: Box<dyn Fn() -> bool + Send>,
     start_only: &'static [&'static str],
+    declared: super::ParamMap,
 }
 
 impl RuntimeParams {
@@ -149,14 +151,20 @@ impl RuntimeParams {
         }
     }
 
-    /// While `now` says the node is unconfigured, any parameter but those
-    /// in `start_only` may be set: the next lifecycle `configure` reads it.
+    /// While `now` says the node is unconfigured, any parameter it
+    /// `declared` but those in `start_only` may be set: the next lifecycle
+    /// `configure` reads and checks it.
     pub fn unless_unconfigured(
         self,
         now: Box<dyn Fn() -> bool + Send>,
         start_only: &'static [&'static str],
+        declared: super::ParamMap,
     ) -> Self {
-        let unconfigured = Some(Unconfigured { now, start_only });
+        let unconfigured = Some(Unconfigured {
+            now,
+            start_only,
+            declared,
+        });
         RuntimeParams {
             unconfigured,
             ..self
@@ -177,6 +185,9 @@ impl RuntimeParams {
             .admit_parameter_set()
             .map_err(|e| refused(format!("refused: {e}")))?;
         if let Some(u) = self.unconfigured.as_ref().filter(|u| (u.now)()) {
+            if !super::lock(&u.declared).contains_key(name) {
+                return Err(refused("not a parameter of this node".into()));
+            }
             return match u.start_only.contains(&name) {
                 true => Err(refused(
                     "read at process start only: restart the node to change it".into(),

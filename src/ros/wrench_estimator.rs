@@ -36,7 +36,7 @@ use r2r::QosProfile;
 
 use super::ending::Endings;
 use super::inputs::Inputs;
-use super::{convert, RosClock, RosError, Spinning};
+use super::{convert, Graph, RosClock, RosError};
 use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::models::model_file;
 use crate::learn::models::wrench_model::WrenchModel;
@@ -210,14 +210,9 @@ impl Outputs {
         }
     }
 
-    /// The once-a-second report: what was dropped (logged when it grew) and
-    /// the node's status, on `/diagnostics`, its input named if silent.
-    fn report<S: SensorInput>(
-        &mut self,
-        estimator: &EstimatorNode<S>,
-        clock: &RosClock,
-        (inputs, graph): (&Inputs, &Spinning),
-    ) {
+    /// The once-a-second report's status: what was dropped (logged when
+    /// it grew) and the node's status; [`Outputs::report`] sends it.
+    fn status<S: SensorInput>(&mut self, estimator: &EstimatorNode<S>) -> Status {
         let d = estimator.dropped();
         if let Some(said) = d.since(&self.reported) {
             match estimator.refusal() {
@@ -226,8 +221,17 @@ impl Outputs {
             }
         }
         self.reported = d;
-        let mut status = estimator.status();
-        inputs.report(&mut status, graph, |_| true);
+        estimator.status()
+    }
+
+    /// Sends `status` on `/diagnostics`, its input named if silent.
+    async fn report(
+        &self,
+        mut status: Status,
+        clock: &RosClock,
+        (inputs, graph): (&Inputs, &Graph),
+    ) {
+        inputs.report(&mut status, graph, |_| true).await;
         self.publish_status(status, clock);
     }
 

@@ -384,8 +384,10 @@ def controller_lifecycle():
         refused_goal(arm, "unconfigured", "the node is unconfigured (lifecycle)")
         taken, why = set_param(arm, "force_controller", "guarded.target_force_n", 0.8)
         start_only, why2 = set_param(arm, "force_controller", "command_interface", "twist")
-        check("lifecycle: while unconfigured a set is taken for configure, a start-only one refused",
-              taken and not start_only and "read at process start only" in why2, f"{why!r}; {why2!r}")
+        unknown, why3 = set_param(arm, "force_controller", "no_such_parameter", 1.0)
+        check("lifecycle: while unconfigured a set is taken for configure, a start-only or unknown one refused",
+              taken and not start_only and "read at process start only" in why2
+              and not unknown and "not a parameter of this node" in why3, f"{why!r}; {why2!r}; {why3!r}")
         check("lifecycle: configure -> inactive", lc.set("configure") and lc.state() == "inactive",
               f"{lc.state()}")
         refused_goal(arm, "inactive", "the node is inactive (lifecycle)")

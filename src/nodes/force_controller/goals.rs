@@ -55,9 +55,6 @@ pub enum CalibrationProgress {
     },
     /// The arm has stopped.
     Ended(Ended),
-    /// The arm was stopped from outside the task, or the F/T wrench came
-    /// in the wrong frame: why ([`ForceControllerNode::goal_end`]).
-    Stopped(String),
 }
 
 impl ForceControllerNode {
@@ -148,9 +145,6 @@ impl ForceControllerNode {
     /// The calibration's feedback, or how its motion ended: a silent F/T
     /// sensor halts it at `now`.
     pub fn calibration_progress(&mut self, now: f64) -> CalibrationProgress {
-        if let Some(why) = &self.goal_end {
-            return CalibrationProgress::Stopped(why.clone());
-        }
         let (Some(c), Some(rec)) = (self.controller.as_mut(), self.calibration.as_ref()) else {
             return CalibrationProgress::Ended(Ended::Canceled);
         };

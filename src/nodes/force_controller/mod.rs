@@ -438,8 +438,7 @@ impl ForceControllerNode {
         now: f64,
     ) -> bool {
         if let Err((m, new)) = self.frames.check(part, frame) {
-            self.refuse_frame(part, m.to_string(), new);
-            return false;
+            return self.refuse_frame(part, m.to_string(), new, now);
         }
         match msg {
             Ok((stamp_s, w)) => self.on_force(part, stamp_s, w, now).is_some(),
@@ -451,23 +450,24 @@ impl ForceControllerNode {
     }
 
     /// A wrench of `part` in the wrong frame (`why`): counted, said once
-    /// (`new`); if the task uses it, the task stops and the goal running
-    /// ends with the reason.
-    fn refuse_frame(&mut self, part: ForcePart, why: String, new: bool) {
+    /// (`new`); if the task running uses it, the task stops at `now` and
+    /// the goal running ends with the reason: true, its zero command due.
+    fn refuse_frame(&mut self, part: ForcePart, why: String, new: bool, now: f64) -> bool {
         self.reject(&why);
         if new {
             tracing::error!("{why}: refused, not used");
         }
         let used = (part == ForcePart::Ft) == self.calibration.is_some();
-        if used && self.running() {
-            if let Some(c) = self.controller.as_mut() {
-                c.stop();
-            }
-            self.asked = false;
-            if self.goal {
-                self.goal_end.get_or_insert(format!("refused: {why}"));
-            }
+        if !(used && self.running() && self.not_acting().is_ok()) {
+            return false;
         }
+        self.stop_for(format!("refused: {why}"));
+        let Some(c) = self.controller.as_mut() else {
+            return false;
+        };
+        let out = c.tick(now);
+        self.keep(out);
+        true
     }
 
     /// Takes one message of the force (stamped with its reading, BioTac

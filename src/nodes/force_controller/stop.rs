@@ -49,15 +49,21 @@ impl ForceControllerNode {
     /// and nothing moves until a new goal or a `task` set. The command to
     /// publish at once comes from [`Self::zero_command`].
     pub fn stop(&mut self, why: Stopped) {
+        self.stop_for(why.reason().into());
+    }
+
+    /// [`Self::stop`] for a reason of the node's own (a wrench in the
+    /// wrong frame, say).
+    pub(super) fn stop_for(&mut self, reason: String) {
         if let Some(c) = self.controller.as_mut() {
             c.stop();
         }
         self.asked = false;
         self.withdrawing_since = None;
+        tracing::warn!("{reason}: zero velocity");
         if self.goal {
-            self.goal_end.get_or_insert(why.reason().into());
+            self.goal_end.get_or_insert(reason);
         }
-        tracing::warn!("{}: zero velocity", why.reason());
     }
 
     /// The reason the goal running must end with, when the arm was stopped

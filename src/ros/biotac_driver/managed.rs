@@ -29,6 +29,8 @@ pub(super) struct Link {
     /// Where the thread says it failed.
     pub(super) failed: tokio::sync::mpsc::UnboundedSender<RosError>,
     running: Option<Running>,
+    /// True while unconfigured: parameters may then be set.
+    unconfigured: Arc<AtomicBool>,
 }
 
 impl Link {
@@ -39,6 +41,7 @@ impl Link {
         tare_requests: Arc<Mutex<Receiver<()>>>,
         clock: RosClock,
         failed: tokio::sync::mpsc::UnboundedSender<RosError>,
+        unconfigured: Arc<AtomicBool>,
     ) -> Self {
         Link {
             params,
@@ -47,11 +50,14 @@ impl Link {
             clock,
             failed,
             running: None,
+            unconfigured,
         }
     }
 
-    /// Closes the link: the thread stopped and waited for.
-    fn close(&mut self) {
+    /// Closes the link: the thread stopped and waited for; `unconfigured`
+    /// afterwards (else finalized).
+    fn close(&mut self, unconfigured: bool) {
+        self.unconfigured.store(unconfigured, Ordering::Relaxed);
         if let Some(r) = self.running.take() {
             r.stop.store(true, Ordering::Relaxed);
             let _ = r.thread.join();
@@ -93,11 +99,12 @@ impl Managed for Link {
             publishing,
             thread,
         });
+        self.unconfigured.store(false, Ordering::Relaxed);
         Ok(())
     }
 
     fn on_cleanup(&mut self) {
-        self.close();
+        self.close(true);
     }
 
     fn on_activate(&mut self) -> Result<(), String> {
@@ -110,6 +117,6 @@ impl Managed for Link {
     }
 
     fn on_shutdown(&mut self, _from: State) {
-        self.close();
+        self.close(false);
     }
 }

@@ -167,6 +167,11 @@ async fn motion(
         ticker.tick().await;
         let now = clock.now_s();
         let mut n = lock(shared);
+        // Stopped from outside the task, or the F/T wrench in the wrong
+        // frame: before a cancel's withdrawal, which a stop ends.
+        if let Some(why) = n.goal_end() {
+            return Some((why.to_string(), false));
+        }
         match cancel.poll(&mut n, now) {
             Canceling::No => {}
             Canceling::Withdrawing => continue,
@@ -174,7 +179,6 @@ async fn motion(
         }
         match n.calibration_progress(now) {
             CalibrationProgress::Starting => {}
-            CalibrationProgress::Stopped(why) => return Some((why, false)),
             CalibrationProgress::Ended(e) => {
                 let canceled = e == Ended::Canceled;
                 return e.failure().map(|why| (why, canceled));

@@ -79,9 +79,7 @@ impl Commands {
         if self.ended.load(Ordering::SeqCst) {
             return;
         }
-        out.dof = c.command().len();
-        out.base.clone_from(&c.robot().links.0);
-        self.dof.store(out.dof, Ordering::SeqCst);
+        self.remember(&mut out, c.command().len(), &c.robot().links.0);
         let sent = match self.interface {
             CommandInterface::JointVelocities => {
                 out.joints.publish(&convert::commands_msg(c.command()))
@@ -94,6 +92,21 @@ impl Commands {
         if let Err(e) = sent {
             tracing::warn!("command: {e}");
         }
+        // A panic's zero sent meanwhile without this lock: zero again.
+        if self.ended.load(Ordering::SeqCst) {
+            self.send_zero(&out, now, true);
+        }
+    }
+
+    /// Keeps the arm last commanded, for the zeros: `dof` joints from
+    /// `base`; the spare publishers learn a new base.
+    fn remember(&self, out: &mut Outputs, dof: usize, base: &str) {
+        out.dof = dof;
+        self.dof.store(dof, Ordering::SeqCst);
+        if out.base != base {
+            out.base = base.to_string();
+            lock(&self.spare).base = base.to_string();
+        }
     }
 
     /// Publishes a zero command on both outputs, for the arm of `n` (none
@@ -102,9 +115,7 @@ impl Commands {
     pub(super) fn zero(&self, n: &ForceControllerNode, now: f64, last: bool) {
         let mut out = lock(&self.sending);
         if let (Some(dof), Some(c)) = (n.zero_command(), n.controller()) {
-            out.dof = dof;
-            out.base.clone_from(&c.robot().links.0);
-            self.dof.store(dof, Ordering::SeqCst);
+            self.remember(&mut out, dof, &c.robot().links.0);
         }
         self.send_zero(&out, now, last);
     }

@@ -41,6 +41,13 @@ impl Controller {
 
 impl Managed for Controller {
     fn on_configure(&mut self) -> Result<(), String> {
+        if lock(&self.shared).goal_running() {
+            return Err(
+                "a goal is still ending (its result goes out within a period): \
+                        configure again"
+                    .into(),
+            );
+        }
         let s = settings::declare(&self.params, &self.tasks).map_err(|e| e.to_string())?;
         let mut fresh = s
             .node(self.tasks.clone(), &self.guard)

@@ -111,6 +111,7 @@ impl Settings {
 pub(super) fn live(
     shared: &Arc<Mutex<ForceControllerNode>>,
     guard: &Arc<InputGuard>,
+    declared: ros::ParamMap,
 ) -> RuntimeParams {
     let s = shared.clone();
     let live = RuntimeParams::new(
@@ -129,5 +130,6 @@ pub(super) fn live(
     live.unless_unconfigured(
         Box::new(move || lock(&s).state() == State::Unconfigured),
         START_ONLY,
+        declared,
     )
 }

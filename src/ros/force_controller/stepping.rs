@@ -1,7 +1,8 @@
 //! The loop of `force_controller`: it steps the node on each force message
 //! and publishes the command; when no estimate comes before the newest goes
 //! stale (as the node judges from the delay it measures), it halts the arm,
-//! every period; once a second it publishes the node's status.
+//! every period. Once a second, on a task of its own, the node's status
+//! goes to `/diagnostics` ([`report`]).
 //!
 //! It runs on the thread the node started on (tokio's `block_on`), apart
 //! from every other input: r2r takes messages off DDS on a thread of its
@@ -25,7 +26,7 @@ use super::lock;
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
 use crate::nodes::force_controller::{ForceControllerNode, ForcePart, Stamped};
 use crate::ros::inputs::Inputs;
-use crate::ros::{bounded, convert, ending, RosClock, RosError, Spinning};
+use crate::ros::{bounded, convert, ending, Graph, RosClock, RosError};
 
 /// A force message as the node takes it: its part, its frame, its
 /// stamp and wrench (or why it could not be read).
@@ -63,14 +64,44 @@ fn force(
         .boxed()
 }
 
-/// Where the loop's steps and status go.
-pub(super) struct Outputs {
-    /// The commands, and the zero every way out sends.
-    pub(super) commands: Arc<Commands>,
-    /// The once-a-second status.
-    pub(super) diagnostics: r2r::Publisher<DiagnosticArray>,
-    /// The inputs watched for silence.
-    pub(super) inputs: Arc<Inputs>,
+/// The node's inputs watched for silence, after `silent_after_s`.
+pub(super) fn watched(silent_after_s: f64) -> Arc<Inputs> {
+    let qos = crate::ros::input_qos();
+    Inputs::new(
+        &ForceControllerNode::INPUTS.map(|t| (t, &qos)),
+        silent_after_s,
+    )
+}
+
+/// Once a second, the node's status on `/diagnostics`, its silent inputs
+/// named with what `graph` shows: on a task of its own, apart from the
+/// control loop (the graph's answer takes up to a spin of its thread).
+pub(super) async fn report(
+    shared: Arc<Mutex<ForceControllerNode>>,
+    inputs: Arc<Inputs>,
+    diagnostics: r2r::Publisher<DiagnosticArray>,
+    graph: Graph,
+    clock: RosClock,
+) {
+    let mut every = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        every.tick().await;
+        let (mut status, needed) = {
+            let mut n = lock(&shared);
+            let needed: Vec<&str> = ForceControllerNode::INPUTS
+                .into_iter()
+                .filter(|t| n.needs(t))
+                .collect();
+            (n.status(), needed)
+        };
+        inputs
+            .report(&mut status, &graph, |t| needed.contains(&t))
+            .await;
+        let msg = convert::status_msg(clock.now_s(), "force_controller", "", status);
+        if let Err(e) = diagnostics.publish(&msg) {
+            tracing::warn!("diagnostics: {e}");
+        }
+    }
 }
 
 /// Steps the node until the force topics end; a test may make it panic
@@ -78,13 +109,12 @@ pub(super) struct Outputs {
 pub(super) async fn run(
     shared: &Mutex<ForceControllerNode>,
     mut forces: impl futures::Stream<Item = ForceMsg> + Unpin,
-    out: &Outputs,
-    graph: &Spinning,
+    commands: &Commands,
+    inputs: &Inputs,
     clock: &RosClock,
     period: Duration,
 ) -> Result<(), RosError> {
     let mut deadline = tokio::time::Instant::now() + period;
-    let mut report = tokio::time::interval(Duration::from_secs(1));
     let injected = ending::injected_panic("control");
     tokio::pin!(injected);
     loop {
@@ -93,13 +123,13 @@ pub(super) async fn run(
         tokio::select! {
             part = forces.next() => {
                 let Some((part, frame, msg)) = part else { return Ok(()) };
-                out.inputs.heard(part.topic());
+                inputs.heard(part.topic());
                 let now = clock.now_s();
                 let mut n = lock(shared);
                 if n.on_force_msg(part, &frame, msg, now) {
                     deadline = tokio::time::Instant::now()
                         + Duration::from_secs_f64(n.until_stale_s(now));
-                    out.commands.publish(&n, now);
+                    commands.publish(&n, now);
                 }
             }
             // No estimate in time: once the newest is stale, zero velocity,
@@ -110,17 +140,7 @@ pub(super) async fn run(
                 deadline = tokio::time::Instant::now()
                     + Duration::from_secs_f64(n.until_stale_s(now));
                 if n.on_late(now).is_some() {
-                    out.commands.publish(&n, now);
-                }
-            }
-            _ = report.tick() => {
-                let mut n = lock(shared);
-                let mut status = n.status();
-                out.inputs.report(&mut status, graph, |topic| n.needs(topic));
-                drop(n);
-                let msg = convert::status_msg(clock.now_s(), "force_controller", "", status);
-                if let Err(e) = out.diagnostics.publish(&msg) {
-                    tracing::warn!("diagnostics: {e}");
+                    commands.publish(&n, now);
                 }
             }
             () = &mut injected => panic!("injected panic (TACTILE_FORCE_INJECT_PANIC=control)"),

@@ -14,6 +14,7 @@ use futures::FutureExt;
 use super::commands::Commands;
 use crate::nodes::force_controller::stop::Stopped;
 use crate::nodes::force_controller::ForceControllerNode;
+use crate::nodes::lifecycle::State;
 use crate::ros::ending::{Ending, Endings};
 use crate::ros::{lock, RosClock, RosError};
 
@@ -66,6 +67,8 @@ async fn end(
     {
         let mut n = lock(shared);
         n.stop(why);
+        // No goal or task taken on the way out.
+        n.leave_active(why, State::Finalized);
         commands.zero(&n, clock.now_s(), true);
     }
     let since = tokio::time::Instant::now();

@@ -109,7 +109,8 @@ pub(super) async fn run(
         &guard,
     );
     let clock = crate::ros::serve_parameters(&mut node, live)?;
-    let graph = crate::ros::spin(node);
+    let spinning = crate::ros::spin(node);
+    let graph = spinning.graph();
 
     let mut report = tokio::time::interval(REPORT);
     loop {
@@ -119,7 +120,8 @@ pub(super) async fn run(
                 None => return Ok(()),
             },
             _ = report.tick() => {
-                out.report(&lock(&estimator), &clock, (&inputs, &graph));
+                let status = out.status(&lock(&estimator));
+                out.report(status, &clock, (&inputs, &graph)).await;
                 continue;
             }
         };

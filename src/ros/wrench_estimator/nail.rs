@@ -45,7 +45,8 @@ pub(super) async fn run(
     let inputs = Inputs::new(&[("camera/image", &qos)], s.silent_after_s);
     let mut images = inputs.watched("camera/image", images);
     let clock = crate::ros::serve_parameters(&mut node, RuntimeParams::none(&guard))?;
-    let graph = crate::ros::spin(node);
+    let spinning = crate::ros::spin(node);
+    let graph = spinning.graph();
 
     let mut report = tokio::time::interval(REPORT);
     let mut seq = 0u16;
@@ -56,7 +57,8 @@ pub(super) async fn run(
                 None => return Ok(()),
             },
             _ = report.tick() => {
-                out.report(&estimator, &clock, (&inputs, &graph));
+                let status = out.status(&estimator);
+                out.report(status, &clock, (&inputs, &graph)).await;
                 continue;
             }
         };

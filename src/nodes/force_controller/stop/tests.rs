@@ -95,7 +95,11 @@ fn a_wrench_in_another_frame_is_refused_and_ends_the_goal_that_uses_it() {
     // The F/T wrench is not what a guarded move uses: refused, said, the goal runs on.
     assert!(!n.on_force_msg(ForcePart::Ft, "biotac", Ok((0.01, fz(1.0))), 0.011));
     assert_eq!(n.goal_end(), None);
-    assert!(!n.on_force_msg(ForcePart::Mean, "tool0", Ok((0.01, fz(0.0))), 0.011));
+    assert!(
+        n.on_force_msg(ForcePart::Mean, "tool0", Ok((0.01, fz(0.0))), 0.011),
+        "the task that used it stopped: its zero is due"
+    );
+    assert!(still(&n), "a zero command at once");
     let why = n.goal_end().unwrap();
     assert!(
         why.starts_with("refused: biotac/wrench came in frame \"tool0\", not \"biotac\""),
