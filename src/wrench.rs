@@ -277,7 +277,7 @@ impl Wrench {
     }
 }
 
-/// One estimate (the `biotac/wrench` and `biotac/wrench_stddev` topics).
+/// One estimate (the `biotac/wrench_estimate` topic).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WrenchEstimate {
     /// Time of the reading it came from (s).

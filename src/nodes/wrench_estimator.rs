@@ -107,6 +107,10 @@ impl Classify for EstimatorError {
     }
 }
 
+/// A reading this much older than the node's clock (s) is not late: its
+/// stamp is of another clock ([`EstimatorNode::stale_hint`]).
+pub const ANOTHER_CLOCK_S: f64 = 1.0;
+
 /// Above this estimated force (N) the finger counts as pressed: no new
 /// model is taken ([`EstimatorNode::take_model`]).
 pub const PRESSED_N: f64 = 0.3;
@@ -122,6 +126,8 @@ pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     out: Vec<Estimate>,
     stale_timeout_s: Option<f64>,
     dropped: Dropped,
+    /// The age of the last stale reading (s; NaN before one).
+    stale_age_s: f64,
     /// Why readings of another layout are refused, once one was.
     refusal: Option<String>,
     estimates: u64,
@@ -145,6 +151,7 @@ impl<S: SensorInput + Clone> Clone for EstimatorNode<S> {
             out: self.out.clone(),
             stale_timeout_s: self.stale_timeout_s,
             dropped: self.dropped,
+            stale_age_s: self.stale_age_s,
             refusal: self.refusal.clone(),
             estimates: self.estimates,
             force_n: self.force_n,
@@ -177,6 +184,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             with_std,
             stale_timeout_s: None,
             dropped: Dropped::default(),
+            stale_age_s: f64::NAN,
             refusal: None,
             estimates: 0,
             ready_after_s: None,
@@ -271,6 +279,21 @@ impl<S: SensorInput> EstimatorNode<S> {
         status
     }
 
+    /// Why the last stale reading was stale, when its age says that its
+    /// stamp is of another clock than the node's (more than
+    /// [`ANOTHER_CLOCK_S`] old): a recording played back without simulated
+    /// time, or another machine's clock.
+    pub fn stale_hint(&self) -> Option<String> {
+        let age = self.stale_age_s;
+        (age > ANOTHER_CLOCK_S).then(|| {
+            format!(
+            "the last stale reading was {age:.1} s old: its stamp is not of this node's clock. A \
+             recording played back: start the estimator with use_sim_time:=true and play it with \
+             `ros2 bag play --clock`; a sensor on another machine: synchronise the clocks"
+        )
+        })
+    }
+
     /// Takes a reading that arrived at `now_s` (s, the clock of its stamp):
     /// None while taking the baseline, and for a reading older than the
     /// stale timeout (or with `now_s` unknown, NaN), of another electrode
@@ -278,9 +301,11 @@ impl<S: SensorInput> EstimatorNode<S> {
     /// counted ([`EstimatorNode::dropped`]).
     pub fn on_received(&mut self, r: &S::Reading, now_s: f64) -> Option<WrenchEstimate> {
         if let Some(limit) = self.stale_timeout_s {
-            let fresh = now_s - S::stamp(r).0 <= limit; // false for a NaN age
+            let age_s = now_s - S::stamp(r).0;
+            let fresh = age_s <= limit; // false for a NaN age
             if !fresh {
                 self.dropped.stale += 1;
+                self.stale_age_s = age_s;
                 return None;
             }
         }

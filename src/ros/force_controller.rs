@@ -1,5 +1,5 @@
 //! `force_controller`: `joint_states` (sensor_msgs/JointState),
-//! `biotac/wrench`, `biotac/wrench_stddev` and `biotac/pdc_rise` in -> [`ForceController`](crate::control::ForceController) ->
+//! `biotac/wrench_estimate` (tactile_force_msgs/WrenchEstimate) in -> [`ForceController`](crate::control::ForceController) ->
 //! `velocity_controller/commands` (std_msgs/Float64MultiArray, one velocity
 //! per joint in chain order: the ros2_control JointGroupVelocityController
 //! convention), or with `command_interface: twist`, `twist_commands`
@@ -25,8 +25,7 @@
 //! are best effort, each named when silent, and its wrenches' frames are
 //! checked ([`crate::nodes::force_controller::frames`]).
 //!
-//! The controller steps on each new estimate (the mean and the std of one
-//! reading both in), so an estimate acts as soon as it arrives rather than
+//! The controller steps on each new estimate, so an estimate acts as soon as it arrives rather than
 //! up to a period later on a timer of its own. With no estimate for longer
 //! than the bound it measured, it commands zero velocity, every period,
 //! until estimates return
@@ -84,7 +83,7 @@ mod way_out;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use r2r::sensor_msgs::msg::{FluidPressure, JointState as JointStateMsg};
+use r2r::sensor_msgs::msg::JointState as JointStateMsg;
 use r2r::QosProfile;
 
 #[cfg(not(feature = "ros2-doc-only"))]
@@ -242,12 +241,6 @@ fn hand_on(
             Err(e) => n.reject(&format!("joint_states: {e}")),
         },
     );
-    let pdc_type = "sensor_msgs/msg/FluidPressure";
-    let pdc = bounded::typed(node, "biotac/pdc_rise", pdc_type, qos(), max, guard)?;
-    let pdc = inputs.watched("biotac/pdc_rise", pdc);
-    super::each(pdc, shared, |n, m: FluidPressure| {
-        n.on_pdc_rise(m.fluid_pressure)
-    });
     let reading_type = crate::biotac::msg::BIOTAC_MSG_TYPE;
     let sensor_qos = QosProfile::sensor_data();
     let readings = bounded::raw(

@@ -7,7 +7,7 @@
 //! parameters once, at start-up, into the same checked structs as the
 //! embedded runtime ([`params`]).
 //!
-//! - [`wrench_estimator`]: `biotac/readings` -> `biotac/wrench`, `biotac/wrench_stddev`, `biotac/pdc_rise`;
+//! - [`wrench_estimator`]: `biotac/readings` -> `biotac/wrench_estimate` (and its mean on `biotac/wrench`);
 //! - [`force_controller`]: estimates + `joint_states` -> `velocity_controller/commands`;
 //! - [`biotac_driver`]: serial port -> `biotac/readings`, diagnostics, `~/tare`;
 //! - [`sim_robot`]: simulated arm, object or finger, F/T sensor and BioTac.

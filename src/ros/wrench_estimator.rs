@@ -1,8 +1,11 @@
 //! `wrench_estimator`: the readings of the model's sensor -> [`EstimatorNode`]
-//! -> `biotac/wrench` and `biotac/wrench_stddev` (geometry_msgs/WrenchStamped,
-//! frame_id = the sensor's frame) and `biotac/pdc_rise`
-//! (sensor_msgs/FluidPressure, counts; 0 for a sensor without PDC). The
-//! model file says which sensor ([`crate::sensor::SensorSpec`]):
+//! -> `biotac/wrench_estimate` (tactile_force_msgs/WrenchEstimate: mean,
+//! standard deviation, the axes estimated, the model's file and SHA-256,
+//! the reading's age, the PDC rise in counts), and its mean on
+//! `biotac/wrench` (geometry_msgs/WrenchStamped, for RViz and tools); the
+//! standard deviation also on `biotac/wrench_stddev` (deprecated: it goes
+//! in the next release). frame_id = the sensor's frame. The model file
+//! says which sensor ([`crate::sensor::SensorSpec`]):
 //!
 //! - a BioTac model reads `biotac/readings` (tactile_force_msgs/BioTac), or
 //!   with `input: biotac_all` one `finger` of a Shadow hand's `/rh/tactile`
@@ -27,18 +30,19 @@ mod biotac;
 mod nail;
 
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::geometry_msgs::msg::WrenchStamped;
-use r2r::sensor_msgs::msg::FluidPressure;
+use r2r::tactile_force_msgs::msg::WrenchEstimate as WrenchEstimateMsg;
 use r2r::QosProfile;
 
 use super::ending::Endings;
 use super::inputs::Inputs;
-use super::{convert, Graph, RosClock, RosError};
+use super::{convert, lock, Graph, RosClock, RosError};
 use crate::learn::default_model::{Origin, Recipe};
-use crate::learn::models::model_file;
+use crate::learn::models::model_file::{self, ModelId};
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::own_params;
 use crate::nodes::param_reference::RosNode;
@@ -65,10 +69,11 @@ async fn estimate() -> Result<(), RosError> {
     let models = super::models_dir(&node)?;
     let params: EstimatorParams =
         super::node_params(&node, RosNode::WrenchEstimator, &tasks::shipped())?;
-    let out = Outputs::new(&mut node, frame_id)?;
+    let out = Outputs::new(&mut node, frame_id, params.with_std)?;
     let loading = std::time::Instant::now();
     let (model, file) = load_reporting(&model_file, &params.default_model, &out, &node).await?;
     let ready_after_s = loading.elapsed().as_secs_f64();
+    *lock(&out.model) = ModelId::of(file.as_deref());
     if let (true, Some(file)) = (model_file.is_empty(), &file) {
         // Says which file it estimates with (the calibration adapts it).
         super::set_own_string(
@@ -169,40 +174,49 @@ struct Settings {
 
 /// The estimator's topics and its once-a-second report.
 struct Outputs {
+    estimate: r2r::Publisher<WrenchEstimateMsg>,
     wrench: r2r::Publisher<WrenchStamped>,
+    /// Deprecated: the std is in `estimate`.
     stddev: r2r::Publisher<WrenchStamped>,
-    pdc: r2r::Publisher<FluidPressure>,
     diagnostics: r2r::Publisher<DiagnosticArray>,
     /// The node's name, its status's (`nail_estimator` when renamed so).
     name: String,
     frame_id: String,
+    with_std: bool,
+    /// The model estimating: set when `model_file` changes.
+    model: Arc<Mutex<ModelId>>,
     reported: Dropped,
 }
 
 impl Outputs {
-    fn new(node: &mut r2r::Node, frame_id: String) -> Result<Self, RosError> {
+    fn new(node: &mut r2r::Node, frame_id: String, with_std: bool) -> Result<Self, RosError> {
         let qos = QosProfile::default;
         Ok(Outputs {
+            estimate: node.create_publisher("biotac/wrench_estimate", qos())?,
             wrench: node.create_publisher("biotac/wrench", qos())?,
             stddev: node.create_publisher("biotac/wrench_stddev", qos())?,
-            pdc: node.create_publisher("biotac/pdc_rise", qos())?,
             diagnostics: node.create_publisher("/diagnostics", qos())?,
             name: node.name()?,
             frame_id,
+            with_std,
+            model: Arc::default(),
             reported: Dropped::default(),
         })
     }
 
-    /// Publishes an estimate: the PDC rise, the std, the mean last (the
-    /// controller steps when the mean and std of a reading are both in;
-    /// the std is zeros without `with_std`).
-    fn publish(&self, e: &WrenchEstimate) {
-        let Some((mean, std)) = convert::estimate_msgs(e, &self.frame_id) else {
+    /// Publishes an estimate at `now_s`: the whole estimate, then its
+    /// mean and std as wrenches (the std zeros without `with_std`).
+    fn publish(&self, e: &WrenchEstimate, now_s: f64) {
+        let model = lock(&self.model).clone();
+        let age_s = now_s - e.stamp_s;
+        let msgs = convert::estimate_msg(e, &self.frame_id, self.with_std, &model, age_s)
+            .zip(convert::estimate_msgs(e, &self.frame_id));
+        let Some((estimate, (mean, std))) = msgs else {
             return; // on_received has checked that every number is finite
         };
         let sent = self
-            .pdc
-            .publish(&convert::pdc_rise_msg(e, &self.frame_id))
+            .estimate
+            .publish(&estimate)
             .and_then(|()| self.stddev.publish(&std))
             .and_then(|()| self.wrench.publish(&mean));
         if let Err(e) = sent {
@@ -215,9 +229,14 @@ impl Outputs {
     fn status<S: SensorInput>(&mut self, estimator: &EstimatorNode<S>) -> Status {
         let d = estimator.dropped();
         if let Some(said) = d.since(&self.reported) {
-            match estimator.refusal() {
-                Some(why) => tracing::error!("{said} in the last second; {why}"),
-                None => tracing::warn!("{said} in the last second"),
+            let stale = d.stale > self.reported.stale;
+            match (
+                estimator.refusal(),
+                stale.then(|| estimator.stale_hint()).flatten(),
+            ) {
+                (Some(why), _) => tracing::error!("{said} in the last second; {why}"),
+                (None, Some(hint)) => tracing::warn!("{said} in the last second; {hint}"),
+                (None, None) => tracing::warn!("{said} in the last second"),
             }
         }
         self.reported = d;

@@ -11,7 +11,7 @@ On its tool flange sits a fingertip like the BioTac mounted as in
 config/ur5.yaml: a pad on springs (1250 N/m along its normal, 1500 N/m
 across it, the BioTac skin's stiffness at 1 N in config/world.yaml, but
 linear), whose spring force is the force the controller is given, as
-`biotac/wrench` and `biotac/wrench_stddev` at 100 Hz with 5 mN of noise:
+`biotac/wrench_estimate` at 100 Hz with 5 mN of noise:
 this plant replaces the BioTac and its estimator, not the controller. The
 pad touches, through MuJoCo's contacts (friction 1):
 
@@ -45,7 +45,7 @@ import mujoco
 import numpy as np
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from geometry_msgs.msg import WrenchStamped
+from tactile_force_msgs.msg import WrenchEstimate
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
@@ -220,8 +220,7 @@ class Ur5Plant(Node):
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_publisher(String, "/robot_description", latched).publish(String(data=self.urdf))
         self.joints = self.create_publisher(JointState, "joint_states", 10)
-        self.mean = self.create_publisher(WrenchStamped, "biotac/wrench", 10)
-        self.std = self.create_publisher(WrenchStamped, "biotac/wrench_stddev", 10)
+        self.estimate = self.create_publisher(WrenchEstimate, "biotac/wrench_estimate", 10)
         self.create_subscription(Float64MultiArray, "velocity_controller/commands", self._on_command, 10)
         self.running = True
 
@@ -424,10 +423,10 @@ class Ur5Plant(Node):
         if self.sent_at is not None:
             self.longest_gap_s = max(self.longest_gap_s, sent - self.sent_at)
         self.sent_at = sent
-        mean, std = WrenchStamped(), WrenchStamped()
-        self.stamp(mean, t)
-        self.stamp(std, t)
-        mean.wrench.force.x, mean.wrench.force.y, mean.wrench.force.z = (float(v) for v in force)
-        std.wrench.force.x = std.wrench.force.y = std.wrench.force.z = self.estimates.noise_n
-        self.mean.publish(mean)
-        self.std.publish(std)
+        m = WrenchEstimate(estimated=[True, True, True, False, False, False])
+        self.stamp(m, t)
+        m.wrench.force.x, m.wrench.force.y, m.wrench.force.z = (float(v) for v in force)
+        m.stddev.force.x = m.stddev.force.y = m.stddev.force.z = self.estimates.noise_n
+        for w in (m.wrench, m.stddev):
+            w.torque.x = w.torque.y = w.torque.z = math.nan
+        self.estimate.publish(m)

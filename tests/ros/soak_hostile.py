@@ -95,7 +95,7 @@ def start_nail_estimator(n, work, model):
         f.write(f'nail_estimator:\n  ros__parameters:\n    model_file: "{model}"\n'
                 f'    tare_file: "{os.path.join(work, "nail_tare.json")}"\n')
     cmd = ["wrench_estimator", "--ros-args", "-r", "__node:=nail_estimator", "--params-file", params]
-    for topic in ("biotac/wrench", "biotac/wrench_stddev", "biotac/pdc_rise"):
+    for topic in ("biotac/wrench_estimate", "biotac/wrench", "biotac/wrench_stddev"):
         cmd += ["-r", f"{topic}:=nail/{topic.split('/')[1]}"]
     log = open(os.path.join(n.logs, "nail_estimator.log"), "a")
     n.procs["nail_estimator"] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=REPO, env=n.env)

@@ -21,8 +21,7 @@ import tempfile
 import time
 
 from rclpy.qos import qos_profile_sensor_data
-from geometry_msgs.msg import WrenchStamped
-from tactile_force_msgs.msg import BioTac
+from tactile_force_msgs.msg import BioTac, WrenchEstimate
 
 import test_over_dds as dds
 from checks import check, summary
@@ -86,8 +85,8 @@ def run(work, name, options, said):
     n = dds.Nodes("guarded_move.yaml", "wooden_box", estimator={"model_file": train(work, options)})
     peer = dds.Peer(n.domain)
     stds = []  # (receive time, std of fz)
-    peer.node.create_subscription(WrenchStamped, "biotac/wrench_stddev",
-                                  lambda m: stds.append((time.monotonic(), m.wrench.force.z)), 100)
+    peer.node.create_subscription(WrenchEstimate, "biotac/wrench_estimate",
+                                  lambda m: stds.append((time.monotonic(), m.stddev.force.z)), 100)
     ok = False
     try:
         runs = lambda: next((m for node, _, m in peer.logs if "model " in m and said in m), None)  # noqa: E731

@@ -36,7 +36,7 @@ controllers do (`command_timeout_s` 0), unless a check says otherwise.
   effort) feeds a full calibration (it ends `calibrated`); the estimate's
   mean relayed best effort feeds a guarded hold (overshoot <= 0.1 N,
   steady-state error <= 0.05 N, sd <= 0.02 N); with no estimator, the
-  silent `biotac/wrench` is named on /diagnostics within 5 s, with "no
+  silent `biotac/wrench_estimate` is named on /diagnostics within 5 s, with "no
   publisher", then with a publisher that sends nothing.
 - Frames: the F/T wrench relayed in `ft_sensor_link`, a frame nobody
   declared: the calibration ends aborted naming both frames, said on
@@ -66,7 +66,7 @@ from rcl_interfaces.srv import SetParameters
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from tactile_force_msgs.action import Calibrate, GuardedMove
-from tactile_force_msgs.msg import BioTac
+from tactile_force_msgs.msg import BioTac, WrenchEstimate
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from checks import RESULTS, check, summary  # noqa: E402
@@ -491,10 +491,10 @@ class Relay:
     """Republishes `src` on `dst` with `qos` (a driver of another QoS), its
     frame_id replaced by `frame` when given."""
 
-    def __init__(self, node, src, dst, qos, frame=None):
-        self.pub = node.create_publisher(WrenchStamped, dst, qos)
+    def __init__(self, node, src, dst, qos, frame=None, kind=WrenchStamped):
+        self.pub = node.create_publisher(kind, dst, qos)
         self.frame = frame
-        node.create_subscription(WrenchStamped, src, self._on, 100)
+        node.create_subscription(kind, src, self._on, 100)
 
     def _on(self, m):
         if self.frame is not None:
@@ -548,10 +548,12 @@ def calibrated(arm, frame):
 
 
 def best_effort_estimate():
-    """The estimate's mean relayed best effort: the guarded move holds."""
+    """The estimate relayed best effort: the guarded move holds."""
     with scenario("guarded_move.yaml", "wooden_box",
-                  remaps={"wrench_estimator": {"biotac/wrench": "biotac/wrench_reliable"}}) as (n, arm):
-        Relay(arm.node, "biotac/wrench_reliable", "biotac/wrench", qos_profile_sensor_data)
+                  remaps={"wrench_estimator": {"biotac/wrench_estimate": "biotac/wrench_estimate_reliable"}}) \
+            as (n, arm):
+        Relay(arm.node, "biotac/wrench_estimate_reliable", "biotac/wrench_estimate", qos_profile_sensor_data,
+              kind=WrenchEstimate)
         touched = arm.spin(60, lambda: any(abs(f) > CONTACT_N for _, f in arm.ft_stamped))
         check("QoS: a best-effort estimate: contact", touched, f"{len(arm.ft_stamped)} F/T messages")
         if touched:
@@ -560,16 +562,16 @@ def best_effort_estimate():
 
 
 def silent_input():
-    """No estimator: biotac/wrench named silent within 5 s, no publisher;
-    then a publisher that sends nothing."""
+    """No estimator: biotac/wrench_estimate named silent within 5 s, no
+    publisher; then a publisher that sends nothing."""
     with scenario("guarded_move.yaml", "wooden_box", only=("sim_robot", "force_controller")) as (n, arm):
         t = time.monotonic()
-        key = "silent biotac/wrench"
+        key = "silent biotac/wrench_estimate"
         named = arm.spin(5, lambda: key in arm.diagnostics.get("force_controller", {}))
         said = arm.diagnostics.get("force_controller", {}).get(key, "")
-        check("silent input: biotac/wrench named on /diagnostics within 5 s, no publisher",
+        check("silent input: biotac/wrench_estimate named on /diagnostics within 5 s, no publisher",
               named and said.endswith("no publisher"), f"after {time.monotonic() - t:.1f} s: {said!r}")
-        arm.node.create_publisher(WrenchStamped, "biotac/wrench", 10)
+        arm.node.create_publisher(WrenchEstimate, "biotac/wrench_estimate", 10)
         quiet = arm.spin(5, lambda: arm.diagnostics.get("force_controller", {}).get(key, "").endswith(
             "1 publisher(s), none sending"))
         check("silent input: a publisher that sends nothing is said so", quiet,

@@ -11,10 +11,8 @@ use crate::nodes::status::{Level, Status};
 
 impl ForceControllerNode {
     /// The topics the node takes.
-    pub const INPUTS: [&'static str; 6] = [
-        "biotac/wrench",
-        "biotac/wrench_stddev",
-        "biotac/pdc_rise",
+    pub const INPUTS: [&'static str; 4] = [
+        "biotac/wrench_estimate",
         "ft_sensor/wrench",
         "joint_states",
         "biotac/readings",

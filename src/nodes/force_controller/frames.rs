@@ -1,5 +1,5 @@
 //! The frames the node's wrenches must come in, checked on every message:
-//! the estimate's (`biotac/wrench`, `biotac/wrench_stddev`) in the BioTac
+//! the estimate's (`biotac/wrench_estimate`) in the BioTac
 //! frame (`biotac_frame`, the estimator's `frame_id`), the F/T sensor's
 //! (`ft_sensor/wrench`) in the frame declared for it (`ft_frame`; empty:
 //! the BioTac frame, for a sensor whose wrenches are in it already). A
@@ -70,7 +70,7 @@ impl Frames {
     /// `new` the first time it is seen (to be said).
     pub fn check(&mut self, part: ForcePart, frame_id: &str) -> Result<(), (Mismatch, bool)> {
         let (expected, param) = match part {
-            ForcePart::Mean | ForcePart::Std => (&self.biotac, "biotac_frame"),
+            ForcePart::Estimate => (&self.biotac, "biotac_frame"),
             ForcePart::Ft => (&self.ft, "ft_frame"),
         };
         if frame_id == expected {
@@ -102,7 +102,7 @@ mod tests {
     #[test]
     fn a_wrench_in_another_frame_is_refused_with_both_names_said_once() {
         let mut f = Frames::new("biotac", "", false).unwrap();
-        assert!(f.check(ForcePart::Mean, "biotac").is_ok());
+        assert!(f.check(ForcePart::Estimate, "biotac").is_ok());
         assert!(
             f.check(ForcePart::Ft, "biotac").is_ok(),
             "F/T in the BioTac frame"
@@ -117,8 +117,11 @@ mod tests {
             !f.check(ForcePart::Ft, "ft_sensor_link").unwrap_err().1,
             "said once"
         );
-        let (m, _) = f.check(ForcePart::Std, "").unwrap_err();
-        assert_eq!((m.topic, m.param), ("biotac/wrench_stddev", "biotac_frame"));
+        let (m, _) = f.check(ForcePart::Estimate, "").unwrap_err();
+        assert_eq!(
+            (m.topic, m.param),
+            ("biotac/wrench_estimate", "biotac_frame")
+        );
         assert_eq!(f.refused().len(), 2);
     }
 

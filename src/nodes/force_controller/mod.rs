@@ -10,9 +10,9 @@
 //!   start-up; a task that waits for its goal (the calibration) waits, the arm
 //!   still ([`crate::control::TaskSection::outside_goal`]);
 //! - the goals of its actions and their life cycle ([`goals`]);
-//! - the force: the estimate's mean and std paired by stamp
-//!   ([`estimates`]), or while a calibration records, the F/T wrench
-//!   (moved to the BioTac frame), each paired with its BioTac reading;
+//! - the force: the estimate (one message: mean, std, the PDC rise), or
+//!   while a calibration records, the F/T wrench (moved to the BioTac
+//!   frame), each paired with its BioTac reading;
 //! - stepping: on each complete estimate, or, with none for a while, a
 //!   halt ([`ForceController::estimate_late`]);
 //! - what changed (logged) and its status (`/diagnostics`), with what its
@@ -21,7 +21,6 @@
 //! - the frames its wrenches come in ([`frames`]), its lifecycle state, and
 //!   the stop from outside the task ([`stop`]).
 
-pub mod estimates;
 pub mod frames;
 pub mod goals;
 pub mod stop;
@@ -45,8 +44,7 @@ use crate::control::{
 use crate::kinematics::{Robot, RobotError};
 use crate::nodes::lifecycle::State;
 use crate::params::{layered_flat_params, FlatParams, ParamsError, WORLD_YAML};
-use crate::wrench::{FrameTransform, Wrench};
-use estimates::EstimatePairing;
+use crate::wrench::{FrameTransform, Wrench, WrenchEstimate};
 use frames::Frames;
 
 /// What the node publishes (the parameter `command_interface`).
@@ -90,13 +88,11 @@ pub fn ft_to_biotac(text: &str) -> Result<Option<FrameTransform>, ParamsError> {
 /// A wrench and the stamp of its reading (s).
 pub type Stamped = (f64, Wrench);
 
-/// Which message of the force a wrench came on.
+/// Which topic of the force a message came on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ForcePart {
-    /// The estimate's mean (`biotac/wrench`).
-    Mean,
-    /// The estimate's std (`biotac/wrench_stddev`).
-    Std,
+    /// The estimate (`biotac/wrench_estimate`).
+    Estimate,
     /// The F/T sensor's wrench (`ft_sensor/wrench`), in its own frame.
     Ft,
 }
@@ -105,11 +101,19 @@ impl ForcePart {
     /// The topic it comes on.
     pub fn topic(self) -> &'static str {
         match self {
-            ForcePart::Mean => "biotac/wrench",
-            ForcePart::Std => "biotac/wrench_stddev",
+            ForcePart::Estimate => "biotac/wrench_estimate",
             ForcePart::Ft => "ft_sensor/wrench",
         }
     }
+}
+
+/// A force message as the node takes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Force {
+    /// An estimate, in the BioTac frame.
+    Estimate(WrenchEstimate),
+    /// The F/T sensor's wrench and its stamp (s).
+    Ft(Stamped),
 }
 
 /// Why a robot description is refused.
@@ -163,8 +167,6 @@ pub struct ForceControllerNode {
     /// While a calibration runs, its recording: the F/T wrench, not the
     /// estimate, is then the force.
     calibration: Option<CalibrationRecorder>,
-    pairing: EstimatePairing,
-    pdc_rise: f64,
     /// The latest force, BioTac frame (N): the goals' feedback.
     force: Vector3<f64>,
     last: Option<ControlOutput>,
@@ -226,8 +228,6 @@ impl ForceControllerNode {
             goal: false,
             withdrawing_since: None,
             calibration: None,
-            pairing: EstimatePairing::default(),
-            pdc_rise: 0.0,
             force: Vector3::zeros(),
             last: None,
             rejected: 0,
@@ -405,15 +405,6 @@ impl ForceControllerNode {
         }
     }
 
-    /// Takes PDC's rise above its tare (counts).
-    pub fn on_pdc_rise(&mut self, counts: f64) {
-        if counts.is_finite() {
-            self.pdc_rise = counts;
-        } else {
-            self.reject("biotac/pdc_rise is not finite");
-        }
-    }
-
     /// True while BioTac readings are wanted: a calibration records them.
     pub fn wants_readings(&self) -> bool {
         self.calibration.is_some()
@@ -434,14 +425,14 @@ impl ForceControllerNode {
         &mut self,
         part: ForcePart,
         frame: &str,
-        msg: Result<Stamped, String>,
+        msg: Result<Force, String>,
         now: f64,
     ) -> bool {
         if let Err((m, new)) = self.frames.check(part, frame) {
             return self.refuse_frame(part, m.to_string(), new, now);
         }
         match msg {
-            Ok((stamp_s, w)) => self.on_force(part, stamp_s, w, now).is_some(),
+            Ok(force) => self.on_force(force, now).is_some(),
             Err(why) => {
                 self.reject(&why);
                 false
@@ -472,35 +463,28 @@ impl ForceControllerNode {
 
     /// Takes one message of the force (stamped with its reading, BioTac
     /// frame for the estimate) and steps at `now` when that makes a force:
-    /// the estimate once its mean and std are in; while a calibration runs,
-    /// the F/T wrench instead (moved to the BioTac frame, recorded with the
-    /// push running), the estimates waiting.
-    pub fn on_force(
-        &mut self,
-        part: ForcePart,
-        stamp_s: f64,
-        w: Wrench,
-        now: f64,
-    ) -> Option<&ControlOutput> {
+    /// the estimate; while a calibration runs, the F/T wrench instead
+    /// (moved to the BioTac frame, recorded with the push running), the
+    /// estimates waiting.
+    pub fn on_force(&mut self, force: Force, now: f64) -> Option<&ControlOutput> {
         let calibrating = self.calibration.is_some();
-        let e = match part {
-            ForcePart::Mean if !calibrating => self.pairing.mean((stamp_s, w), self.pdc_rise),
-            ForcePart::Std if !calibrating => self.pairing.std((stamp_s, w), self.pdc_rise),
-            ForcePart::Ft if calibrating => {
+        let e = match force {
+            Force::Estimate(e) if !calibrating => e,
+            Force::Ft((stamp_s, w)) if calibrating => {
                 let w = self.ft_to_biotac.map_or(w, |t| t.apply(&w));
                 let task = self.controller.as_ref()?.task();
                 let recorder = self.calibration.as_mut()?;
-                Some(recorder.on_ft_while(stamp_s, w, task))
+                recorder.on_ft_while(stamp_s, w, task)
             }
-            _ => None,
-        }?;
+            _ => return None,
+        };
         self.step_on(e, now)
     }
 
     /// Hands `e` to the controller and steps it; a refused estimate is
     /// counted and not stepped on (if none follows, the late-estimate halt
     /// stops the arm).
-    fn step_on(&mut self, e: crate::wrench::WrenchEstimate, now: f64) -> Option<&ControlOutput> {
+    fn step_on(&mut self, e: WrenchEstimate, now: f64) -> Option<&ControlOutput> {
         self.not_acting().ok()?;
         let c = self.controller.as_mut()?;
         if let Err(why) = c.on_estimate(e) {

@@ -41,12 +41,22 @@ pub(super) fn fz(v: f64) -> Wrench {
     Wrench::new(Vector3::new(0.0, 0.0, v), Vector3::zeros())
 }
 
-/// One estimate at `t`, both halves: the output when it stepped.
+/// An estimate of the reading at `t`: `force` along z, `std` on every axis.
+pub(super) fn est(t: f64, force: f64, std: f64) -> Force {
+    Force::Estimate(WrenchEstimate {
+        stamp_s: t,
+        seq: 0,
+        mean: fz(force),
+        std: Wrench::new(Vector3::repeat(std), Vector3::repeat(std)),
+        estimated: [true; 6],
+        pdc_rise: 0.0,
+    })
+}
+
+/// One estimate at `t`: the output when it stepped.
 pub(super) fn estimate(n: &mut ForceControllerNode, t: f64, force: f64) -> Option<ControlOutput> {
     n.on_joint_state(&joints(t));
-    let half = n.on_force(ForcePart::Mean, t, fz(force), t + 0.001);
-    assert!(half.is_none(), "half an estimate");
-    n.on_force(ForcePart::Std, t, fz(0.001), t + 0.001).cloned()
+    n.on_force(est(t, force, 0.001), t + 0.001).cloned()
 }
 
 #[test]
@@ -164,9 +174,9 @@ fn an_estimate_steps_once_both_halves_are_in_and_a_late_one_halts() {
     assert_eq!(n.controller().unwrap().command(), &JointVector::zeros(7));
     assert!(n.status().message.contains("halted"));
     // A refused estimate is counted and not stepped on.
-    n.on_force(ForcePart::Mean, 0.02, fz(f64::NAN), 0.021);
-    assert!(n.on_force(ForcePart::Std, 0.02, fz(0.0), 0.021).is_none());
-    n.on_pdc_rise(f64::INFINITY);
+    assert!(n.on_force(est(0.02, f64::NAN, 0.0), 0.021).is_none());
+    let unread = Err("biotac/wrench_estimate: a value is not finite".into());
+    assert!(!n.on_force_msg(ForcePart::Estimate, "biotac", unread, 0.021));
     let s = n.status();
     assert!(s.values.contains(&("rejected".into(), "2".into())), "{s:?}");
 }
@@ -198,8 +208,7 @@ fn the_status_says_the_loop_it_measured_and_warns_once_beyond_the_bounds() {
     n.take_description(pa10()).unwrap();
     // Estimates 20 ms old: beyond the 10 ms bound of loop_delays.
     n.on_joint_state(&joints(0.0));
-    n.on_force(ForcePart::Mean, 0.0, fz(0.0), 0.02);
-    n.on_force(ForcePart::Std, 0.0, fz(0.001), 0.02);
+    n.on_force(est(0.0, 0.0, 0.001), 0.02);
     let s = n.status();
     assert_eq!(s.level, Level::Warn);
     assert!(s.message.contains("older than loop_delays bounds"), "{s:?}");
@@ -297,8 +306,7 @@ fn arm_under_a_goal(l: f64, tau: f64, t_goal: f64, t_end: f64) -> ForceControlle
             });
         }
         if k % 100 == 0 {
-            n.on_force(ForcePart::Mean, t, fz(0.0), t + 0.001);
-            n.on_force(ForcePart::Std, t, fz(0.001), t + 0.001);
+            n.on_force(est(t, 0.0, 0.001), t + 0.001);
             sent.push((t + 0.001, n.controller().unwrap().command().clone()));
         }
         let u = &sent.iter().rev().find(|(ts, _)| ts + l <= t).unwrap().1;
@@ -334,8 +342,7 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
     assert_eq!(n.calibration_progress(0.0), CalibrationProgress::Starting);
     // Estimates wait; the F/T wrench steps, moved to the BioTac frame.
     n.on_joint_state(&joints(0.0));
-    assert!(n.on_force(ForcePart::Mean, 0.0, fz(0.0), 0.0).is_none());
-    assert!(n.on_force(ForcePart::Std, 0.0, fz(0.0), 0.0).is_none());
+    assert!(n.on_force(est(0.0, 0.0, 0.0), 0.0).is_none());
     let reading = |t: f64| BioTacReading {
         seq: 0,
         stamp_s: t,
@@ -346,7 +353,7 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
         tac: 2000,
     };
     n.on_reading(reading(0.0));
-    let out = n.on_force(ForcePart::Ft, 0.0, fz(-0.01), 0.001).unwrap();
+    let out = n.on_force(Force::Ft((0.0, fz(-0.01))), 0.001).unwrap();
     assert_eq!(out.phase, Phase::REST);
     match n.calibration_progress(0.001) {
         CalibrationProgress::Running {
@@ -359,7 +366,7 @@ fn a_calibration_steps_on_the_ft_wrench_and_records_it_with_its_reading() {
     }
     // Over the rest's force the calibration stops in contact.
     n.on_reading(reading(0.01));
-    n.on_force(ForcePart::Ft, 0.01, fz(-1.0), 0.011);
+    n.on_force(Force::Ft((0.01, fz(-1.0))), 0.011);
     assert_eq!(
         n.calibration_progress(0.011),
         CalibrationProgress::Ended(Ended::Stopped(StopReason::IN_CONTACT))
@@ -390,7 +397,7 @@ fn a_silent_ft_sensor_halts_the_calibration() {
     );
     n.end_goal();
     // Without the calibration, the F/T wrench is not the force.
-    assert!(n.on_force(ForcePart::Ft, 1.6, fz(0.0), 1.6).is_none());
+    assert!(n.on_force(Force::Ft((1.6, fz(0.0))), 1.6).is_none());
 }
 
 #[test]
@@ -483,8 +490,7 @@ fn stepping_loop(
             continue;
         } else if now == est_t {
             k += 1;
-            n.on_force(ForcePart::Mean, stamp, fz(0.0), now);
-            n.on_force(ForcePart::Std, stamp, fz(0.001), now).cloned()
+            n.on_force(est(stamp, 0.0, 0.001), now).cloned()
         } else {
             n.on_late(now).cloned()
         };

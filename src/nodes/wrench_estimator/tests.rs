@@ -70,6 +70,29 @@ fn late_readings_and_an_unknown_clock_are_dropped_and_counted() {
 }
 
 #[test]
+fn a_stale_reading_of_another_clock_says_how_to_replay_a_recording() {
+    let mut node = EstimatorNode::<BioTacInput>::new(electrode_model(), true)
+        .unwrap()
+        .with_stale_timeout(0.03)
+        .unwrap();
+    assert_eq!(node.stale_hint(), None, "nothing stale yet");
+    // Late, but of this clock: no hint.
+    assert_eq!(node.on_received(&reading(1.0, 0), 1.5), None);
+    assert_eq!(node.stale_hint(), None);
+    // A recording's readings, an hour old on arrival.
+    assert_eq!(node.on_received(&reading(1.0, 0), 3601.0), None);
+    let hint = node.stale_hint().unwrap();
+    assert!(
+        hint.starts_with("the last stale reading was 3600.0 s old"),
+        "{hint}"
+    );
+    assert!(
+        hint.contains("use_sim_time:=true") && hint.contains("--clock"),
+        "{hint}"
+    );
+}
+
+#[test]
 fn readings_of_another_layout_are_refused_by_name_and_counted() {
     let mut node = EstimatorNode::<BioTacInput>::new(electrode_model(), true).unwrap();
     assert_eq!(node.refusal(), None);

@@ -6,7 +6,7 @@
 //!
 //! It runs on the thread the node started on (tokio's `block_on`), apart
 //! from every other input: r2r takes messages off DDS on a thread of its
-//! own (`spin`), and joint states, the PDC rise, the robot description,
+//! own (`spin`), and joint states, the robot description,
 //! goals and parameter sets are handled on tokio's worker threads. Those
 //! share the node with this loop only for the moment they hand it a
 //! message; an input over its bound ([`crate::nodes::bounds`]) never
@@ -15,53 +15,47 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use futures::stream::BoxStream;
 use futures::StreamExt;
 use r2r::geometry_msgs::msg::WrenchStamped;
+use r2r::tactile_force_msgs::msg::WrenchEstimate as WrenchEstimateMsg;
 
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
 
 use super::commands::Commands;
 use super::lock;
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
-use crate::nodes::force_controller::{ForceControllerNode, ForcePart, Stamped};
+use crate::nodes::force_controller::{Force, ForceControllerNode, ForcePart};
 use crate::ros::inputs::Inputs;
 use crate::ros::{bounded, convert, ending, Graph, RosClock, RosError};
 
-/// A force message as the node takes it: its part, its frame, its
-/// stamp and wrench (or why it could not be read).
-pub(super) type ForceMsg = (ForcePart, String, Result<Stamped, String>);
+/// A force message as the node takes it: its topic, its frame, and the
+/// force (or why it could not be read).
+pub(super) type ForceMsg = (ForcePart, String, Result<Force, String>);
 
-/// The estimate's mean and standard deviation and the F/T sensor's wrench,
-/// merged into one stream of the parts the node steps on.
+/// The estimate and the F/T sensor's wrench, merged into one stream of the
+/// forces the node steps on.
 pub(super) fn forces(
     node: &mut r2r::Node,
     guard: &Arc<InputGuard>,
 ) -> Result<impl futures::Stream<Item = ForceMsg> + Unpin, RosError> {
+    let (qos, max) = (crate::ros::input_qos, MESSAGE_MAX_BYTES);
+    let part = ForcePart::Estimate;
+    let estimate_type = "tactile_force_msgs/msg/WrenchEstimate";
+    let estimates = bounded::typed(node, part.topic(), estimate_type, qos(), max, guard)?.map(
+        move |m: WrenchEstimateMsg| {
+            let read = convert::estimate_from_msg(&m).map_err(|e| e.to_string());
+            (part, m.header.frame_id, read.map(Force::Estimate))
+        },
+    );
+    let part = ForcePart::Ft;
     let wrench_type = "geometry_msgs/msg/WrenchStamped";
-    let parts = [ForcePart::Mean, ForcePart::Std, ForcePart::Ft]
-        .map(|part| {
-            let (name, qos) = (part.topic(), crate::ros::input_qos());
-            let topic = bounded::typed(node, name, wrench_type, qos, MESSAGE_MAX_BYTES, guard)?;
-            Ok(force(topic, part, name))
-        })
-        .into_iter()
-        .collect::<Result<Vec<_>, RosError>>()?;
-    Ok(futures::stream::select_all(parts))
-}
-
-/// A force topic's messages as the node takes them.
-fn force(
-    topic: impl futures::Stream<Item = WrenchStamped> + Send + 'static,
-    part: ForcePart,
-    name: &'static str,
-) -> BoxStream<'static, ForceMsg> {
-    topic
-        .map(move |m| {
-            let read = convert::wrench_from_msg(&m, name).map_err(|e| e.to_string());
-            (part, m.header.frame_id, read)
-        })
-        .boxed()
+    let ft = bounded::typed(node, part.topic(), wrench_type, qos(), max, guard)?.map(
+        move |m: WrenchStamped| {
+            let read = convert::wrench_from_msg(&m, part.topic()).map_err(|e| e.to_string());
+            (part, m.header.frame_id, read.map(Force::Ft))
+        },
+    );
+    Ok(futures::stream::select(estimates.boxed(), ft.boxed()))
 }
 
 /// The node's inputs watched for silence, after `silent_after_s`.

@@ -20,6 +20,7 @@ use futures::StreamExt;
 use r2r::QosProfile;
 
 use super::{describe_model, load_model, Outputs, Settings, REPORT};
+use crate::learn::models::model_file::ModelId;
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::bounds::MESSAGE_MAX_BYTES;
 use crate::nodes::own_params;
@@ -36,6 +37,7 @@ use tare_store::TareStore;
 /// file in `models` ([`ModelsDir::input`]), or "" for the default model.
 fn take_model(
     estimator: &Mutex<EstimatorNode<BioTacInput>>,
+    id: &Mutex<ModelId>,
     recipe: &crate::learn::default_model::Recipe,
     models: &ModelsDir,
     value: &r2r::ParameterValue,
@@ -54,13 +56,14 @@ fn take_model(
             .display()
             .to_string(),
     };
-    let (model, _) = load_model(&path, recipe).map_err(|e| e.to_string())?;
+    let (model, kept) = load_model(&path, recipe).map_err(|e| e.to_string())?;
     let said = describe_model(file, model.as_ref());
     let mut e = lock(estimator);
     if !apply {
         return e.check_model(model.as_ref()).map_err(|e| e.to_string());
     }
     e.take_model(model).map_err(|e| e.to_string())?;
+    *lock(id) = ModelId::of(kept.as_deref());
     tracing::info!("{said}: estimating with it from the next reading, on the same tare");
     Ok(())
 }
@@ -98,12 +101,12 @@ pub(super) async fn run(
     let inputs = Inputs::new(&[(topic, &qos)], s.silent_after_s);
     let mut readings = inputs.watched(topic, readings);
     let estimator = Arc::new(Mutex::new(estimator));
-    let shared = estimator.clone();
+    let (shared, id) = (estimator.clone(), out.model.clone());
     let (recipe, models) = (s.default_model, s.models);
     let live = RuntimeParams::new(
         &[own_params::MODEL_FILE.name],
         Box::new(move |_, value, apply| {
-            take_model(&shared, &recipe, &models, value, apply)
+            take_model(&shared, &id, &recipe, &models, value, apply)
                 .inspect_err(|e| tracing::warn!("model_file refused: {e}"))
         }),
         &guard,
@@ -142,7 +145,7 @@ pub(super) async fn run(
             tares.save(&estimator, serial);
         }
         if let Some(e) = estimate {
-            out.publish(&e);
+            out.publish(&e, clock.now_s());
         }
     }
 }

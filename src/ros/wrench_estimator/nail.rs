@@ -67,7 +67,7 @@ pub(super) async fn run(
             Ok(frame) => {
                 let was_tared = estimator.is_tared();
                 if let Some(e) = estimator.on_received(&frame, clock.now_s()) {
-                    out.publish(&e);
+                    out.publish(&e, clock.now_s());
                 }
                 if !was_tared && estimator.is_tared() {
                     tracing::info!("tared on {} frames", estimator.tare_samples());

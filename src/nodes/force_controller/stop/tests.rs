@@ -1,6 +1,6 @@
 use super::super::frames::Frames;
-use super::super::tests::{estimate, fz, node, pa10};
-use super::super::ForcePart;
+use super::super::tests::{est, estimate, fz, node, pa10};
+use super::super::{Force, ForcePart};
 use super::*;
 use crate::control::Phase;
 use crate::nodes::guarded_goal::GuardedGoal;
@@ -72,7 +72,7 @@ fn a_node_that_is_not_active_commands_nothing_and_refuses_goals_and_tasks() {
         e.contains("inactive (lifecycle)") && e.contains("set NODE activate"),
         "{e}"
     );
-    assert!(!n.status().message.is_empty() && n.needs("biotac/wrench"));
+    assert!(!n.status().message.is_empty() && n.needs("biotac/wrench_estimate"));
     n.activate();
     n.start_guarded(&GuardedGoal::default()).unwrap();
     estimate(&mut n, 0.01, 0.0);
@@ -86,23 +86,36 @@ fn a_node_that_is_not_active_commands_nothing_and_refuses_goals_and_tasks() {
         !n.leave_active(Stopped::Shutdown, State::Finalized),
         "not active: no zero due"
     );
-    assert!(!n.needs("biotac/wrench"), "finalized needs nothing");
+    assert!(
+        !n.needs("biotac/wrench_estimate"),
+        "finalized needs nothing"
+    );
 }
 
 #[test]
 fn a_wrench_in_another_frame_is_refused_and_ends_the_goal_that_uses_it() {
     let mut n = approaching().with_frames(Frames::new("biotac", "ft_link", true).unwrap());
     // The F/T wrench is not what a guarded move uses: refused, said, the goal runs on.
-    assert!(!n.on_force_msg(ForcePart::Ft, "biotac", Ok((0.01, fz(1.0))), 0.011));
+    assert!(!n.on_force_msg(
+        ForcePart::Ft,
+        "biotac",
+        Ok(Force::Ft((0.01, fz(1.0)))),
+        0.011
+    ));
     assert_eq!(n.goal_end(), None);
     assert!(
-        n.on_force_msg(ForcePart::Mean, "tool0", Ok((0.01, fz(0.0))), 0.011),
+        n.on_force_msg(
+            ForcePart::Estimate,
+            "tool0",
+            Ok(est(0.01, 0.0, 0.001)),
+            0.011
+        ),
         "the task that used it stopped: its zero is due"
     );
     assert!(still(&n), "a zero command at once");
     let why = n.goal_end().unwrap();
     assert!(
-        why.starts_with("refused: biotac/wrench came in frame \"tool0\", not \"biotac\""),
+        why.starts_with("refused: biotac/wrench_estimate came in frame \"tool0\", not \"biotac\""),
         "{why}"
     );
     let s = n.status();
@@ -114,6 +127,10 @@ fn a_wrench_in_another_frame_is_refused_and_ends_the_goal_that_uses_it() {
         .collect();
     assert_eq!(said.len(), 2, "{said:?}");
     // In the right frames, taken.
-    assert!(!n.on_force_msg(ForcePart::Mean, "biotac", Ok((0.02, fz(0.0))), 0.021));
-    assert!(n.on_force_msg(ForcePart::Std, "biotac", Ok((0.02, fz(0.001))), 0.021));
+    assert!(n.on_force_msg(
+        ForcePart::Estimate,
+        "biotac",
+        Ok(est(0.02, 0.0, 0.001)),
+        0.021
+    ));
 }
