@@ -33,8 +33,8 @@ controllers do (`command_timeout_s` 0), unless a check says otherwise.
   activate -> readings at 100 Hz; deactivate -> none; cleanup closes the
   link; SIGINT ends it with code 0.
 - Any driver heard: the F/T wrench relayed with SensorDataQoS (best
-  effort) feeds a full calibration (it ends `calibrated`); the estimate's
-  mean relayed best effort feeds a guarded hold (overshoot <= 0.1 N,
+  effort) feeds a full calibration (it ends `calibrated`); the estimate
+  relayed best effort feeds a guarded hold (overshoot <= 0.1 N,
   steady-state error <= 0.05 N, sd <= 0.02 N); with no estimator, the
   silent `biotac/wrench_estimate` is named on /diagnostics within 5 s, with "no
   publisher", then with a publisher that sends nothing.

@@ -30,8 +30,8 @@ pub(super) struct Reading {
     pub est: WrenchEstimate,
     /// True when it has not been stepped on yet.
     pub fresh: bool,
-    /// True when an axis the task reads is too uncertain, or PDC nearly
-    /// saturated.
+    /// True when an axis the task reads is missing or too uncertain, or
+    /// PDC nearly saturated.
     pub out_of_range: bool,
 }
 
@@ -118,12 +118,15 @@ impl Inputs {
         self.joints.as_ref().ok_or(Halt::Missing("joint state"))
     }
 
+    /// True when an axis the task reads is not estimated (a model without
+    /// it), has a std outside 0 to `max_std_n`, or PDC is nearly saturated.
     fn is_out_of_range(&self, est: &WrenchEstimate) -> bool {
         let limits = &self.out_of_range;
+        let trusted = 0.0..=limits.max_std_n;
         let uncertain = self
             .task_axes
             .iter()
-            .any(|a| est.std.get(*a) > limits.max_std_n);
+            .any(|a| !est.estimated[a.index()] || !trusted.contains(&est.std.get(*a)));
         uncertain || est.pdc_rise > limits.max_pdc_rise_counts
     }
 }

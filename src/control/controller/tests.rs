@@ -245,3 +245,33 @@ fn the_inverse_kinematics_stage_takes_any_solver() {
     // What the arm will do: the solver's scale, in the start frame.
     assert!((b.velocity - a.velocity * 0.5).norm() < 1e-12, "{b:?}");
 }
+
+#[test]
+fn an_estimate_without_a_task_axis_or_with_a_negative_std_is_out_of_range() {
+    let p = both_sections(TaskKind::Guarded);
+    let mut inputs = Inputs::new(&p, vec![Axis::Fz]);
+    inputs
+        .on_joint_state(
+            &JointState {
+                stamp_s: 0.0,
+                q: JointVector::zeros(7),
+            },
+            7,
+        )
+        .unwrap();
+    let mut read = |e: WrenchEstimate| {
+        inputs.on_estimate(e).unwrap();
+        inputs.read(0.0).unwrap().out_of_range
+    };
+    assert!(!read(estimate(0.0)), "fz estimated, std 0");
+    let mut e = estimate(0.0);
+    e.estimated[Axis::Fx.index()] = false;
+    assert!(!read(e), "an axis the task does not read may be missing");
+    e.estimated[Axis::Fz.index()] = false;
+    assert!(read(e), "the model lacks fz: no force to act on");
+    let mut e = estimate(0.0);
+    e.std.force.z = -0.01;
+    assert!(read(e), "a negative std is no std");
+    e.std.force.z = p.out_of_range.max_std_n * 2.0;
+    assert!(read(e), "too uncertain");
+}

@@ -156,7 +156,7 @@ fn launched_with_estimates_flowing_it_commands_zero_until_asked_and_a_set_restar
 }
 
 #[test]
-fn an_estimate_steps_once_both_halves_are_in_and_a_late_one_halts() {
+fn an_estimate_steps_and_a_late_one_halts() {
     let mut n = node(None);
     n.take_description(pa10()).unwrap();
     n.set_task("guarded", true).unwrap();

@@ -58,12 +58,18 @@ fn take_model(
     };
     let (model, kept) = load_model(&path, recipe).map_err(|e| e.to_string())?;
     let said = describe_model(file, model.as_ref());
+    // Read before the estimator is locked: its readings wait for nothing.
+    let new_id = if apply {
+        ModelId::of(kept.as_deref())
+    } else {
+        ModelId::default()
+    };
     let mut e = lock(estimator);
     if !apply {
         return e.check_model(model.as_ref()).map_err(|e| e.to_string());
     }
     e.take_model(model).map_err(|e| e.to_string())?;
-    *lock(id) = ModelId::of(kept.as_deref());
+    *lock(id) = new_id;
     tracing::info!("{said}: estimating with it from the next reading, on the same tare");
     Ok(())
 }
