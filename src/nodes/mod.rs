@@ -3,10 +3,11 @@
 //! ([`crate::runtime`]) and the ROS 2 adapter only move messages between them.
 //!
 //! - [`wrench_estimator::EstimatorNode`]: BioTac readings -> wrench estimates;
+//!   [`estimate_msg`]: an estimate as the CDR bytes of its message;
 //! - [`force_controller::ForceControllerNode`]: the node around the
 //!   controller ([`crate::control::ForceController`], running a task of
 //!   [`tasks`], the registration): robot description, task switch, goals,
-//!   the estimate's halves, status;
+//!   the estimate, status;
 //!   [`guarded_goal`]: a guarded-move goal applied to it, and its outcome;
 //!   [`loop_delay`]: the delay it actually sees, from header stamps;
 //! - [`bounds`]: what a peer may send a node (message sizes, goal and
@@ -19,6 +20,7 @@
 
 pub mod action_goals;
 pub mod bounds;
+pub mod estimate_msg;
 pub mod force_controller;
 pub mod guarded_goal;
 pub mod input_watch;

@@ -11,18 +11,16 @@ use r2r::geometry_msgs::msg::{
 };
 use r2r::sensor_msgs::msg::{Image, JointState as JointStateMsg};
 use r2r::std_msgs::msg::{Float64MultiArray, Header, MultiArrayDimension, MultiArrayLayout};
-use r2r::tactile_force_msgs::msg::WrenchEstimate as WrenchEstimateMsg;
 use r2r::tf2_msgs::msg::TFMessage;
 
 use crate::biotac::msg::{join_stamp, split_stamp};
 use crate::control::JointState;
 use crate::exit::{Classify, ExitClass};
 use crate::kinematics::{JointVector, Twist as TwistVector};
-use crate::learn::models::model_file::ModelId;
 use crate::nail::NailFrame;
 use crate::nodes::force_controller::tool_frame::StaticTransform;
 use crate::nodes::status::{Level, Status};
-use crate::wrench::{Axis, Wrench, WrenchEstimate};
+use crate::wrench::{Wrench, WrenchEstimate};
 
 /// Why a message was refused (the adapters count these and drop the message).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -171,93 +169,6 @@ pub fn wrench_stamped(stamp_s: f64, frame_id: &str, w: &Wrench) -> WrenchStamped
         header: header(stamp_s, frame_id),
         wrench: wrench_msg(w),
     }
-}
-
-/// `biotac/wrench_estimate` for an estimate, in `frame_id` (the sensor's):
-/// NaN on the axes the model does not estimate, and in `stddev` everywhere
-/// without `with_std`; made by `model`, `age_s` after its reading. None
-/// when a number is not finite: nothing is published for it.
-pub fn estimate_msg(
-    e: &WrenchEstimate,
-    frame_id: &str,
-    with_std: bool,
-    model: &ModelId,
-    age_s: f64,
-) -> Option<WrenchEstimateMsg> {
-    if !e.is_finite() {
-        return None;
-    }
-    let masked = |w: &Wrench, all: bool| {
-        let mut w = *w;
-        for (i, axis) in Axis::ALL.iter().enumerate() {
-            if all || !e.estimated[i] {
-                w.set(*axis, f64::NAN);
-            }
-        }
-        wrench_msg(&w)
-    };
-    Some(WrenchEstimateMsg {
-        header: header(e.stamp_s, frame_id),
-        wrench: masked(&e.mean, false),
-        stddev: masked(&e.std, !with_std),
-        estimated: e.estimated.to_vec(),
-        model_file: model.file.clone(),
-        model_sha256: model.sha256.clone(),
-        reading_age_s: age_s,
-        pdc_rise_counts: e.pdc_rise,
-    })
-}
-
-/// The estimate of a `biotac/wrench_estimate` message: 0 on the axes it
-/// does not estimate, and a std of 0 when it has none at all (the
-/// estimator's `with_std` false: the controller's out-of-range check then
-/// rests on PDC alone); refused when an estimated axis's mean, or its std
-/// while another axis has one, is not finite, or `estimated` is not six
-/// flags.
-pub fn estimate_from_msg(m: &WrenchEstimateMsg) -> Result<WrenchEstimate, ConvertError> {
-    let what = "biotac/wrench_estimate";
-    let estimated: [bool; 6] =
-        m.estimated
-            .as_slice()
-            .try_into()
-            .map_err(|_| ConvertError::Length {
-                what,
-                found: m.estimated.len(),
-                expected: 6,
-            })?;
-    let read = |w: &WrenchMsg, name: &'static str| {
-        let (all, mut out) = (wrench_of(w), Wrench::default());
-        for (i, axis) in Axis::ALL.iter().enumerate() {
-            if estimated[i] {
-                let x = all.get(*axis);
-                if !x.is_finite() {
-                    return Err(ConvertError::NonFinite(name));
-                }
-                out.set(*axis, x);
-            }
-        }
-        Ok(out)
-    };
-    let std = wrench_of(&m.stddev);
-    let has_std = (Axis::ALL.iter().zip(estimated)).any(|(a, on)| on && !std.get(*a).is_nan());
-    let e = WrenchEstimate {
-        stamp_s: time_s(&m.header.stamp),
-        seq: 0,
-        mean: read(&m.wrench, "biotac/wrench_estimate wrench")?,
-        std: if has_std {
-            read(&m.stddev, "biotac/wrench_estimate stddev")?
-        } else {
-            Wrench::default()
-        },
-        estimated,
-        pdc_rise: m.pdc_rise_counts,
-    };
-    if !e.is_finite() {
-        return Err(ConvertError::NonFinite(
-            "biotac/wrench_estimate pdc_rise_counts",
-        ));
-    }
-    Ok(e)
 }
 
 /// `joint_states` for our joint positions, named `names` in chain order.

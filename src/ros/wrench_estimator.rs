@@ -35,7 +35,6 @@ use std::time::Duration;
 
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
 use r2r::geometry_msgs::msg::WrenchStamped;
-use r2r::tactile_force_msgs::msg::WrenchEstimate as WrenchEstimateMsg;
 use r2r::QosProfile;
 
 use super::ending::Endings;
@@ -44,6 +43,7 @@ use super::{convert, lock, Graph, RosClock, RosError};
 use crate::learn::default_model::{Origin, Recipe};
 use crate::learn::models::model_file::{self, ModelId};
 use crate::learn::models::wrench_model::WrenchModel;
+use crate::nodes::estimate_msg::{self as msg, ESTIMATE_MSG_TYPE};
 use crate::nodes::own_params;
 use crate::nodes::param_reference::RosNode;
 use crate::nodes::status::Status;
@@ -174,7 +174,8 @@ struct Settings {
 
 /// The estimator's topics and its once-a-second report.
 struct Outputs {
-    estimate: r2r::Publisher<WrenchEstimateMsg>,
+    /// tactile_force_msgs/WrenchEstimate as CDR ([`crate::nodes::estimate_msg`]).
+    estimate: r2r::PublisherUntyped,
     wrench: r2r::Publisher<WrenchStamped>,
     /// Deprecated: the std is in `estimate`.
     stddev: r2r::Publisher<WrenchStamped>,
@@ -192,7 +193,11 @@ impl Outputs {
     fn new(node: &mut r2r::Node, frame_id: String, with_std: bool) -> Result<Self, RosError> {
         let qos = QosProfile::default;
         Ok(Outputs {
-            estimate: node.create_publisher("biotac/wrench_estimate", qos())?,
+            estimate: node.create_publisher_untyped(
+                "biotac/wrench_estimate",
+                ESTIMATE_MSG_TYPE,
+                qos(),
+            )?,
             wrench: node.create_publisher("biotac/wrench", qos())?,
             stddev: node.create_publisher("biotac/wrench_stddev", qos())?,
             diagnostics: node.create_publisher("/diagnostics", qos())?,
@@ -209,14 +214,14 @@ impl Outputs {
     fn publish(&self, e: &WrenchEstimate, now_s: f64) {
         let model = lock(&self.model).clone();
         let age_s = now_s - e.stamp_s;
-        let msgs = convert::estimate_msg(e, &self.frame_id, self.with_std, &model, age_s)
+        let msgs = msg::to_cdr(e, &self.frame_id, self.with_std, &model, age_s)
             .zip(convert::estimate_msgs(e, &self.frame_id));
         let Some((estimate, (mean, std))) = msgs else {
             return; // on_received has checked that every number is finite
         };
         let sent = self
             .estimate
-            .publish(&estimate)
+            .publish_raw(&estimate)
             .and_then(|()| self.stddev.publish(&std))
             .and_then(|()| self.wrench.publish(&mean));
         if let Err(e) = sent {

@@ -8,7 +8,6 @@ use r2r::sensor_msgs::msg::Image;
 use r2r::std_msgs::msg::{Float64MultiArray, Header};
 use tactile_force::control::JointState;
 use tactile_force::kinematics::{JointVector, Twist as TwistVector};
-use tactile_force::learn::models::model_file::ModelId;
 use tactile_force::nodes::force_controller::tool_frame::StaticTransform;
 use tactile_force::ros::convert::*;
 use tactile_force::wrench::{Wrench, WrenchEstimate};
@@ -117,64 +116,16 @@ fn estimates_become_two_wrench_stamped_in_the_biotac_frame() {
 }
 
 #[test]
-fn an_estimate_is_one_message_nan_where_not_estimated_and_comes_back_whole() {
-    let model = ModelId {
-        file: "/m/gp.json".into(),
-        sha256: "ba7816bf8f01cfea".into(),
-    };
-    let m = estimate_msg(&estimate(), "biotac", true, &model, 0.004).unwrap();
-    assert_eq!(
-        m.header.stamp,
-        Time {
-            sec: 3,
-            nanosec: 500_000_000
-        }
-    );
-    assert_eq!(m.header.frame_id, "biotac");
-    assert_eq!((m.wrench.force.z, m.stddev.force.z), (1.5, 0.04));
-    // The torques are not estimated: NaN, and flagged.
-    assert!(m.wrench.torque.y.is_nan() && m.stddev.torque.x.is_nan());
-    assert_eq!(m.estimated, vec![true, true, true, false, false, false]);
-    assert_eq!(
-        (m.model_file.as_str(), m.model_sha256.as_str()),
-        ("/m/gp.json", "ba7816bf8f01cfea")
-    );
-    assert_eq!((m.reading_age_s, m.pdc_rise_counts), (0.004, 42.0));
-    let back = estimate_from_msg(&m).unwrap();
-    let mut expected = estimate();
-    expected.mean.torque.y = 0.0; // 0 where not estimated, as the models give it
-    expected.seq = 0; // ROS 2 headers carry none
-    assert_eq!(back, expected);
-    // Without with_std: no std anywhere on the wire, 0 for the controller
-    // (its out-of-range check on PDC alone); one missing among others is refused.
-    let mut m = estimate_msg(&estimate(), "biotac", false, &model, 0.004).unwrap();
-    assert!(m.stddev.force.z.is_nan() && !m.wrench.force.z.is_nan());
-    assert_eq!(estimate_from_msg(&m).unwrap().std, Wrench::default());
-    m.stddev.force.x = 0.05;
-    assert_eq!(
-        estimate_from_msg(&m),
-        Err(ConvertError::NonFinite("biotac/wrench_estimate stddev"))
-    );
-}
-
-#[test]
 fn nan_is_never_published_and_refused_on_input() {
     let mut e = estimate();
     e.mean.force.x = f64::NAN;
     assert!(estimate_msgs(&e, "biotac").is_none());
-    assert!(estimate_msg(&e, "biotac", true, &ModelId::default(), 0.0).is_none());
-    let mut m = estimate_msg(&estimate(), "biotac", true, &ModelId::default(), 0.0).unwrap();
-    m.wrench.force.y = f64::INFINITY;
+    let (mut m, _) = estimate_msgs(&estimate(), "biotac").unwrap();
+    m.wrench.torque.y = f64::INFINITY;
     assert_eq!(
-        estimate_from_msg(&m),
-        Err(ConvertError::NonFinite("biotac/wrench_estimate wrench"))
+        wrench_from_msg(&m, "ft_sensor/wrench"),
+        Err(ConvertError::NonFinite("ft_sensor/wrench"))
     );
-    m.wrench.force.y = 0.0;
-    m.estimated.pop();
-    assert!(matches!(
-        estimate_from_msg(&m),
-        Err(ConvertError::Length { found: 5, .. })
-    ));
     let c = commands_msg(&JointVector::from_element(6, f64::NAN));
     assert_eq!(c.data, vec![0.0; 6]);
     let t = twist_msg(1.0, "base_link", &TwistVector::repeat(f64::NAN));

@@ -418,9 +418,9 @@ impl ForceControllerNode {
     }
 
     /// [`ForceControllerNode::on_force`] for a message as it came in
-    /// `frame`: one that could not be read (`Err`, why) is counted; one in
-    /// another frame than its topic's is refused ([`frames`]). True when
-    /// it stepped.
+    /// `frame`: one that could not be read (`Err`, why) is counted (its
+    /// frame unknown); one in another frame than its topic's is refused
+    /// ([`frames`]). True when it stepped.
     pub fn on_force_msg(
         &mut self,
         part: ForcePart,
@@ -428,16 +428,17 @@ impl ForceControllerNode {
         msg: Result<Force, String>,
         now: f64,
     ) -> bool {
+        let force = match msg {
+            Ok(force) => force,
+            Err(why) => {
+                self.reject(&why);
+                return false;
+            }
+        };
         if let Err((m, new)) = self.frames.check(part, frame) {
             return self.refuse_frame(part, m.to_string(), new, now);
         }
-        match msg {
-            Ok(force) => self.on_force(force, now).is_some(),
-            Err(why) => {
-                self.reject(&why);
-                false
-            }
-        }
+        self.on_force(force, now).is_some()
     }
 
     /// A wrench of `part` in the wrong frame (`why`): counted, said once

@@ -17,13 +17,13 @@ use std::time::Duration;
 
 use futures::StreamExt;
 use r2r::geometry_msgs::msg::WrenchStamped;
-use r2r::tactile_force_msgs::msg::WrenchEstimate as WrenchEstimateMsg;
 
 use r2r::diagnostic_msgs::msg::DiagnosticArray;
 
 use super::commands::Commands;
 use super::lock;
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
+use crate::nodes::estimate_msg::{self as msg, ESTIMATE_MSG_TYPE};
 use crate::nodes::force_controller::{Force, ForceControllerNode, ForcePart};
 use crate::ros::inputs::Inputs;
 use crate::ros::{bounded, convert, ending, Graph, RosClock, RosError};
@@ -40,13 +40,13 @@ pub(super) fn forces(
 ) -> Result<impl futures::Stream<Item = ForceMsg> + Unpin, RosError> {
     let (qos, max) = (crate::ros::input_qos, MESSAGE_MAX_BYTES);
     let part = ForcePart::Estimate;
-    let estimate_type = "tactile_force_msgs/msg/WrenchEstimate";
-    let estimates = bounded::typed(node, part.topic(), estimate_type, qos(), max, guard)?.map(
-        move |m: WrenchEstimateMsg| {
-            let read = convert::estimate_from_msg(&m).map_err(|e| e.to_string());
-            (part, m.header.frame_id, read.map(Force::Estimate))
-        },
-    );
+    let estimates =
+        bounded::raw(node, part.topic(), ESTIMATE_MSG_TYPE, qos(), max, guard)?.map(move |bytes| {
+            match msg::from_cdr(&bytes) {
+                Ok((e, frame)) => (part, frame, Ok(Force::Estimate(e))),
+                Err(why) => (part, String::new(), Err(why.to_string())),
+            }
+        });
     let part = ForcePart::Ft;
     let wrench_type = "geometry_msgs/msg/WrenchStamped";
     let ft = bounded::typed(node, part.topic(), wrench_type, qos(), max, guard)?.map(
