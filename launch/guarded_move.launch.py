@@ -3,7 +3,7 @@
 ros2 launch tactile_force guarded_move.launch.py [use_sim:=true] [object:=wooden_box]
     [robot:=pa10|ur5|panda | urdf:=FILE [base_link:=L] [tip_link:=L]] [description_topic:=true]
     [model:=/path/model.json] [port:=/dev/ttyACM0] [start_state:=active|inactive|unconfigured]
-    [use_sim_time:=true [real_time_factor:=2.0]]
+    [use_sim_time:=true [real_time_factor:=2.0]] [rviz:=true]
 """
 
 import os

@@ -6,7 +6,9 @@ tactile_force_nodes.nodes(), which the tests over DDS use too. The robot:
 `urdf:=FILE` with `base_link:=` and `tip_link:=` (empty: the URDF's root
 and its one leaf); the URDF goes to sim_robot and force_controller as their
 `robot_description` parameter, or, with `description_topic:=true`, they
-take it from /robot_description (a robot_state_publisher's).
+take it from /robot_description (a robot_state_publisher's). `rviz:=true`
+adds RViz on config/tactile_force.rviz (and, in simulation, a
+robot_state_publisher for the arm's TF): tactile_force_nodes.viewers().
 """
 
 import os
@@ -16,7 +18,7 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
-from tactile_force_nodes import ROBOTS, nodes
+from tactile_force_nodes import ROBOTS, nodes, viewers
 
 SCENE = "guarded_move.yaml"
 
@@ -31,7 +33,8 @@ def make(scene=SCENE):
             raise RuntimeError(f"robot:={robot}: expected one of {', '.join(ROBOTS)}, or urdf:=FILE")
         path = urdf or os.path.join(config, f"{robot}.urdf")
         with open(path) as f:
-            description = None if value("description_topic") == "true" else f.read()
+            text = f.read()
+        description = None if value("description_topic") == "true" else text
         links = (value("base_link"), value("tip_link")) if urdf else None
         args = dict(
             object_name=value("object"),
@@ -45,8 +48,9 @@ def make(scene=SCENE):
             biotac_frame=value("biotac_frame"),
             start_state=value("start_state"),
         )
-        started = nodes(scene, value("use_sim") == "true", **args)
-        return [
+        use_sim = value("use_sim") == "true"
+        started = nodes(scene, use_sim, **args)
+        ours = [
             Node(
                 package="tactile_force",
                 executable=executable,
@@ -58,6 +62,15 @@ def make(scene=SCENE):
                 ros_arguments=["--enclave", f"/tactile_force/{executable}"],
             )
             for executable, files, overrides in started
+        ]
+        if value("rviz") != "true":
+            return ours
+        shown = viewers(config, text, base_link=value("base_link") if urdf else "",
+                        state_publisher=use_sim and description is not None, sim_time=args["sim_time"])
+        return ours + [
+            Node(package=package, executable=executable, output="screen", arguments=arguments,
+                 parameters=[parameters])
+            for package, executable, arguments, parameters in shown
         ]
 
     return LaunchDescription([
@@ -88,5 +101,9 @@ def make(scene=SCENE):
                               description="Simulated seconds per wall-clock second (use_sim_time:=true), >= 1."),
         DeclareLaunchArgument("object", default_value="wooden_box" if scene == SCENE else "fingertip",
                               description="Object (config/world.yaml objects)."),
+        DeclareLaunchArgument("rviz", default_value="false",
+                              description="Also RViz on config/tactile_force.rviz (the arm, the BioTac frame, "
+                                          "the wrench, its 1-sigma and the phase); in simulation with a "
+                                          "robot_state_publisher for the arm's TF."),
         OpaqueFunction(function=setup),
     ])

@@ -1,12 +1,18 @@
 """The nodes the tactile_force launch files start, as plain data.
 
 The launch files (guarded_move.launch.py, joystick.launch.py) and the tests
-over DDS (tests/ros/) both build their processes from `nodes()`, so the node
-list, parameter files and overrides cannot drift apart. No ROS import here.
+over DDS (tests/ros/) both build their processes from `nodes()` (and, with
+`rviz:=true`, `viewers()`), so the node list, parameter files and overrides
+cannot drift apart. No ROS import here.
 """
+
+import os
+import xml.etree.ElementTree as ET
 
 # The shipped robots: config/<name>.urdf and config/<name>.yaml.
 ROBOTS = ("pa10", "ur5", "panda")
+# The RViz configuration in config/ that `rviz:=true` opens.
+RVIZ_CONFIG = "tactile_force.rviz"
 
 
 def param_files(scene, robot="pa10"):
@@ -56,3 +62,32 @@ def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_fa
         ("force_controller", files, dict(arm, autostart=use_sim, biotac_frame=biotac_frame,
                                          start_state=start_state)),
     ]
+
+
+def urdf_root(description):
+    """The root link of a URDF's text: the link no joint has as child."""
+    robot = ET.fromstring(description)
+    children = {j.find("child").get("link") for j in robot.iter("joint")}
+    roots = [link.get("name") for link in robot.iter("link") if link.get("name") not in children]
+    if len(roots) != 1:
+        raise ValueError(f"the URDF has {len(roots)} root links ({', '.join(roots)}), not one")
+    return roots[0]
+
+
+def viewers(config_dir, description, base_link="", state_publisher=True, sim_time=False):
+    """(package, executable, arguments, parameters) of each process that
+    `rviz:=true` adds: rviz2 on config/tactile_force.rviz, its fixed frame
+    the chain's base link (`base_link`, or else the URDF's root, from
+    `description`, the URDF text); with `state_publisher` (the launch
+    files: in simulation, the URDF from a file) also robot_state_publisher
+    on that URDF, which publishes the arm's links on TF from sim_robot's
+    joint_states and the description on /robot_description for RViz. On a
+    real arm, or with `description_topic:=true`, your
+    robot_state_publisher does both."""
+    fixed = base_link or urdf_root(description)
+    shared = {"use_sim_time": sim_time}
+    rviz = ("rviz2", "rviz2", ["-d", os.path.join(config_dir, RVIZ_CONFIG), "-f", fixed], shared)
+    if not state_publisher:
+        return [rviz]
+    state = ("robot_state_publisher", "robot_state_publisher", [], dict(shared, robot_description=description))
+    return [state, rviz]

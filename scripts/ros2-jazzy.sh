@@ -51,6 +51,8 @@ ROS_WHEELS=(
   ros-jazzy-sensor-msgs==5.3.6
   ros-jazzy-std-srvs==5.3.6
   ros-jazzy-diagnostic-msgs==5.3.6
+  # force_controller/markers (MarkerArray): the 1-sigma and the phase in RViz.
+  ros-jazzy-visualization-msgs==5.3.6
   # Building msg/ (ament_cmake + the rosidl generators).
   ros-jazzy-ament-package==0.16.4
   ros-jazzy-ament-cmake==2.5.4

@@ -6,6 +6,7 @@ pub mod reference;
 use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
+use serde::Serialize;
 
 use crate::exit::{Classify, ExitClass};
 
@@ -155,6 +156,42 @@ fn flatten(prefix: &str, value: &serde_yaml_ng::Value, out: &mut FlatParams) {
         }
         leaf => out.push((prefix.to_string(), leaf.clone())),
     }
+}
+
+/// True when `name` is one of `names`, where `g.*` stands for every
+/// parameter of the group `g`.
+pub fn is_named(names: &[String], name: &str) -> bool {
+    names.iter().any(|n| match n.strip_suffix('*') {
+        Some(group) => name.starts_with(group),
+        None => n == name,
+    })
+}
+
+/// `params` with the flat, dotted parameter `name` set to `value`, read
+/// back by the same path as a node's start-up parameters
+/// ([`from_flat_params`]); an error names a parameter `params` lacks.
+pub fn with_flat_param<T: Serialize + DeserializeOwned>(
+    params: &T,
+    name: &str,
+    value: serde_yaml_ng::Value,
+    node: &str,
+) -> Result<T, ParamsError> {
+    let tree = serde_yaml_ng::to_value(params).map_err(|error| ParamsError::Yaml {
+        node: node.into(),
+        error,
+    })?;
+    let mut flat = Vec::new();
+    flatten("", &tree, &mut flat);
+    let slot = flat
+        .iter_mut()
+        .find(|(n, _)| n == name)
+        .ok_or_else(|| ParamsError::Invalid {
+            key: name.into(),
+            value: "an unknown parameter".into(),
+            expected: format!("a parameter of {node}"),
+        })?;
+    slot.1 = value;
+    from_flat_params(&flat, node)
 }
 
 /// Deserialises flat, dotted parameters (as a ROS 2 node holds them) into

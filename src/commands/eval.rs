@@ -7,13 +7,14 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use tactile_force::learn::evaluate::{
-    cross_validate, leave_one_session_out, score_model, train_test, EvalOptions, Evaluation,
-    FoldScores,
+    cross_validate, estimates_csv, leave_one_session_out, score_model, train_test, EvalOptions,
+    Evaluation, FoldScores,
 };
 use tactile_force::learn::models::cnn::CnnParams;
 use tactile_force::learn::models::metrics::DEFAULT_PEAK_MIN_N;
 use tactile_force::learn::models::model_file;
 use tactile_force::learn::models::nn::NnParams;
+use tactile_force::outputs::{check_format, write_whole};
 use tactile_force::params::Check;
 use tactile_force::sensor::SensorSpec;
 
@@ -64,13 +65,24 @@ pub(crate) struct EvalArgs {
     /// Print the result as one JSON object on the last line.
     #[arg(long)]
     json: bool,
+    /// With --model: write the model's estimate of every test row to this
+    /// CSV (file,row,set,trial, then per axis its estimate and the tared
+    /// label, e.g. fz_estimate,fz_label; row counts from 0 in the file's
+    /// order, a bag's readings in stamp order).
+    #[arg(long, requires = "model")]
+    estimates: Option<PathBuf>,
     #[command(flatten)]
     fit: FitArgs,
 }
 
 pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
     if let Some(model) = &a.model {
-        return run_score(model, &a.test, &a.fit.source, a.peak_min_n, a.json);
+        let out = Scored {
+            min_peak_n: a.peak_min_n,
+            json: a.json,
+            estimates: a.estimates.as_deref(),
+        };
+        return run_score(model, &a.test, &a.fit.source, out);
     }
     let (features, axes, n, source) = (
         Features::Channels(&a.fit.channels()),
@@ -181,13 +193,30 @@ fn positive_newtons(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
+/// What `eval --model` prints and writes besides its table.
+pub(crate) struct Scored<'a> {
+    /// Directions scored at peaks of at least this force (N).
+    min_peak_n: f64,
+    /// The result as JSON on the last line.
+    json: bool,
+    /// Where the per-row estimates go, as CSV ([`estimates_csv`]).
+    estimates: Option<&'a Path>,
+}
+
 pub(crate) fn run_score(
     model: &Path,
     tests: &[PathBuf],
     source: &SourceArgs,
-    min_peak_n: f64,
-    json: bool,
+    out: Scored,
 ) -> Result<()> {
+    let Scored {
+        min_peak_n,
+        json,
+        estimates,
+    } = out;
+    if let Some(path) = estimates {
+        check_format(path, "estimates CSV", &["csv"])?;
+    }
     let model = model_file::load(model)?;
     let model = model.as_ref();
     println!("{}", model.describe());
@@ -213,6 +242,17 @@ pub(crate) fn run_score(
     )?;
     let pooled = sessions.pooled().context("give --test FILES")?;
     let sessions = sessions.sets;
+    if let Some(path) = estimates {
+        let names: Vec<String> = tests.iter().map(|p| p.display().to_string()).collect();
+        let files: Vec<(&str, &_)> = names.iter().map(String::as_str).zip(&sessions).collect();
+        write_whole(path, estimates_csv(model, &files)?.as_bytes())
+            .with_context(|| format!("estimates CSV {}", path.display()))?;
+        println!(
+            "estimates of {} rows written to {}",
+            pooled.len(),
+            path.display()
+        );
+    }
     let mut folds = Vec::with_capacity(sessions.len());
     for (i, ds) in sessions.iter().enumerate() {
         folds.push(FoldScores {

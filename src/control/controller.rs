@@ -211,6 +211,26 @@ impl ForceController {
         self.out.command()
     }
 
+    /// Takes changed parameters `p` (the task's and the stability rules'
+    /// settings; checked as at start-up, the task the one running) while
+    /// the task runs, if the task can take them at once
+    /// ([`Task::retune`]): Ok(true). Ok(false): the task keeps its own
+    /// settings, and `p` applies from its next start. Err: `p` is refused.
+    pub fn retune(
+        &mut self,
+        p: &ControllerParams,
+        tasks: &TaskRegistry,
+    ) -> Result<bool, ParamsError> {
+        let fresh = CheckedTask::new(p, tasks)?;
+        if !self.task.retune(fresh.task.as_ref()) {
+            return Ok(false);
+        }
+        self.envelope = fresh.envelope;
+        self.rules.retune(&p.oscillation);
+        self.inputs.retune(p.out_of_range);
+        Ok(true)
+    }
+
     /// Goes on from what `before` measured of the loop (same arm and link).
     pub fn measured_from(&mut self, before: &ForceController) {
         self.meter.carry_on(&before.meter);

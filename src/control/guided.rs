@@ -64,6 +64,8 @@ mod finger;
 mod section;
 pub use section::GuidedParams;
 
+use std::any::Any;
+
 use nalgebra::Vector3;
 
 use super::identify::ContactStiffness;
@@ -533,6 +535,23 @@ impl Task for GuidedMove {
             softened: self.lowered.iter().sum(),
             own: Vec::new(),
         }
+    }
+
+    /// Every setting at once: the person's finger meets the new deadband,
+    /// target and limits from the next cycle; the start, the travel, the
+    /// measured stiffness and what the watchdog lowered stay.
+    fn retune(&mut self, fresh: &dyn Task) -> bool {
+        let Some(fresh) = (fresh as &dyn Any).downcast_ref::<GuidedMove>() else {
+            return false;
+        };
+        for (pd, new) in self.pd.iter_mut().zip(&fresh.pd) {
+            if let (Some(pd), Some(new)) = (pd, new) {
+                pd.take_settings(new);
+            }
+        }
+        self.p = fresh.p;
+        self.law = fresh.law;
+        true
     }
 }
 

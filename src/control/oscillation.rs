@@ -100,6 +100,11 @@ impl OscillationDetector {
         *n += 1;
     }
 
+    /// Sets the swing that counts (N), keeping the force's history.
+    pub fn set_threshold_n(&mut self, threshold_n: f64) {
+        self.threshold_n = threshold_n;
+    }
+
     /// The swing that counts (N): the setting, or `NOISE_SIGMAS` times the
     /// noise at rest if that is more.
     pub fn threshold_n(&self) -> f64 {
@@ -198,6 +203,23 @@ mod tests {
             // Three cycles, plus the low-pass settling for the slowest.
             assert!(t <= 3.5 / hz + 0.3, "{hz} Hz at {t} s");
         }
+    }
+
+    #[test]
+    fn a_new_threshold_counts_from_the_next_swing() {
+        let mut d = OscillationDetector::new(0.02);
+        d.set_threshold_n(0.1);
+        let swing =
+            |k: usize| 1.0 + 0.05 * (2.0 * std::f64::consts::PI * 12.0 * k as f64 * 0.01).sin();
+        assert!(
+            !(0..500).any(|k| d.step(swing(k), 0.01)),
+            "0.05 N under 0.1 N"
+        );
+        d.set_threshold_n(0.02);
+        assert!(
+            (500..600).any(|k| d.step(swing(k), 0.01)),
+            "0.05 N over 0.02 N"
+        );
     }
 
     #[test]

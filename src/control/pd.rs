@@ -163,6 +163,19 @@ impl PdAxis {
         self.tuned = Some((stiffness, fast, *t));
     }
 
+    /// Takes the settings of `other` (its deadband, speed limit, filter and
+    /// margins) and keeps its own state: the filter's, what the watchdog
+    /// lowered; other margins retune the gain at the next [`PdAxis::tune`].
+    pub fn take_settings(&mut self, other: &PdAxis) {
+        if other.margins != self.margins {
+            self.tuned = None;
+        }
+        self.deadband_n = other.deadband_n;
+        self.max_speed = other.max_speed;
+        self.filter_s = other.filter_s;
+        self.margins = other.margins;
+    }
+
     /// Lowers the gain by `factor` (0..1) for the rest of the task (the
     /// stability watchdog).
     pub fn soften(&mut self, factor: f64) {

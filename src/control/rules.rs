@@ -93,6 +93,12 @@ pub trait Rule: fmt::Debug + Send + Sync + DynClone {
 
     /// Forgets the force's history after a pause in the inputs.
     fn pause(&mut self) {}
+
+    /// Takes new stability settings while the task runs; by default the
+    /// rule has none.
+    fn retune(&mut self, oscillation: &OscillationParams) {
+        let _ = oscillation;
+    }
 }
 
 dyn_clone::clone_trait_object!(Rule);
@@ -198,6 +204,12 @@ impl Rule for Oscillation {
             .for_each(OscillationDetector::reset);
         self.since_fresh_s = 0.0;
     }
+
+    fn retune(&mut self, oscillation: &OscillationParams) {
+        for d in &mut self.detectors {
+            d.set_threshold_n(oscillation.threshold_n);
+        }
+    }
 }
 
 /// The rules a controller runs, in order; the first that objects answers.
@@ -240,6 +252,13 @@ impl RuleChain {
     /// Every rule forgets the force's history (a pause in the inputs).
     pub fn pause(&mut self) {
         self.rules.iter_mut().for_each(|rule| rule.pause());
+    }
+
+    /// Every rule takes new stability settings.
+    pub fn retune(&mut self, oscillation: &OscillationParams) {
+        self.rules
+            .iter_mut()
+            .for_each(|rule| rule.retune(oscillation));
     }
 }
 

@@ -107,6 +107,15 @@ pub trait Task: fmt::Debug + Send + Any + DynClone {
     fn figures(&self) -> TaskFigures {
         TaskFigures::default()
     }
+
+    /// Takes the settings of `fresh`, the same task built from changed
+    /// parameters, while it runs: it keeps where it started and what it
+    /// measured. False: it keeps its own settings until it ends (they
+    /// apply from its next start), as by default.
+    fn retune(&mut self, fresh: &dyn Task) -> bool {
+        let _ = fresh;
+        false
+    }
 }
 
 /// What a task measured of its contact and how it holds, for reports.
@@ -331,7 +340,12 @@ impl TaskRegistry {
 
     /// The tasks' names, for messages ("guarded, guided or calibrate").
     pub fn names(&self) -> String {
-        or_list(self.entries.iter().map(|e| e.name))
+        or_list(self.each_name())
+    }
+
+    /// Each task's name.
+    pub fn each_name(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.entries.iter().map(|e| e.name)
     }
 }
 

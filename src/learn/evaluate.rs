@@ -26,6 +26,9 @@ use crate::exit::{Classify, ExitClass};
 use crate::params::Checked;
 use crate::wrench::{Axis, AxisSet};
 
+mod estimates;
+pub use estimates::estimates_csv;
+
 /// Errors of an evaluation.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -520,6 +523,15 @@ pub fn score_model(
     min_peak_n: f64,
     with_std: bool,
 ) -> Result<Scores, EvalError> {
+    check_fits(model, test)?;
+    let pred = model.predict_observed(test.x.view(), with_std)?;
+    let both = (pred.mean.view(), pred.std.as_ref().map(|s| s.view()));
+    let s = scores(&test.axes, test.y.view(), both, 0.0, model.n_train());
+    Ok(with_direction(s, test, pred.mean.view(), min_peak_n))
+}
+
+/// Refuses `test` when its features or axes are not `model`'s.
+fn check_fits(model: &dyn WrenchModel, test: &Dataset) -> Result<(), EvalError> {
     if test.features != model.features() || &test.axes != model.axes() {
         return Err(EvalError::Mismatch(format!(
             "model has features {:?} / axes {}, test data {:?} / {}",
@@ -529,8 +541,5 @@ pub fn score_model(
             test.axes
         )));
     }
-    let pred = model.predict_observed(test.x.view(), with_std)?;
-    let both = (pred.mean.view(), pred.std.as_ref().map(|s| s.view()));
-    let s = scores(&test.axes, test.y.view(), both, 0.0, model.n_train());
-    Ok(with_direction(s, test, pred.mean.view(), min_peak_n))
+    Ok(())
 }

@@ -16,7 +16,9 @@
 //!   each kept for a bounded time;
 //! - [`sim_robot::SimRobot`]: the simulated arm, object or finger, F/T sensor and BioTac;
 //! - [`lifecycle`]: the managed node's states and transitions; [`input_watch`]:
-//!   which input is silent, and why the graph says so.
+//!   which input is silent, and why the graph says so;
+//! - [`markers`]: what an operator sees of the estimate (the force, its
+//!   1-sigma band) and of the task's phase, as RViz markers.
 
 pub mod action_goals;
 pub mod bounds;
@@ -26,6 +28,7 @@ pub mod guarded_goal;
 pub mod input_watch;
 pub mod lifecycle;
 pub mod loop_delay;
+pub mod markers;
 pub mod own_params;
 pub mod param_reference;
 pub mod sim_robot;

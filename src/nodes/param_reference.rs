@@ -6,6 +6,7 @@
 
 use serde_yaml_ng::Value;
 
+use super::force_controller::live::live_params;
 use super::force_controller::shipped_defaults;
 use super::sim_robot::SimRobotParams;
 use super::wrench_estimator::EstimatorParams;
@@ -116,6 +117,29 @@ impl RosNode {
         }
     }
 
+    /// Its parameters that may change while it runs (`ros2 param set`), a
+    /// group as `name.*`, and when a set takes effect.
+    pub fn live(self, tasks: &TaskRegistry) -> (Vec<String>, &'static str) {
+        match self {
+            RosNode::ForceController => (
+                live_params(tasks),
+                "checked as at start-up on the task it concerns (its section's \
+                 task; for a shared one, the task running), a refused set saying \
+                 why; a running guided move takes it at once, \
+                 keeping its start, its travel and what it measured; a goal running \
+                 keeps its own settings and the next goal or task start takes it. \
+                 `/diagnostics` shows the last set and when it took effect \
+                 (`last_parameter_set`)",
+            ),
+            RosNode::WrenchEstimator => (
+                vec![super::own_params::MODEL_FILE.name.into()],
+                "the model is loaded, checked and swapped between two estimates \
+                 (a BioTac model; a nail model is read at start-up only)",
+            ),
+            RosNode::SimRobot | RosNode::BiotacDriver => (Vec::new(), ""),
+        }
+    }
+
     /// The shipped files' values of its parameters (the guarded scene's,
     /// and every task's section for the controller).
     pub fn defaults(self) -> Result<FlatParams, ParamsError> {
@@ -164,6 +188,7 @@ pub fn markdown(tasks: &TaskRegistry) -> Result<String, ParamsError> {
     for node in RosNode::ALL {
         let defaults = node.defaults()?;
         out.push_str(&format!("\n## {}\n", node.name()));
+        out.push_str(&live_line(node, tasks));
         let shared = node.params(tasks).into_iter().map(|doc| {
             let value = defaults.iter().find(|(k, _)| *k == doc.key);
             let shown = value.map_or(String::new(), |(_, v)| shown(v));
@@ -184,6 +209,20 @@ pub fn markdown(tasks: &TaskRegistry) -> Result<String, ParamsError> {
         }
     }
     Ok(out)
+}
+
+/// What may change while `node` runs: the rest is read at start-up.
+fn live_line(node: RosNode, tasks: &TaskRegistry) -> String {
+    let (names, when) = node.live(tasks);
+    if names.is_empty() {
+        return "\nNone may change while the node runs: restart it.\n".into();
+    }
+    let names: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
+    format!(
+        "\nLive, may change while the node runs (`ros2 param set`): {}: {when}. \
+         The others are read at start-up (a managed node's also at `configure`).\n",
+        names.join(", ")
+    )
 }
 
 /// A table row.

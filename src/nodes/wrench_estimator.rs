@@ -5,6 +5,7 @@
 //! late are dropped and counted ([`EstimatorNode::on_received`]); input over
 //! its bounds is refused before it reaches the node ([`EstimatorNode::guard`]).
 
+pub mod drop_log;
 pub mod reading_source;
 
 use std::sync::Arc;
@@ -126,8 +127,9 @@ pub struct EstimatorNode<S: SensorInput = BioTacInput> {
     out: Vec<Estimate>,
     stale_timeout_s: Option<f64>,
     dropped: Dropped,
-    /// The age of the last stale reading (s; NaN before one).
-    stale_age_s: f64,
+    /// The age of the last stale reading (s): None before one, NaN when
+    /// the node's clock read no time then.
+    stale_age_s: Option<f64>,
     /// Why readings of another layout are refused, once one was.
     refusal: Option<String>,
     estimates: u64,
@@ -184,7 +186,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             with_std,
             stale_timeout_s: None,
             dropped: Dropped::default(),
-            stale_age_s: f64::NAN,
+            stale_age_s: None,
             refusal: None,
             estimates: 0,
             ready_after_s: None,
@@ -265,6 +267,12 @@ impl<S: SensorInput> EstimatorNode<S> {
                 &format!("; {} readings dropped so far", d.total()),
             );
         }
+        if let Some(hint) = self.stale_hint() {
+            status.raise(
+                Level::Warn,
+                &format!("; {} readings dropped as stale: {hint}", d.stale),
+            );
+        }
         status.value("model_ready", true);
         if let Some(s) = self.ready_after_s {
             status.value("model_ready_after_s", format!("{s:.1}"));
@@ -279,18 +287,29 @@ impl<S: SensorInput> EstimatorNode<S> {
         status
     }
 
-    /// Why the last stale reading was stale, when its age says that its
-    /// stamp is of another clock than the node's (more than
-    /// [`ANOTHER_CLOCK_S`] old): a recording played back without simulated
-    /// time, or another machine's clock.
+    /// Why the last stale reading was stale, when it says that its stamp
+    /// and the node's clock are not of one clock: more than
+    /// [`ANOTHER_CLOCK_S`] old (a recording played back without simulated
+    /// time, or another machine's clock), or come while the node's clock
+    /// read no time (under `use_sim_time`, before any `/clock`: a
+    /// recording played without `--clock`). Both name the fix.
     pub fn stale_hint(&self) -> Option<String> {
-        let age = self.stale_age_s;
+        let age = self.stale_age_s?;
+        if age.is_nan() {
+            return Some(
+                "the last stale reading came while this node's clock read no time: with \
+                 use_sim_time:=true it follows /clock, and none had come. A recording played \
+                 back: play it with `ros2 bag play --clock`"
+                    .into(),
+            );
+        }
         (age > ANOTHER_CLOCK_S).then(|| {
             format!(
-            "the last stale reading was {age:.1} s old: its stamp is not of this node's clock. A \
-             recording played back: start the estimator with use_sim_time:=true and play it with \
-             `ros2 bag play --clock`; a sensor on another machine: synchronise the clocks"
-        )
+                "the last stale reading was {age:.1} s old: its stamp is not of this node's \
+                 clock. A recording played back: start the estimator with use_sim_time:=true \
+                 and play it with `ros2 bag play --clock`; a sensor on another machine: \
+                 synchronise the clocks"
+            )
         })
     }
 
@@ -305,7 +324,7 @@ impl<S: SensorInput> EstimatorNode<S> {
             let fresh = age_s <= limit; // false for a NaN age
             if !fresh {
                 self.dropped.stale += 1;
-                self.stale_age_s = age_s;
+                self.stale_age_s = Some(age_s);
                 return None;
             }
         }
@@ -414,6 +433,7 @@ impl EstimatorNode<BioTacInput> {
             next.set_tare(tare.clone());
         }
         next.stale_timeout_s = self.stale_timeout_s;
+        next.stale_age_s = self.stale_age_s;
         next.dropped = self.dropped;
         next.estimates = self.estimates;
         *self = next;

@@ -25,6 +25,10 @@
 //! are best effort, each named when silent, and its wrenches' frames are
 //! checked ([`crate::nodes::force_controller::frames`]).
 //!
+//! Each estimate is drawn for an operator on `~/markers`
+//! (visualization_msgs/MarkerArray: the force, its 1-sigma band, the
+//! phase; [`crate::nodes::markers`]), 20 sets a second.
+//!
 //! The controller steps on each new estimate, so an estimate acts as soon as it arrives rather than
 //! up to a period later on a timer of its own. With no estimate for longer
 //! than the bound it measured, it commands zero velocity, every period,
@@ -75,6 +79,7 @@ mod estimator_link;
 #[cfg(not(feature = "ros2-doc-only"))]
 mod guarded_move_action;
 mod managed;
+mod markers;
 mod settings;
 mod stepping;
 mod tool_frame;
@@ -120,7 +125,7 @@ pub async fn run(endings: Endings) -> Result<(), RosError> {
 
     // Every input bounded in size, refused before it is decoded.
     let inputs = stepping::watched(settings.silent_after_s);
-    let forces = stepping::forces(&mut node, &guard)?;
+    let (forces, markers) = stepping::topics(&mut node, &guard)?;
     hand_on(&mut node, &guard, &shared, &inputs)?;
     let commands = Arc::new(Commands::create(&mut node, settings.interface)?);
     let c = commands.clone();
@@ -184,7 +189,7 @@ pub async fn run(endings: Endings) -> Result<(), RosError> {
     #[cfg(feature = "ros2-doc-only")]
     let _ = (settings.estimator, settings.models);
 
-    let stepping = stepping::run(&shared, forces, &commands, &inputs, &clock, period);
+    let stepping = stepping::run(&shared, forces, &commands, markers, &inputs, &clock, period);
     way_out::run_to_the_end(stepping, endings, &shared, &commands, &clock, period).await
 }
 

@@ -17,7 +17,7 @@ use serde_yaml_ng::Value;
 use crate::nodes::bounds::InputGuard;
 #[cfg(doc)]
 use crate::nodes::bounds::PARAMETER_SETS;
-use crate::params::{from_flat_params, FlatParams, ParamsError};
+use crate::params::{from_flat_params, is_named, FlatParams, ParamsError};
 
 /// A ROS parameter value as YAML; None for an unset parameter.
 pub fn to_yaml(v: &ParameterValue) -> Option<Value> {
@@ -125,7 +125,7 @@ pub type ApplyParam = Box<dyn Fn(&str, &ParameterValue, bool) -> Result<(), Stri
 /// go to the node, which applies or refuses them; every other is refused
 /// with "read at start-up only".
 pub struct RuntimeParams {
-    live: &'static [&'static str],
+    live: Vec<String>,
     apply: ApplyParam,
     guard: Arc<InputGuard>,
     unconfigured: Option<Unconfigured>,
@@ -141,10 +141,11 @@ struct Unconfigured {
 }
 
 impl RuntimeParams {
-    /// `live` parameters go to `apply`, as `guard` admits them.
-    pub fn new(live: &'static [&'static str], apply: ApplyParam, guard: &Arc<InputGuard>) -> Self {
+    /// `live` parameters (a group `g` as `g.*`) go to `apply`, as `guard`
+    /// admits them.
+    pub fn new(live: &[impl AsRef<str>], apply: ApplyParam, guard: &Arc<InputGuard>) -> Self {
         RuntimeParams {
-            live,
+            live: live.iter().map(|l| l.as_ref().to_string()).collect(),
             apply,
             guard: guard.clone(),
             unconfigured: None,
@@ -173,7 +174,7 @@ impl RuntimeParams {
 
     /// No parameter may change while the node runs.
     pub fn none(guard: &Arc<InputGuard>) -> Self {
-        RuntimeParams::new(&[], Box::new(|_, _, _| Ok(())), guard)
+        RuntimeParams::new(&[] as &[&str], Box::new(|_, _, _| Ok(())), guard)
     }
 
     fn answer(&self, name: &str, value: &ParameterValue, apply: bool) -> r2r::Result<()> {
@@ -195,8 +196,8 @@ impl RuntimeParams {
                 false => Ok(()),
             };
         }
-        if !self.live.contains(&name) {
-            let live = match self.live {
+        if !is_named(&self.live, name) {
+            let live = match self.live.as_slice() {
                 [] => "none".to_string(),
                 l => l.join(", "),
             };

@@ -46,9 +46,10 @@ use crate::learn::models::wrench_model::WrenchModel;
 use crate::nodes::estimate_msg::{self as msg, ESTIMATE_MSG_TYPE};
 use crate::nodes::own_params;
 use crate::nodes::param_reference::RosNode;
-use crate::nodes::status::Status;
+use crate::nodes::status::{Level, Status};
 use crate::nodes::tasks;
-use crate::nodes::wrench_estimator::{loading_status, Dropped, EstimatorParams};
+use crate::nodes::wrench_estimator::drop_log::DropLog;
+use crate::nodes::wrench_estimator::{loading_status, EstimatorParams};
 use crate::nodes::EstimatorNode;
 use crate::sensor::{SensorInput, SensorSpec};
 use crate::wrench::WrenchEstimate;
@@ -186,7 +187,8 @@ struct Outputs {
     with_std: bool,
     /// The model estimating: set when `model_file` changes.
     model: Arc<Mutex<ModelId>>,
-    reported: Dropped,
+    /// What the log said of dropped readings.
+    drops: DropLog,
 }
 
 impl Outputs {
@@ -205,7 +207,7 @@ impl Outputs {
             frame_id,
             with_std,
             model: Arc::default(),
-            reported: Dropped::default(),
+            drops: DropLog::default(),
         })
     }
 
@@ -230,21 +232,14 @@ impl Outputs {
     }
 
     /// The once-a-second report's status: what was dropped (logged when
-    /// it grew) and the node's status; [`Outputs::report`] sends it.
+    /// it grew, as [`DropLog`] says) and the node's status; [`Outputs::report`]
+    /// sends it.
     fn status<S: SensorInput>(&mut self, estimator: &EstimatorNode<S>) -> Status {
-        let d = estimator.dropped();
-        if let Some(said) = d.since(&self.reported) {
-            let stale = d.stale > self.reported.stale;
-            match (
-                estimator.refusal(),
-                stale.then(|| estimator.stale_hint()).flatten(),
-            ) {
-                (Some(why), _) => tracing::error!("{said} in the last second; {why}"),
-                (None, Some(hint)) => tracing::warn!("{said} in the last second; {hint}"),
-                (None, None) => tracing::warn!("{said} in the last second"),
-            }
+        match self.drops.line(estimator) {
+            Some((Level::Error, line)) => tracing::error!("{line}"),
+            Some((_, line)) => tracing::warn!("{line}"),
+            None => {}
         }
-        self.reported = d;
         estimator.status()
     }
 

@@ -24,11 +24,12 @@ named() { local n; for n in "${names[@]}"; do [ "$n" = "$1" ] && return 0; done;
 # shellcheck disable=SC1091
 . "${CARGO_TARGET_DIR:-target}/ros2/env.sh"
 # The independent plant of hold_sweep.py: MuJoCo and example-robot-data's
-# UR5 (pinned), into the ROS venv that runs the rclpy peer.
-if ! python -c 'import mujoco' 2>/dev/null ||
+# UR5; the MCAP reader and writer of test_replay_over_dds.py: Python's mcap
+# (pinned), into the ROS venv that runs the rclpy peer.
+if ! python -c 'import mujoco, mcap' 2>/dev/null ||
   ! python -m pip show --quiet example-robot-data >/dev/null 2>&1; then
   _ROS_WHEELS_BOOTSTRAP_COMPLETE=1 python -m pip install --quiet --disable-pip-version-check \
-    "mujoco==4.0.0" "example-robot-data==6.0.0"
+    "mujoco==4.0.0" "example-robot-data==6.0.0" "mcap==1.6.0"
 fi
 status=0
 # Runs one test script with its arguments, then says how long it took.

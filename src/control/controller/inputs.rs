@@ -53,6 +53,11 @@ impl Inputs {
         }
     }
 
+    /// Takes new limits of a trusted estimate.
+    pub(super) fn retune(&mut self, out_of_range: OutOfRangeParams) {
+        self.out_of_range = out_of_range;
+    }
+
     /// Inputs rejected for NaN or infinity so far.
     pub(super) fn rejected(&self) -> u64 {
         self.rejected

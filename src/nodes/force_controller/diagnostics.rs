@@ -65,6 +65,9 @@ impl ForceControllerNode {
         }
         self.delay_values(&mut s);
         s.value("rejected", self.rejected);
+        if let Some(set) = &self.live_set {
+            s.value("last_parameter_set", set);
+        }
         for m in self.frames.refused() {
             s.raise(Level::Error, &format!("; {m}"));
             s.push(format!("frame_refused {}", m.topic), m.to_string());

@@ -18,11 +18,15 @@
 //! - what changed (logged) and its status (`/diagnostics`), with what its
 //!   [`InputGuard`] refused: messages over their size, goals and parameter
 //!   sets over their rates;
+//! - the parameters set while it runs ([`live`]): checked as at start-up,
+//!   taken at once by a running guided move, by the others from their next
+//!   start;
 //! - the frames its wrenches come in ([`frames`]), its lifecycle state, and
 //!   the stop from outside the task ([`stop`]).
 
 pub mod frames;
 pub mod goals;
+pub mod live;
 pub mod stop;
 pub mod tool_frame;
 
@@ -184,6 +188,8 @@ pub struct ForceControllerNode {
     /// its task ([`stop`]), or a wrench it uses came in the wrong frame.
     goal_end: Option<String>,
     frames: Frames,
+    /// The last parameter set while it ran, and when it took effect.
+    live_set: Option<live::LiveSet>,
 }
 
 /// The shipped defaults of the `force_controller` parameters: the guarded
@@ -238,6 +244,7 @@ impl ForceControllerNode {
             goal_end: None,
             // Until `with_frames`: every wrench in the BioTac frame.
             frames: Frames::new(tool_frame::BIOTAC_FRAME, "", false)?,
+            live_set: None,
         })
     }
 
@@ -252,9 +259,14 @@ impl ForceControllerNode {
         ForceControllerNode { guard, ..self }
     }
 
-    /// The start-up parameters.
+    /// The parameters: the start-up ones with the live sets since.
     pub fn params(&self) -> &ControllerParams {
         &self.base
+    }
+
+    /// The tasks it can run.
+    pub fn tasks(&self) -> &TaskRegistry {
+        &self.tasks
     }
 
     /// The bounds of its input: what a transport asks before it hands the
@@ -319,11 +331,15 @@ impl ForceControllerNode {
         Ok(true)
     }
 
-    /// How `task` runs outside a goal, on the start-up parameters.
-    fn outside_goal(&self, task: &str) -> Result<OutsideGoal, ParamsError> {
+    /// How `task` runs outside a goal, on the parameters `base`.
+    fn outside_goal(
+        &self,
+        task: &str,
+        base: &ControllerParams,
+    ) -> Result<OutsideGoal, ParamsError> {
         let p = ControllerParams {
             task: task.into(),
-            ..self.base.clone()
+            ..base.clone()
         };
         self.tasks.get(task)?.outside_goal(p)
     }
@@ -331,7 +347,7 @@ impl ForceControllerNode {
     /// The controller of `task` outside a goal: still until asked, or,
     /// for a task that waits for its goal, until that goal.
     fn built(&self, task: &str, robot: Robot) -> Result<ForceController, ParamsError> {
-        let OutsideGoal { params, waits } = self.outside_goal(task)?;
+        let OutsideGoal { params, waits } = self.outside_goal(task, &self.base)?;
         let mut c = ForceController::new(params, robot, &self.tasks)?;
         if waits {
             c.stop();
@@ -369,7 +385,7 @@ impl ForceControllerNode {
             ),
             // Checked now, built when a description arrives.
             None => {
-                self.outside_goal(name)
+                self.outside_goal(name, &self.base)
                     .and_then(|o| ForceController::check(&o.params, &self.tasks))
                     .map_err(|e| e.to_string())?;
                 None

@@ -19,7 +19,7 @@ fn fz_data(features: Vec<String>, x: Array2<f64>, y: Array2<f64>) -> Dataset {
 }
 
 /// A model on the 19 electrodes, fz = minus the mean tared electrode.
-fn electrode_model() -> Box<dyn WrenchModel> {
+pub(super) fn electrode_model() -> Box<dyn WrenchModel> {
     let n = 30;
     let x = Array2::from_shape_fn((n, 19), |(i, j)| -(((i * 7 + j * 3) % 11) as f64));
     let y = Array2::from_shape_fn((n, 1), |(i, _)| -x.row(i).sum() / 19.0);
@@ -35,7 +35,7 @@ fn electrode_model() -> Box<dyn WrenchModel> {
     Box::new(crate::learn::models::wrench_gp::quick_fit(&data, tare))
 }
 
-fn reading(stamp_s: f64, pressed: u16) -> BioTacReading {
+pub(super) fn reading(stamp_s: f64, pressed: u16) -> BioTacReading {
     BioTacReading {
         seq: 0,
         stamp_s,

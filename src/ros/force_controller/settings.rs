@@ -8,6 +8,7 @@ use std::sync::{Arc, Mutex};
 use crate::control::{ControllerParams, TaskRegistry};
 use crate::nodes::bounds::InputGuard;
 use crate::nodes::force_controller::frames::Frames;
+use crate::nodes::force_controller::live::live_params;
 use crate::nodes::force_controller::{
     ft_to_biotac, tool_frame::biotac_frame, CommandInterface, ForceControllerNode,
 };
@@ -16,7 +17,7 @@ use crate::nodes::own_params;
 use crate::nodes::param_reference::RosNode;
 use crate::outputs::models_dir::ModelsDir;
 use crate::ros::description::joint_names_param;
-use crate::ros::params::RuntimeParams;
+use crate::ros::params::{to_yaml, RuntimeParams};
 use crate::ros::{self, lock, HasParams, RosError};
 use crate::wrench::FrameTransform;
 
@@ -105,24 +106,29 @@ impl Settings {
 }
 
 /// How the node answers a parameter set while it runs: `task` switches
-/// the task (checked as at start-up, or refused with the reason); while
-/// unconfigured, any parameter but those read at start only, for the next
-/// `configure`.
+/// the task, the other live parameters ([`live_params`]) retune it; each
+/// checked as at start-up, or refused with the reason. While unconfigured,
+/// any parameter but those read at start only, for the next `configure`.
 pub(super) fn live(
     shared: &Arc<Mutex<ForceControllerNode>>,
     guard: &Arc<InputGuard>,
     declared: ros::ParamMap,
 ) -> RuntimeParams {
     let s = shared.clone();
+    let names = live_params(lock(&s).tasks());
     let live = RuntimeParams::new(
-        &["task"],
-        Box::new(move |_, value, apply| {
-            let r2r::ParameterValue::String(name) = value else {
-                return Err(format!("{value:?}: expected a task's name"));
+        &names,
+        Box::new(move |name, value, apply| {
+            let mut node = lock(&s);
+            let taken = match (name, value) {
+                ("task", r2r::ParameterValue::String(task)) => node.set_task(task, apply),
+                ("task", other) => Err(format!("{other:?}: expected a task's name")),
+                (_, value) => {
+                    let value = to_yaml(value).ok_or("an unset value: give one")?;
+                    node.set_live(name, value, apply).map(|_| ())
+                }
             };
-            lock(&s)
-                .set_task(name, apply)
-                .inspect_err(|e| tracing::warn!("task refused: {e}"))
+            taken.inspect_err(|e| tracing::warn!("{name} refused: {e}"))
         }),
         guard,
     );

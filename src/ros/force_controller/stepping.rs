@@ -22,9 +22,11 @@ use r2r::diagnostic_msgs::msg::DiagnosticArray;
 
 use super::commands::Commands;
 use super::lock;
+use super::markers::Markers;
 use crate::nodes::bounds::{InputGuard, MESSAGE_MAX_BYTES};
 use crate::nodes::estimate_msg::{self as msg, ESTIMATE_MSG_TYPE};
 use crate::nodes::force_controller::{Force, ForceControllerNode, ForcePart};
+use crate::nodes::markers::task_phase;
 use crate::ros::inputs::Inputs;
 use crate::ros::{bounded, convert, ending, Graph, RosClock, RosError};
 
@@ -32,9 +34,18 @@ use crate::ros::{bounded, convert, ending, Graph, RosClock, RosError};
 /// force (or why it could not be read).
 pub(super) type ForceMsg = (ForcePart, String, Result<Force, String>);
 
+/// The control loop's topics: the forces it steps on ([`forces`]), the
+/// markers it draws.
+pub(super) fn topics(
+    node: &mut r2r::Node,
+    guard: &Arc<InputGuard>,
+) -> Result<(impl futures::Stream<Item = ForceMsg> + Unpin, Markers), RosError> {
+    Ok((forces(node, guard)?, Markers::create(node)?))
+}
+
 /// The estimate and the F/T sensor's wrench, merged into one stream of the
 /// forces the node steps on.
-pub(super) fn forces(
+fn forces(
     node: &mut r2r::Node,
     guard: &Arc<InputGuard>,
 ) -> Result<impl futures::Stream<Item = ForceMsg> + Unpin, RosError> {
@@ -98,12 +109,14 @@ pub(super) async fn report(
     }
 }
 
-/// Steps the node until the force topics end; a test may make it panic
-/// ([`ending::injected_panic`]).
+/// Steps the node until the force topics end, each estimate then drawn
+/// (`markers`, when due) with the phase it led to; a test may make it
+/// panic ([`ending::injected_panic`]).
 pub(super) async fn run(
     shared: &Mutex<ForceControllerNode>,
     mut forces: impl futures::Stream<Item = ForceMsg> + Unpin,
     commands: &Commands,
+    mut markers: Markers,
     inputs: &Inputs,
     clock: &RosClock,
     period: Duration,
@@ -118,12 +131,23 @@ pub(super) async fn run(
             part = forces.next() => {
                 let Some((part, frame, msg)) = part else { return Ok(()) };
                 inputs.heard(part.topic());
+                let estimate = match &msg {
+                    Ok(Force::Estimate(e)) => Some(*e),
+                    _ => None,
+                };
                 let now = clock.now_s();
-                let mut n = lock(shared);
-                if n.on_force_msg(part, &frame, msg, now) {
-                    deadline = tokio::time::Instant::now()
-                        + Duration::from_secs_f64(n.until_stale_s(now));
-                    commands.publish(&n, now);
+                let phase = {
+                    let mut n = lock(shared);
+                    if n.on_force_msg(part, &frame, msg, now) {
+                        deadline = tokio::time::Instant::now()
+                            + Duration::from_secs_f64(n.until_stale_s(now));
+                        commands.publish(&n, now);
+                    }
+                    task_phase(&n)
+                };
+                // After the command, outside the lock.
+                if let Some(e) = estimate {
+                    markers.on_estimate(&e, &frame, phase);
                 }
             }
             // No estimate in time: once the newest is stale, zero velocity,
