@@ -65,10 +65,12 @@ def nodes(scene, use_sim, object_name, model, port, sim_time=False, real_time_fa
 
 
 def urdf_root(description):
-    """The root link of a URDF's text: the link no joint has as child."""
+    """The root link of a URDF's text: the link no joint has as child (the
+    robot's own joints: those of <transmission> or <ros2_control> name no
+    links)."""
     robot = ET.fromstring(description)
-    children = {j.find("child").get("link") for j in robot.iter("joint")}
-    roots = [link.get("name") for link in robot.iter("link") if link.get("name") not in children]
+    children = {j.find("child").get("link") for j in robot.findall("joint")}
+    roots = [link.get("name") for link in robot.findall("link") if link.get("name") not in children]
     if len(roots) != 1:
         raise ValueError(f"the URDF has {len(roots)} root links ({', '.join(roots)}), not one")
     return roots[0]

@@ -294,6 +294,34 @@ mod tests {
     }
 
     #[test]
+    fn taken_settings_keep_what_the_watchdog_lowered_and_new_margins_retune() {
+        let mut pd = PdAxis::new(&params(), params().margins, 0.0);
+        pd.tune(1000.0, 1000.0, &timing(2));
+        let g = pd.gain();
+        pd.soften(0.5);
+        let mut p = *params();
+        p.max_speed_mps = 0.01;
+        let p = p.checked("pd").unwrap();
+        // A new deadband and speed limit: the same gain, lowered.
+        pd.take_settings(&PdAxis::new(&p, params().margins, 0.3));
+        pd.tune(1000.0, 1000.0, &timing(2));
+        assert!((pd.gain() / g - 0.5).abs() < 1e-12, "{} vs {g}", pd.gain());
+        assert_eq!(pd.step(1.0, 1.25, 0.01), 0.0, "0.25 N within 0.3 N");
+        assert_eq!(pd.step(1.0, -5.0, 0.01), 0.01, "clamped at 0.01 m/s");
+        // Wider margins: a lower gain, still lowered by the watchdog's half.
+        let wide = Margins {
+            phase_deg: 70.0,
+            gain: 3.0,
+        };
+        let mut fresh = PdAxis::new(&p, wide, 0.3);
+        fresh.tune(1000.0, 1000.0, &timing(2));
+        pd.take_settings(&PdAxis::new(&p, wide, 0.3));
+        pd.tune(1000.0, 1000.0, &timing(2));
+        assert!(fresh.gain() < g);
+        assert!((pd.gain() / fresh.gain() - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
     fn deadband_and_clamp() {
         let mut p = *params();
         p.max_speed_mps = 0.01;

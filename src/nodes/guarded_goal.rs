@@ -20,7 +20,8 @@ pub struct GuardedGoal {
 }
 
 impl Goal for GuardedGoal {
-    /// The start-up parameters with this goal applied (task = guarded).
+    /// The node's parameters (the start-up ones with the live sets since)
+    /// with this goal applied (task = guarded).
     fn apply(&self, base: &ControllerParams) -> Result<ControllerParams, ParamsError> {
         let mut p = base.clone();
         p.task = GuardedParams::NAME.into();

@@ -124,7 +124,7 @@ pub fn markers(e: &WrenchEstimate, phase: Option<TaskPhase>) -> [Marker; 3] {
         |i: usize| Some(e.std.force[i]).filter(|s| e.estimated[i] && s.is_finite() && *s > 0.0);
     let band = if (0..3).any(|i| sigma(i).is_some()) {
         let size =
-            Vector3::from_fn(|i, _| sigma(i).map_or(FLAT_M, |s| 2.0 * s * METRES_PER_NEWTON));
+            Vector3::from_fn(|i, _| sigma(i).map_or(FLAT_M, |s| s * (2.0 * METRES_PER_NEWTON)));
         Shape::Ellipsoid { centre: tip, size }
     } else {
         Shape::Deleted

@@ -211,16 +211,25 @@ pub fn markdown(tasks: &TaskRegistry) -> Result<String, ParamsError> {
     Ok(out)
 }
 
-/// What may change while `node` runs: the rest is read at start-up.
+/// What may change while `node` runs: the rest is read at start-up (and
+/// by a managed node at each `configure`).
 fn live_line(node: RosNode, tasks: &TaskRegistry) -> String {
     let (names, when) = node.live(tasks);
+    let managed = matches!(node, RosNode::ForceController | RosNode::BiotacDriver);
+    let rest = match managed {
+        true => {
+            "read at start-up and at each lifecycle `configure` (set them while \
+                 the node is unconfigured)"
+        }
+        false => "read at start-up: restart the node to change them",
+    };
     if names.is_empty() {
-        return "\nNone may change while the node runs: restart it.\n".into();
+        return format!("\nNone may change while the node runs: all are {rest}.\n");
     }
     let names: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
     format!(
         "\nLive, may change while the node runs (`ros2 param set`): {}: {when}. \
-         The others are read at start-up (a managed node's also at `configure`).\n",
+         The others are {rest}.\n",
         names.join(", ")
     )
 }

@@ -327,6 +327,8 @@ impl<S: SensorInput> EstimatorNode<S> {
                 self.stale_age_s = Some(age_s);
                 return None;
             }
+            // Fresh again: the hint of the last stale one no longer holds.
+            self.stale_age_s = None;
         }
         match self.on_reading(r) {
             Ok(Some(e)) if e.is_finite() => {

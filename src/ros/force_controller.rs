@@ -42,8 +42,9 @@
 //! The parameter `task` (`guarded`, `guided` or `calibrate`) may be set
 //! while running: the controller is rebuilt for it and checked as at
 //! start-up, or the set is refused with the reason (`calibrate` waits, the
-//! arm still, for a calibration goal). Every other parameter is read at
-//! start-up.
+//! arm still, for a calibration goal). The other live parameters retune
+//! the task ([`crate::nodes::force_controller::live`]); every other is read
+//! at start-up.
 //!
 //! The files a calibration goal names stay in `models_dir` (default: the
 //! model cache folder; [`crate::outputs::models_dir`]). The calibration is

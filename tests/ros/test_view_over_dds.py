@@ -160,6 +160,14 @@ def frame_checks(peer, frames, fixed):
     roots = {r: urdf_root(urdf(r)) for r in ("pa10", "ur5", "panda")}
     check("frames: the configuration's Fixed Frame is the PA10's and the UR5's root (the Panda's by -f)",
           fixed == roots["pa10"] == roots["ur5"], f"Fixed Frame {fixed}; roots {roots}")
+    # A description generated from a ros2_control xacro: joints that name
+    # no links, inside <transmission> and <ros2_control>.
+    control = ('<transmission name="t"><joint name="shoulder_pan_joint"/></transmission>'
+               '<ros2_control name="arm" type="system"><joint name="shoulder_pan_joint">'
+               '<command_interface name="velocity"/></joint></ros2_control></robot>')
+    with_control = urdf("ur5").replace("</robot>", control)
+    root = urdf_root(with_control)
+    check("frames: the root of a URDF with <transmission> and <ros2_control> blocks", root == roots["ur5"], root)
 
 
 class Seen:

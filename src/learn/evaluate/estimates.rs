@@ -1,5 +1,6 @@
 //! `eval --model M --test FILES --estimates OUT.csv`: the model's estimate
-//! of every row of the test files, one CSV line each, as `eval` scores
+//! of every row of the test files (a bag's: the readings with a wrench),
+//! one CSV line each, as `eval` scores
 //! them: to set beside what the nodes publish for the same readings (a
 //! recording played back into `wrench_estimator`).
 
@@ -9,8 +10,8 @@ use crate::learn::models::wrench_model::WrenchModel;
 
 /// The CSV of `model`'s estimates for `files` (each its name as given and
 /// its rows, tared as `eval` tares them): a header, then one line per row
-/// of each file in its order (a bag's: its paired readings in stamp
-/// order): `file,row,set,trial` (`row` from 0 within the file), then for
+/// of each file in its order (a bag's: its readings with an F/T wrench
+/// within 5 ms, in stamp order): `file,row,set,trial` (`row` from 0 within the file), then for
 /// each of the model's axes its estimate (`fz_estimate`: the mean, N or
 /// N m) and the file's label (`fz_label`: the reference, tared).
 pub fn estimates_csv(

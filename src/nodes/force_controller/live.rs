@@ -60,10 +60,28 @@ impl fmt::Display for LiveSet {
 
 impl ForceControllerNode {
     /// Checks (`apply` false) or applies a new `value` of the live
+    /// parameter `name` (`task` or another: [`live_params`]); Err says why
+    /// it is refused (None: a value unset).
+    pub fn set_param(
+        &mut self,
+        name: &str,
+        value: Option<serde_yaml_ng::Value>,
+        apply: bool,
+    ) -> Result<(), String> {
+        match (name, value) {
+            (_, None) => Err("an unset value: give one".into()),
+            ("task", Some(serde_yaml_ng::Value::String(task))) => self.set_task(&task, apply),
+            ("task", Some(other)) => Err(format!("{other:?}: expected a task's name")),
+            (_, Some(value)) => self.set_live(name, value, apply).map(|_| ()),
+        }
+    }
+
+    /// Checks (`apply` false) or applies a new `value` of the live
     /// parameter `name` (not `task`: [`ForceControllerNode::set_task`]):
     /// the task it concerns is checked on it as at start-up; applied, a
     /// running guided move takes it at once, the others from their next
-    /// start. Err says why it is refused.
+    /// start (one that has stopped, or not begun, from its next start).
+    /// Err says why it is refused.
     pub fn set_live(
         &mut self,
         name: &str,
@@ -75,7 +93,8 @@ impl ForceControllerNode {
         if !apply {
             return Ok(Takes::NextStart);
         }
-        let now = !self.goal && owner(&self.tasks, name).is_none_or(|t| t == self.task);
+        let now =
+            !self.goal && self.running() && owner(&self.tasks, name).is_none_or(|t| t == self.task);
         let p = self
             .outside_goal(&self.task, &base)
             .map_err(|e| e.to_string())?

@@ -90,6 +90,9 @@ fn a_stale_reading_of_another_clock_says_how_to_replay_a_recording() {
         hint.contains("use_sim_time:=true") && hint.contains("--clock"),
         "{hint}"
     );
+    // A fresh reading after it (the clock set right): the hint goes.
+    node.on_received(&reading(3601.0, 0), 3601.01);
+    assert_eq!(node.stale_hint(), None);
 }
 
 #[test]

@@ -119,16 +119,9 @@ pub(super) fn live(
     let live = RuntimeParams::new(
         &names,
         Box::new(move |name, value, apply| {
-            let mut node = lock(&s);
-            let taken = match (name, value) {
-                ("task", r2r::ParameterValue::String(task)) => node.set_task(task, apply),
-                ("task", other) => Err(format!("{other:?}: expected a task's name")),
-                (_, value) => {
-                    let value = to_yaml(value).ok_or("an unset value: give one")?;
-                    node.set_live(name, value, apply).map(|_| ())
-                }
-            };
-            taken.inspect_err(|e| tracing::warn!("{name} refused: {e}"))
+            lock(&s)
+                .set_param(name, to_yaml(value), apply)
+                .inspect_err(|e| tracing::warn!("{name} refused: {e}"))
         }),
         guard,
     );

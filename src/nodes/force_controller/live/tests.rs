@@ -176,3 +176,42 @@ fn a_guarded_goal_keeps_its_own_settings_and_the_next_goal_takes_the_set() {
     let g: GuardedParams = n.params().section().unwrap();
     assert_eq!(g.approach_speed_mps, 0.004);
 }
+
+#[test]
+fn a_shared_setting_is_checked_on_the_task_running_and_a_stopped_move_takes_it_next() {
+    // The guarded move's envelope reads its approach speed, not the PD's
+    // limit: taken, for the next start.
+    let mut n = node(None);
+    n.take_description(pa10()).unwrap();
+    let fast = number(0.2);
+    assert_eq!(
+        n.set_live("pd.max_speed_mps", fast.clone(), true),
+        Ok(Takes::NextStart)
+    );
+    // The guided move's envelope reads it: refused, naming it and the limit.
+    let mut n = guided(20);
+    let e = n.set_live("pd.max_speed_mps", fast, true).unwrap_err();
+    assert!(
+        e.contains("pd.max_speed_mps") && e.contains("at most"),
+        "{e}"
+    );
+    // A move stopped takes a set from its next start.
+    n.stop(super::super::stop::Stopped::Service);
+    estimate(&mut n, 0.3, 0.0);
+    assert!(!n.running());
+    let takes = n.set_live("guided.deadband_n", number(0.3), true);
+    assert_eq!(takes, Ok(Takes::NextStart));
+    // `task` and the others through one door; an unset value refused.
+    assert!(n
+        .set_param("guided.deadband_n", None, true)
+        .unwrap_err()
+        .contains("unset"));
+    let e = n.set_param("task", Some(number(1.0)), true).unwrap_err();
+    assert!(e.contains("expected a task's name"), "{e}");
+    n.set_param("task", Some(Value::String("guided".into())), true)
+        .unwrap();
+    assert!(
+        estimate(&mut n, 1.0, 0.0).unwrap().velocity.norm() > 0.0,
+        "started again"
+    );
+}
