@@ -61,10 +61,27 @@ def modules(src):
 
 
 def non_test(text, path=""):
+    """`text` without the items under `#[cfg(test)]`: each such item (a
+    `mod tests;` line, or an item to its closing brace) is cut, what follows
+    it kept."""
     if os.path.basename(path) == "tests.rs":
         return ""
-    i = text.find("#[cfg(test)]")
-    return text if i < 0 else text[:i]
+    out, at = [], 0
+    while (i := text.find("#[cfg(test)]", at)) >= 0:
+        out.append(text[at:i])
+        j = i + len("#[cfg(test)]")
+        semi, brace = text.find(";", j), text.find("{", j)
+        if brace < 0 or 0 <= semi < brace:
+            at = len(text) if semi < 0 else semi + 1
+            continue
+        depth = 0
+        for k in range(brace, len(text)):
+            depth += {"{": 1, "}": -1}.get(text[k], 0)
+            if depth == 0:
+                break
+        at = k + 1
+    out.append(text[at:])
+    return "".join(out)
 
 
 def use_paths(tree):

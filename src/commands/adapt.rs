@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use tactile_force::learn::evaluate::{training_fit, Progress};
-use tactile_force::learn::models::gp::GpParams;
+use tactile_force::learn::models::gp::{GpParams, DEFAULT_MAX_TRAIN};
 use tactile_force::learn::models::wrench_gp::{AdaptChoice, AdaptedFrom, WrenchGp};
 use tactile_force::learn::pooled::{base_data, lineage, Adaptation, Unavailable};
 
@@ -30,7 +30,7 @@ pub(crate) struct AdaptArgs {
     #[arg(long)]
     out: PathBuf,
     /// Largest number of rows the correction GP trains on (a random subset beyond it).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = DEFAULT_MAX_TRAIN)]
     max_train: usize,
     /// Optimiser starts of the hyperparameter fit.
     #[arg(long, default_value_t = 3)]

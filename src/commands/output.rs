@@ -67,12 +67,14 @@ pub(crate) fn print_scores(what: &str, validation: &[Validation], chosen: &str) 
 }
 
 pub(crate) fn print_selection(s: &Selection) {
+    let spent = s.spent_s.map_or(String::new(), |t| format!(" in {t:.1} s"));
     println!(
-        "--select: {}-fold trial-wise cross-validation of {} candidates in {:.1} s (budget {:.0} s); \
-         score = mean over axes of RMSE / sd of the targets, ± its standard error over the folds",
+        "--select: {}-fold trial-wise cross-validation of {} candidates{spent} (budget {:.0} s, \
+         of predicted time); score = mean over axes of RMSE / sd of the targets, ± its standard \
+         error over the folds; time predicted (pred.) from each candidate's kind and size, and \
+         measured this run",
         s.folds,
         s.table.len(),
-        s.spent_s,
         s.budget_s
     );
     for set in &s.blocks {
@@ -90,7 +92,7 @@ pub(crate) fn print_selection(s: &Selection) {
         .map(|a| format!("{:>8}", format!("{a} RMSE")))
         .collect();
     println!(
-        "    score  ± s.e. {} seconds  CPU s  est. µs  options",
+        "    score  ± s.e. {} pred. s seconds  CPU s  est. µs pred. p50 / p99  options",
         heads.join(" ")
     );
     let cells = |rmse: &BTreeMap<Axis, f64>| {
@@ -101,14 +103,22 @@ pub(crate) fn print_selection(s: &Selection) {
         |folds: &[f64]| mean_and_error(folds).map_or("-".into(), |(_, e)| format!("{e:.4}"));
     for (i, r) in s.table.iter().enumerate() {
         let mark = if i == s.chosen { '*' } else { ' ' };
-        let cpu = r.cpu_s.map_or("-".into(), |c| format!("{c:.1}"));
-        let latency = r.latency_us.map_or("-".into(), |l| format!("{l:.0}"));
+        let shown =
+            |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
+        let latency = format!(
+            "{} / {}",
+            shown(r.latency_us, 0),
+            shown(r.latency_p99_us, 0)
+        );
         println!(
-            "  {mark} {:.4} {:>6} {} {:>7.1} {cpu:>6} {latency:>8}  {}",
+            "  {mark} {:.4} {:>6} {} {:>7} {:>7} {:>6} {:>8} {latency:>11}  {}",
             r.score,
             error(&r.fold_scores),
             cells(&r.rmse),
-            r.seconds,
+            shown(r.predicted.map(|p| p.fit_s), 1),
+            shown(r.seconds, 1),
+            shown(r.cpu_s, 1),
+            shown(r.predicted.map(|p| p.estimate_us), 0),
             r.choice
         );
         if let Some(a) = &r.network_alone {

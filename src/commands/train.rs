@@ -8,7 +8,7 @@ use tactile_force::learn::choice::{select, Choice, Family, GpChoice, Space};
 use tactile_force::learn::data::Channel;
 use tactile_force::learn::evaluate::{training_fit, Progress, Scores};
 use tactile_force::learn::models::ensemble::WrenchEnsemble;
-use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset};
+use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset, DEFAULT_MAX_TRAIN};
 use tactile_force::learn::models::scale::InputScaling;
 use tactile_force::learn::models::wrench_gp::{TareSpec, TrainedOn, WrenchGp};
 use tactile_force::learn::models::wrench_model::WrenchModel;
@@ -42,7 +42,7 @@ pub(crate) struct FitArgs {
     #[arg(long)]
     pub(crate) input: Option<InputScaling>,
     /// Largest training set of the exact GP (a subset beyond it, see
-    /// --subset): time grows as n^3. Default 2000. With --select: fixes the
+    /// --subset): time grows as n^3. Default 2000 (DEFAULT_MAX_TRAIN). With --select: fixes the
     /// exact GP and its size.
     #[arg(long)]
     pub(crate) max_train: Option<usize>,
@@ -155,9 +155,6 @@ pub(crate) struct TrainArgs {
     #[command(flatten)]
     fit: FitArgs,
 }
-
-/// The exact GP's largest training set unless --max-train says.
-const DEFAULT_MAX_TRAIN: usize = 2000;
 
 /// The GP options of `fit` for data of `sensor`.
 pub(crate) fn gp_params(fit: &FitArgs, sensor: &SensorSpec) -> Result<Checked<GpParams>> {

@@ -11,15 +11,21 @@
 //! subset; a sparse GP's search on fewer rows, `scoring`), its search
 //! started warm where the same form was fitted before
 //! (`WarmStarts`), and scored on the held-out trials (each candidate's
-//! wall and CPU seconds recorded, and its estimate's latency). The
+//! wall and CPU seconds and its estimate's time shown, not recorded). The
 //! score is the mean over axes of the RMSE over the standard deviation of
 //! the axis's targets, so that forces and torques weigh alike. A set
-//! recorded as one trial is cut into contiguous blocks, each a trial. When
-//! the budget runs out the search stops, at the latest after the fold that
-//! passed it, and says what it did not try. The defaults are scored
-//! whatever the budget: they are what every other candidate must beat.
-//! Among the candidates within noise of the best score, the simplest, then
-//! the fastest, is chosen (`pick.rs`).
+//! recorded as one trial is cut into contiguous blocks, each a trial.
+//!
+//! No clock decides anything: each candidate's cost is predicted from its
+//! kind and size before it runs (`cost.rs`). A candidate whose estimate is
+//! predicted slower than [`cost::ESTIMATE_LIMIT_US`] is not a candidate; one
+//! predicted beyond what the budget leaves is not tried; both are listed
+//! with the reason. The defaults are scored whatever the budget: they are
+//! what every other candidate must beat. Among the candidates within noise
+//! of the best score, the simplest, then the cheapest estimate, then the
+//! first tried is chosen (`pick.rs`). So the same data, options and seed
+//! give the same table, choice and model file on a loaded machine as on an
+//! idle one.
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -28,14 +34,15 @@ use ndarray::Axis as NdAxis;
 
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::gp::fit::FitProgress;
-use super::models::gp::{GpParams, MeanKind};
+use super::models::gp::{GpParams, MeanKind, DEFAULT_MAX_TRAIN};
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{ModelError, TareSpec};
+use super::pooled::spread;
 use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};
 
-pub use super::models::provenance::Family;
+pub use super::models::provenance::{Cost, Family};
 pub use super::models::wrench_gp::{AloneScore, Choice, CvRow, GpChoice, Selection};
 
 impl Choice {
@@ -46,7 +53,7 @@ impl Choice {
             family: Family::Gp,
             channels: vec![Channel::Electrodes, Channel::Pdc],
             input: InputScaling::Standard,
-            gp: GpChoice::Exact(2000),
+            gp: GpChoice::Exact(DEFAULT_MAX_TRAIN),
             mean: MeanKind::Zero,
         }
     }
@@ -120,8 +127,27 @@ impl Classify for SelectError {
     }
 }
 
-/// Why a candidate was not tried when the budget stopped the search.
-const BUDGET_RAN_OUT: &str = "the time budget ran out";
+/// Why a candidate of `cost` is not tried with `left_s` predicted seconds
+/// of the budget left: its estimate is predicted slower than
+/// [`cost::ESTIMATE_LIMIT_US`] (not a candidate), or its cross-validation
+/// longer than what is left; None when it is tried.
+fn not_tried(cost: &Cost, left_s: f64) -> Option<String> {
+    if cost.estimate_us > cost::ESTIMATE_LIMIT_US {
+        return Some(format!(
+            "its estimate is predicted at {:.0} µs, over the {:.0} µs an estimate may take ({})",
+            cost.estimate_us,
+            cost::ESTIMATE_LIMIT_US,
+            cost::ESTIMATE_LIMIT_WHY
+        ));
+    }
+    (cost.fit_s > left_s).then(|| {
+        format!(
+            "predicted {:.1} s, over the {:.1} s the time budget leaves",
+            cost.fit_s,
+            left_s.max(0.0)
+        )
+    })
+}
 
 /// What the search may vary: the channels the data hold, and the options
 /// the user fixed (`train --select --channels ...`).
@@ -249,7 +275,7 @@ impl Space {
         ];
         // Smaller exact subsets and sparse sizes, then more rows when there are.
         let gps = [
-            GpChoice::Exact(2000),
+            GpChoice::Exact(DEFAULT_MAX_TRAIN),
             GpChoice::Sparse(200),
             GpChoice::Exact(1000),
             GpChoice::Sparse(500),
@@ -307,18 +333,22 @@ pub fn select(
     let data = &data;
     let k = fold_count(data, folds)?;
     let splits = trialwise_folds(data, k);
-    let sd: Vec<f64> = data
-        .y
-        .columns()
-        .into_iter()
-        .map(|c| c.std(0.0).max(f64::MIN_POSITIVE))
-        .collect();
+    let sd = spread(data);
     let start = Instant::now();
-    let over = || start.elapsed().as_secs_f64() > budget_s;
     let mut table: Vec<CvRow> = Vec::new();
     let mut untried = Vec::new();
     let mut warm = WarmStarts::default();
-    // A candidate's cross-validation; `budgeted`: stopped by the budget.
+    let cv = Cv {
+        data,
+        tare,
+        splits: &splits,
+        base,
+        sd: &sd,
+    };
+    // Seconds the candidates run so far are predicted to take.
+    let mut predicted_s = 0.0;
+    // A candidate's cross-validation; `budgeted`: within the budget's
+    // prediction, else it runs whatever its cost (the defaults).
     let mut run = |choice: &Choice,
                    budgeted: bool,
                    table: &mut Vec<CvRow>,
@@ -326,21 +356,16 @@ pub fn select(
         if table.iter().any(|r| &r.choice == choice) || untried.iter().any(|(c, _)| c == choice) {
             return;
         }
-        let stop = || budgeted && over();
-        if stop() {
-            untried.push((choice.clone(), BUDGET_RAN_OUT.into()));
-            return;
+        let cost = cv.cost(choice);
+        if let Some(why) = budgeted
+            .then(|| not_tried(&cost, budget_s - predicted_s))
+            .flatten()
+        {
+            return untried.push((choice.clone(), why));
         }
-        let cv = Cv {
-            data,
-            tare,
-            splits: &splits,
-            base,
-            sd: &sd,
-        };
-        match cv.run(choice, &mut warm, &stop, progress) {
-            Ok(Some(row)) => table.push(row),
-            Ok(None) => untried.push((choice.clone(), BUDGET_RAN_OUT.into())),
+        predicted_s += cost.fit_s;
+        match cv.run(choice, &mut warm, progress) {
+            Ok(row) => table.push(row),
             Err(why) => untried.push((choice.clone(), why)),
         }
     };
@@ -362,7 +387,7 @@ pub fn select(
     Ok(Selection {
         folds: k,
         budget_s,
-        spent_s: start.elapsed().as_secs_f64(),
+        spent_s: Some(start.elapsed().as_secs_f64()),
         table,
         chosen,
         why,
@@ -414,6 +439,7 @@ pub(crate) fn columns(
     Ok((sub, tare))
 }
 
+mod cost;
 mod cv;
 mod pick;
 

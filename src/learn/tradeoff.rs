@@ -267,6 +267,17 @@ pub(crate) fn median_latency_us(
     per_row[per_row.len() / 2]
 }
 
+/// The time of `predict` on each of `rows`, one call each (µs).
+pub(crate) fn timed_us(rows: &[Vec<f64>], mut predict: impl FnMut(&[f64])) -> Vec<f64> {
+    rows.iter()
+        .map(|r| {
+            let t0 = Instant::now();
+            predict(std::hint::black_box(r));
+            t0.elapsed().as_secs_f64() * 1e6
+        })
+        .collect()
+}
+
 /// For each row, true when no other row is at least as good on both `cost`
 /// and the mean RMSE and strictly better on one (the Pareto front).
 pub fn pareto_front(rows: &[Row], cost: impl Fn(&Row) -> f64) -> Vec<bool> {

@@ -8,8 +8,9 @@ use std::time::Instant;
 use ndarray::Array2;
 use rayon::prelude::*;
 
-use super::{AloneScore, Choice, CvRow, Family};
-use crate::learn::data::Dataset;
+use super::cost::{self, Shape};
+use super::{AloneScore, Choice, Cost, CvRow, Family};
+use crate::learn::data::{layout_of, Dataset};
 use crate::learn::models::ensemble::WrenchEnsemble;
 use crate::learn::models::gp::fit::FitProgress;
 use crate::learn::models::gp::{GpParams, MeanKind, SeHyper};
@@ -18,7 +19,7 @@ use crate::learn::models::nn::Mlp;
 use crate::learn::models::wrench_gp::{std_scale_over_folds, Estimate};
 use crate::learn::models::wrench_gp::{ModelError, TareSpec, WarmStart, WrenchGp};
 use crate::learn::models::wrench_model::WrenchModel;
-use crate::learn::tradeoff::{median_latency_us, timed_rows};
+use crate::learn::tradeoff::{timed_rows, timed_us};
 use crate::params::Checked;
 
 /// Hyperparameters fitted so far, per axis, by the model's form (channels,
@@ -138,15 +139,25 @@ pub(super) struct Cv<'a> {
 }
 
 impl Cv<'_> {
-    /// One candidate's folds; None when the budget ran out in them; Err
-    /// when the data cannot serve it (the reason).
+    /// `choice`'s cost on these folds, predicted from its kind and size.
+    pub(super) fn cost(&self, choice: &Choice) -> Cost {
+        let train: usize = self.splits.iter().map(|(train, _)| train.len()).sum();
+        let shape = Shape {
+            train_rows: train / self.splits.len().max(1),
+            folds: self.splits.len(),
+            features: choice.features(layout_of(&self.data.features)).len(),
+            axes: self.sd.len(),
+        };
+        cost::predict(choice, &shape)
+    }
+
+    /// One candidate's folds; Err when the data cannot serve it (the reason).
     pub(super) fn run(
         &self,
         choice: &Choice,
         warm: &mut WarmStarts,
-        over: &dyn Fn() -> bool,
         progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
-    ) -> Result<Option<CvRow>, String> {
+    ) -> Result<CvRow, String> {
         let (sub, sub_tare) = choice.cut(self.data, self.tare)?;
         let params = scoring(choice.gp_params(self.base))
             .validate()
@@ -155,7 +166,7 @@ impl Cv<'_> {
         warm.fit_networks(choice, &sub, self.splits, &params)?;
         let mut pooled = Pooled::new(self.data);
         let mut alone = (choice.mean == MeanKind::Network).then(|| Pooled::new(self.data));
-        let mut latency_us = None;
+        let mut latency = None;
         let mut z: Vec<Vec<Vec<f64>>> = vec![Vec::new(); self.sd.len()];
         for (fold, (train, test)) in self.splits.iter().enumerate() {
             let held_out = sub.select(test);
@@ -178,10 +189,7 @@ impl Cv<'_> {
                 (model.standardised_errors(&held_out, CALIBRATION_ROWS)).map_err(failed)?;
             z.iter_mut().zip(errors).for_each(|(z, e)| z.push(e));
             if fold + 1 == self.splits.len() {
-                latency_us = Some(latency(model.as_ref(), &held_out));
-            }
-            if over() {
-                return Ok(None);
+                latency = Some(latency_us(model.as_ref(), &held_out));
             }
         }
         let axes = self.data.axes.axes();
@@ -190,19 +198,21 @@ impl Cv<'_> {
             score,
             fold_scores,
         } = pooled.scores(self);
-        Ok(Some(CvRow {
+        Ok(CvRow {
             choice: choice.clone(),
             rmse,
             score,
-            seconds: t0.elapsed().as_secs_f64(),
+            seconds: Some(t0.elapsed().as_secs_f64()),
             cpu_s: cpu_seconds().zip(cpu0).map(|(now, then)| now - then),
+            predicted: Some(self.cost(choice)),
             fold_scores,
-            latency_us,
+            latency_us: latency.map(|l| l.0),
+            latency_p99_us: latency.map(|l| l.1),
             std_scale: (axes.iter().zip(&z))
                 .filter_map(|(&a, z)| std_scale_over_folds(z).map(|s| (a, s)))
                 .collect(),
             network_alone: alone.map(|a| a.scores(self)),
-        }))
+        })
     }
 
     /// `choice`'s model of one fold, and for a network mean its network's
@@ -296,28 +306,31 @@ impl Pooled {
 /// deviation (evenly spread): its variance costs O(n^2) a row.
 const CALIBRATION_ROWS: usize = 50;
 
-/// Rows an estimate's latency is timed on (at most; at least 3), and passes
-/// over them (the median pass is taken).
-const LATENCY_ROWS: usize = 30;
-const LATENCY_PASSES: usize = 3;
-/// About the time of one pass (s): a slow model is timed on fewer rows (an
-/// exact GP on 4000 rows takes 24 ms an estimate with its standard
-/// deviation: 30 rows, three passes, took 2.2 s of the table).
-const LATENCY_PASS_S: f64 = 0.03;
+/// Estimates timed per candidate (at most: as many as fit in
+/// [`LATENCY_S`], at least 3), one at a time as the estimator makes them.
+const LATENCY_ESTIMATES: usize = 300;
+/// About the time spent timing a candidate's estimates (s).
+const LATENCY_S: f64 = 0.05;
 
-/// The median time (µs) of `model`'s estimate with its standard deviation,
-/// as the estimator makes one, on rows of `data`: one estimate first (it
-/// also warms the caches), then as many rows as fit in [`LATENCY_PASS_S`].
-fn latency(model: &dyn WrenchModel, data: &Dataset) -> f64 {
+/// The median and the 99th percentile time (µs) of `model`'s estimate
+/// with its standard deviation, as the estimator makes one, on rows of
+/// `data`: one estimate first (it also warms the caches), then as many as
+/// fit in [`LATENCY_S`]. Shown, never chosen by: a clock reading.
+fn latency_us(model: &dyn WrenchModel, data: &Dataset) -> (f64, f64) {
     let mut ws = model.workspace();
     let mut out = vec![Estimate::default(); model.axes().len()];
     let mut estimate = |x: &[f64]| {
         // The rows have the model's features, so this cannot fail.
         let _ = model.estimate(x, &mut ws, true, &mut out);
     };
-    let one_s = 1e-6 * median_latency_us(&timed_rows(data, 1), 1, &mut estimate);
-    let rows = (LATENCY_PASS_S / one_s.max(1e-9)).clamp(3.0, LATENCY_ROWS as f64) as usize;
-    median_latency_us(&timed_rows(data, rows), LATENCY_PASSES, estimate)
+    let one = timed_us(&timed_rows(data, 1), &mut estimate)[0];
+    let n = (LATENCY_S * 1e6 / one.max(1e-3)).clamp(3.0, LATENCY_ESTIMATES as f64) as usize;
+    let rows = timed_rows(data, n.min(data.len()));
+    let rows: Vec<Vec<f64>> = rows.iter().cycle().take(n).cloned().collect();
+    let mut times = timed_us(&rows, estimate);
+    times.sort_by(f64::total_cmp);
+    let at = |q: f64| times[((times.len() - 1) as f64 * q).round() as usize];
+    (at(0.5), at(0.99))
 }
 
 /// The process's CPU time so far (user + system, every thread, s), from

@@ -1,6 +1,8 @@
 //! Which scored candidate `--select` takes: among those within noise of the
 //! best score, the simplest form (the GP's prior mean; the ensemble as
-//! flexible as a network mean), then the fastest estimate.
+//! flexible as a network mean), then the cheapest estimate as predicted
+//! from its kind and size (`cost.rs`, never a clock: a loaded machine
+//! chooses as an idle one), then the first tried.
 //!
 //! A more flexible model can win the cross-validation by less than the
 //! folds disagree, and then generalise worse to a new session (a cubic mean
@@ -59,11 +61,10 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
         .collect();
     let cost = |i: &usize| {
         let r = &table[*i];
-        (
-            flexibility(&r.choice),
-            r.latency_us.unwrap_or(f64::INFINITY),
-        )
+        let estimate_us = r.predicted.map_or(f64::INFINITY, |c| c.estimate_us);
+        (flexibility(&r.choice), estimate_us)
     };
+    // min_by keeps the first of equals: the one tried first.
     let chosen = near
         .iter()
         .copied()
@@ -74,7 +75,7 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
         .unwrap_or(best_i);
     let why = if chosen == best_i {
         format!(
-            "the best score ({:.4}); {} other candidate(s) within one standard error of it, none simpler or faster",
+            "the best score ({:.4}); {} other candidate(s) within one standard error of it, none simpler or cheaper",
             best.score,
             near.len() - 1
         )
@@ -82,12 +83,12 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
         let c = &table[chosen];
         format!(
             "within one standard error of the best score ({:.4} vs {:.4}, {}), the simplest form \
-             ({}) and then the fastest estimate ({:.0} µs) of the {} candidates there",
+             ({}) and then the cheapest estimate (predicted {:.0} µs) of the {} candidates there",
             c.score,
             best.score,
             best.choice,
             form(&c.choice),
-            c.latency_us.unwrap_or(f64::NAN),
+            c.predicted.map_or(f64::NAN, |p| p.estimate_us),
             near.len()
         )
     };
@@ -98,8 +99,9 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
 mod tests {
     use super::*;
     use crate::learn::choice::Choice;
+    use crate::learn::models::provenance::Cost;
 
-    fn row(mean: MeanKind, folds: &[f64], latency_us: f64) -> CvRow {
+    fn row(mean: MeanKind, folds: &[f64], estimate_us: f64) -> CvRow {
         CvRow {
             choice: Choice {
                 mean,
@@ -107,10 +109,16 @@ mod tests {
             },
             rmse: Default::default(),
             score: folds.iter().sum::<f64>() / folds.len() as f64,
-            seconds: 1.0,
+            seconds: None,
             cpu_s: None,
+            predicted: Some(Cost {
+                fit_s: 1.0,
+                estimate_us,
+            }),
             fold_scores: folds.to_vec(),
-            latency_us: Some(latency_us),
+            // A clock's reading, the other way round: never read.
+            latency_us: Some(1e6 - estimate_us),
+            latency_p99_us: None,
             std_scale: Default::default(),
             network_alone: None,
         }
@@ -158,7 +166,7 @@ mod tests {
         let (i, why) = choose(&table);
         assert_eq!(i, 0, "{why}");
         assert!(why.contains("simplest form (zero mean)"), "{why}");
-        // Within noise of a better network mean: the faster of the two.
+        // Within noise of a better network mean: the cheaper of the two.
         let table = [
             row(MeanKind::Network, &[0.30, 0.29, 0.28], 300.0),
             ensemble(&[0.27, 0.33, 0.30], 10.0),
@@ -175,12 +183,16 @@ mod tests {
     }
 
     #[test]
-    fn among_equally_simple_candidates_the_faster_is_chosen() {
+    fn among_equally_simple_candidates_the_cheaper_then_the_first_is_chosen() {
         let table = [
             row(MeanKind::Zero, &[0.300, 0.310, 0.290], 80.0),
             row(MeanKind::Zero, &[0.301, 0.308, 0.294], 30.0),
         ];
         assert_eq!(choose(&table).0, 1);
+        // As cheap: the first tried, whatever the clock said.
+        let mut same = table.clone();
+        same[1].predicted = same[0].predicted;
+        assert_eq!(choose(&same).0, 0);
         // Without fold scores (a file written before) only the best is known.
         let mut old = table.clone();
         old[1].fold_scores.clear();

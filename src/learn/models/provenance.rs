@@ -111,11 +111,7 @@ impl std::fmt::Display for Choice {
                 self.gp,
                 self.mean.name()
             ),
-            Family::Ensemble => write!(
-                f,
-                "{channels}, ensemble of {} networks",
-                crate::learn::models::ensemble::DEFAULT_MEMBERS
-            ),
+            Family::Ensemble => write!(f, "{channels}, ensemble of networks"),
         }
     }
 }
@@ -131,19 +127,30 @@ pub struct CvRow {
     /// Mean over axes of the RMSE over the targets' standard deviation
     /// (lower is better).
     pub score: f64,
-    /// Seconds its folds took.
-    pub seconds: f64,
-    /// CPU seconds the process spent in its folds, all threads (None where
-    /// the system does not say, and in files written before).
-    #[serde(default)]
+    /// Seconds its folds took, this run (a clock reading: shown, never
+    /// chosen by, not written to the file, so that the same data and seed
+    /// give the same file).
+    #[serde(default, skip_serializing)]
+    pub seconds: Option<f64>,
+    /// CPU seconds the process spent in its folds, all threads, this run
+    /// (None where the system does not say; not written, as `seconds`).
+    #[serde(default, skip_serializing)]
     pub cpu_s: Option<f64>,
+    /// Its cost predicted from its kind and size before it ran: what the
+    /// budget, the estimate's time limit and the choice read (None in
+    /// files written before).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted: Option<Cost>,
     /// The score of each fold alone (empty in files written before).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fold_scores: Vec<f64>,
     /// Median time of one estimate with its standard deviation (µs), as the
-    /// estimator makes it (None in files written before).
-    #[serde(default)]
+    /// estimator makes it, this run (not written, as `seconds`).
+    #[serde(default, skip_serializing)]
     pub latency_us: Option<f64>,
+    /// Its 99th percentile (µs), this run (not written, as `seconds`).
+    #[serde(default, skip_serializing)]
+    pub latency_p99_us: Option<f64>,
     /// Per axis, the scale of the standard deviation that puts 95 % of the
     /// held-out errors within two of it ([`super::wrench_gp::std_scale`]; empty in
     /// files written before).
@@ -154,6 +161,19 @@ pub struct CvRow {
     /// it is not a candidate; shown for comparison (None for other means).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub network_alone: Option<AloneScore>,
+}
+
+/// A candidate's cost predicted from its kind and size alone, never from a
+/// clock (`learn::choice`): the same on any machine, under any load.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cost {
+    /// Seconds its cross-validation takes on 2 idle cores of the machine
+    /// the prediction was measured on (docs/results.md).
+    pub fit_s: f64,
+    /// Microseconds of one estimate with its standard deviation, every
+    /// axis, on one core of that machine.
+    pub estimate_us: f64,
 }
 
 /// The cross-validation of a model that is shown, not chosen.
@@ -177,8 +197,10 @@ pub struct Selection {
     pub folds: usize,
     /// The time budget (s).
     pub budget_s: f64,
-    /// The time the search took (s).
-    pub spent_s: f64,
+    /// The time the search took (s), this run (not written, as
+    /// [`CvRow::seconds`]).
+    #[serde(default, skip_serializing)]
+    pub spent_s: Option<f64>,
     /// Every candidate scored, in the order tried.
     pub table: Vec<CvRow>,
     /// Index of the chosen candidate in `table`: among those within noise

@@ -19,8 +19,9 @@ use crate::wrench::AxisSet;
 /// The `format` field of an ensemble's model file.
 pub const ENSEMBLE_FORMAT: &str = "tactile_force/wrench_ensemble";
 /// The version this build writes (2: `selection`, `adapt_choice` and
-/// `calibration` added).
-pub const ENSEMBLE_VERSION: u32 = 2;
+/// `calibration` added; 3: `selection` holds each candidate's predicted
+/// cost, and no clock reading).
+pub const ENSEMBLE_VERSION: u32 = 3;
 /// The oldest version it reads.
 const FIRST_VERSION: u32 = 1;
 

@@ -25,7 +25,7 @@ pub use exact::{neg_lml_and_grad_shared, ExactGp, ExactGpData, GpWorkspace};
 pub use fit::{fit_gp, fit_gp_shared, fit_sparse, FitData, FitInfo, FitProgress, Start};
 pub use kernel::{KernelKind, SeHyper};
 pub use mean::{LinearMean, MeanKind};
-pub use params::{GpParams, Subset};
+pub use params::{GpParams, Subset, DEFAULT_MAX_TRAIN};
 pub use select::{farthest_point, greedy_variance};
 pub use sparse::{SparseGp, SparseGpData};
 

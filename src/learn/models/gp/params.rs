@@ -8,6 +8,10 @@ use super::kernel::KernelKind;
 use super::mean::MeanKind;
 use crate::params::{require, Check, Checked, ParamsError};
 
+/// The exact GP's largest training set by default: its fit grows as n^3,
+/// and 2000 rows fit in seconds (docs/results.md).
+pub const DEFAULT_MAX_TRAIN: usize = 2000;
+
 /// Options of GP training.
 ///
 /// | Name | Default | Purpose | Range |
@@ -127,7 +131,7 @@ impl Default for GpParams {
             min_noise_var: 1e-6,
             min_signal_var: 1e-4,
             seed: 0,
-            max_train: 2000,
+            max_train: DEFAULT_MAX_TRAIN,
             subset: Subset::Random,
             inducing: None,
             sparse_candidates: 20_000,

@@ -34,8 +34,9 @@ pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// 6: how its options were selected on the data, `train --select`, and the
 /// calibration on the robot that made it; 7: the data it was trained on, by
 /// reference, and what `adapt` chose; 8: the network as the GPs' prior
-/// mean). It reads versions 2 to 8.
-pub const MODEL_VERSION: u32 = 8;
+/// mean; 9: `selection` holds each candidate's predicted cost, and no
+/// clock reading). It reads versions 2 to 9.
+pub const MODEL_VERSION: u32 = 9;
 
 /// One output axis: the target's linear mean when it has one (in target
 /// units), and the GP (fitted, or as stored) of what is left, standardised
