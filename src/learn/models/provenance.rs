@@ -280,6 +280,32 @@ impl CalibrationRecord {
             .map(|v| v.rmse.values().copied().collect())
             .unwrap_or_default()
     }
+
+    /// "calibrated", and each axis the chosen model estimates worse than
+    /// the current one on the held-out pushes (it won on the mean over
+    /// axes): what replacing the current model gives up.
+    pub fn outcome(&self) -> String {
+        let of = |name: &str| self.validation.iter().find(|v| v.model == name);
+        let (Some(current), Some(chosen)) = (of("current"), of(&self.chosen)) else {
+            return "calibrated".into();
+        };
+        let worse: Vec<String> = (chosen.rmse.iter())
+            .filter_map(|(axis, &new)| {
+                let old = *current.rmse.get(axis)?;
+                (new > old).then(|| format!("{axis} {old:.3} -> {new:.3}"))
+            })
+            .collect();
+        match worse.is_empty() {
+            true => "calibrated".into(),
+            false => format!(
+                "calibrated; worse than the current model on {} (RMSE on the held-out pushes, \
+                 N or Nm), better over the axes (score {:.4} -> {:.4})",
+                worse.join(", "),
+                current.score,
+                chosen.score
+            ),
+        }
+    }
 }
 
 /// A training data file as a model records it: where it was, and enough of
@@ -321,4 +347,45 @@ pub struct AdaptChoice {
     pub held_out_rows: usize,
     /// Why pooling was not a candidate, or how many base rows it took.
     pub pooling: String,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn validation(model: &str, fy: f64, score: f64) -> Validation {
+        Validation {
+            model: model.into(),
+            rmse: [(Axis::Fx, 0.20), (Axis::Fy, fy), (Axis::Fz, 0.30)].into(),
+            score,
+        }
+    }
+
+    #[test]
+    fn a_calibration_says_each_axis_its_model_estimates_worse_than_the_current_one() {
+        let mut record = CalibrationRecord {
+            chosen: "adapted".into(),
+            validation: vec![
+                validation("current", 0.24, 0.50),
+                validation("adapted", 0.28, 0.45),
+            ],
+            scratch_options: None,
+            pushes: 24,
+            held_out: vec![4, 8],
+            rows: 100,
+            motion_s: 1.0,
+            compute_s: 1.0,
+            peak_force_n: 1.0,
+            session: None,
+            pooling: None,
+        };
+        // fx and fz equal: not worse.
+        assert_eq!(
+            record.outcome(),
+            "calibrated; worse than the current model on fy 0.240 -> 0.280 (RMSE on the held-out \
+             pushes, N or Nm), better over the axes (score 0.5000 -> 0.4500)"
+        );
+        record.validation[1] = validation("adapted", 0.20, 0.40);
+        assert_eq!(record.outcome(), "calibrated");
+    }
 }

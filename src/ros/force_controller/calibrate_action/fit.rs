@@ -63,6 +63,10 @@ pub(super) async fn fit(
     let path = model_path.display().to_string();
     let (updated, message) = match estimator.set_model_file(&path).await {
         Ok((true, _)) => (true, format!("{} estimates with {path}", estimator.name())),
+        Ok((false, why)) if why.is_empty() => (
+            false,
+            format!("{} refused {path}, without a reason", estimator.name()),
+        ),
         Ok((false, why)) => (false, why),
         Err(e) => (false, e),
     };
@@ -72,7 +76,7 @@ pub(super) async fn fit(
         fitted.compute_s
     );
     Ok(Calibrate::Result {
-        reason: "calibrated".into(),
+        reason: fitted.outcome(),
         model_file: path,
         session_file: session_path.map_or(String::new(), |p| p.display().to_string()),
         current_rmse_n: fitted.rmse_of("current"),
