@@ -293,7 +293,8 @@ impl Pooled {
 }
 
 /// Held-out rows of a fold whose errors are compared with the standard
-/// deviation (evenly spread): its variance costs O(n^2) a row.
+/// deviation (evenly spread): an exact GP's variance costs O(m^2) a row, m
+/// up to 1000.
 const CALIBRATION_ROWS: usize = 50;
 
 /// Rows an estimate's latency is timed on (at most; at least 3), and passes
