@@ -4,7 +4,8 @@
 use ndarray::Array2;
 use tactile_force::learn::data::Dataset;
 use tactile_force::learn::models::ensemble::{WrenchEnsemble, DEFAULT_MEMBERS};
-use tactile_force::learn::models::gp::{Gp, GpParams};
+use tactile_force::learn::models::gp::exact::VARIANCE_ROWS;
+use tactile_force::learn::models::gp::{ExactGp, Gp, GpParams, KernelKind, SeHyper};
 use tactile_force::learn::models::nn::NnParams;
 use tactile_force::learn::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
 use tactile_force::learn::models::wrench_model::WrenchModel;
@@ -92,4 +93,31 @@ fn predict_one_allocates_nothing_after_warm_up() {
         assert_eq!(allocated, 0, "sparse, with_var = {with_var}");
         assert!(sum.is_finite());
     }
+
+    // An exact GP on more rows than one variance is conditioned on: its
+    // variance from the factor of the cluster nearest the input.
+    let rows = VARIANCE_ROWS + 200;
+    let xe: Vec<f64> = (0..rows * 4)
+        .map(|i| ((i * 7919) % 1009) as f64 / 504.0 - 1.0)
+        .collect();
+    let ye: Vec<f64> = xe.chunks_exact(4).map(|r| r[0] - 0.5 * r[3]).collect();
+    let hyper = SeHyper {
+        kind: KernelKind::Isotropic,
+        signal_var: 1.0,
+        lengthscales: vec![0.8; 4],
+        noise_var: 0.01,
+    };
+    let gp = Gp::Exact(ExactGp::fit(&xe, 4, &ye, hyper).unwrap());
+    let mut ws = gp.workspace();
+    for _ in 0..50 {
+        gp.predict_one(&z, &mut ws, true);
+    }
+    let before = allocations();
+    let mut sum = 0.0;
+    for _ in 0..100 {
+        let (m, v) = gp.predict_one(&z, &mut ws, true);
+        sum += m + v;
+    }
+    assert_eq!(allocations() - before, 0, "exact GP on {rows} rows");
+    assert!(sum.is_finite());
 }

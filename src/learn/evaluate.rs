@@ -285,8 +285,8 @@ fn fit_and_predict(
 }
 
 /// Test rows a model's standard deviation is computed on at most, evenly
-/// spread (an exact GP's costs O(n^2) a row: on 16000 rows, as long as its
-/// fit).
+/// spread (an exact GP's costs O(m^2) a row, m up to
+/// [`VARIANCE_ROWS`](crate::learn::models::gp::exact::VARIANCE_ROWS)).
 const COVERAGE_ROWS: usize = 2000;
 
 /// `fitted`'s means on every row of `test` and, for a model with a

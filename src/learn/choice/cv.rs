@@ -303,7 +303,8 @@ impl Pooled {
 }
 
 /// Held-out rows of a fold whose errors are compared with the standard
-/// deviation (evenly spread): its variance costs O(n^2) a row.
+/// deviation (evenly spread): an exact GP's variance costs O(m^2) a row, m
+/// up to 1000.
 const CALIBRATION_ROWS: usize = 50;
 
 /// Estimates timed per candidate (at most: as many as fit in

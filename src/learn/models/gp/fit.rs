@@ -27,7 +27,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::exact::{check_targets, neg_lml_and_grad_shared, ExactGp};
+use super::exact::{check_targets, neg_lml_and_grad_shared, rows_of, ExactGp};
 use super::kernel::{KernelKind, SeHyper};
 use super::params::{GpParams, Subset};
 use super::select::{farthest_point, greedy_variance};
@@ -373,13 +373,7 @@ impl<'a> Fitter<'a> {
 
 /// Rows `idx` of `x` (row-major, `d` columns) and of `y` (row-major, `k` columns).
 fn gather(x: &[f64], d: usize, y: &[f64], k: usize, idx: &[usize]) -> (Vec<f64>, Vec<f64>) {
-    let rows = |m: &[f64], w: usize| -> Vec<f64> {
-        idx.iter()
-            .flat_map(|&i| &m[i * w..(i + 1) * w])
-            .copied()
-            .collect()
-    };
-    (rows(x, d), rows(y, k))
+    (rows_of(x, d, idx), rows_of(y, k, idx))
 }
 
 /// Fits SE-kernel hyperparameters by maximum marginal likelihood and

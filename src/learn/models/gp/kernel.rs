@@ -163,6 +163,16 @@ pub fn scale_rows(x: &[f64], lengthscales: &[f64]) -> Vec<f64> {
     out
 }
 
+/// Rows of `x` (n x d, row-major slice) divided by the length-scales,
+/// stored column by column (d x n): what [`se_against`] takes.
+pub fn scale_cols(x: &[f64], lengthscales: &[f64]) -> Vec<f64> {
+    let d = lengthscales.len();
+    let n = x.len() / d;
+    (0..d)
+        .flat_map(|c| (0..n).map(move |i| x[i * d + c] / lengthscales[c]))
+        .collect()
+}
+
 /// Squared row norms of a row-major matrix with `d` columns.
 fn row_sq_norms(a: &[f64], d: usize) -> Vec<f64> {
     a.chunks_exact(d)
@@ -222,6 +232,50 @@ fn kernel_column(col: &mut [f64], qa: &[f64], qb: f64, signal_var: f64) {
             }
         },
     );
+}
+
+/// The kernel values `s2 exp(-|r - z|^2 / 2)` of one scaled point `z`
+/// against each scaled row `r` of the rows stored column by column in
+/// `cols` ([`scale_cols`]), into `out` (one value per row), without
+/// allocating: the single-sample prediction's. Column by column, both the
+/// squared distances and the exponentials run along the rows, in the
+/// widest vector instructions the CPU has (as the kernel's columns): on
+/// 4000 rows of 19 inputs, 18 us instead of 54 us row by row.
+pub fn se_against(cols: &[f64], z: &[f64], signal_var: f64, out: &mut [f64]) {
+    pulp::Arch::new().dispatch(Against {
+        cols,
+        z,
+        signal_var,
+        out,
+    });
+}
+
+/// [`se_against`]'s arguments. A type of its own rather than a closure:
+/// a closure's body here was compiled apart from the dispatched code,
+/// without its instructions (each `mul_add` a library call, 40 ns a row).
+struct Against<'a> {
+    cols: &'a [f64],
+    z: &'a [f64],
+    signal_var: f64,
+    out: &'a mut [f64],
+}
+
+impl pulp::WithSimd for Against<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let n = self.out.len();
+        self.out.fill(0.0);
+        for (col, zc) in self.cols.chunks_exact(n).zip(self.z) {
+            for (v, x) in self.out.iter_mut().zip(col) {
+                *v += (x - zc) * (x - zc);
+            }
+        }
+        for v in self.out.iter_mut() {
+            *v = self.signal_var * exp_poly::<true>(-0.5 * *v);
+        }
+    }
 }
 
 /// `tanh` of every value in place (the network's hidden units), as

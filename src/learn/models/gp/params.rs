@@ -61,7 +61,7 @@ pub struct GpParams {
     /// Seed of the starts and of the random subsets.
     pub seed: u64,
     /// Exact GP: most rows it is conditioned on (the cost is O(n^3) to fit,
-    /// O(n^2) per variance).
+    /// O(n) per mean; its variance is conditioned on at most 1000 of them).
     pub max_train: usize,
     /// Exact GP: how the `max_train` rows are chosen from more.
     pub subset: Subset,

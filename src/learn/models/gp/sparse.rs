@@ -32,7 +32,7 @@ use super::exact::{
     check_hyper, cholesky_with_jitter, clamp_var, cross_one, dot, forward_subst_packed, pack_lower,
     unpack_lower, GpWorkspace,
 };
-use super::kernel::{scale_rows, se_cross, se_gram, SeHyper};
+use super::kernel::{scale_cols, scale_rows, se_cross, se_gram, SeHyper};
 use super::GpError;
 
 /// Jitter always added to K_uu, relative to s2. Proportional to s2, so that
@@ -115,8 +115,9 @@ fn col(k: &Mat<f64>, c: usize) -> &[f64] {
 #[serde(into = "SparseGpData", try_from = "SparseGpData")]
 pub struct SparseGp {
     data: SparseGpData,
-    /// Inducing inputs divided by the length-scales, row-major m x d.
-    zs: Vec<f64>,
+    /// Inducing inputs divided by the length-scales, column by column
+    /// (d x m, `scale_cols`).
+    zs_cols: Vec<f64>,
     /// L_uu packed by columns (see `pack_lower`).
     luu_cols: Vec<f64>,
     /// T = L_uu^-1 L_S, lower triangular with T T^T = B^-1, packed by columns.
@@ -204,7 +205,7 @@ impl TryFrom<SparseGpData> for SparseGp {
         let mut w = Mat::from_fn(m, 1, |i, _| data.q_mean[i]);
         luu.solve_in_place(w.as_mut());
         let gp = SparseGp {
-            zs,
+            zs_cols: scale_cols(&data.inducing, &data.hyper.lengthscales),
             luu_cols: pack_lower(luu.L()),
             t_cols: pack_lower(t.as_ref()),
             w: w.col(0).iter().copied().collect(),
@@ -312,7 +313,7 @@ impl SparseGp {
     /// substitution with L_uu, one triangular product). `with_var = false`
     /// skips the variance (returns 0). `ws` must have room for m points.
     pub fn predict_one(&self, z: &[f64], ws: &mut GpWorkspace, with_var: bool) -> (f64, f64) {
-        let k = cross_one(&self.zs, &self.data.hyper, z, ws);
+        let k = cross_one(&self.zs_cols, &self.data.hyper, z, ws);
         let mean = dot(k, &self.w);
         if !with_var {
             return (mean, 0.0);
@@ -346,9 +347,10 @@ impl SparseGp {
                 unpack_lower(&self.t_cols, m),
             )
         });
+        let inducing = scale_rows(&self.data.inducing, &hyper.lengthscales);
         for chunk in z.chunks(BLOCK * d) {
             let zs = scale_rows(chunk, &hyper.lengthscales);
-            let mut kt = se_cross(&self.zs, &zs, d, s2); // m x b
+            let mut kt = se_cross(&inducing, &zs, d, s2); // m x b
             means.extend((0..kt.ncols()).map(|c| dot(col(&kt, c), &self.w)));
             if let Some((luu, t)) = &factors {
                 solve_lower_triangular_in_place(luu.as_ref(), kt.as_mut(), Par::rayon(0));

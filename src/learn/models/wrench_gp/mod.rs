@@ -292,7 +292,8 @@ impl WrenchGp {
 
     /// Estimates every axis from one row of tared features, without
     /// allocating. `with_std = false` skips the variance (std = 0), which
-    /// costs O(n^2) per axis for the exact GP and O(m^2) for the sparse one.
+    /// costs O(m^2) per axis: the exact GP's m training rows near the input
+    /// (at most 1000), the sparse GP's m inducing points.
     /// An adapted model's std is that of its own GPs: how far the row is
     /// from what the adaptation recording covered.
     pub fn predict_one(

@@ -181,3 +181,77 @@ fn gps_fitted_on_one_factorisation_predict_as_gps_fitted_apart() {
         !apart[0].shares_kernel(&ExactGp::fit(&z, 3, &z[..25], hyper(KernelKind::Ard, 3)).unwrap())
     );
 }
+
+/// The exact GP of `x`, `y` with `h` and its variance conditioned on at
+/// most `m` rows near each point.
+fn local(x: &[f64], d: usize, y: &[f64], h: &SeHyper, m: usize) -> ExactGp {
+    ExactGp::fit_local(x, d, y, 1, h.clone(), m)
+        .unwrap()
+        .remove(0)
+}
+
+#[test]
+fn with_no_more_rows_than_a_cluster_the_variance_is_the_exact_one() {
+    let (x, y) = data(300, 3, 10);
+    let h = hyper(KernelKind::Ard, 3);
+    let (z, _) = data(40, 3, 11);
+    // The exact posterior variance, s2 - k^T (K_f + sn2 I)^-1 k, solved apart.
+    let xs = scale_rows(&x, &h.lengthscales);
+    let mut k = se_gram(&xs, 3, h.signal_var);
+    (0..300).for_each(|i| k[(i, i)] += h.noise_var);
+    let kt = super::super::kernel::se_cross(&xs, &scale_rows(&z, &h.lengthscales), 3, 0.8);
+    let mut solved = kt.clone();
+    faer::linalg::solvers::Solve::solve_in_place(&k.llt(Side::Lower).unwrap(), solved.as_mut());
+    let exact: Vec<f64> = (0..40)
+        .map(|c| 0.8 - (0..300).map(|i| kt[(i, c)] * solved[(i, c)]).sum::<f64>())
+        .collect();
+    for m in [300, VARIANCE_ROWS] {
+        let gp = local(&x, 3, &y, &h, m);
+        let (_, vars) = gp.predict(&z, true);
+        let mut ws = GpWorkspace::new(300, 3);
+        for (i, row) in z.chunks_exact(3).enumerate() {
+            let (_, v) = gp.predict_one(row, &mut ws, true);
+            assert!((v - exact[i]).abs() < 1e-10, "m = {m}: {v} vs {}", exact[i]);
+            assert!((vars[i] - exact[i]).abs() < 1e-10);
+        }
+    }
+}
+
+#[test]
+fn on_more_rows_the_variance_is_never_below_the_exact_one_and_close_to_it() {
+    // 1200 rows in 4 inputs, clusters of 200 (12 of them): each point's
+    // variance is conditioned on the 200 rows of the cluster nearest it.
+    let (x, y) = data(1200, 4, 12);
+    let h = hyper(KernelKind::Ard, 4);
+    let exact = local(&x, 4, &y, &h, 1200);
+    let near = local(&x, 4, &y, &h, 200);
+    // Points among the rows and beyond them (inputs in [-3, 3)).
+    let (z, _) = data(500, 4, 13);
+    let z: Vec<f64> = z.iter().map(|v| 1.5 * v).collect();
+    let (m0, v0) = exact.predict(&z, true);
+    let (m1, v1) = near.predict(&z, true);
+    let mut ws = GpWorkspace::new(1200, 4);
+    let mut ratios = Vec::new();
+    for (i, row) in z.chunks_exact(4).enumerate() {
+        // The mean is the exact GP's: only the variance is local.
+        assert_eq!(m0[i], m1[i]);
+        let (m, v) = near.predict_one(row, &mut ws, true);
+        assert!((m - m1[i]).abs() < 1e-12 && (v - v1[i]).abs() < 1e-9);
+        assert!(
+            v1[i] >= v0[i] - 1e-10,
+            "point {i}: {} below {}",
+            v1[i],
+            v0[i]
+        );
+        // The standard deviation of a measured target, as eval judges it.
+        ratios.push(((v1[i] + h.noise_var) / (v0[i] + h.noise_var)).sqrt());
+    }
+    ratios.sort_by(f64::total_cmp);
+    let (median, worst) = (ratios[250], ratios[499]);
+    // Measured: median 1.019, worst 1.43.
+    assert!(
+        median < 1.03 && worst < 1.5,
+        "median {median}, worst {worst}"
+    );
+    assert!(worst > 1.01, "the variance is local, not the exact one");
+}
