@@ -480,7 +480,7 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
         !table.is_empty() && json["selection"]["budget_s"] == 4.0,
         "{json}"
     );
-    assert_eq!(json["version"], 9);
+    assert_eq!(json["version"], 10);
     // The data it was trained on, by reference.
     let files = &json["trained_on"]["files"];
     assert_eq!(files[0]["path"], d, "{files}");

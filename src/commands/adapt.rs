@@ -124,4 +124,5 @@ fn print_choice(choice: &AdaptChoice) {
     println!("pooled retraining: {}", choice.pooling);
     let what = format!("held out {} rows of the new data", choice.held_out_rows);
     print_scores(&what, &choice.validation, &choice.chosen);
+    println!("chosen: {}", choice.why);
 }

@@ -3,8 +3,10 @@
 //! ([`Choice::default_options`]: the GP, the GP with the network as its
 //! prior mean, the ensemble of networks), or, when the current GP's
 //! training data is at hand, one retrained on that data pooled with the
-//! recording ([`super::pooled`]), whichever estimates the held-out pushes
-//! (every fourth) best; refused when none beats the current model there.
+//! recording ([`super::pooled`]): among those that beat the current model
+//! on the held-out pushes (every fourth), the one the chooser's rule takes
+//! ([`super::chooser`], over the held-out pushes); refused when none beats
+//! it.
 //! The winner is trained again on every push, checked on its own training
 //! data, and records what was chosen, the validation figures and the data
 //! it was trained on (`candidates.rs`).
@@ -13,16 +15,17 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::choice::Choice;
+use super::chooser::Form;
 use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{training_fit, EvalError};
 use super::models::gp::GpParams;
 use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec};
 use super::models::wrench_model::WrenchModel;
-use super::pooled::{best, data_file, spread, std_scales, validate};
+use super::pooled::{choose, data_file, spread, std_scales, validate};
 use crate::biotac::ElectrodeLayout;
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
-use candidates::{Candidate, Fitter};
+use candidates::{Candidate, Fitter, Made};
 
 pub use super::models::wrench_gp::{CalibrationRecord, Validation};
 
@@ -139,13 +142,7 @@ pub fn fit(
         validation.push(validate(c.name(), m.model(), &test, &rec.sd)?);
         fitted.push((m, test));
     }
-    let at = match best(&validation[1..]) {
-        Some(v) if v.score < validation[0].score => {
-            (validation[1..].iter()).position(|w| w.model == v.model)
-        }
-        _ => None,
-    };
-    let Some(at) = at else {
+    let Some((at, why)) = chosen(&validation, &fitted, &candidates, &fitter.adapt) else {
         return Err(CalibrationError::NotBetter(validation));
     };
     // The winner's standard deviation scale, from its held-out errors; then
@@ -171,9 +168,38 @@ pub fn fit(
         peak_force_n: recorded.peak_force_n,
         session: recorded.session,
         pooling: Some(pooling),
+        why,
     };
     let model = model.finish(&scales, trained_on, record.clone());
     Ok((model, record))
+}
+
+/// The candidate the chooser takes among those that beat the current model
+/// (`validation[0]`; the candidates' rows follow in their order), and why;
+/// None when none beats it.
+fn chosen(
+    validation: &[Validation],
+    fitted: &[(Made, Dataset)],
+    candidates: &[Candidate],
+    adapt: &GpParams,
+) -> Option<(usize, String)> {
+    let beat: Vec<usize> = (0..candidates.len())
+        .filter(|&i| validation[i + 1].score < validation[0].score)
+        .collect();
+    if beat.is_empty() {
+        return None;
+    }
+    let (better, cost): (Vec<Validation>, Vec<(f64, Form)>) = (beat.iter())
+        .map(|&i| {
+            let estimate_us = fitted[i].0.model().predicted_estimate_us();
+            (
+                validation[i + 1].clone(),
+                (estimate_us, candidates[i].form(adapt)),
+            )
+        })
+        .unzip();
+    let (at, why) = choose(&better, &cost);
+    Some((beat[at], why))
 }
 
 /// A calibration's recording: every row, tared; the pushes held out; the

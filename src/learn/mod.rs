@@ -19,6 +19,7 @@ pub mod models;
 mod adapt;
 pub mod calibration;
 pub mod choice;
+pub mod chooser;
 pub mod default_model;
 pub mod evaluate;
 pub mod pooled;

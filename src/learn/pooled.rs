@@ -3,12 +3,14 @@
 //! training data (found through the reference its file keeps, [`TrainedOn`])
 //! pooled with the new data. `adapt` scores it with the adapted model and
 //! the models of the new data alone on the same held-out part of the new
-//! data and keeps the best ([`Adaptation`]), as the calibration does; when
+//! data and chooses by the chooser's rule ([`Adaptation`], [`choose`]), as
+//! the calibration does; when
 //! the base's data is not at hand they say why ([`Unavailable`]).
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::chooser::{self, Form, Scored};
 use super::data::sessions::{load_sessions, Features, Request};
 use super::data::source::Source;
 use super::data::Dataset;
@@ -243,8 +245,13 @@ pub fn spread(data: &Dataset) -> Vec<f64> {
     data.y.columns().into_iter().map(sd).collect()
 }
 
+/// Contiguous blocks a held-out part of one trial is scored on, as parts.
+const BLOCKS_OF_ONE_TRIAL: usize = 5;
+
 /// `model` scored on `test` as `name`: RMSE per axis, and their mean over
-/// axes in units of `sd` (lower is better).
+/// axes in units of `sd` ([`chooser::score`], lower is better), over every
+/// row and on each trial of `test` (one trial: on
+/// five contiguous blocks of it).
 pub fn validate(
     name: &str,
     model: &dyn WrenchModel,
@@ -252,12 +259,41 @@ pub fn validate(
     sd: &[f64],
 ) -> Result<Validation, EvalError> {
     let s = score_model(model, test, f64::INFINITY, false)?;
-    let score = s.rmse.values().zip(sd).map(|(e, s)| e / s).sum::<f64>() / sd.len() as f64;
+    let pred = model.predict_observed(test.x.view(), false)?.mean;
+    let on = |rows: &[usize]| {
+        let y = test.y.select(ndarray::Axis(0), rows);
+        chooser::score(y.view(), pred.select(ndarray::Axis(0), rows).view(), sd)
+    };
+    let trials = test.trials();
+    let trial_scores = match trials.as_slice() {
+        [(_, rows)] => (rows
+            .chunks(rows.len().div_ceil(BLOCKS_OF_ONE_TRIAL))
+            .map(on))
+        .collect(),
+        _ => trials.iter().map(|(_, rows)| on(rows)).collect(),
+    };
     Ok(Validation {
         model: name.into(),
         rmse: s.rmse,
-        score,
+        score: on(&(0..test.len()).collect::<Vec<_>>()),
+        trial_scores,
     })
+}
+
+/// The candidate of `validation` (each with its fitted model's predicted
+/// estimate time and form) the chooser takes, and why; the first when no
+/// score is a number.
+pub fn choose(validation: &[Validation], cost: &[(f64, Form)]) -> (usize, String) {
+    let scored: Vec<Scored> = (validation.iter().zip(cost))
+        .map(|(v, &(estimate_us, form))| Scored {
+            name: v.model.clone(),
+            score: v.score,
+            parts: &v.trial_scores,
+            form,
+            estimate_us,
+        })
+        .collect();
+    chooser::choose(&scored).unwrap_or((0, "no score is a number: the first candidate".into()))
 }
 
 /// `params` with the network as the GPs' prior mean: the candidate of the
@@ -279,18 +315,6 @@ const CALIBRATION_ROWS: usize = 500;
 pub fn std_scales(model: &dyn WrenchModel, test: &Dataset) -> Result<Vec<f64>, ModelError> {
     let z = model.standardised_errors(test, CALIBRATION_ROWS)?;
     Ok(z.iter().map(|z| std_scale(z).unwrap_or(1.0)).collect())
-}
-
-/// The candidate with the lowest score; the first on a tie, and a score
-/// that is not a number never wins.
-pub fn best(candidates: &[Validation]) -> Option<&Validation> {
-    candidates.iter().filter(|v| v.score.is_finite()).fold(
-        None,
-        |b: Option<&Validation>, v| match b {
-            Some(b) if b.score <= v.score => Some(b),
-            _ => Some(v),
-        },
-    )
 }
 
 /// The rows of new data held out to choose on: every fourth (set, trial)
@@ -320,7 +344,7 @@ pub fn held_out(data: &Dataset) -> (Vec<usize>, Vec<usize>) {
 /// ([`WrenchGp::adapt`]); retrained on the base's data pooled with the new,
 /// when `base_data` is at hand; and each family on the new data alone (the
 /// GP, the GP with the network as its mean, the ensemble of networks). The
-/// best is fitted again on all of `data`, its standard deviations scaled to
+/// one the chooser takes ([`choose`]) is fitted again on all of `data`, its standard deviations scaled to
 /// cover its held-out errors ([`std_scale`]), and returned with what was
 /// chosen. The GPs record `trained_on` (the new data's own, `new_only`, for
 /// those trained on it alone).
@@ -386,17 +410,17 @@ impl Adaptation<'_> {
         let sd = spread(self.data);
         let mut validation = Vec::with_capacity(names.len());
         let mut fitted = Vec::with_capacity(names.len());
+        let mut cost = Vec::with_capacity(names.len());
         for name in &names {
             let m: Box<dyn WrenchModel> = match *name {
                 NEW_ENSEMBLE => Box::new(self.ensemble(&train)?),
                 _ => Box::new(fit(name, &train, progress)?),
             };
             validation.push(validate(name, m.as_ref(), &test, &sd)?);
+            cost.push((m.predicted_estimate_us(), self.form(name, &pool)));
             fitted.push(m);
         }
-        let at = best(&validation)
-            .and_then(|v| names.iter().position(|n| *n == v.model))
-            .unwrap_or(0);
+        let (at, why) = choose(&validation, &cost);
         // The winner's standard deviation scale, from its held-out errors.
         let scales = std_scales(fitted[at].as_ref(), &test)?;
         drop(fitted);
@@ -409,6 +433,7 @@ impl Adaptation<'_> {
                 Err(why) => format!("not considered: {why}"),
             },
             validation,
+            why,
         };
         if chosen == NEW_ENSEMBLE {
             let model = (self.ensemble(self.data)?.with_std_scales(&scales))
@@ -424,6 +449,16 @@ impl Adaptation<'_> {
             .with_adapt_choice(choice.clone());
         Ok((Box::new(model), choice))
     }
+    /// The form of the candidate `name`, the pooled one's options `pool`.
+    fn form(&self, name: &str, pool: &Option<(&BaseData, Checked<GpParams>)>) -> Form {
+        match (name, pool) {
+            (NEW_ENSEMBLE, _) => Form::Ensemble,
+            (NEW_NETWORK, _) => Form::Gp(MeanKind::Network),
+            (POOLED, Some((_, options))) => Form::Gp(options.mean),
+            _ => Form::Gp(self.params.mean),
+        }
+    }
+
     /// The ensemble of networks on `d` (tared as the new data).
     fn ensemble(&self, d: &Dataset) -> Result<WrenchEnsemble, ModelError> {
         let e = WrenchEnsemble::train_default(d, self.tare.clone(), self.params.seed)?;

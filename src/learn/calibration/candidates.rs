@@ -2,6 +2,7 @@
 //! fitted on a part of the recording.
 
 use crate::learn::choice::Choice;
+use crate::learn::chooser::Form;
 use crate::learn::data::Dataset;
 use crate::learn::models::ensemble::WrenchEnsemble;
 use crate::learn::models::gp::GpParams;
@@ -75,6 +76,17 @@ impl<'a> Candidate<'a> {
             Candidate::Scratch(name, _) => name,
             Candidate::Ensemble => SCRATCH_ENSEMBLE,
             Candidate::Pooled(..) => POOLED,
+        }
+    }
+
+    /// Its form, the adapted GPs' options being `adapt`.
+    pub(super) fn form(&self, adapt: &GpParams) -> Form {
+        match self {
+            Candidate::Adapted(_) => Form::Gp(adapt.mean),
+            Candidate::Scratch(_, params) | Candidate::Pooled(_, _, params) => {
+                Form::Gp(params.mean)
+            }
+            Candidate::Ensemble => Form::Ensemble,
         }
     }
 

@@ -4,13 +4,14 @@
 //! machine (issue 70: two exact GPs within noise swapped places by their
 //! measured estimate times from run to run); these predictions do not.
 //!
-//! The constants are per-unit times measured on 2 idle cores of the
-//! development machine (docs/results.md, "Estimate time per candidate" and
-//! "`train --select` within its budget"): a faster machine runs the same
-//! table in less time, and the same table.
+//! The fit's constants are per-unit times measured on 2 idle cores of the
+//! development machine (docs/results.md, "`train --select` within its
+//! budget"), the estimate's are the models' own
+//! ([`crate::learn::models::estimate_cost`]): a faster machine runs the
+//! same table in less time, and the same table.
 
 use super::{Choice, Family, GpChoice, MeanKind};
-use crate::learn::models::gp::exact::VARIANCE_ROWS;
+use crate::learn::models::estimate_cost::{exact_us, sparse_us, ENSEMBLE_US, NETWORK_US};
 use crate::learn::models::provenance::Cost;
 
 /// The longest an estimate (every axis with its standard deviation) may be
@@ -46,17 +47,6 @@ const NETWORK_PER_1000_ROWS_S: f64 = 0.053;
 /// Seconds of one fold's ensemble of networks, per 1000 rows.
 const ENSEMBLE_PER_1000_ROWS_S: f64 = 0.068;
 
-/// Microseconds of one axis's estimate: per point and feature of its
-/// kernel vector (a kernel term), per element of a packed triangular
-/// factor its standard deviation runs through (the exact GP's one, of at
-/// most [`VARIANCE_ROWS`] rows; the sparse GP's two, of its m points).
-const KERNEL_TERM_US: f64 = 0.0006;
-const VARIANCE_PAIR_US: f64 = 0.00018;
-/// Microseconds of a network mean's pass, and of the ensemble's estimate,
-/// every axis.
-const NETWORK_US: f64 = 120.0;
-const ENSEMBLE_US: f64 = 12.0;
-
 /// `choice`'s cost on data of `shape`.
 pub(super) fn predict(choice: &Choice, shape: &Shape) -> Cost {
     let k1 = |rows: usize| rows as f64 / 1000.0;
@@ -67,18 +57,13 @@ pub(super) fn predict(choice: &Choice, shape: &Shape) -> Cost {
         (Family::Gp, GpChoice::Exact(n)) => {
             let n = n.min(shape.train_rows);
             let fit = EXACT_FOLD_S + EXACT_PER_MILLION_PAIRS_S * k1(n).powi(2);
-            let var = n.min(VARIANCE_ROWS) as f64;
-            let us = KERNEL_TERM_US * (n * shape.features) as f64
-                + VARIANCE_PAIR_US * var * (var + 1.0) / 2.0;
-            (fit, us)
+            (fit, exact_us(n, shape.features))
         }
         (Family::Gp, GpChoice::Sparse(m)) => {
-            let m = m.min(shape.train_rows) as f64;
-            let fit =
-                SPARSE_FOLD_S + SPARSE_PER_UNIT_S * k1(shape.train_rows) * (m / 100.0).powi(2);
-            let us = KERNEL_TERM_US * m * shape.features as f64
-                + 2.0 * VARIANCE_PAIR_US * m * (m + 1.0) / 2.0;
-            (fit, us)
+            let m = m.min(shape.train_rows);
+            let fit = SPARSE_FOLD_S
+                + SPARSE_PER_UNIT_S * k1(shape.train_rows) * (m as f64 / 100.0).powi(2);
+            (fit, sparse_us(m, shape.features))
         }
     };
     let per_fold_s = match (choice.family, network) {

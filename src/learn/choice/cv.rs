@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use super::cost::{self, Shape};
 use super::{AloneScore, Choice, Cost, CvRow, Family};
+use crate::learn::chooser::score;
 use crate::learn::data::{layout_of, Dataset};
 use crate::learn::models::ensemble::WrenchEnsemble;
 use crate::learn::models::gp::fit::FitProgress;
@@ -249,13 +250,6 @@ impl Cv<'_> {
             }
         }
     }
-
-    /// The mean over axes of the RMSE of `pred` over the targets' standard
-    /// deviation.
-    fn score(&self, y: ndarray::ArrayView2<f64>, pred: ndarray::ArrayView2<f64>) -> f64 {
-        let rmse = rmse_columns(y, pred);
-        rmse.iter().zip(self.sd).map(|(e, s)| e / s).sum::<f64>() / self.sd.len() as f64
-    }
 }
 
 /// A fold's model, and a network mean's network's estimates alone.
@@ -288,7 +282,8 @@ impl Pooled {
         for (row, &i) in p.rows().into_iter().zip(test) {
             self.pred.row_mut(i).assign(&row);
         }
-        self.fold_scores.push(cv.score(held_out.y.view(), p.view()));
+        self.fold_scores
+            .push(score(held_out.y.view(), p.view(), cv.sd));
     }
 
     /// The RMSE per axis and the score over every fold, and each fold's.
@@ -296,7 +291,7 @@ impl Pooled {
         let rmse = rmse_columns(cv.data.y.view(), self.pred.view());
         AloneScore {
             rmse: cv.data.axes.axes().iter().copied().zip(rmse).collect(),
-            score: cv.score(cv.data.y.view(), self.pred.view()),
+            score: score(cv.data.y.view(), self.pred.view(), cv.sd),
             fold_scores: self.fold_scores,
         }
     }

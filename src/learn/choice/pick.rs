@@ -1,104 +1,36 @@
-//! Which scored candidate `--select` takes: among those within noise of the
-//! best score, the simplest form (the GP's prior mean; the ensemble as
-//! flexible as a network mean), then the cheapest estimate as predicted
-//! from its kind and size (`cost.rs`, never a clock: a loaded machine
-//! chooses as an idle one), then the first tried.
-//!
-//! A more flexible model can win the cross-validation by less than the
-//! folds disagree, and then generalise worse to a new session (a cubic mean
-//! over a linear one on a real unit, issue 45). The noise is measured on
-//! the folds themselves: a candidate is within noise of the best when its
-//! mean fold-wise score exceeds the best's by at most one standard error of
-//! their fold-wise differences (the folds are shared, so the comparison is
-//! paired), the "one standard error" rule of Hastie, Tibshirani and
-//! Friedman (2009, Sec. 7.10).
+//! Which scored row of its table `--select` takes: the chooser's one rule
+//! ([`crate::learn::chooser`]) over the rows' fold scores, forms and
+//! predicted estimate times.
 
-use super::{Choice, CvRow, Family, MeanKind};
-use crate::learn::models::metrics::mean_and_error;
+use super::{Choice, CvRow, Family};
+use crate::learn::chooser::{self, Form, Scored};
 
-/// How flexible a candidate's form is: what the data must pay for. A GP's
-/// prior mean, from none to a network; an ensemble is networks.
-pub(super) fn flexibility(choice: &Choice) -> u8 {
-    match (choice.family, choice.mean) {
-        (Family::Gp, MeanKind::Zero) => 0,
-        (Family::Gp, MeanKind::Linear) => 1,
-        (Family::Gp, MeanKind::Cubic) => 2,
-        (Family::Gp, MeanKind::Network) | (Family::Ensemble, _) => 3,
-    }
-}
-
-/// Its form in words: the GP's mean, or the ensemble.
-fn form(choice: &Choice) -> String {
+/// `choice`'s form.
+pub(super) fn form(choice: &Choice) -> Form {
     match choice.family {
-        Family::Gp => format!("{} mean", choice.mean.name()),
-        Family::Ensemble => "the ensemble".into(),
+        Family::Gp => Form::Gp(choice.mean),
+        Family::Ensemble => Form::Ensemble,
     }
-}
-
-/// The mean of `row`'s fold scores less `best`'s, and the standard error of
-/// that mean; None when the rows were not scored on the same folds.
-fn paired_difference(row: &CvRow, best: &CvRow) -> Option<(f64, f64)> {
-    if row.fold_scores.len() != best.fold_scores.len() {
-        return None;
-    }
-    let d: Vec<f64> = (row.fold_scores.iter().zip(&best.fold_scores))
-        .map(|(a, b)| a - b)
-        .collect();
-    mean_and_error(&d)
 }
 
 /// The index of the chosen row of `table` (not empty), and why.
 pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
-    let Some((best_i, best)) =
-        (table.iter().enumerate()).min_by(|a, b| a.1.score.total_cmp(&b.1.score))
-    else {
-        return (0, String::new());
-    };
-    let near: Vec<usize> = (0..table.len())
-        .filter(|&i| {
-            i == best_i || paired_difference(&table[i], best).is_some_and(|(mean, se)| mean <= se)
+    let scored: Vec<Scored> = (table.iter())
+        .map(|r| Scored {
+            name: r.choice.to_string(),
+            score: r.score,
+            parts: &r.fold_scores,
+            form: form(&r.choice),
+            estimate_us: r.predicted.map_or(f64::INFINITY, |c| c.estimate_us),
         })
         .collect();
-    let cost = |i: &usize| {
-        let r = &table[*i];
-        let estimate_us = r.predicted.map_or(f64::INFINITY, |c| c.estimate_us);
-        (flexibility(&r.choice), estimate_us)
-    };
-    // min_by keeps the first of equals: the one tried first.
-    let chosen = near
-        .iter()
-        .copied()
-        .min_by(|a, b| {
-            let (ca, cb) = (cost(a), cost(b));
-            ca.0.cmp(&cb.0).then(ca.1.total_cmp(&cb.1))
-        })
-        .unwrap_or(best_i);
-    let why = if chosen == best_i {
-        format!(
-            "the best score ({:.4}); {} other candidate(s) within one standard error of it, none simpler or cheaper",
-            best.score,
-            near.len() - 1
-        )
-    } else {
-        let c = &table[chosen];
-        format!(
-            "within one standard error of the best score ({:.4} vs {:.4}, {}), the simplest form \
-             ({}) and then the cheapest estimate (predicted {:.0} µs) of the {} candidates there",
-            c.score,
-            best.score,
-            best.choice,
-            form(&c.choice),
-            c.predicted.map_or(f64::NAN, |p| p.estimate_us),
-            near.len()
-        )
-    };
-    (chosen, why)
+    chooser::choose(&scored).unwrap_or_default()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::choice::Choice;
+    use crate::learn::choice::MeanKind;
     use crate::learn::models::provenance::Cost;
 
     fn row(mean: MeanKind, folds: &[f64], estimate_us: f64) -> CvRow {
@@ -137,8 +69,6 @@ mod tests {
         let (i, why) = choose(&table);
         assert_eq!(i, 1, "{why}");
         assert!(why.contains("simplest form (linear mean)"), "{why}");
-        let (mean, se) = paired_difference(&table[1], &table[2]).unwrap();
-        assert!((mean - 0.01).abs() < 1e-12 && mean < se, "{mean} {se}");
     }
 
     #[test]

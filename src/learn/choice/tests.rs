@@ -67,7 +67,7 @@ fn assert_chose_the_best_or_simpler(s: &Selection) {
         .min_by(|a, b| a.score.total_cmp(&b.score))
         .unwrap();
     let chosen = &s.table[s.chosen];
-    let flexibility = |r: &CvRow| super::pick::flexibility(&r.choice);
+    let flexibility = |r: &CvRow| super::pick::form(&r.choice).flexibility();
     let cost = |r: &CvRow| r.predicted.unwrap().estimate_us;
     let simpler = flexibility(chosen) < flexibility(best)
         || (flexibility(chosen) == flexibility(best) && cost(chosen) <= cost(best));

@@ -11,6 +11,7 @@
 
 pub mod cnn;
 pub mod ensemble;
+pub mod estimate_cost;
 pub mod gp;
 pub mod metrics;
 pub mod model_file;

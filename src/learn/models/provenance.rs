@@ -238,6 +238,10 @@ pub struct Validation {
     pub rmse: BTreeMap<Axis, f64>,
     /// Mean over axes of the RMSE over the targets' standard deviation.
     pub score: f64,
+    /// The score on each held-out trial (push), in their order: what the
+    /// chooser measures the noise on (absent in files before it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub trial_scores: Vec<f64>,
 }
 
 /// What a calibration did (in the model file it made).
@@ -268,6 +272,9 @@ pub struct CalibrationRecord {
     /// took (absent in files before it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pooling: Option<String>,
+    /// Why the chooser took `chosen` (absent in files before it).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub why: String,
 }
 
 impl CalibrationRecord {
@@ -347,6 +354,9 @@ pub struct AdaptChoice {
     pub held_out_rows: usize,
     /// Why pooling was not a candidate, or how many base rows it took.
     pub pooling: String,
+    /// Why the chooser took `chosen` (absent in files before it).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub why: String,
 }
 
 #[cfg(test)]
@@ -358,6 +368,7 @@ mod tests {
             model: model.into(),
             rmse: [(Axis::Fx, 0.20), (Axis::Fy, fy), (Axis::Fz, 0.30)].into(),
             score,
+            trial_scores: Vec::new(),
         }
     }
 
@@ -378,6 +389,7 @@ mod tests {
             peak_force_n: 1.0,
             session: None,
             pooling: None,
+            why: String::new(),
         };
         // fx and fz equal: not worse.
         assert_eq!(

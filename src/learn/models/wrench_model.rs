@@ -232,6 +232,11 @@ pub trait WrenchModel: Send + Sync + Debug + DynClone + AsAny {
     /// (1: as fitted).
     fn std_scales(&self) -> Vec<f64>;
 
+    /// The time of one [`WrenchModel::estimate`] with its standard
+    /// deviation (µs, one core) predicted from its kind and size
+    /// ([`super::estimate_cost`]): what the chooser reads, never a clock.
+    fn predicted_estimate_us(&self) -> f64;
+
     /// Writes its model file, whole or not at all.
     fn save(&self, path: &Path) -> Result<(), ModelError>;
 

@@ -20,8 +20,9 @@ use crate::wrench::AxisSet;
 pub const ENSEMBLE_FORMAT: &str = "tactile_force/wrench_ensemble";
 /// The version this build writes (2: `selection`, `adapt_choice` and
 /// `calibration` added; 3: `selection` holds each candidate's predicted
-/// cost, and no clock reading).
-pub const ENSEMBLE_VERSION: u32 = 3;
+/// cost, and no clock reading; 4: the held-out scores per trial, and why
+/// the chooser took a calibration's or `adapt`'s model).
+pub const ENSEMBLE_VERSION: u32 = 4;
 /// The oldest version it reads.
 const FIRST_VERSION: u32 = 1;
 

@@ -5,6 +5,7 @@ use ndarray::ArrayView2;
 
 use super::WrenchEnsemble;
 use crate::learn::data::Dataset;
+use crate::learn::models::estimate_cost::ENSEMBLE_US;
 use crate::learn::models::gp::FitProgress;
 use crate::learn::models::nn::NnParams;
 use crate::learn::models::wrench_model::ModelError;
@@ -128,6 +129,10 @@ impl WrenchModel for WrenchEnsemble {
 
     fn std_scales(&self) -> Vec<f64> {
         self.file.std_scale.clone()
+    }
+
+    fn predicted_estimate_us(&self) -> f64 {
+        ENSEMBLE_US
     }
 
     fn save(&self, path: &std::path::Path) -> Result<(), ModelError> {

@@ -159,7 +159,7 @@ fn a_file_that_disagrees_with_itself_is_refused_with_the_reason() {
         (
             "version",
             serde_json::json!(9),
-            "version 9, this build reads versions 1 to 3",
+            "version 9, this build reads versions 1 to 4",
         ),
     ];
     for (key, value, said) in cases {

@@ -35,8 +35,9 @@ pub const MODEL_FORMAT: &str = "tactile_force/wrench_gp";
 /// calibration on the robot that made it; 7: the data it was trained on, by
 /// reference, and what `adapt` chose; 8: the network as the GPs' prior
 /// mean; 9: `selection` holds each candidate's predicted cost, and no
-/// clock reading). It reads versions 2 to 9.
-pub const MODEL_VERSION: u32 = 9;
+/// clock reading; 10: the held-out scores per trial, and why the chooser
+/// took a calibration's or `adapt`'s model). It reads versions 2 to 10.
+pub const MODEL_VERSION: u32 = 10;
 
 /// One output axis: the target's linear mean when it has one (in target
 /// units), and the GP (fitted, or as stored) of what is left, standardised

@@ -132,6 +132,10 @@ impl WrenchModel for WrenchGp {
         self.std_scales()
     }
 
+    fn predicted_estimate_us(&self) -> f64 {
+        self.predicted_estimate_us()
+    }
+
     fn save(&self, path: &std::path::Path) -> Result<(), ModelError> {
         self.save(path)
     }

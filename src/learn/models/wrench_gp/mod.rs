@@ -12,6 +12,7 @@ mod observed;
 use ndarray::{Array2, ArrayView2};
 use serde::Serialize;
 
+use super::estimate_cost::{exact_us, sparse_us, NETWORK_US};
 use super::gp::fit::FitProgress;
 use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace, MeanKind, SeHyper};
 use super::nn::Mlp;
@@ -290,6 +291,13 @@ impl WrenchGp {
         self.0.workspace()
     }
 
+    /// [`WrenchGp::predict_one`]'s time with the standard deviation (µs)
+    /// predicted from its GPs' kinds and sizes, its network mean and an
+    /// adapted model's base ([`super::estimate_cost`]).
+    pub fn predicted_estimate_us(&self) -> f64 {
+        predicted_us(&self.0)
+    }
+
     /// Estimates every axis from one row of tared features, without
     /// allocating. `with_std = false` skips the variance (std = 0), which
     /// costs O(m^2) per axis: the exact GP's m training rows near the input
@@ -373,6 +381,17 @@ pub struct WarmStart<'a> {
     /// A network mean's network, fitted on the same rows with the same
     /// scaling: taken as it is.
     pub network: Option<&'a Mlp>,
+}
+
+/// [`WrenchGp::predicted_estimate_us`] of a model file.
+fn predicted_us(file: &ModelFile<Gp>) -> f64 {
+    let axis = |gp: &Gp| match gp {
+        Gp::Exact(g) => exact_us(g.n_train(), g.dim()),
+        Gp::Sparse(g) => sparse_us(g.n_inducing(), g.dim()),
+    };
+    let gps: f64 = file.outputs.iter().map(|o| axis(&o.gp)).sum();
+    let network = file.network.as_ref().map_or(0.0, |_| NETWORK_US);
+    gps + network + file.prior.as_ref().map_or(0.0, |p| predicted_us(&p.base))
 }
 
 #[cfg(test)]
