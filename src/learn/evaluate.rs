@@ -531,7 +531,7 @@ pub fn score_model(
 }
 
 /// Refuses `test` when its features or axes are not `model`'s.
-fn check_fits(model: &dyn WrenchModel, test: &Dataset) -> Result<(), EvalError> {
+pub(crate) fn check_fits(model: &dyn WrenchModel, test: &Dataset) -> Result<(), EvalError> {
     if test.features != model.features() || &test.axes != model.axes() {
         return Err(EvalError::Mismatch(format!(
             "model has features {:?} / axes {}, test data {:?} / {}",

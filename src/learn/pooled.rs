@@ -14,10 +14,11 @@ use super::chooser::{self, Form, Scored};
 use super::data::sessions::{load_sessions, Features, Request};
 use super::data::source::Source;
 use super::data::Dataset;
-use super::evaluate::{score_model, EvalError};
+use super::evaluate::{check_fits, EvalError};
 use super::models::ensemble::WrenchEnsemble;
 use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind};
+use super::models::metrics::rmse_columns;
 use super::models::wrench_gp::{
     std_scale, AdaptChoice, AdaptedFrom, DataFile, ModelError, TareSpec, TrainedOn, Validation,
     WrenchGp,
@@ -258,24 +259,25 @@ pub fn validate(
     test: &Dataset,
     sd: &[f64],
 ) -> Result<Validation, EvalError> {
-    let s = score_model(model, test, f64::INFINITY, false)?;
+    check_fits(model, test)?;
     let pred = model.predict_observed(test.x.view(), false)?.mean;
+    let rmse = rmse_columns(test.y.view(), pred.view());
     let on = |rows: &[usize]| {
         let y = test.y.select(ndarray::Axis(0), rows);
         chooser::score(y.view(), pred.select(ndarray::Axis(0), rows).view(), sd)
     };
     let trials = test.trials();
     let trial_scores = match trials.as_slice() {
-        [(_, rows)] => (rows
-            .chunks(rows.len().div_ceil(BLOCKS_OF_ONE_TRIAL))
-            .map(on))
-        .collect(),
+        [(_, rows)] => {
+            let block = rows.len().div_ceil(BLOCKS_OF_ONE_TRIAL);
+            rows.chunks(block).map(on).collect()
+        }
         _ => trials.iter().map(|(_, rows)| on(rows)).collect(),
     };
     Ok(Validation {
         model: name.into(),
-        rmse: s.rmse,
-        score: on(&(0..test.len()).collect::<Vec<_>>()),
+        rmse: test.axes.axes().iter().copied().zip(rmse).collect(),
+        score: chooser::score(test.y.view(), pred.view(), sd),
         trial_scores,
     })
 }
