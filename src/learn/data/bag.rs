@@ -110,8 +110,12 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<Bag, BagError> {
         _ => return Err(BagError::NotMcap { path: p }),
     }
     file.rewind().map_err(io_err)?;
+    // Each chunk's CRC checked before any of its messages is read: a chunk
+    // cut short, or one whose length was damaged so that the file seems to
+    // end inside it, gives nothing (a proptest found a damaged length that
+    // let a damaged message through while the CRC was checked at the end).
     let options = LinearReaderOptions::default()
-        .with_validate_chunk_crcs(true)
+        .with_prevalidate_chunk_crcs(true)
         .with_record_length_limit(record_limit(file.metadata().map_err(io_err)?.len()));
     let stream = mcap::io::MessageReader::new_with_options(BufReader::new(file), options);
 
