@@ -504,7 +504,7 @@ fn train_select_chooses_within_its_budget_and_the_model_file_records_the_table()
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     assert!(
-        out.contains("* ") && out.contains("electrodes+pdc, ensemble of networks"),
+        out.contains("* ") && out.contains("electrodes+pdc, ensemble\n"),
         "{out}"
     );
     assert!(

@@ -3,11 +3,13 @@
 //! files: the sessions reader of `train`, `eval`, `adapt` and `tradeoff`,
 //! pooled retraining, and the calibration's pooled candidate.
 
+mod seam_data;
+
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
-use tactile_force::biotac::sim::BioTacSimConfig;
+use seam_data::{quick, unit};
 use tactile_force::biotac::{BioTacReading, ElectrodeLayout, Electrodes};
 use tactile_force::learn::calibration::{fit, Recorded};
 use tactile_force::learn::data::format::{has_extension, FileError, FileRows, Format, Say, Want};
@@ -17,12 +19,10 @@ use tactile_force::learn::data::sessions::{
 };
 use tactile_force::learn::data::source::Source;
 use tactile_force::learn::data::{write_csv, Channel, DatasetError};
-use tactile_force::learn::models::gp::GpParams;
 use tactile_force::learn::models::provenance::TrainedOn;
 use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::learn::pooled::{base_data, data_file};
 use tactile_force::record::Record;
-use tactile_force::sim::collect::{collect, CollectConfig};
 use tactile_force::wrench::{AxisSet, Wrench};
 
 /// A toy format: `.toy` files of one reading per line, white-space
@@ -89,25 +89,6 @@ fn write_toy(path: &Path, records: &[Record]) {
         })
         .collect();
     std::fs::write(path, lines.join("\n")).unwrap();
-}
-
-/// Unit `unit`'s set 1 in `trials` trials, every 4th row.
-fn unit(unit: u64, trials: u32) -> Vec<Record> {
-    let cfg = CollectConfig::default().with_trials(trials).unwrap();
-    collect(&cfg, &BioTacSimConfig::default(), unit, 1)
-        .into_iter()
-        .filter(|r| r.set == 1)
-        .step_by(4)
-        .collect()
-}
-
-fn quick() -> GpParams {
-    GpParams {
-        restarts: 1,
-        restart_subset: 200,
-        max_train: 300,
-        ..GpParams::default()
-    }
 }
 
 /// The files' electrodes, pdc and tdc, and fx, fz, each trial tared on 10 rows.

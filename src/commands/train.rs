@@ -7,10 +7,11 @@ use clap::Args;
 use tactile_force::learn::choice::{select, Choice, Family, GpChoice, Space};
 use tactile_force::learn::data::Channel;
 use tactile_force::learn::evaluate::{training_fit, Progress, Scores};
-use tactile_force::learn::models::ensemble::WrenchEnsemble;
+use tactile_force::learn::models::families;
+use tactile_force::learn::models::family::Fit;
 use tactile_force::learn::models::gp::{GpParams, KernelKind, MeanKind, Subset, DEFAULT_MAX_TRAIN};
 use tactile_force::learn::models::scale::InputScaling;
-use tactile_force::learn::models::wrench_gp::{TareSpec, TrainedOn, WrenchGp};
+use tactile_force::learn::models::wrench_gp::{Making, TrainedOn, WarmStart, WrenchGp};
 use tactile_force::learn::models::wrench_model::WrenchModel;
 use tactile_force::learn::pooled::data_file;
 use tactile_force::params::Checked;
@@ -142,9 +143,10 @@ pub(crate) struct TrainArgs {
     select: bool,
     /// The model's family: gp (a GP per axis, the default), or ensemble (5
     /// baseline networks seeded apart, their mean the estimate and their
-    /// spread its standard deviation; the GP options do not apply). With
-    /// --select: fixes the family (by default --select compares both).
-    #[arg(long)]
+    /// spread its standard deviation; the GP options but --seed do not
+    /// apply). With --select: fixes the family (by default --select
+    /// compares them all).
+    #[arg(long, value_parser = family)]
     family: Option<Family>,
     /// Time budget of --select (s): the search stops when it is spent.
     #[arg(long, default_value_t = 60.0, requires = "select")]
@@ -193,63 +195,28 @@ pub(crate) fn run_train(a: TrainArgs) -> Result<()> {
         None,
     )?;
     let ds = sessions.pooled()?;
-    if a.family == Some(Family::Ensemble) {
-        return run_ensemble(&a, &sessions, &ds);
-    }
+    let family = families::named(a.family.as_ref().map_or("gp", Family::name))?;
     let scaling = a.fit.scaling(&sessions.sensor)?;
     let params = gp_params(&a.fit, &sessions.sensor)?;
     let bar = progress_bar();
     let t0 = std::time::Instant::now();
-    let model = WrenchGp::train_scaled(
-        &ds,
-        sessions.tare.clone(),
-        scaling,
-        &params,
-        &mut |axis, p| show(&bar, Progress::Axis(axis, p)),
-    )?
-    .with_sensor(sessions.sensor.clone());
+    let model = family.fit(Fit {
+        data: &ds,
+        tare: sessions.tare.clone(),
+        sensor: sessions.sensor.clone(),
+        input: scaling,
+        params: &params,
+        warm: WarmStart::default(),
+        progress: &mut |axis, p| show(&bar, Progress::Axis(axis, p)),
+    })?;
     bar.finish_and_clear();
     save_checked(&a, model, &ds, t0, (&sessions, &params))
 }
 
-/// `train --family ensemble`: the ensemble on `ds` (read as `sessions`),
-/// checked on it.
-fn run_ensemble(
-    a: &TrainArgs,
-    sessions: &Sessions,
-    ds: &tactile_force::learn::data::Dataset,
-) -> Result<()> {
-    let t0 = std::time::Instant::now();
-    let model = ensemble(a, ds, sessions.tare.clone(), &sessions.sensor)?;
-    save_ensemble(a, model, ds, t0)
-}
-
-/// The ensemble trained on `ds` (tared as `tare`, from `sensor`).
-fn ensemble(
-    a: &TrainArgs,
-    ds: &tactile_force::learn::data::Dataset,
-    tare: TareSpec,
-    sensor: &SensorSpec,
-) -> Result<WrenchEnsemble> {
-    Ok(WrenchEnsemble::train_default(ds, tare, a.fit.seed)?.with_sensor(sensor.clone()))
-}
-
-/// Checks the ensemble's fit on its own training data `ds`, writes it and
-/// says what it did (`t0`: when its training started).
-fn save_ensemble(
-    a: &TrainArgs,
-    model: WrenchEnsemble,
-    ds: &tactile_force::learn::data::Dataset,
-    t0: std::time::Instant,
-) -> Result<()> {
-    let fit_s = t0.elapsed().as_secs_f64();
-    let fit = training_fit(&model, ds)?;
-    model
-        .save(&a.out)
-        .with_context(|| format!("saving the model to {}", a.out.display()))?;
-    println!("{}", model.describe());
-    say_trained(&fit, &model, fit_s, a);
-    Ok(())
+/// A family's name on the command line, one of those registered.
+fn family(name: &str) -> std::result::Result<Family, String> {
+    let family = families::named(name).map_err(|e| e.to_string())?;
+    Ok(Family::named(family.name()))
 }
 
 /// Says how the model fits its own training data, and where it went.
@@ -306,7 +273,7 @@ fn run_select(a: &TrainArgs) -> Result<()> {
     let space = Space {
         held,
         channels: a.fit.channels.clone(),
-        family: a.family,
+        family: a.family.clone(),
         input: a.fit.input,
         gp: a.fit.fixed_gp(),
         mean: a.fit.mean,
@@ -336,21 +303,19 @@ fn run_select(a: &TrainArgs) -> Result<()> {
         .cut(&ds, &sessions.tare)
         .map_err(|e| Failure::failed(format!("the chosen options: {e}")))?;
     let chosen = format!("chosen: {choice}; its standard deviations scaled by {scales:.2?} to cover the held-out errors");
-    if choice.family == Family::Ensemble {
-        let model = ensemble(a, &data, tare, &sessions.sensor)?
-            .with_std_scales(&scales)
-            .with_selection(selection);
-        println!("{chosen}");
-        return save_ensemble(a, model, &data, t0);
-    }
     let params = choice.gp_params(&base).validate()?;
     let bar = progress_bar();
-    let model = WrenchGp::train_scaled(&data, tare, choice.input, &params, &mut |axis, p| {
-        show(&bar, Progress::Axis(axis, p))
-    })?
-    .with_sensor(sessions.sensor.clone())
-    .with_std_scales(&scales)
-    .with_selection(selection);
+    let mut model = families::of(&choice)?.fit(Fit {
+        data: &data,
+        tare,
+        sensor: sessions.sensor.clone(),
+        input: choice.input,
+        params: &params,
+        warm: WarmStart::default(),
+        progress: &mut |axis, p| show(&bar, Progress::Axis(axis, p)),
+    })?;
+    model.record(Making::StdScales(scales));
+    model.record(Making::Selection(Box::new(selection)));
     bar.finish_and_clear();
     println!("{chosen}");
     save_checked(a, model, &data, t0, (&sessions, &params))
@@ -386,25 +351,27 @@ fn load_held(a: &TrainArgs) -> Result<(Sessions, Vec<Channel>)> {
 /// options) and says what it did.
 fn save_checked(
     a: &TrainArgs,
-    model: WrenchGp,
+    mut model: Box<dyn WrenchModel>,
     ds: &tactile_force::learn::data::Dataset,
     t0: std::time::Instant,
     read: (&Sessions, &GpParams),
 ) -> Result<()> {
     let on = trained_on(&a.data, read.0, &a.fit.source, read.1.clone())?;
-    let model = model.with_trained_on(on);
+    model.record(Making::TrainedOn(on));
     let fit_s = t0.elapsed().as_secs_f64();
-    let fit = training_fit(&model, ds)?;
+    let fit = training_fit(model.as_ref(), ds)?;
     model
         .save(&a.out)
         .with_context(|| format!("saving the model to {}", a.out.display()))?;
-    for (axis, gp, info) in model.fits() {
+    println!("{}", model.describe());
+    let fits = model.as_any().downcast_ref::<WrenchGp>().into_iter();
+    for (axis, gp, info) in fits.flat_map(WrenchGp::fits) {
         let h = gp.hyper();
         println!(
             "{axis}: {}, {} evaluations ({} on all points), -log p(y)/n = {:.4}, signal var {:.3}, noise var {:.2e}",
             gp.describe(), info.evaluations, info.full_evaluations, info.neg_lml_per_sample, h.signal_var, h.noise_var
         );
     }
-    say_trained(&fit, &model, fit_s, a);
+    say_trained(&fit, model.as_ref(), fit_s, a);
     Ok(())
 }

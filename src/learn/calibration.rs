@@ -1,7 +1,7 @@
 //! A model from a calibration's recording: the current model adapted to it
 //! (a GP), models trained on it from scratch with the default options
 //! ([`Choice::default_options`]: the GP, the GP with the network as its
-//! prior mean, the ensemble of networks), or, when the current GP's
+//! prior mean, each other family: the ensemble of networks), or, when the current GP's
 //! training data is at hand, one retrained on that data pooled with the
 //! recording ([`super::pooled`]): among those that beat the current model
 //! on the held-out pushes (every fourth), the one the chooser's rule takes
@@ -25,7 +25,7 @@ use super::pooled::{choose, data_file, spread, std_scales, validate};
 use crate::biotac::ElectrodeLayout;
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
-use candidates::{Candidate, Fitter, Made};
+use candidates::{finish, Candidate, Fitter};
 
 pub use super::models::wrench_gp::{CalibrationRecord, Validation};
 
@@ -120,7 +120,6 @@ pub fn fit(
         adapt: base.clone().validate().map_err(ModelError::from)?,
         input: choice.input,
         sensor: current.input().sensor.clone(),
-        seed: base.seed,
     };
     let (candidates, pooling) = Candidate::all(current, &choice, base)?;
     let current_features = current.features().to_vec();
@@ -139,7 +138,7 @@ pub fn fit(
         let (train, tare) = rec.cut(&rec.train, &features(c))?;
         let (test, _) = rec.cut(&rec.test, &features(c))?;
         let m = fitter.fit(c, &train, tare)?;
-        validation.push(validate(c.name(), m.model(), &test, &rec.sd)?);
+        validation.push(validate(&c.name(), m.as_ref(), &test, &rec.sd)?);
         fitted.push((m, test));
     }
     let Some((at, why)) = chosen(&validation, &fitted, &candidates, &fitter.adapt) else {
@@ -147,17 +146,17 @@ pub fn fit(
     };
     // The winner's standard deviation scale, from its held-out errors; then
     // the winner again, on every push.
-    let scales = std_scales(fitted[at].0.model(), &fitted[at].1)?;
+    let scales = std_scales(fitted[at].0.as_ref(), &fitted[at].1)?;
     drop(fitted);
     let chosen = &candidates[at];
     let (data, tare) = rec.cut(&rec.all, &features(chosen))?;
     let model = fitter.fit(chosen, &data, tare)?;
-    training_fit(model.model(), &data)?;
+    training_fit(model.as_ref(), &data)?;
     let session_file =
         (recorded.session.as_deref()).and_then(|s| data_file(Path::new(s), rec.all.len()).ok());
     let trained_on = chosen.trained_on(session_file);
     let record = CalibrationRecord {
-        chosen: chosen.name().into(),
+        chosen: chosen.name(),
         validation,
         scratch_options: Some(choice),
         pushes: rec.pushes,
@@ -170,7 +169,7 @@ pub fn fit(
         pooling: Some(pooling),
         why,
     };
-    let model = model.finish(&scales, trained_on, record.clone());
+    let model = finish(model, &scales, trained_on, record.clone());
     Ok((model, record))
 }
 
@@ -179,7 +178,7 @@ pub fn fit(
 /// None when none beats it.
 fn chosen(
     validation: &[Validation],
-    fitted: &[(Made, Dataset)],
+    fitted: &[(Box<dyn WrenchModel>, Dataset)],
     candidates: &[Candidate],
     adapt: &GpParams,
 ) -> Option<(usize, String)> {
@@ -191,7 +190,7 @@ fn chosen(
     }
     let (better, cost): (Vec<Validation>, Vec<(f64, Form)>) = (beat.iter())
         .map(|&i| {
-            let estimate_us = fitted[i].0.model().predicted_estimate_us();
+            let estimate_us = fitted[i].0.predicted_estimate_us();
             (
                 validation[i + 1].clone(),
                 (estimate_us, candidates[i].form(adapt)),

@@ -33,6 +33,7 @@ use std::time::Instant;
 use ndarray::Axis as NdAxis;
 
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
+use super::models::families;
 use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind, DEFAULT_MAX_TRAIN};
 use super::models::scale::InputScaling;
@@ -42,32 +43,11 @@ use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};
 
+pub use super::models::family::Shape;
 pub use super::models::provenance::{Cost, Family};
 pub use super::models::wrench_gp::{AloneScore, Choice, CvRow, GpChoice, Selection};
 
 impl Choice {
-    /// The defaults of `train`: electrodes and PDC, standardised, the
-    /// exact GP on 2000 rows, zero mean.
-    pub fn default_options() -> Self {
-        Choice {
-            family: Family::Gp,
-            channels: vec![Channel::Electrodes, Channel::Pdc],
-            input: InputScaling::Standard,
-            gp: GpChoice::Exact(DEFAULT_MAX_TRAIN),
-            mean: MeanKind::Zero,
-        }
-    }
-
-    /// The network ensemble on `channels` (the GP's options left at their
-    /// defaults, so that two such candidates differ only by channels).
-    pub fn ensemble(channels: Vec<Channel>) -> Self {
-        Choice {
-            family: Family::Ensemble,
-            channels,
-            ..Choice::default_options()
-        }
-    }
-
     /// The feature columns it takes from a sensor of `layout`.
     pub fn features(&self, layout: ElectrodeLayout) -> Vec<String> {
         channel_columns(&self.channels, layout)
@@ -208,11 +188,12 @@ impl Space {
     pub fn start(&self) -> Choice {
         let d = Choice::default_options();
         let channels = self.channel_sets().into_iter().next().unwrap_or(d.channels);
-        if self.family() == Some(Family::Ensemble) {
-            return Choice::ensemble(channels);
+        match self.family() {
+            Some(family) if !family.is_gp() => return Choice::of(family, channels),
+            _ => {}
         }
         Choice {
-            family: Family::Gp,
+            family: Family::GP,
             channels,
             input: self.input.unwrap_or(d.input),
             gp: self.gp.unwrap_or(d.gp),
@@ -223,7 +204,7 @@ impl Space {
     /// The family fixed: by the user, or by a GP option they fixed.
     fn family(&self) -> Option<Family> {
         let gp_fixed = self.input.is_some() || self.mean.is_some() || self.gp.is_some();
-        self.family.or(gp_fixed.then_some(Family::Gp))
+        (self.family.clone()).or(gp_fixed.then_some(Family::GP))
     }
 
     /// What the search cannot vary, and why, for the record.
@@ -236,7 +217,7 @@ impl Space {
             let held: Vec<&str> = self.held.iter().map(|c| c.name()).collect();
             out.push(format!("channels: the data hold {} only", held.join(", ")));
         }
-        match (self.family, self.family()) {
+        match (&self.family, self.family()) {
             (Some(_), _) => out.push("family: fixed by --family".to_string()),
             (None, Some(_)) => out.push("family: a GP option was fixed".to_string()),
             (None, None) => {}
@@ -253,8 +234,8 @@ impl Space {
     /// The options tried after the first, one stage at a time (each from
     /// the best so far). The options that change the model's form come
     /// first, the channels last: input scaling, prior mean, the GP (its
-    /// kind and size), the family (the best GP against the ensemble on its
-    /// channels), channels. Fixed options, the GP's options of a fixed
+    /// kind and size), the family (the best GP against each other family
+    /// on its channels, [`families::besides_gp`]), channels. Fixed options, the GP's options of a fixed
     /// ensemble and channel sets the data do not hold have no stage.
     fn stages(&self, best: &Choice, rows: usize) -> Vec<Vec<Choice>> {
         let with = |f: &dyn Fn(&mut Choice)| {
@@ -282,7 +263,7 @@ impl Space {
             GpChoice::Exact(4000),
         ];
         let mut out = Vec::new();
-        let gp = self.family() != Some(Family::Ensemble);
+        let gp = self.family().is_none_or(|f| f.is_gp());
         if gp && self.input.is_none() {
             out.push(inputs.iter().map(|&i| with(&|c| c.input = i)).collect());
         }
@@ -300,7 +281,12 @@ impl Space {
             );
         }
         if self.family().is_none() {
-            out.push(vec![Choice::ensemble(best.channels.clone())]);
+            let others = families::besides_gp().into_iter();
+            out.push(
+                others
+                    .map(|f| Choice::of(Family::named(f.name()), best.channels.clone()))
+                    .collect(),
+            );
         }
         out.push(
             self.channel_sets()
@@ -356,7 +342,10 @@ pub fn select(
         if table.iter().any(|r| &r.choice == choice) || untried.iter().any(|(c, _)| c == choice) {
             return;
         }
-        let cost = cv.cost(choice);
+        let cost = match cv.cost(choice) {
+            Ok(cost) => cost,
+            Err(why) => return untried.push((choice.clone(), why)),
+        };
         if let Some(why) = budgeted
             .then(|| not_tried(&cost, budget_s - predicted_s))
             .flatten()

@@ -15,43 +15,10 @@
 //! paired), the "one standard error" rule of Hastie, Tibshirani and
 //! Friedman (2009, Sec. 7.10).
 
-use std::fmt;
-
 use ndarray::ArrayView2;
 
-use super::models::gp::MeanKind;
+pub use super::models::family::Form;
 use super::models::metrics::{mean_and_error, rmse_columns};
-
-/// A candidate's form: what the data must pay for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Form {
-    /// A GP with this prior mean.
-    Gp(MeanKind),
-    /// An ensemble of networks.
-    Ensemble,
-}
-
-impl Form {
-    /// How flexible it is: a GP's prior mean, from none to a network; an
-    /// ensemble is networks.
-    pub fn flexibility(self) -> u8 {
-        match self {
-            Form::Gp(MeanKind::Zero) => 0,
-            Form::Gp(MeanKind::Linear) => 1,
-            Form::Gp(MeanKind::Cubic) => 2,
-            Form::Gp(MeanKind::Network) | Form::Ensemble => 3,
-        }
-    }
-}
-
-impl fmt::Display for Form {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Form::Gp(mean) => write!(f, "{} mean", mean.name()),
-            Form::Ensemble => f.write_str("the ensemble"),
-        }
-    }
-}
 
 /// A candidate as the rule sees it.
 #[derive(Debug, Clone)]
@@ -105,7 +72,7 @@ pub fn choose(candidates: &[Scored]) -> Option<(usize, String)> {
     let chosen = (near.iter().copied())
         .min_by(|&a, &b| {
             let (a, b) = (&candidates[a], &candidates[b]);
-            (a.form.flexibility().cmp(&b.form.flexibility()))
+            (a.form.flexibility.cmp(&b.form.flexibility))
                 .then(a.estimate_us.total_cmp(&b.estimate_us))
         })
         .unwrap_or(best_i);
@@ -135,6 +102,19 @@ pub fn choose(candidates: &[Scored]) -> Option<(usize, String)> {
 mod tests {
     use super::*;
 
+    const ZERO: Form = Form {
+        name: "zero mean",
+        flexibility: 0,
+    };
+    const NETWORK: Form = Form {
+        name: "network mean",
+        flexibility: 3,
+    };
+    const ENSEMBLE: Form = Form {
+        name: "the ensemble",
+        flexibility: 3,
+    };
+
     fn scored<'a>(name: &str, form: Form, parts: &'a [f64], estimate_us: f64) -> Scored<'a> {
         Scored {
             name: name.into(),
@@ -153,10 +133,10 @@ mod tests {
         let near = [0.29, 0.31, 0.30, 0.29];
         let worse = [0.50, 0.52, 0.49, 0.51];
         let c = [
-            scored("network", Form::Gp(MeanKind::Network), &best, 300.0),
-            scored("ensemble", Form::Ensemble, &near, 12.0),
-            scored("adapted", Form::Gp(MeanKind::Zero), &near, 400.0),
-            scored("zero", Form::Gp(MeanKind::Zero), &worse, 10.0),
+            scored("network", NETWORK, &best, 300.0),
+            scored("ensemble", ENSEMBLE, &near, 12.0),
+            scored("adapted", ZERO, &near, 400.0),
+            scored("zero", ZERO, &worse, 10.0),
         ];
         let (i, why) = choose(&c).unwrap();
         assert_eq!(i, 2, "{why}");
@@ -166,7 +146,7 @@ mod tests {
         );
         // Equally simple: the cheaper; as cheap: the first.
         let mut two = c.clone();
-        two[1].form = Form::Gp(MeanKind::Zero);
+        two[1].form = ZERO;
         assert_eq!(choose(&two).unwrap().0, 1);
         two[2].estimate_us = two[1].estimate_us;
         assert_eq!(choose(&two).unwrap().0, 1);
@@ -177,19 +157,19 @@ mod tests {
         let (best, worse) = ([0.20, 0.21, 0.19], [0.30, 0.31, 0.29]);
         let nan = [f64::NAN, 0.1, 0.1];
         let c = [
-            scored("zero", Form::Gp(MeanKind::Zero), &worse, 10.0),
-            scored("network", Form::Gp(MeanKind::Network), &best, 300.0),
-            scored("broken", Form::Gp(MeanKind::Zero), &nan, 1.0),
+            scored("zero", ZERO, &worse, 10.0),
+            scored("network", NETWORK, &best, 300.0),
+            scored("broken", ZERO, &nan, 1.0),
         ];
         let (i, why) = choose(&c).unwrap();
         assert_eq!(i, 1, "{why}");
         assert!(why.starts_with("the best score (0.2000)"), "{why}");
         // Scored on other parts: only the best is known.
         let c = [
-            scored("zero", Form::Gp(MeanKind::Zero), &worse[..2], 10.0),
-            scored("network", Form::Gp(MeanKind::Network), &worse, 300.0),
+            scored("zero", ZERO, &worse[..2], 10.0),
+            scored("network", NETWORK, &worse, 300.0),
         ];
         assert_eq!(choose(&c).unwrap().0, 1);
-        assert!(choose(&[scored("broken", Form::Ensemble, &nan, 1.0)]).is_none());
+        assert!(choose(&[scored("broken", ENSEMBLE, &nan, 1.0)]).is_none());
     }
 }

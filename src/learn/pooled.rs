@@ -15,13 +15,14 @@ use super::data::sessions::{load_sessions, Features, Request};
 use super::data::source::Source;
 use super::data::Dataset;
 use super::evaluate::{check_fits, EvalError};
-use super::models::ensemble::WrenchEnsemble;
+use super::models::families;
+use super::models::family::{Fit, ModelFamily};
 use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind};
 use super::models::metrics::rmse_columns;
 use super::models::wrench_gp::{
-    std_scale, AdaptChoice, AdaptedFrom, DataFile, ModelError, TareSpec, TrainedOn, Validation,
-    WrenchGp,
+    std_scale, AdaptChoice, AdaptedFrom, DataFile, GpFamily, Making, ModelError, TareSpec,
+    TrainedOn, Validation, WarmStart, WrenchGp,
 };
 use super::models::wrench_model::WrenchModel;
 use crate::params::Checked;
@@ -345,7 +346,8 @@ pub fn held_out(data: &Dataset) -> (Vec<usize>, Vec<usize>) {
 /// its held-out part ([`held_out`]) and scored there: the base adapted
 /// ([`WrenchGp::adapt`]); retrained on the base's data pooled with the new,
 /// when `base_data` is at hand; and each family on the new data alone (the
-/// GP, the GP with the network as its mean, the ensemble of networks). The
+/// GP, the GP with the network as its mean, each other family
+/// ([`families::besides_gp`]): the ensemble of networks). The
 /// one the chooser takes ([`choose`]) is fitted again on all of `data`, its standard deviations scaled to
 /// cover its held-out errors ([`std_scale`]), and returned with what was
 /// chosen. The GPs record `trained_on` (the new data's own, `new_only`, for
@@ -367,12 +369,38 @@ pub struct Adaptation<'a> {
     pub new_only: Option<TrainedOn>,
 }
 
-/// The candidates of [`Adaptation`], by the names they are scored under.
+/// The candidates of [`Adaptation`], by the names they are scored under
+/// (each other family's: "new data: " and its name).
 const ADAPTED: &str = "adapted";
 const POOLED: &str = "pooled";
 const NEW_GP: &str = "new data: GP";
 const NEW_NETWORK: &str = "new data: GP, network mean";
-const NEW_ENSEMBLE: &str = "new data: ensemble";
+
+/// A candidate of [`Adaptation`].
+enum Candidate {
+    /// The base adapted, retrained pooled, or the GP of the new data alone
+    /// (its mean the options' or a network): by name.
+    Gp(&'static str),
+    /// Another family on the new data alone.
+    Other(&'static dyn ModelFamily),
+}
+
+impl Candidate {
+    /// Every candidate, the pooled one when `pooled`.
+    fn all(pooled: bool) -> Vec<Candidate> {
+        let gps = [ADAPTED, POOLED, NEW_GP, NEW_NETWORK].into_iter();
+        let gps = gps.filter(|n| *n != POOLED || pooled).map(Candidate::Gp);
+        let others = families::besides_gp().into_iter().map(Candidate::Other);
+        gps.chain(others).collect()
+    }
+
+    fn name(&self) -> String {
+        match self {
+            Candidate::Gp(name) => (*name).into(),
+            Candidate::Other(family) => format!("new data: {}", family.name()),
+        }
+    }
+}
 
 impl Adaptation<'_> {
     /// Runs it (see [`Adaptation`]); `progress` is told every fit's progress.
@@ -386,49 +414,58 @@ impl Adaptation<'_> {
             Err(_) => None,
         };
         let network = with_network_mean(self.params)?;
-        let fit = |name: &str,
+        let fit = |c: &Candidate,
                    d: &Dataset,
                    p: &mut (dyn FnMut(Axis, FitProgress) + Send)|
-         -> Result<WrenchGp, ModelError> {
+         -> Result<Box<dyn WrenchModel>, ModelError> {
             let (tare, scaling) = (self.tare.clone(), self.base.scaling());
-            let alone = match name {
-                NEW_GP => Some(self.params),
-                NEW_NETWORK => Some(&network),
-                _ => None,
+            let alone = |family: &dyn ModelFamily, params, progress| {
+                family.fit(Fit {
+                    data: d,
+                    tare: tare.clone(),
+                    sensor: self.base.sensor().clone(),
+                    input: scaling,
+                    params,
+                    warm: WarmStart::default(),
+                    progress,
+                })
             };
-            match (alone, name, &pool) {
-                (Some(params), ..) => Ok(WrenchGp::train_scaled(d, tare, scaling, params, p)?
-                    .with_sensor(self.base.sensor().clone())),
-                (None, POOLED, Some((b, options))) => b.pooled(self.base, d, tare, options, p),
-                _ => (self.base).adapt(d, tare, self.from.clone(), self.params, p),
+            match (c, &pool) {
+                (Candidate::Other(family), _) => alone(*family, self.params, p),
+                (Candidate::Gp(NEW_GP), _) => alone(&GpFamily, self.params, p),
+                (Candidate::Gp(NEW_NETWORK), _) => alone(&GpFamily, &network, p),
+                (Candidate::Gp(POOLED), Some((b, options))) => {
+                    Ok(Box::new(b.pooled(self.base, d, tare, options, p)?))
+                }
+                _ => Ok(Box::new(self.base.adapt(
+                    d,
+                    tare,
+                    self.from.clone(),
+                    self.params,
+                    p,
+                )?)),
             }
         };
-        let names: Vec<&str> = [ADAPTED, POOLED, NEW_GP, NEW_NETWORK, NEW_ENSEMBLE]
-            .into_iter()
-            .filter(|n| *n != POOLED || pool.is_some())
-            .collect();
+        let candidates = Candidate::all(pool.is_some());
         let (train, test) = held_out(self.data);
         let (train, test) = (self.data.select(&train), self.data.select(&test));
         let sd = spread(self.data);
-        let mut validation = Vec::with_capacity(names.len());
-        let mut fitted = Vec::with_capacity(names.len());
-        let mut cost = Vec::with_capacity(names.len());
-        for name in &names {
-            let m: Box<dyn WrenchModel> = match *name {
-                NEW_ENSEMBLE => Box::new(self.ensemble(&train)?),
-                _ => Box::new(fit(name, &train, progress)?),
-            };
-            validation.push(validate(name, m.as_ref(), &test, &sd)?);
-            cost.push((m.predicted_estimate_us(), self.form(name, &pool)));
+        let mut validation = Vec::with_capacity(candidates.len());
+        let mut fitted = Vec::with_capacity(candidates.len());
+        let mut cost = Vec::with_capacity(candidates.len());
+        for c in &candidates {
+            let m = fit(c, &train, progress)?;
+            validation.push(validate(&c.name(), m.as_ref(), &test, &sd)?);
+            cost.push((m.predicted_estimate_us(), self.form(c, &pool)));
             fitted.push(m);
         }
         let (at, why) = choose(&validation, &cost);
         // The winner's standard deviation scale, from its held-out errors.
         let scales = std_scales(fitted[at].as_ref(), &test)?;
         drop(fitted);
-        let chosen = names[at];
+        let chosen = &candidates[at];
         let choice = AdaptChoice {
-            chosen: chosen.into(),
+            chosen: chosen.name(),
             held_out_rows: test.len(),
             pooling: match &base_data {
                 Ok(b) => b.describe(),
@@ -437,34 +474,26 @@ impl Adaptation<'_> {
             validation,
             why,
         };
-        if chosen == NEW_ENSEMBLE {
-            let model = (self.ensemble(self.data)?.with_std_scales(&scales))
-                .with_adapt_choice(choice.clone());
-            return Ok((Box::new(model), choice));
-        }
         let trained_on = match chosen {
-            NEW_GP | NEW_NETWORK => self.new_only.clone(),
+            Candidate::Gp(NEW_GP | NEW_NETWORK) => self.new_only.clone(),
             _ => self.trained_on.clone(),
         };
-        let model = (fit(chosen, self.data, progress)?.with_std_scales(&scales))
-            .with_trained_on(trained_on)
-            .with_adapt_choice(choice.clone());
-        Ok((Box::new(model), choice))
-    }
-    /// The form of the candidate `name`, the pooled one's options `pool`.
-    fn form(&self, name: &str, pool: &Option<(&BaseData, Checked<GpParams>)>) -> Form {
-        match (name, pool) {
-            (NEW_ENSEMBLE, _) => Form::Ensemble,
-            (NEW_NETWORK, _) => Form::Gp(MeanKind::Network),
-            (POOLED, Some((_, options))) => Form::Gp(options.mean),
-            _ => Form::Gp(self.params.mean),
-        }
+        let mut model = fit(chosen, self.data, progress)?;
+        model.record(Making::StdScales(scales));
+        model.record(Making::TrainedOn(trained_on));
+        model.record(Making::AdaptChoice(Box::new(choice.clone())));
+        Ok((model, choice))
     }
 
-    /// The ensemble of networks on `d` (tared as the new data).
-    fn ensemble(&self, d: &Dataset) -> Result<WrenchEnsemble, ModelError> {
-        let e = WrenchEnsemble::train_default(d, self.tare.clone(), self.params.seed)?;
-        Ok(e.with_sensor(self.base.sensor().clone()))
+    /// The form of `candidate`, the pooled one's options `pool`.
+    fn form(&self, candidate: &Candidate, pool: &Option<(&BaseData, Checked<GpParams>)>) -> Form {
+        let gp = GpFamily::form_of;
+        match (candidate, pool) {
+            (Candidate::Other(f), _) => families::default_form(*f),
+            (Candidate::Gp(NEW_NETWORK), _) => gp(MeanKind::Network),
+            (Candidate::Gp(POOLED), Some((_, options))) => gp(options.mean),
+            _ => gp(self.params.mean),
+        }
     }
 }
 

@@ -1,14 +1,16 @@
 //! The calibration's candidates besides the current model, and how each is
 //! fitted on a part of the recording.
 
-use crate::learn::choice::Choice;
 use crate::learn::chooser::Form;
 use crate::learn::data::Dataset;
-use crate::learn::models::ensemble::WrenchEnsemble;
+use crate::learn::models::families;
+use crate::learn::models::family::{Fit, ModelFamily};
 use crate::learn::models::gp::GpParams;
+use crate::learn::models::provenance::Choice;
 use crate::learn::models::scale::InputScaling;
 use crate::learn::models::wrench_gp::{
-    AdaptedFrom, CalibrationRecord, DataFile, ModelError, TareSpec, TrainedOn, WrenchGp,
+    AdaptedFrom, CalibrationRecord, DataFile, GpFamily, Making, ModelError, TareSpec, TrainedOn,
+    WarmStart, WrenchGp,
 };
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::learn::pooled::{base_data, lineage, with_network_mean, BaseData, Unavailable};
@@ -19,7 +21,6 @@ use crate::sensor::SensorSpec;
 const ADAPTED: &str = "adapted";
 const SCRATCH: &str = "from scratch";
 const SCRATCH_NETWORK: &str = "from scratch, network mean";
-const SCRATCH_ENSEMBLE: &str = "from scratch, ensemble";
 const POOLED: &str = "pooled";
 
 /// A model the calibration may choose over the current one.
@@ -28,8 +29,9 @@ pub(super) enum Candidate<'a> {
     Adapted(&'a WrenchGp),
     /// A GP of the default channels from scratch: its name and options.
     Scratch(&'static str, Checked<GpParams>),
-    /// The ensemble of networks of the default channels from scratch.
-    Ensemble,
+    /// A model of another family ([`families::besides_gp`]) of the default
+    /// channels from scratch.
+    Other(&'static dyn ModelFamily),
     /// The current GP's own training data pooled with the recording.
     Pooled(&'a WrenchGp, Box<BaseData>, Checked<GpParams>),
 }
@@ -37,8 +39,8 @@ pub(super) enum Candidate<'a> {
 impl<'a> Candidate<'a> {
     /// Every candidate for `current`: adapted and pooled (when its data are
     /// at hand) when it is a GP; from scratch with `choice`'s options (the
-    /// GP, the GP with a network mean, the ensemble) always. With what
-    /// pooling took, or why it was not a candidate.
+    /// GP, the GP with a network mean, each other family) always. With
+    /// what pooling took, or why it was not a candidate.
     pub(super) fn all(
         current: &'a dyn WrenchModel,
         choice: &Choice,
@@ -46,17 +48,18 @@ impl<'a> Candidate<'a> {
     ) -> Result<(Vec<Self>, String), ModelError> {
         let scratch = choice.gp_params(base).validate()?;
         let network = with_network_mean(&scratch)?;
-        let from_scratch = [
+        let others = families::besides_gp().into_iter().map(Candidate::Other);
+        let gps = [
             Candidate::Scratch(SCRATCH, scratch),
             Candidate::Scratch(SCRATCH_NETWORK, network),
-            Candidate::Ensemble,
         ];
+        let from_scratch: Vec<Self> = gps.into_iter().chain(others).collect();
         let Some(gp) = current.as_any().downcast_ref::<WrenchGp>() else {
             let why = format!(
                 "not considered: the current model is an {} (pooling retrains a GP on its data)",
                 current.family()
             );
-            return Ok((from_scratch.into(), why));
+            return Ok((from_scratch, why));
         };
         let mut out = vec![Candidate::Adapted(gp)];
         out.extend(from_scratch);
@@ -70,23 +73,22 @@ impl<'a> Candidate<'a> {
     }
 
     /// Its name in the validation table.
-    pub(super) fn name(&self) -> &'static str {
+    pub(super) fn name(&self) -> String {
         match self {
-            Candidate::Adapted(_) => ADAPTED,
-            Candidate::Scratch(name, _) => name,
-            Candidate::Ensemble => SCRATCH_ENSEMBLE,
-            Candidate::Pooled(..) => POOLED,
+            Candidate::Adapted(_) => ADAPTED.into(),
+            Candidate::Scratch(name, _) => (*name).into(),
+            Candidate::Other(family) => format!("{SCRATCH}, {}", family.name()),
+            Candidate::Pooled(..) => POOLED.into(),
         }
     }
 
     /// Its form, the adapted GPs' options being `adapt`.
     pub(super) fn form(&self, adapt: &GpParams) -> Form {
+        let gp = GpFamily::form_of;
         match self {
-            Candidate::Adapted(_) => Form::Gp(adapt.mean),
-            Candidate::Scratch(_, params) | Candidate::Pooled(_, _, params) => {
-                Form::Gp(params.mean)
-            }
-            Candidate::Ensemble => Form::Ensemble,
+            Candidate::Adapted(_) => gp(adapt.mean),
+            Candidate::Scratch(_, params) | Candidate::Pooled(_, _, params) => gp(params.mean),
+            Candidate::Other(family) => families::default_form(*family),
         }
     }
 
@@ -98,7 +100,7 @@ impl<'a> Candidate<'a> {
 
     /// The data it records it was trained on, the recording being
     /// `session` (a GP's reference that pooled retraining follows; none for
-    /// the ensemble).
+    /// another family).
     pub(super) fn trained_on(&self, session: Option<DataFile>) -> Option<TrainedOn> {
         match self {
             Candidate::Adapted(gp) | Candidate::Pooled(gp, ..) => {
@@ -108,7 +110,7 @@ impl<'a> Candidate<'a> {
                 files: vec![f],
                 params: GpParams::clone(params),
             }),
-            Candidate::Ensemble => None,
+            Candidate::Other(_) => None,
         }
     }
 }
@@ -117,14 +119,13 @@ impl<'a> Candidate<'a> {
 pub(super) struct Fitter {
     /// What an adapted model records it came from.
     pub(super) from: AdaptedFrom,
-    /// The adaptation GPs' options.
+    /// The adaptation GPs' options; another family from scratch takes
+    /// their seed.
     pub(super) adapt: Checked<GpParams>,
     /// How a model from scratch takes its inputs.
     pub(super) input: InputScaling,
     /// The sensor a model from scratch records.
     pub(super) sensor: SensorSpec,
-    /// The ensemble's seed.
-    pub(super) seed: u64,
 }
 
 impl Fitter {
@@ -134,69 +135,45 @@ impl Fitter {
         candidate: &Candidate,
         data: &Dataset,
         tare: TareSpec,
-    ) -> Result<Made, ModelError> {
+    ) -> Result<Box<dyn WrenchModel>, ModelError> {
+        let scratch = |family: &dyn ModelFamily, params| {
+            family.fit(Fit {
+                data,
+                tare: tare.clone(),
+                sensor: self.sensor.clone(),
+                input: self.input,
+                params,
+                warm: WarmStart::default(),
+                progress: &mut |_, _| {},
+            })
+        };
         Ok(match candidate {
             Candidate::Adapted(gp) => {
                 let from = self.from.clone();
-                Made::Gp(Box::new(gp.adapt(
-                    data,
-                    tare,
-                    from,
-                    &self.adapt,
-                    &mut |_, _| {},
-                )?))
+                let quiet = &mut |_, _| {};
+                Box::new(gp.adapt(data, tare.clone(), from, &self.adapt, quiet)?)
             }
-            Candidate::Scratch(_, params) => Made::Gp(Box::new(
-                WrenchGp::train_scaled(data, tare, self.input, params, &mut |_, _| {})?
-                    .with_sensor(self.sensor.clone()),
-            )),
-            Candidate::Ensemble => Made::Ensemble(Box::new(
-                WrenchEnsemble::train_default(data, tare, self.seed)?
-                    .with_sensor(self.sensor.clone()),
-            )),
-            Candidate::Pooled(gp, b, options) => Made::Gp(Box::new(b.pooled(
-                gp,
-                data,
-                tare,
-                options,
-                &mut |_, _| {},
-            )?)),
+            Candidate::Scratch(_, params) => scratch(&GpFamily, params)?,
+            Candidate::Other(family) => scratch(*family, &self.adapt)?,
+            Candidate::Pooled(gp, b, options) => {
+                Box::new(b.pooled(gp, data, tare.clone(), options, &mut |_, _| {})?)
+            }
         })
     }
 }
 
-/// A candidate's fitted model, of its family.
-pub(super) enum Made {
-    Gp(Box<WrenchGp>),
-    Ensemble(Box<WrenchEnsemble>),
-}
-
-impl Made {
-    /// The model behind the shared interface.
-    pub(super) fn model(&self) -> &dyn WrenchModel {
-        match self {
-            Made::Gp(m) => m.as_ref(),
-            Made::Ensemble(m) => m.as_ref(),
-        }
-    }
-
-    /// The chosen model: its standard deviations scaled by `scales`, with
-    /// the data it was trained on (a GP) and the calibration's record.
-    pub(super) fn finish(
-        self,
-        scales: &[f64],
-        trained_on: Option<TrainedOn>,
-        record: CalibrationRecord,
-    ) -> Box<dyn WrenchModel> {
-        match self {
-            Made::Gp(m) => Box::new(
-                ((*m).with_std_scales(scales))
-                    .with_trained_on(trained_on)
-                    .with_calibration(record),
-            ),
-            Made::Ensemble(m) => Box::new((*m).with_std_scales(scales).with_calibration(record)),
-        }
-    }
+/// The chosen model: its standard deviations scaled by `scales`, with the
+/// data it was trained on (a GP's) and the calibration's record.
+pub(super) fn finish(
+    mut model: Box<dyn WrenchModel>,
+    scales: &[f64],
+    trained_on: Option<TrainedOn>,
+    record: CalibrationRecord,
+) -> Box<dyn WrenchModel> {
+    model.record(Making::StdScales(scales.to_vec()));
+    model.record(Making::TrainedOn(trained_on));
+    model.record(Making::Calibration(Box::new(record)));
+    model
 }
 
 /// What pooling took, or why it was not a candidate.

@@ -8,11 +8,13 @@ use std::time::Instant;
 use ndarray::Array2;
 use rayon::prelude::*;
 
-use super::cost::{self, Shape};
-use super::{AloneScore, Choice, Cost, CvRow, Family};
+use super::cost;
+use super::Shape;
+use super::{AloneScore, Choice, Cost, CvRow};
 use crate::learn::chooser::score;
 use crate::learn::data::{layout_of, Dataset};
-use crate::learn::models::ensemble::WrenchEnsemble;
+use crate::learn::models::families;
+use crate::learn::models::family::Fit;
 use crate::learn::models::gp::fit::FitProgress;
 use crate::learn::models::gp::{GpParams, MeanKind, SeHyper};
 use crate::learn::models::metrics::rmse_columns;
@@ -22,6 +24,7 @@ use crate::learn::models::wrench_gp::{ModelError, TareSpec, WarmStart, WrenchGp}
 use crate::learn::models::wrench_model::WrenchModel;
 use crate::learn::tradeoff::{timed_rows, timed_us};
 use crate::params::Checked;
+use crate::sensor::SensorSpec;
 
 /// Hyperparameters fitted so far, per axis, by the model's form (channels,
 /// input scaling, prior mean: what the hyperparameters depend on) and fold;
@@ -140,8 +143,9 @@ pub(super) struct Cv<'a> {
 }
 
 impl Cv<'_> {
-    /// `choice`'s cost on these folds, predicted from its kind and size.
-    pub(super) fn cost(&self, choice: &Choice) -> Cost {
+    /// `choice`'s cost on these folds, predicted from its kind and size;
+    /// the reason when its family is not registered.
+    pub(super) fn cost(&self, choice: &Choice) -> Result<Cost, String> {
         let train: usize = self.splits.iter().map(|(train, _)| train.len()).sum();
         let shape = Shape {
             train_rows: train / self.splits.len().max(1),
@@ -149,7 +153,7 @@ impl Cv<'_> {
             features: choice.features(layout_of(&self.data.features)).len(),
             axes: self.sd.len(),
         };
-        cost::predict(choice, &shape)
+        cost::predict(choice, &shape).map_err(|e| e.to_string())
     }
 
     /// One candidate's folds; Err when the data cannot serve it (the reason).
@@ -205,7 +209,7 @@ impl Cv<'_> {
             score,
             seconds: Some(t0.elapsed().as_secs_f64()),
             cpu_s: cpu_seconds().zip(cpu0).map(|(now, then)| now - then),
-            predicted: Some(self.cost(choice)),
+            predicted: self.cost(choice).ok(),
             fold_scores,
             latency_us: latency.map(|l| l.0),
             latency_p99_us: latency.map(|l| l.1),
@@ -227,28 +231,22 @@ impl Cv<'_> {
         progress: &mut (dyn FnMut(&Choice, FitProgress) + Send),
     ) -> Result<FoldModel, String> {
         let failed = |e: ModelError| e.to_string();
-        let tare = rows.tare.clone();
-        match choice.family {
-            Family::Gp => {
-                let model = WrenchGp::train_from(
-                    rows.train,
-                    tare,
-                    choice.input,
-                    params,
-                    warm.get(choice, rows.index),
-                    &mut |_, p| progress(choice, p),
-                )
-                .map_err(failed)?;
-                warm.keep(choice, rows.index, &model);
-                let alone = (model.network_estimate(rows.held_out.x.view())).map_err(failed)?;
-                Ok((Box::new(model), alone))
-            }
-            Family::Ensemble => {
-                let model = WrenchEnsemble::train_default(rows.train, tare, self.base.seed)
-                    .map_err(failed)?;
-                Ok((Box::new(model), None))
-            }
-        }
+        let model = families::of(choice).map_err(failed)?.fit(Fit {
+            data: rows.train,
+            tare: rows.tare.clone(),
+            sensor: SensorSpec::default(),
+            input: choice.input,
+            params,
+            warm: warm.get(choice, rows.index),
+            progress: &mut |_, p| progress(choice, p),
+        });
+        let model = model.map_err(failed)?;
+        let Some(gp) = model.as_any().downcast_ref::<WrenchGp>() else {
+            return Ok((model, None));
+        };
+        warm.keep(choice, rows.index, gp);
+        let alone = (gp.network_estimate(rows.held_out.x.view())).map_err(failed)?;
+        Ok((model, alone))
     }
 }
 

@@ -2,16 +2,9 @@
 //! ([`crate::learn::chooser`]) over the rows' fold scores, forms and
 //! predicted estimate times.
 
-use super::{Choice, CvRow, Family};
-use crate::learn::chooser::{self, Form, Scored};
-
-/// `choice`'s form.
-pub(super) fn form(choice: &Choice) -> Form {
-    match choice.family {
-        Family::Gp => Form::Gp(choice.mean),
-        Family::Ensemble => Form::Ensemble,
-    }
-}
+use super::CvRow;
+use crate::learn::chooser::{self, Scored};
+use crate::learn::models::families;
 
 /// The index of the chosen row of `table` (not empty), and why.
 pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
@@ -20,7 +13,7 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
             name: r.choice.to_string(),
             score: r.score,
             parts: &r.fold_scores,
-            form: form(&r.choice),
+            form: families::form(&r.choice),
             estimate_us: r.predicted.map_or(f64::INFINITY, |c| c.estimate_us),
         })
         .collect();
@@ -30,7 +23,7 @@ pub(super) fn choose(table: &[CvRow]) -> (usize, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::choice::MeanKind;
+    use crate::learn::choice::{Choice, Family, MeanKind};
     use crate::learn::models::provenance::Cost;
 
     fn row(mean: MeanKind, folds: &[f64], estimate_us: f64) -> CvRow {
@@ -85,7 +78,10 @@ mod tests {
     #[test]
     fn the_ensemble_is_as_flexible_as_a_network_mean_and_chosen_when_it_wins() {
         let ensemble = |folds: &[f64], latency_us: f64| CvRow {
-            choice: Choice::ensemble(Choice::default_options().channels),
+            choice: Choice::of(
+                Family::named("ensemble"),
+                Choice::default_options().channels,
+            ),
             ..row(MeanKind::Zero, folds, latency_us)
         };
         // Within noise of a zero-mean GP: the GP, simpler.

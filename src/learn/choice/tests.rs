@@ -67,7 +67,7 @@ fn assert_chose_the_best_or_simpler(s: &Selection) {
         .min_by(|a, b| a.score.total_cmp(&b.score))
         .unwrap();
     let chosen = &s.table[s.chosen];
-    let flexibility = |r: &CvRow| super::pick::form(&r.choice).flexibility();
+    let flexibility = |r: &CvRow| families::form(&r.choice).flexibility;
     let cost = |r: &CvRow| r.predicted.unwrap().estimate_us;
     let simpler = flexibility(chosen) < flexibility(best)
         || (flexibility(chosen) == flexibility(best) && cost(chosen) <= cost(best));
@@ -88,7 +88,7 @@ fn the_search_keeps_the_best_score_and_records_every_candidate() {
     assert!(tried(&|c| c.input == InputScaling::Raw));
     assert!(tried(&|c| c.mean == MeanKind::Cubic));
     assert!(tried(&|c| c.gp == GpChoice::Sparse(200)));
-    assert!(tried(&|c| c.family == Family::Ensemble));
+    assert!(tried(&|c| c.family == Family::named("ensemble")));
     assert!(s.untried.is_empty(), "{:?}", s.untried);
     for r in &s.table {
         assert!(
@@ -223,19 +223,27 @@ fn the_candidates_are_the_channels_held_and_the_options_left_free() {
     assert!(stages[0].iter().any(|c| c.input == InputScaling::Raw));
     assert!(stages[1].iter().any(|c| c.mean == MeanKind::Cubic));
     assert!(stages[2].iter().any(|c| c.gp == GpChoice::Sparse(500)));
-    assert_eq!(stages[3], [Choice::ensemble(best.channels.clone())]);
+    assert_eq!(
+        stages[3],
+        [Choice::of(Family::named("ensemble"), best.channels.clone())]
+    );
     assert!(stages[4]
         .iter()
         .any(|c| c.channels == [Electrodes, Pdc, Tdc, Tac]));
     // The ensemble fixed: it is the first candidate, only its channels vary.
     let ensemble = Space {
-        family: Some(Family::Ensemble),
+        family: Some(Family::named("ensemble")),
         ..every()
     };
-    assert_eq!(ensemble.start(), Choice::ensemble(vec![Electrodes, Pdc]));
+    assert_eq!(
+        ensemble.start(),
+        Choice::of(Family::named("ensemble"), vec![Electrodes, Pdc])
+    );
     let stages = ensemble.stages(&ensemble.start(), 10_000);
     assert_eq!(stages.len(), 1, "{stages:?}");
-    assert!(stages[0].iter().all(|c| c.family == Family::Ensemble));
+    assert!(stages[0]
+        .iter()
+        .all(|c| c.family == Family::named("ensemble")));
     assert_eq!(stages[0].len(), 4);
     assert_eq!(ensemble.not_varied(), ["family: fixed by --family"]);
     // Fixed options have no stage, and every candidate keeps them.

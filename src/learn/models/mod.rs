@@ -1,8 +1,9 @@
 //! The models and their numerics: Gaussian processes ([`gp`]), the baseline
 //! network ([`nn`]), the nail camera's CNN ([`cnn`]), input and target
 //! scaling ([`scale`]), error metrics ([`metrics`]), and the wrench models
-//! the estimator runs ([`wrench_model`]), each family with its model file:
-//! a GP per axis ([`wrench_gp`]) and an ensemble of networks ([`ensemble`]).
+//! the estimator runs ([`wrench_model`]), each family ([`family`], the
+//! registry [`families`]) with its model file: a GP per axis
+//! ([`wrench_gp`]) and an ensemble of networks ([`ensemble`]).
 //!
 //! Every model sits behind one interface, as linfa's `Fit` and `Predict`
 //! do: a [`Learner`] (a model kind with its options) fits on a data set and
@@ -12,6 +13,8 @@
 pub mod cnn;
 pub mod ensemble;
 pub mod estimate_cost;
+pub mod families;
+pub mod family;
 pub mod gp;
 pub mod metrics;
 pub mod model_file;

@@ -1,27 +1,12 @@
-//! A model file of any family, read by its `format`: the estimator node,
-//! `demo --model` and `eval --model` take either.
+//! A model file of any family ([`load`]: the estimator node, `demo
+//! --model` and `eval --model` take any) and the id an estimate names it
+//! by.
 
 use std::path::Path;
 
 use sha2::Digest;
 
-use super::ensemble::{WrenchEnsemble, ENSEMBLE_FORMAT};
-use super::wrench_gp::{WrenchGp, MODEL_FORMAT};
-use super::wrench_model::{read_json, ModelError, WrenchModel};
-
-/// Reads and validates a model file of any family.
-pub fn load(path: &Path) -> Result<Box<dyn WrenchModel>, ModelError> {
-    let (value, format) = read_json(path)?;
-    match format.as_str() {
-        MODEL_FORMAT => Ok(Box::new(WrenchGp::from_json(value, path)?)),
-        ENSEMBLE_FORMAT => Ok(Box::new(WrenchEnsemble::from_json(value, path)?)),
-        _ => Err(ModelError::WrongFormat {
-            path: path.display().to_string(),
-            found: format,
-            expected: ANY_FORMAT,
-        }),
-    }
-}
+pub use super::families::load;
 
 /// Which model an estimate came from: its file and the start of the
 /// file's SHA-256 (`sha256sum FILE | cut -c1-16`), so that a consumer
@@ -53,9 +38,6 @@ impl ModelId {
         }
     }
 }
-
-/// The formats [`load`] reads, for its error.
-const ANY_FORMAT: &str = "tactile_force/wrench_gp or tactile_force/wrench_ensemble";
 
 #[cfg(test)]
 mod tests {

@@ -4,14 +4,45 @@
 //! what `adapt` chose. The model file owns these types;
 //! the workflows that make models fill them in.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
 use crate::learn::data::Channel;
-use crate::learn::models::gp::{GpParams, MeanKind};
+use crate::learn::models::gp::{GpParams, MeanKind, DEFAULT_MAX_TRAIN};
 use crate::learn::models::scale::InputScaling;
 use crate::wrench::Axis;
+
+/// One thing a model records of what made it, in its model file
+/// ([`super::wrench_model::WrenchModel::record`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Making {
+    /// Per axis (output order), the scale of the standard deviation of a
+    /// measured target that covers held-out errors; a scale not positive
+    /// and finite leaves its axis as it is.
+    StdScales(Vec<f64>),
+    /// The data it was trained on (None: not known), which pooled
+    /// retraining reads again; a family whose models pooling cannot
+    /// retrain records none.
+    TrainedOn(Option<TrainedOn>),
+    /// How `train --select` chose its options.
+    Selection(Box<Selection>),
+    /// What `adapt` chose it over.
+    AdaptChoice(Box<AdaptChoice>),
+    /// The calibration on the robot that made it.
+    Calibration(Box<CalibrationRecord>),
+}
+
+/// Sets each of `targets` to its scale in `scales` where that is positive
+/// and finite ([`Making::StdScales`]).
+pub(crate) fn set_scales<'a>(targets: impl Iterator<Item = &'a mut f64>, scales: &[f64]) {
+    for (t, s) in targets.zip(scales) {
+        if *s > 0.0 && s.is_finite() {
+            *t = *s;
+        }
+    }
+}
 
 /// Where an adapted model came from (`adapt`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -44,44 +75,48 @@ impl std::fmt::Display for GpChoice {
     }
 }
 
-/// A model family: what `train --family` makes and `select` compares.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Family {
-    /// A GP per axis (its input scaling, size and prior mean chosen too).
-    #[default]
-    Gp,
-    /// An ensemble of the baseline network
-    /// ([`crate::learn::models::ensemble`]).
-    Ensemble,
-}
+/// A model family, by its name: what `train --family` makes and `select`
+/// compares ([`super::families`] has them, [`super::family::ModelFamily`]
+/// says what one is).
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Family(Cow<'static, str>);
 
 impl Family {
+    /// A GP per axis (its input scaling, size and prior mean chosen too).
+    pub const GP: Family = Family(Cow::Borrowed("gp"));
+
+    /// The family named `name`.
+    pub fn named(name: &'static str) -> Family {
+        Family(Cow::Borrowed(name))
+    }
+
     /// Its name on the command line and in files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Family::Gp => "gp",
-            Family::Ensemble => "ensemble",
-        }
+    pub fn name(&self) -> &str {
+        &self.0
     }
 
-    fn is_gp(&self) -> bool {
-        *self == Family::Gp
+    /// True for the GP.
+    pub fn is_gp(&self) -> bool {
+        *self == Family::GP
     }
 }
 
-impl std::str::FromStr for Family {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "gp" => Ok(Family::Gp),
-            "ensemble" => Ok(Family::Ensemble),
-            _ => Err(format!("unknown family {s:?}: expected gp or ensemble")),
-        }
+impl Default for Family {
+    fn default() -> Self {
+        Family::GP
     }
 }
 
-/// One set of the options `select` chooses.
+impl std::fmt::Display for Family {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// One set of the options `select` chooses: a family, the channels it
+/// reads, and the GP's options (another family's models take none of
+/// them, which stay at the GP's defaults).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Choice {
@@ -90,28 +125,51 @@ pub struct Choice {
     pub family: Family,
     /// The BioTac channels taken as features.
     pub channels: Vec<Channel>,
-    /// How they reach the GP (an ensemble's networks standardise their
-    /// inputs themselves: `standard`).
+    /// How they reach the GP.
     pub input: InputScaling,
-    /// Exact or sparse, and its size (an ensemble's: the GP default's).
+    /// Exact or sparse, and its size.
     pub gp: GpChoice,
-    /// The prior mean (an ensemble's: zero).
+    /// The GP's prior mean.
     pub mean: MeanKind,
+}
+
+impl Choice {
+    /// The defaults of `train`: electrodes and PDC, standardised, the
+    /// exact GP on 2000 rows, zero mean.
+    pub fn default_options() -> Self {
+        Choice {
+            family: Family::GP,
+            channels: vec![Channel::Electrodes, Channel::Pdc],
+            input: InputScaling::Standard,
+            gp: GpChoice::Exact(DEFAULT_MAX_TRAIN),
+            mean: MeanKind::Zero,
+        }
+    }
+
+    /// A model of `family` on `channels` (the GP's options left at their
+    /// defaults: another family's two candidates differ only by channels).
+    pub fn of(family: Family, channels: Vec<Channel>) -> Self {
+        Choice {
+            family,
+            channels,
+            ..Choice::default_options()
+        }
+    }
 }
 
 impl std::fmt::Display for Choice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let channels: Vec<&str> = self.channels.iter().map(|c| c.name()).collect();
         let channels = channels.join("+");
-        match self.family {
-            Family::Gp => write!(
+        match self.family.is_gp() {
+            true => write!(
                 f,
                 "{channels}, {}, {}, {} mean",
                 self.input.name(),
                 self.gp,
                 self.mean.name()
             ),
-            Family::Ensemble => write!(f, "{channels}, ensemble of networks"),
+            false => write!(f, "{channels}, {}", self.family),
         }
     }
 }

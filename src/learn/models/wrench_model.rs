@@ -1,7 +1,8 @@
-//! The wrench model the estimator runs, of any family: a GP per axis
-//! ([`super::wrench_gp`]) or an ensemble of networks ([`super::ensemble`]),
-//! with what they share: the estimate, the tare, scratch, the errors and
-//! the model file's JSON. [`super::model_file::load`] reads either family.
+//! The wrench model the estimator runs, of any family ([`super::family`]):
+//! a GP per axis ([`super::wrench_gp`]), an ensemble of networks
+//! ([`super::ensemble`]), or one registered ([`super::families`]), with
+//! what they share: the estimate, the tare, scratch, the errors and the
+//! model file's JSON. [`super::families::load`] reads any family.
 
 use std::any::Any;
 use std::fmt::Debug;
@@ -13,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::gp::GpError;
 use super::nn::NnError;
-use super::provenance::{AdaptChoice, CalibrationRecord, Selection};
+use super::provenance::{AdaptChoice, CalibrationRecord, Making, Selection};
 use super::Prediction;
 use crate::exit::{Classify, ExitClass};
 use crate::learn::data::Dataset;
@@ -60,7 +61,7 @@ pub enum ModelError {
         /// The `format` field found.
         found: String,
         /// The formats the reader takes.
-        expected: &'static str,
+        expected: String,
     },
     /// A model-file version this build cannot read.
     #[error("model file {path}: version {found}, this build reads versions {first} to {last} of its format")]
@@ -115,6 +116,14 @@ pub enum ModelError {
     /// Training a network (of a network mean, or of an ensemble) failed.
     #[error("training the network: {0}")]
     Network(#[from] NnError),
+    /// Options of a family that is not registered.
+    #[error("no model family {name:?}: the families are {known}")]
+    UnknownFamily {
+        /// The name asked for.
+        name: String,
+        /// The families registered.
+        known: String,
+    },
     /// Scratch made by another model (a programming error).
     #[error("a workspace made by another model")]
     ForeignWorkspace,
@@ -239,6 +248,9 @@ pub trait WrenchModel: Send + Sync + Debug + DynClone + AsAny {
 
     /// Writes its model file, whole or not at all.
     fn save(&self, path: &Path) -> Result<(), ModelError>;
+
+    /// Keeps `making` in the model and its file.
+    fn record(&mut self, making: Making);
 
     /// How its options were chosen, when `train --select` chose them.
     fn selection(&self) -> Option<&Selection> {

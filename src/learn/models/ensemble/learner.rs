@@ -8,6 +8,7 @@ use crate::learn::data::Dataset;
 use crate::learn::models::estimate_cost::ENSEMBLE_US;
 use crate::learn::models::gp::FitProgress;
 use crate::learn::models::nn::NnParams;
+use crate::learn::models::provenance::Making;
 use crate::learn::models::wrench_model::ModelError;
 use crate::learn::models::wrench_model::{Estimate, TareSpec, Workspace, WrenchModel};
 use crate::learn::models::{Fitted, LearnError, Learner, Prediction};
@@ -137,6 +138,10 @@ impl WrenchModel for WrenchEnsemble {
 
     fn save(&self, path: &std::path::Path) -> Result<(), ModelError> {
         self.save(path)
+    }
+
+    fn record(&mut self, making: Making) {
+        self.record(making)
     }
 
     fn predict_observed(

@@ -12,6 +12,7 @@
 //! the network's epoch, which flatters it a little). Its file (`file.rs`)
 //! has a format of its own.
 
+mod family;
 mod file;
 mod learner;
 #[cfg(test)]
@@ -21,7 +22,7 @@ use ndarray::{s, Array2, ArrayView2};
 use rayon::prelude::*;
 
 use super::nn::{Mlp, NnParams};
-use super::provenance::{AdaptChoice, CalibrationRecord, Selection};
+use super::provenance::{set_scales, Making};
 use super::wrench_model::ModelError;
 use super::wrench_model::{Estimate, TareSpec};
 use super::Prediction;
@@ -30,6 +31,7 @@ use crate::params::{Check, Checked};
 use crate::sensor::SensorSpec;
 use file::EnsembleFile;
 
+pub use family::EnsembleFamily;
 pub use file::{ENSEMBLE_FORMAT, ENSEMBLE_VERSION};
 pub use learner::EnsembleLearner;
 
@@ -106,35 +108,17 @@ impl WrenchEnsemble {
         self
     }
 
-    /// The model with each axis's standard deviation of a measured target
-    /// multiplied by its scale in `scales` (in output order; positive and
-    /// finite, or that axis is left as it is), as
-    /// [`crate::learn::models::wrench_gp::WrenchGp::with_std_scales`].
-    pub fn with_std_scales(mut self, scales: &[f64]) -> Self {
-        for (o, s) in self.file.std_scale.iter_mut().zip(scales) {
-            if *s > 0.0 && s.is_finite() {
-                *o = *s;
-            }
+    /// Keeps `making` ([`crate::learn::models::wrench_model::WrenchModel::record`]);
+    /// the data it was trained on are not kept: pooled retraining retrains a GP.
+    pub(crate) fn record(&mut self, making: Making) {
+        let f = &mut self.file;
+        match making {
+            Making::StdScales(scales) => set_scales(f.std_scale.iter_mut(), &scales),
+            Making::TrainedOn(_) => {}
+            Making::Selection(s) => f.selection = Some(*s),
+            Making::AdaptChoice(c) => f.adapt_choice = Some(*c),
+            Making::Calibration(r) => f.calibration = Some(*r),
         }
-        self
-    }
-
-    /// The model, recording how `train --select` chose it.
-    pub fn with_selection(mut self, selection: Selection) -> Self {
-        self.file.selection = Some(selection);
-        self
-    }
-
-    /// The model, recording what `adapt` chose it over.
-    pub fn with_adapt_choice(mut self, choice: AdaptChoice) -> Self {
-        self.file.adapt_choice = Some(choice);
-        self
-    }
-
-    /// The model, recording the calibration that made it.
-    pub fn with_calibration(mut self, record: CalibrationRecord) -> Self {
-        self.file.calibration = Some(record);
-        self
     }
 
     /// Networks in it.

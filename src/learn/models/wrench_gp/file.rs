@@ -55,7 +55,7 @@ pub(super) struct AxisModel<G> {
     pub(super) gp: G,
     /// What the standard deviation of a measured target (the GP's own with
     /// its noise) is multiplied by, so that held-out errors fall within two
-    /// of it as often as they should ([`WrenchGp::with_std_scales`];
+    /// of it as often as they should ([`super::Making::StdScales`];
     /// absent: 1). The estimator's standard deviation, which the
     /// controller's doubt stop reads, is the GP's own.
     #[serde(default = "unit", skip_serializing_if = "is_unit")]
@@ -240,7 +240,7 @@ impl WrenchGp {
             return Err(ModelError::WrongFormat {
                 path: path.display().to_string(),
                 found: format,
-                expected: MODEL_FORMAT,
+                expected: MODEL_FORMAT.into(),
             });
         }
         Self::from_json(value, path)

@@ -4,8 +4,8 @@
 use ndarray::ArrayView2;
 
 use super::{
-    AdaptChoice, CalibrationRecord, Estimate, EstimatorWorkspace, ModelError, Selection, TareSpec,
-    WrenchGp,
+    AdaptChoice, CalibrationRecord, Estimate, EstimatorWorkspace, Making, ModelError, Selection,
+    TareSpec, WrenchGp,
 };
 use crate::learn::data::Dataset;
 use crate::learn::models::gp::{FitProgress, GpParams, MeanKind};
@@ -138,6 +138,10 @@ impl WrenchModel for WrenchGp {
 
     fn save(&self, path: &std::path::Path) -> Result<(), ModelError> {
         self.save(path)
+    }
+
+    fn record(&mut self, making: Making) {
+        self.record(making)
     }
 
     fn predict_observed(

@@ -4,6 +4,7 @@
 //! the model in types of its own ([`super::provenance`]).
 
 mod axis_fits;
+mod family;
 mod file;
 mod learner;
 mod network;
@@ -25,11 +26,13 @@ use axis_fits::{floors, gp_targets, AxisFits};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
 use network::network_mean;
 
+use super::provenance::set_scales;
 pub use super::provenance::{
     AdaptChoice, AdaptedFrom, AloneScore, CalibrationRecord, Choice, CvRow, DataFile, GpChoice,
-    Selection, TrainedOn, Validation,
+    Making, Selection, TrainedOn, Validation,
 };
 pub use super::wrench_model::{Estimate, ModelError, TareSpec};
+pub use family::GpFamily;
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
 pub use learner::GpLearner;
 pub use observed::{std_scale, std_scale_over_folds};
@@ -162,22 +165,24 @@ impl WrenchGp {
         self
     }
 
-    /// The model, recording how its options were chosen.
-    pub fn with_selection(mut self, selection: Selection) -> Self {
-        self.0.selection = Some(selection);
-        self
-    }
-
-    /// The model, recording the calibration that made it.
-    pub fn with_calibration(mut self, record: CalibrationRecord) -> Self {
-        self.0.calibration = Some(record);
-        self
-    }
-
     /// The model, recording the data it was trained on (None: not known).
     pub fn with_trained_on(mut self, trained_on: Option<TrainedOn>) -> Self {
         self.0.trained_on = trained_on;
         self
+    }
+
+    /// Keeps `making` ([`WrenchModel::record`]).
+    pub(crate) fn record(&mut self, making: Making) {
+        let f = &mut self.0;
+        match making {
+            Making::StdScales(scales) => {
+                set_scales(f.outputs.iter_mut().map(|o| &mut o.std_scale), &scales)
+            }
+            Making::TrainedOn(on) => f.trained_on = on,
+            Making::Selection(s) => f.selection = Some(*s),
+            Making::AdaptChoice(c) => f.adapt_choice = Some(*c),
+            Making::Calibration(r) => f.calibration = Some(*r),
+        }
     }
 
     /// The GPs' prior mean, for messages: `network`, `base model` (an
@@ -201,12 +206,6 @@ impl WrenchGp {
     /// The data it was trained on, by reference, when recorded.
     pub fn trained_on(&self) -> Option<&TrainedOn> {
         self.0.trained_on.as_ref()
-    }
-
-    /// The model, recording what `adapt` chose.
-    pub fn with_adapt_choice(mut self, choice: AdaptChoice) -> Self {
-        self.0.adapt_choice = Some(choice);
-        self
     }
 
     /// What `adapt` chose, when `adapt` made it.

@@ -12,9 +12,13 @@ impl WrenchGp {
     /// Means and, when `with_std`, the standard deviation of a measured
     /// target: the GP's latent one ([`WrenchGp::predict`], what the
     /// estimator publishes and the controller's doubt stop reads) with its
-    /// noise added in quadrature, times the axis's scale
-    /// ([`WrenchGp::with_std_scales`]). Held-out errors are judged against
-    /// it ([`crate::learn::models::metrics::coverage`]).
+    /// noise added in quadrature, times the axis's scale. A GP's noise,
+    /// fitted on its training rows, understates its errors on another
+    /// stretch of data, so the scales come from errors on held-out rows
+    /// ([`std_scale`], recorded as [`super::Making::StdScales`]); the estimator's
+    /// own standard deviation stays the GP's: the controller's doubt stop
+    /// compares it with a limit set for it. Held-out errors are judged
+    /// against it ([`crate::learn::models::metrics::coverage`]).
     pub fn predict_observed(
         &self,
         x: ArrayView2<f64>,
@@ -32,23 +36,6 @@ impl WrenchGp {
             mean,
             std: Some(std),
         })
-    }
-
-    /// The model with each axis's standard deviation of a measured target
-    /// ([`WrenchGp::predict_observed`]) multiplied by its scale in `scales`
-    /// (in output order; positive and finite, or that axis is left as it
-    /// is): a GP's noise, fitted on its training rows, understates its
-    /// errors on another stretch of data, so the scales come from errors on
-    /// held-out rows ([`std_scale`]). The estimator's own standard
-    /// deviation stays the GP's: the controller's doubt stop compares it
-    /// with a limit set for it.
-    pub fn with_std_scales(mut self, scales: &[f64]) -> Self {
-        for (o, s) in self.0.outputs.iter_mut().zip(scales) {
-            if *s > 0.0 && s.is_finite() {
-                o.std_scale = *s;
-            }
-        }
-        self
     }
 
     /// Each axis's scale of its standard deviation (1: as fitted).
