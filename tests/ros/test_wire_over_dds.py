@@ -149,7 +149,8 @@ def calibration_canceled_then_done(peer, client, models):
     res, _ = run_goal(peer, client, Calibrate.Goal(model_file="c2.json"), 240)
     reason = res.result.reason if res else "no result"
     check("the next calibrate goal ends calibrated",
-          res is not None and res.status == GoalStatus.STATUS_SUCCEEDED and reason == "calibrated"
+          res is not None and res.status == GoalStatus.STATUS_SUCCEEDED
+          and (reason == "calibrated" or reason.startswith("calibrated; worse than the current model on "))
           and os.path.exists(os.path.join(models, "c2.json")),
           f"{reason[:120]!r}")
 
