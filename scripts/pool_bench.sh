@@ -2,9 +2,9 @@
 # Adapted against pooled (`adapt`'s two candidates) on simulated units, as
 # docs/results.md reports it. The base: unit 1, sessions 1 and 2 (`collect
 # --trials 1`: 16000 rows), fx and fz, the default options. Each new unit
-# U = 2..5 gives 80 s (session 2) in two ways: all four sets (set 4 held
-# out), and its z and combined pushes only (sets 3 and 4; 4 held out). For
-# each: the held-out scores of both candidates, the one chosen, and the fx / fz
+# U = 2..5 gives 80 s (session 2) in two ways: all four sets, and its z and
+# combined pushes only (sets 3 and 4). For each: the cross-validated scores
+# of both candidates, the one chosen, and the fx / fz
 # RMSE on another session of the unit (session 3, all sets) of the base,
 # the adapted model alone (`--no-pool`) and the chosen one.
 #
@@ -20,7 +20,7 @@ c 1 1; c 1 2
 "$bin" train --data "$out/u1s1.csv,$out/u1s2.csv" --axes fx,fz --out "$out/base.json" >/dev/null
 rmse() { "$bin" eval --model "$1" --test "$2" --json | tail -1 |
   python3 -c 'import json,sys; r=json.load(sys.stdin)["gp"]["rmse"]; print("%.3f / %.3f" % (r["fx"], r["fz"]))'; }
-echo "| unit | new data | held-out score adapted / pooled | chosen | fx / fz RMSE (N), another session: base | adapted | chosen |"
+echo "| unit | new data | cross-validated score adapted / pooled | chosen | fx / fz RMSE (N), another session: base | adapted | chosen |"
 echo "|---|---|---|---|---|---|---|"
 for u in 2 3 4 5; do
   c "$u" 2; c "$u" 3

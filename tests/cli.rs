@@ -806,7 +806,7 @@ fn a_new_unit_is_adapted_to_and_sessions_are_left_out_in_turn() {
     assert!(text(&o).1.contains("/no/such.csv"), "{:?}", text(&o));
 }
 
-/// The new unit's z and combined pushes only (sets 3 and 4; 4 held out):
+/// The new unit's z and combined pushes only (sets 3 and 4, as two trials):
 /// the base adapted to z pushes estimates the combined ones poorly, the
 /// base's data pooled with them well. Without the base's data (moved), the
 /// adapted model is kept and the output says why; `--base-data` finds it.
@@ -821,9 +821,18 @@ fn pooling_wins_where_adapting_cannot_and_is_skipped_without_the_base_s_data(
     let text_of = std::fs::read_to_string(new).unwrap();
     let mut rows = text_of.lines();
     let header = rows.next().unwrap();
-    let k = header.split(',').position(|h| h == "set").unwrap();
-    let kept: Vec<&str> = rows
-        .filter(|l| ["3", "4"].contains(&l.split(',').nth(k).unwrap()))
+    let column = |name| header.split(',').position(|h| h == name).unwrap();
+    let (set, trial) = (column("set"), column("trial"));
+    // Written as two trials of one set, so that each of adapt's two folds
+    // holds out one kind of push and trains on the other.
+    let kept: Vec<String> = rows
+        .filter_map(|l| {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            let kind = ["3", "4"].iter().position(|s| *s == cells[set])?;
+            cells[set] = "3";
+            cells[trial] = ["1", "2"][kind];
+            Some(cells.join(","))
+        })
         .collect();
     let z = dir.join("u2_z_and_combined.csv");
     std::fs::write(&z, format!("{header}\n{}\n", kept.join("\n"))).unwrap();
@@ -838,7 +847,7 @@ fn pooling_wins_where_adapting_cannot_and_is_skipped_without_the_base_s_data(
         stdout
     };
     let said = adapt(&[]);
-    assert!(said.contains("pooled retraining: 16000 base rows of 2 file(s)\nheld out 2000 rows of the new data: RMSE (score)"), "{said}");
+    assert!(said.contains("pooled retraining: 16000 base rows of 2 file(s)\n2 folds of the new data, each of its 4000 rows held out once: RMSE (score)"), "{said}");
     assert!(said.contains("\npooled from "), "{said}");
     let file: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
     let choice = &file["adapt_choice"];

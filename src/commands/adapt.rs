@@ -122,7 +122,10 @@ pub(crate) fn run_adapt(a: AdaptArgs) -> Result<()> {
 /// pooling was not a candidate.
 fn print_choice(choice: &AdaptChoice) {
     println!("pooled retraining: {}", choice.pooling);
-    let what = format!("held out {} rows of the new data", choice.held_out_rows);
+    let what = format!(
+        "{} folds of the new data, each of its {} rows held out once",
+        choice.folds, choice.held_out_rows
+    );
     print_scores(&what, &choice.validation, &choice.chosen);
     println!("chosen: {}", choice.why);
 }

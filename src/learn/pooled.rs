@@ -13,16 +13,16 @@ use std::path::{Path, PathBuf};
 use super::chooser::{self, Form, Scored};
 use super::data::sessions::{load_sessions, Features, Request};
 use super::data::source::Source;
-use super::data::Dataset;
+use super::data::{trialwise_folds, Dataset};
 use super::evaluate::{check_fits, EvalError};
 use super::models::families;
 use super::models::family::{Fit, ModelFamily};
 use super::models::gp::fit::FitProgress;
-use super::models::gp::{GpParams, MeanKind};
+use super::models::gp::{GpParams, MeanKind, SeHyper};
 use super::models::metrics::rmse_columns;
 use super::models::wrench_gp::{
-    std_scale, AdaptChoice, AdaptedFrom, DataFile, GpFamily, Making, ModelError, TareSpec,
-    TrainedOn, Validation, WarmStart, WrenchGp,
+    std_scale, std_scale_over_folds, AdaptChoice, AdaptedFrom, DataFile, GpFamily, Making,
+    ModelError, TareSpec, TrainedOn, Validation, WarmStart, WrenchGp,
 };
 use super::models::wrench_model::WrenchModel;
 use crate::params::Checked;
@@ -220,13 +220,15 @@ impl BaseData {
 
     /// A model trained from scratch with `params` (the base's:
     /// [`BaseData::params`]) on these rows and `new` (tared as `tare`
-    /// says), with `base`'s input scaling, for its sensor.
+    /// says), with `base`'s input scaling, for its sensor, its search
+    /// started from `warm`.
     pub fn pooled(
         &self,
         base: &WrenchGp,
         new: &Dataset,
         tare: TareSpec,
         params: &Checked<GpParams>,
+        warm: WarmStart,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<WrenchGp, ModelError> {
         let data =
@@ -235,7 +237,7 @@ impl BaseData {
                 data: format!("{:?}", new.features),
             })?;
         Ok(
-            WrenchGp::train_scaled(&data, tare, base.scaling(), params, progress)?
+            WrenchGp::train_from(&data, tare, base.scaling(), params, warm, progress)?
                 .with_sensor(base.sensor().clone()),
         )
     }
@@ -250,10 +252,7 @@ pub fn spread(data: &Dataset) -> Vec<f64> {
 /// Contiguous blocks a held-out part of one trial is scored on, as parts.
 const BLOCKS_OF_ONE_TRIAL: usize = 5;
 
-/// `model` scored on `test` as `name`: RMSE per axis, and their mean over
-/// axes in units of `sd` ([`chooser::score`], lower is better), over every
-/// row and on each trial of `test` (one trial: on
-/// five contiguous blocks of it).
+/// `model` scored on `test` as `name` ([`scored`]).
 pub fn validate(
     name: &str,
     model: &dyn WrenchModel,
@@ -262,7 +261,14 @@ pub fn validate(
 ) -> Result<Validation, EvalError> {
     check_fits(model, test)?;
     let pred = model.predict_observed(test.x.view(), false)?.mean;
-    let rmse = rmse_columns(test.y.view(), pred.view());
+    Ok(scored(name, test, pred.view(), sd))
+}
+
+/// Estimates `pred` of `test`'s rows scored as `name`: RMSE per axis, and
+/// their mean over axes in units of `sd` ([`chooser::score`], lower is
+/// better), over every row and on each trial of `test` (one trial: on
+/// five contiguous blocks of it), the chooser's parts.
+fn scored(name: &str, test: &Dataset, pred: ndarray::ArrayView2<f64>, sd: &[f64]) -> Validation {
     let on = |rows: &[usize]| {
         let y = test.y.select(ndarray::Axis(0), rows);
         chooser::score(y.view(), pred.select(ndarray::Axis(0), rows).view(), sd)
@@ -275,12 +281,14 @@ pub fn validate(
         }
         _ => trials.iter().map(|(_, rows)| on(rows)).collect(),
     };
-    Ok(Validation {
+    Validation {
         model: name.into(),
-        rmse: test.axes.axes().iter().copied().zip(rmse).collect(),
-        score: chooser::score(test.y.view(), pred.view(), sd),
+        rmse: (test.axes.axes().iter().copied())
+            .zip(rmse_columns(test.y.view(), pred))
+            .collect(),
+        score: chooser::score(test.y.view(), pred, sd),
         trial_scores,
-    })
+    }
 }
 
 /// The candidate of `validation` (each with its fitted model's predicted
@@ -320,30 +328,22 @@ pub fn std_scales(model: &dyn WrenchModel, test: &Dataset) -> Result<Vec<f64>, M
     Ok(z.iter().map(|z| std_scale(z).unwrap_or(1.0)).collect())
 }
 
-/// The rows of new data held out to choose on: every fourth (set, trial)
-/// group; with fewer than four, the last; with one, its last quarter.
-/// Returns (training rows, held-out rows).
-pub fn held_out(data: &Dataset) -> (Vec<usize>, Vec<usize>) {
-    let groups = data.trials();
-    let n = groups.len();
-    let out = |k: usize| (k + 1).is_multiple_of(4) || (n < 4 && k + 1 == n);
-    let (mut train, mut test) = (Vec::new(), Vec::new());
-    if groups.len() == 1 {
-        let rows = &groups[0].1;
-        let cut = rows.len() - rows.len() / 4;
-        return (rows[..cut].to_vec(), rows[cut..].to_vec());
-    }
-    for (k, (_, rows)) in groups.into_iter().enumerate() {
-        match out(k) {
-            true => test.extend(rows),
-            false => train.extend(rows),
-        }
-    }
-    (train, test)
+/// Folds `adapt` scores its candidates on.
+pub const ADAPT_FOLDS: usize = 2;
+
+/// The folds of new data `adapt` scores on, (training rows, held-out rows)
+/// each, every row held out once: its trials in [`ADAPT_FOLDS`] trial-wise
+/// folds (a set of fewer trials in fewer), a set of one trial cut into
+/// that many contiguous blocks first ([`Dataset::single_trials_in_blocks`]).
+pub fn adapt_folds(data: &Dataset) -> Vec<(Vec<usize>, Vec<usize>)> {
+    let (blocked, _) = data.single_trials_in_blocks(ADAPT_FOLDS);
+    let mut folds = trialwise_folds(&blocked, ADAPT_FOLDS);
+    folds.retain(|(train, test)| !train.is_empty() && !test.is_empty());
+    folds
 }
 
-/// `adapt`: the candidates for a new unit, each fitted on the new data less
-/// its held-out part ([`held_out`]) and scored there: the base adapted
+/// `adapt`: the candidates for a new unit, each fitted on the folds of the
+/// new data ([`adapt_folds`]) and scored on their held-out rows: the base adapted
 /// ([`WrenchGp::adapt`]); retrained on the base's data pooled with the new,
 /// when `base_data` is at hand; and each family on the new data alone (the
 /// GP, the GP with the network as its mean, each other family
@@ -375,6 +375,21 @@ const ADAPTED: &str = "adapted";
 const POOLED: &str = "pooled";
 const NEW_GP: &str = "new data: GP";
 const NEW_NETWORK: &str = "new data: GP, network mean";
+
+/// The pooled candidate's base data and options, when it is one.
+type Pool<'a> = Option<(&'a BaseData, Checked<GpParams>)>;
+
+/// A candidate of [`Adaptation`] cross-validated on the new data.
+struct CrossValidated {
+    /// Its scores.
+    validation: Validation,
+    /// Per axis, per fold, its held-out standardised errors.
+    errors: Vec<Vec<Vec<f64>>>,
+    /// Its estimate's predicted time (µs).
+    estimate_us: f64,
+    /// A GP's hyperparameters of its first fold, per axis.
+    hypers: Option<Vec<SeHyper>>,
+}
 
 /// A candidate of [`Adaptation`].
 enum Candidate {
@@ -414,59 +429,30 @@ impl Adaptation<'_> {
             Err(_) => None,
         };
         let network = with_network_mean(self.params)?;
-        let fit = |c: &Candidate,
-                   d: &Dataset,
-                   p: &mut (dyn FnMut(Axis, FitProgress) + Send)|
-         -> Result<Box<dyn WrenchModel>, ModelError> {
-            let (tare, scaling) = (self.tare.clone(), self.base.scaling());
-            let alone = |family: &dyn ModelFamily, params, progress| {
-                family.fit(Fit {
-                    data: d,
-                    tare: tare.clone(),
-                    sensor: self.base.sensor().clone(),
-                    input: scaling,
-                    params,
-                    warm: WarmStart::default(),
-                    progress,
-                })
-            };
-            match (c, &pool) {
-                (Candidate::Other(family), _) => alone(*family, self.params, p),
-                (Candidate::Gp(NEW_GP), _) => alone(&GpFamily, self.params, p),
-                (Candidate::Gp(NEW_NETWORK), _) => alone(&GpFamily, &network, p),
-                (Candidate::Gp(POOLED), Some((b, options))) => {
-                    Ok(Box::new(b.pooled(self.base, d, tare, options, p)?))
-                }
-                _ => Ok(Box::new(self.base.adapt(
-                    d,
-                    tare,
-                    self.from.clone(),
-                    self.params,
-                    p,
-                )?)),
-            }
-        };
         let candidates = Candidate::all(pool.is_some());
-        let (train, test) = held_out(self.data);
-        let (train, test) = (self.data.select(&train), self.data.select(&test));
+        let folds = adapt_folds(self.data);
         let sd = spread(self.data);
         let mut validation = Vec::with_capacity(candidates.len());
-        let mut fitted = Vec::with_capacity(candidates.len());
+        let mut errors = Vec::with_capacity(candidates.len());
+        let mut hypers = Vec::with_capacity(candidates.len());
         let mut cost = Vec::with_capacity(candidates.len());
         for c in &candidates {
-            let m = fit(c, &train, progress)?;
-            validation.push(validate(&c.name(), m.as_ref(), &test, &sd)?);
-            cost.push((m.predicted_estimate_us(), self.form(c, &pool)));
-            fitted.push(m);
+            let scored = self.cross_validate(c, (&pool, &network), &folds, &sd, progress)?;
+            validation.push(scored.validation);
+            errors.push(scored.errors);
+            hypers.push(scored.hypers);
+            cost.push((scored.estimate_us, self.form(c, &pool)));
         }
         let (at, why) = choose(&validation, &cost);
         // The winner's standard deviation scale, from its held-out errors.
-        let scales = std_scales(fitted[at].as_ref(), &test)?;
-        drop(fitted);
+        let scales: Vec<f64> = (errors.swap_remove(at).iter())
+            .map(|z| std_scale_over_folds(z).unwrap_or(1.0))
+            .collect();
         let chosen = &candidates[at];
         let choice = AdaptChoice {
             chosen: chosen.name(),
-            held_out_rows: test.len(),
+            held_out_rows: self.data.len(),
+            folds: folds.len(),
             pooling: match &base_data {
                 Ok(b) => b.describe(),
                 Err(why) => format!("not considered: {why}"),
@@ -478,15 +464,104 @@ impl Adaptation<'_> {
             Candidate::Gp(NEW_GP | NEW_NETWORK) => self.new_only.clone(),
             _ => self.trained_on.clone(),
         };
-        let mut model = fit(chosen, self.data, progress)?;
+        // Fitted again on every row, started from its first fold's search.
+        let warm = WarmStart {
+            hypers: hypers[at].as_deref(),
+            network: None,
+        };
+        let mut model = self.fit(chosen, (&pool, &network), self.data, warm, progress)?;
         model.record(Making::StdScales(scales));
         model.record(Making::TrainedOn(trained_on));
         model.record(Making::AdaptChoice(Box::new(choice.clone())));
         Ok((model, choice))
     }
 
+    /// `candidate` fitted on `d` (tared as the new data), its search
+    /// started from `warm`; `pool` and `network` are the pooled candidate's
+    /// base data and options, and the network-mean GP's options.
+    fn fit(
+        &self,
+        candidate: &Candidate,
+        (pool, network): (&Pool, &Checked<GpParams>),
+        d: &Dataset,
+        warm: WarmStart,
+        p: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<Box<dyn WrenchModel>, ModelError> {
+        let tare = self.tare.clone();
+        let alone = |family: &dyn ModelFamily, params, progress| {
+            family.fit(Fit {
+                data: d,
+                tare: tare.clone(),
+                sensor: self.base.sensor().clone(),
+                input: self.base.scaling(),
+                params,
+                warm,
+                progress,
+            })
+        };
+        match (candidate, pool) {
+            (Candidate::Other(family), _) => alone(*family, self.params, p),
+            (Candidate::Gp(NEW_GP), _) => alone(&GpFamily, self.params, p),
+            (Candidate::Gp(NEW_NETWORK), _) => alone(&GpFamily, network, p),
+            (Candidate::Gp(POOLED), Some((b, options))) => {
+                Ok(Box::new(b.pooled(self.base, d, tare, options, warm, p)?))
+            }
+            _ => Ok(Box::new(self.base.adapt(
+                d,
+                tare,
+                self.from.clone(),
+                self.params,
+                warm,
+                p,
+            )?)),
+        }
+    }
+
+    /// `candidate` fitted ([`Adaptation::fit`]) on each fold's training rows of the new
+    /// data and scored on its held-out rows ([`scored`], in units of `sd`:
+    /// every row is held out once). A GP's folds after the first start their
+    /// search from the first's hyperparameters.
+    fn cross_validate(
+        &self,
+        candidate: &Candidate,
+        fitting: (&Pool, &Checked<GpParams>),
+        folds: &[(Vec<usize>, Vec<usize>)],
+        sd: &[f64],
+        progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
+    ) -> Result<CrossValidated, EvalError> {
+        let y = &self.data.y;
+        let mut pred = ndarray::Array2::zeros(y.raw_dim());
+        let mut errors = vec![Vec::new(); y.ncols()];
+        let (mut first, mut estimate_us) = (None, 0.0);
+        for (train, test) in folds {
+            let held = self.data.select(test);
+            let warm = WarmStart {
+                hypers: first.as_deref(),
+                network: None,
+            };
+            let m = self.fit(candidate, fitting, &self.data.select(train), warm, progress)?;
+            check_fits(m.as_ref(), &held)?;
+            let p = m.predict_observed(held.x.view(), false)?.mean;
+            for (row, &i) in p.rows().into_iter().zip(test) {
+                pred.row_mut(i).assign(&row);
+            }
+            let z = m.standardised_errors(&held, CALIBRATION_ROWS)?;
+            errors.iter_mut().zip(z).for_each(|(e, z)| e.push(z));
+            estimate_us = m.predicted_estimate_us();
+            let gp = m.as_any().downcast_ref::<WrenchGp>();
+            first = first.or_else(|| gp.map(WrenchGp::hypers));
+        }
+        let validation = scored(&candidate.name(), self.data, pred.view(), sd);
+        Ok(CrossValidated {
+            validation,
+            errors,
+            estimate_us,
+            hypers: first,
+        })
+    }
+
     /// The form of `candidate`, the pooled one's options `pool`.
-    fn form(&self, candidate: &Candidate, pool: &Option<(&BaseData, Checked<GpParams>)>) -> Form {
+    fn form(&self, candidate: &Candidate, pool: &Pool) -> Form {
         let gp = GpFamily::form_of;
         match (candidate, pool) {
             (Candidate::Other(f), _) => families::default_form(*f),

@@ -151,13 +151,25 @@ impl Fitter {
             Candidate::Adapted(gp) => {
                 let from = self.from.clone();
                 let quiet = &mut |_, _| {};
-                Box::new(gp.adapt(data, tare.clone(), from, &self.adapt, quiet)?)
+                Box::new(gp.adapt(
+                    data,
+                    tare.clone(),
+                    from,
+                    &self.adapt,
+                    WarmStart::default(),
+                    quiet,
+                )?)
             }
             Candidate::Scratch(_, params) => scratch(&GpFamily, params)?,
             Candidate::Other(family) => scratch(*family, &self.adapt)?,
-            Candidate::Pooled(gp, b, options) => {
-                Box::new(b.pooled(gp, data, tare.clone(), options, &mut |_, _| {})?)
-            }
+            Candidate::Pooled(gp, b, options) => Box::new(b.pooled(
+                gp,
+                data,
+                tare.clone(),
+                options,
+                WarmStart::default(),
+                &mut |_, _| {},
+            )?),
         })
     }
 }

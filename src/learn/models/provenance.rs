@@ -406,10 +406,15 @@ pub struct AdaptChoice {
     /// "adapted", "pooled", "new data: GP", "new data: GP, network mean" or
     /// "new data: ensemble".
     pub chosen: String,
-    /// The candidates on the held-out part of the new data.
+    /// The candidates on the held-out rows of the new data.
     pub validation: Vec<Validation>,
-    /// Rows of the new data held out.
+    /// Rows of the new data held out: every row once, over the folds (in
+    /// files before the folds: one held-out part).
     pub held_out_rows: usize,
+    /// Folds of the new data's trials (or blocks) the candidates were
+    /// scored on (0 in files before them: one held-out part).
+    #[serde(default)]
+    pub folds: usize,
     /// Why pooling was not a candidate, or how many base rows it took.
     pub pooling: String,
     /// Why the chooser took `chosen` (absent in files before it).

@@ -62,14 +62,29 @@ fn grouped(groups: u32, rows: usize) -> Dataset {
 }
 
 #[test]
-fn every_fourth_trial_is_held_out_or_the_last_or_the_last_quarter() {
-    let (train, test) = held_out(&grouped(8, 80));
-    assert_eq!(test, (30..40).chain(70..80).collect::<Vec<_>>());
-    assert_eq!(train.len(), 60);
-    let (train, test) = held_out(&grouped(3, 30));
-    assert_eq!((train, test), ((0..20).collect(), (20..30).collect()));
-    let (train, test) = held_out(&grouped(1, 40));
-    assert_eq!((train, test), ((0..30).collect(), (30..40).collect()));
+fn adapt_holds_every_row_out_once_over_folds_of_trials_or_blocks() {
+    let rows = |r: std::ops::Range<usize>| r.collect::<Vec<_>>();
+    // Four sets of two trials: each set's first trial in one fold, its
+    // second in another (the two folds that would hold none are dropped).
+    let folds = adapt_folds(&grouped(8, 80));
+    let first: Vec<usize> = [0..10, 20..30, 40..50, 60..70]
+        .into_iter()
+        .flatten()
+        .collect();
+    let second: Vec<usize> = [10..20, 30..40, 50..60, 70..80]
+        .into_iter()
+        .flatten()
+        .collect();
+    assert_eq!(folds, [(second.clone(), first.clone()), (first, second)]);
+    // One trial: ADAPT_FOLDS contiguous blocks, each held out once.
+    let folds = adapt_folds(&grouped(1, 40));
+    assert_eq!(folds.len(), ADAPT_FOLDS);
+    let block = 40 / ADAPT_FOLDS;
+    for (f, (train, test)) in folds.iter().enumerate() {
+        assert_eq!(test, &rows(f * block..(f + 1) * block));
+        let rest: Vec<usize> = (0..40).filter(|i| !test.contains(i)).collect();
+        assert_eq!(train, &rest);
+    }
 }
 
 #[test]
@@ -183,7 +198,7 @@ fn the_base_s_data_is_read_again_or_said_why_not() {
 }
 
 #[test]
-fn adaptation_scores_every_candidate_on_the_held_out_rows_and_chooses_by_the_rule() {
+fn adaptation_scores_every_candidate_over_folds_of_the_new_data_and_chooses_by_the_rule() {
     let dir = tempfile::tempdir().unwrap();
     let (path, data) = session(dir.path(), 1);
     let (base, _, _) = model_of(&path, &data);
@@ -210,10 +225,8 @@ fn adaptation_scores_every_candidate_on_the_held_out_rows_and_chooses_by_the_rul
         adaptation.run(pool, &mut |_, _| {}).unwrap()
     };
     let (model, choice) = run(base_data(&base, None));
-    let held_out_trials = match new_tared.select(&held_out(&new_tared).1).trials().len() {
-        1 => 5,
-        n => n,
-    };
+    let folds = adapt_folds(&new_tared).len();
+    assert!(folds >= 2, "{folds}");
     let names: Vec<&str> = choice.validation.iter().map(|v| v.model.as_str()).collect();
     assert_eq!(
         names,
@@ -234,8 +247,17 @@ fn adaptation_scores_every_candidate_on_the_held_out_rows_and_chooses_by_the_rul
         choice.why.contains(&format!("{:.4}", best.score)),
         "{choice:?}"
     );
-    assert!((choice.validation.iter()).all(|v| v.trial_scores.len() == held_out_trials));
-    assert_eq!(choice.held_out_rows, held_out(&new_tared).1.len());
+    // The chooser's parts: the held-out estimates scored trial by trial
+    // (one trial: on five contiguous blocks).
+    let parts = match new_tared.trials().len() {
+        1 => 5,
+        trials => trials,
+    };
+    assert!((choice.validation.iter()).all(|v| v.trial_scores.len() == parts));
+    assert_eq!(
+        (choice.held_out_rows, choice.folds),
+        (new_tared.len(), folds)
+    );
     let ensemble = choice.chosen == "new data: ensemble";
     assert_eq!(model.family(), if ensemble { "ensemble" } else { "gp" });
     if !ensemble {

@@ -82,6 +82,7 @@ fn an_adapted_model_adds_a_correction_to_its_base_and_loads_back() {
             tare.clone(),
             from.clone(),
             &quick_params(),
+            WarmStart::default(),
             &mut |_, _| {},
         )
         .unwrap();
@@ -113,7 +114,14 @@ fn an_adapted_model_adds_a_correction_to_its_base_and_loads_back() {
         ..data
     };
     let err = base
-        .adapt(&other, tare, from, &quick_params(), &mut |_, _| {})
+        .adapt(
+            &other,
+            tare,
+            from,
+            &quick_params(),
+            WarmStart::default(),
+            &mut |_, _| {},
+        )
         .unwrap_err();
     assert!(matches!(err, ModelError::AdaptMismatch { .. }), "{err}");
 }
