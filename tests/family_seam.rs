@@ -273,6 +273,7 @@ impl ModelFamily for RidgeFamily {
         Form {
             name: "linear in the features",
             flexibility: 0,
+            points: 0,
         }
     }
     fn cost(&self, _: &Choice, shape: &Shape) -> Cost {

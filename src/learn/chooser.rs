@@ -1,9 +1,9 @@
 //! The one rule by which a model is chosen among scored candidates:
 //! `train --select` among its options (scored on folds), `adapt` and the
-//! calibration among their candidates (scored on the held-out trials of the
-//! new data). Among the candidates within noise of the best score, the
-//! simplest form, then the cheapest estimate as predicted from the model's
-//! kind and size ([`crate::learn::models::estimate_cost`], never a clock: a
+//! calibration among their candidates (scored on the new data). Among the
+//! candidates within noise of the best score, the simplest form (the least
+//! flexible, then on the fewest points), then the cheapest estimate as
+//! predicted from the model's kind and size ([`crate::learn::models::estimate_cost`], never a clock: a
 //! loaded machine chooses as an idle one), then the first.
 //!
 //! A more flexible model can win by less than the parts it is scored on
@@ -73,6 +73,7 @@ pub fn choose(candidates: &[Scored]) -> Option<(usize, String)> {
         .min_by(|&a, &b| {
             let (a, b) = (&candidates[a], &candidates[b]);
             (a.form.flexibility.cmp(&b.form.flexibility))
+                .then(a.form.points.cmp(&b.form.points))
                 .then(a.estimate_us.total_cmp(&b.estimate_us))
         })
         .unwrap_or(best_i);
@@ -105,14 +106,17 @@ mod tests {
     const ZERO: Form = Form {
         name: "zero mean",
         flexibility: 0,
+        points: 0,
     };
     const NETWORK: Form = Form {
         name: "network mean",
         flexibility: 3,
+        points: 0,
     };
     const ENSEMBLE: Form = Form {
         name: "the ensemble",
         flexibility: 3,
+        points: 0,
     };
 
     fn scored<'a>(name: &str, form: Form, parts: &'a [f64], estimate_us: f64) -> Scored<'a> {
@@ -150,6 +154,16 @@ mod tests {
         assert_eq!(choose(&two).unwrap().0, 1);
         two[2].estimate_us = two[1].estimate_us;
         assert_eq!(choose(&two).unwrap().0, 1);
+        // Equally flexible: on fewer points, however costly its estimate.
+        two[1].form.points = 1000;
+        two[2].form.points = 500;
+        two[2].estimate_us = 900.0;
+        let (i, why) = choose(&two).unwrap();
+        assert_eq!(i, 2, "{why}");
+        assert!(
+            why.contains("simplest form (zero mean, 500 points)"),
+            "{why}"
+        );
     }
 
     #[test]

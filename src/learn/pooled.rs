@@ -252,7 +252,10 @@ pub fn spread(data: &Dataset) -> Vec<f64> {
 /// Contiguous blocks a held-out part of one trial is scored on, as parts.
 const BLOCKS_OF_ONE_TRIAL: usize = 5;
 
-/// `model` scored on `test` as `name` ([`scored`]).
+/// `model` scored on `test` as `name`: RMSE per axis, and their mean over
+/// axes in units of `sd` ([`chooser::score`], lower is better), over every
+/// row and on each trial of `test` (one trial: on five contiguous blocks of
+/// it), the chooser's parts.
 pub fn validate(
     name: &str,
     model: &dyn WrenchModel,
@@ -264,10 +267,8 @@ pub fn validate(
     Ok(scored(name, test, pred.view(), sd))
 }
 
-/// Estimates `pred` of `test`'s rows scored as `name`: RMSE per axis, and
-/// their mean over axes in units of `sd` ([`chooser::score`], lower is
-/// better), over every row and on each trial of `test` (one trial: on
-/// five contiguous blocks of it), the chooser's parts.
+/// Estimates `pred` of `test`'s rows scored as `name`, as [`validate`]
+/// scores a model's.
 fn scored(name: &str, test: &Dataset, pred: ndarray::ArrayView2<f64>, sd: &[f64]) -> Validation {
     let on = |rows: &[usize]| {
         let y = test.y.select(ndarray::Axis(0), rows);
@@ -562,12 +563,14 @@ impl Adaptation<'_> {
 
     /// The form of `candidate`, the pooled one's options `pool`.
     fn form(&self, candidate: &Candidate, pool: &Pool) -> Form {
-        let gp = GpFamily::form_of;
+        let gp = GpFamily::form_of_params;
         match (candidate, pool) {
             (Candidate::Other(f), _) => families::default_form(*f),
-            (Candidate::Gp(NEW_NETWORK), _) => gp(MeanKind::Network),
-            (Candidate::Gp(POOLED), Some((_, options))) => gp(options.mean),
-            _ => gp(self.params.mean),
+            (Candidate::Gp(NEW_NETWORK), _) => {
+                GpFamily::form_of(MeanKind::Network, gp(self.params).points)
+            }
+            (Candidate::Gp(POOLED), Some((_, options))) => gp(options),
+            _ => gp(self.params),
         }
     }
 }

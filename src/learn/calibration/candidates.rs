@@ -84,10 +84,10 @@ impl<'a> Candidate<'a> {
 
     /// Its form, the adapted GPs' options being `adapt`.
     pub(super) fn form(&self, adapt: &GpParams) -> Form {
-        let gp = GpFamily::form_of;
+        let gp = GpFamily::form_of_params;
         match self {
-            Candidate::Adapted(_) => gp(adapt.mean),
-            Candidate::Scratch(_, params) | Candidate::Pooled(_, _, params) => gp(params.mean),
+            Candidate::Adapted(_) => gp(adapt),
+            Candidate::Scratch(_, params) | Candidate::Pooled(_, _, params) => gp(params),
             Candidate::Other(family) => families::default_form(*family),
         }
     }

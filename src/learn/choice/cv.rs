@@ -297,7 +297,7 @@ impl Pooled {
 
 /// Held-out rows of a fold whose errors are compared with the standard
 /// deviation (evenly spread): an exact GP's variance costs O(m^2) a row, m
-/// up to 1000.
+/// up to [`VARIANCE_ROWS`](crate::learn::models::gp::exact::VARIANCE_ROWS).
 const CALIBRATION_ROWS: usize = 50;
 
 /// Estimates timed per candidate (at most: as many as fit in

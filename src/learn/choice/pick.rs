@@ -61,7 +61,10 @@ mod tests {
         ];
         let (i, why) = choose(&table);
         assert_eq!(i, 1, "{why}");
-        assert!(why.contains("simplest form (linear mean)"), "{why}");
+        assert!(
+            why.contains("simplest form (linear mean, 2000 points)"),
+            "{why}"
+        );
     }
 
     #[test]
@@ -91,7 +94,10 @@ mod tests {
         ];
         let (i, why) = choose(&table);
         assert_eq!(i, 0, "{why}");
-        assert!(why.contains("simplest form (zero mean)"), "{why}");
+        assert!(
+            why.contains("simplest form (zero mean, 2000 points)"),
+            "{why}"
+        );
         // Within noise of a better network mean: the cheaper of the two.
         let table = [
             row(MeanKind::Network, &[0.30, 0.29, 0.28], 300.0),

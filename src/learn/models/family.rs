@@ -73,6 +73,10 @@ pub struct Form {
     /// How flexible it is: 0 a GP of no prior mean, 1 with a linear mean,
     /// 2 a cubic one, 3 networks (a GP's network mean, an ensemble).
     pub flexibility: u8,
+    /// The points its estimate is built from (a GP's training rows or
+    /// inducing points; 0 for a model of none): of two forms equally
+    /// flexible, the one of fewer points is the simpler.
+    pub points: usize,
 }
 
 impl Form {
@@ -81,12 +85,16 @@ impl Form {
     pub const UNREGISTERED: Form = Form {
         name: "a family not registered",
         flexibility: u8::MAX,
+        points: usize::MAX,
     };
 }
 
 impl fmt::Display for Form {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name)
+        match self.points {
+            0 | usize::MAX => f.write_str(self.name),
+            points => write!(f, "{}, {points} points", self.name),
+        }
     }
 }
 

@@ -21,8 +21,8 @@ fn scored(model: &str, trials: &[f64]) -> Validation {
 fn adapt_and_the_calibration_choose_by_the_rule_of_select() {
     let name = |v: &[Validation], cost: &[(f64, Form)]| v[choose(v, cost).0].model.clone();
     let form = GpFamily::form_of;
-    let gp = |us| (us, form(MeanKind::Zero));
-    let network = |us| (us, form(MeanKind::Network));
+    let gp = |us| (us, form(MeanKind::Zero, 2000));
+    let network = |us| (us, form(MeanKind::Network, 2000));
     let (better, worse) = ([0.20, 0.22, 0.21], [0.30, 0.31, 0.29]);
     // Better on every held-out trial: the better, however flexible.
     let two = [

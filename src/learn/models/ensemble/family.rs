@@ -44,6 +44,7 @@ impl ModelFamily for EnsembleFamily {
         Form {
             name: "the ensemble",
             flexibility: 3,
+            points: 0,
         }
     }
 

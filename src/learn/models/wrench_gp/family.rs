@@ -5,7 +5,7 @@ use std::path::Path;
 use super::{WrenchGp, MODEL_FORMAT};
 use crate::learn::models::estimate_cost::{exact_us, sparse_us, NETWORK_US};
 use crate::learn::models::family::{Fit, Form, ModelFamily, Shape};
-use crate::learn::models::gp::MeanKind;
+use crate::learn::models::gp::{GpParams, MeanKind};
 use crate::learn::models::provenance::{Choice, Cost, GpChoice};
 use crate::learn::models::wrench_model::{ModelError, WrenchModel};
 
@@ -26,15 +26,27 @@ const SPARSE_PER_UNIT_S: f64 = 0.0013;
 const NETWORK_PER_1000_ROWS_S: f64 = 0.053;
 
 impl GpFamily {
-    /// The form of a GP with the prior mean `mean`.
-    pub fn form_of(mean: MeanKind) -> Form {
+    /// The form of a GP with the prior mean `mean` on `points` training
+    /// rows or inducing points.
+    pub fn form_of(mean: MeanKind, points: usize) -> Form {
         let (name, flexibility) = match mean {
             MeanKind::Zero => ("zero mean", 0),
             MeanKind::Linear => ("linear mean", 1),
             MeanKind::Cubic => ("cubic mean", 2),
             MeanKind::Network => ("network mean", 3),
         };
-        Form { name, flexibility }
+        Form {
+            name,
+            flexibility,
+            points,
+        }
+    }
+
+    /// The form of a GP of `params`: its mean, on its inducing points or
+    /// at most `max_train` rows.
+    pub fn form_of_params(params: &GpParams) -> Form {
+        let points = params.inducing.unwrap_or(params.max_train);
+        GpFamily::form_of(params.mean, points)
     }
 }
 
@@ -70,7 +82,8 @@ impl ModelFamily for GpFamily {
     }
 
     fn form(&self, choice: &Choice) -> Form {
-        GpFamily::form_of(choice.mean)
+        let (GpChoice::Exact(points) | GpChoice::Sparse(points)) = choice.gp;
+        GpFamily::form_of(choice.mean, points)
     }
 
     fn cost(&self, choice: &Choice, shape: &Shape) -> Cost {
