@@ -15,6 +15,7 @@ use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
 
 use seam_data::{quick, unit};
+use tactile_force::learn::adaptation::Adaptation;
 use tactile_force::learn::calibration::{fit as calibrate, Recorded};
 use tactile_force::learn::choice::{select, Choice, Family, Space};
 use tactile_force::learn::data::sessions::{load_sessions, Features, Request};
@@ -30,7 +31,7 @@ use tactile_force::learn::models::provenance::{
 use tactile_force::learn::models::wrench_gp::WrenchGp;
 use tactile_force::learn::models::wrench_model::{Estimate, ModelError, Workspace, WrenchModel};
 use tactile_force::learn::models::Prediction;
-use tactile_force::learn::pooled::{Adaptation, Unavailable};
+use tactile_force::learn::pooled::Unavailable;
 use tactile_force::nodes::wrench_estimator::EstimatorNode;
 use tactile_force::record::Record;
 use tactile_force::sensor::biotac::BioTacInput;

@@ -1,15 +1,17 @@
-//! `adapt`: a trained model adapted to another unit, session or person, or
-//! retrained on its own data pooled with the new, whichever estimates a
-//! held-out part of the new data better (`learn::pooled`).
+//! `adapt`: a trained model adapted to another unit, session or person,
+//! retrained on its own data pooled with the new, or a model of the new
+//! data alone, whichever the chooser takes over folds of the new data
+//! (`learn::adaptation`).
 
 use std::path::PathBuf;
 
 use clap::Args;
 
+use tactile_force::learn::adaptation::Adaptation;
 use tactile_force::learn::evaluate::{training_fit, Progress};
 use tactile_force::learn::models::gp::{GpParams, DEFAULT_MAX_TRAIN};
 use tactile_force::learn::models::wrench_gp::{AdaptChoice, AdaptedFrom, WrenchGp};
-use tactile_force::learn::pooled::{base_data, lineage, Adaptation, Unavailable};
+use tactile_force::learn::pooled::{base_data, lineage, Unavailable};
 
 use super::data::{load_sessions, SourceArgs};
 use super::output::{print_scores, progress_bar, show};

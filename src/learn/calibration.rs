@@ -3,7 +3,7 @@
 //! ([`Choice::default_options`]: the GP, the GP with the network as its
 //! prior mean, each other family: the ensemble of networks), or, when the current GP's
 //! training data is at hand, one retrained on that data pooled with the
-//! recording ([`super::pooled`]): among those that beat the current model
+//! recording ([`super::candidates`]): among those that beat the current model
 //! on the held-out pushes (every fourth), the one the chooser's rule takes
 //! ([`super::chooser`], over the held-out pushes); refused when none beats
 //! it.
@@ -14,18 +14,20 @@
 use std::path::Path;
 use std::time::Instant;
 
+use super::adaptation::{choose, spread, std_scales, validate};
+use super::candidates::{Candidate, Fitter};
 use super::choice::Choice;
 use super::chooser::Form;
 use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{training_fit, EvalError};
 use super::models::gp::GpParams;
-use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec};
+use super::models::wrench_gp::{AdaptedFrom, ModelError, TareSpec, WarmStart};
 use super::models::wrench_model::WrenchModel;
-use super::pooled::{choose, data_file, spread, std_scales, validate};
+use super::pooled::data_file;
 use crate::biotac::ElectrodeLayout;
 use crate::exit::{Classify, ExitClass};
 use crate::record::Record;
-use candidates::{finish, Candidate, Fitter};
+use candidates::finish;
 
 pub use super::models::wrench_gp::{CalibrationRecord, Validation};
 
@@ -117,11 +119,11 @@ pub fn fit(
             data: session,
             seconds: recorded.motion_s,
         },
-        adapt: base.clone().validate().map_err(ModelError::from)?,
+        params: base.clone().validate().map_err(ModelError::from)?,
         input: choice.input,
         sensor: current.input().sensor.clone(),
     };
-    let (candidates, pooling) = Candidate::all(current, &choice, base)?;
+    let (candidates, pooling) = candidates::all(current, &choice, base)?;
     let current_features = current.features().to_vec();
     let features = |c: &Candidate| match c.takes_current_features() {
         true => current_features.clone(),
@@ -137,11 +139,11 @@ pub fn fit(
     for c in &candidates {
         let (train, tare) = rec.cut(&rec.train, &features(c))?;
         let (test, _) = rec.cut(&rec.test, &features(c))?;
-        let m = fitter.fit(c, &train, tare)?;
+        let m = fitter.fit(c, &train, tare, WarmStart::default(), &mut |_, _| {})?;
         validation.push(validate(&c.name(), m.as_ref(), &test, &rec.sd)?);
         fitted.push((m, test));
     }
-    let Some((at, why)) = chosen(&validation, &fitted, &candidates, &fitter.adapt) else {
+    let Some((at, why)) = chosen(&validation, &fitted, &candidates, &fitter) else {
         return Err(CalibrationError::NotBetter(validation));
     };
     // The winner's standard deviation scale, from its held-out errors; then
@@ -150,11 +152,11 @@ pub fn fit(
     drop(fitted);
     let chosen = &candidates[at];
     let (data, tare) = rec.cut(&rec.all, &features(chosen))?;
-    let model = fitter.fit(chosen, &data, tare)?;
+    let model = fitter.fit(chosen, &data, tare, WarmStart::default(), &mut |_, _| {})?;
     training_fit(model.as_ref(), &data)?;
     let session_file =
         (recorded.session.as_deref()).and_then(|s| data_file(Path::new(s), rec.all.len()).ok());
-    let trained_on = chosen.trained_on(session_file);
+    let trained_on = candidates::trained_on(chosen, session_file);
     let record = CalibrationRecord {
         chosen: chosen.name(),
         validation,
@@ -180,7 +182,7 @@ fn chosen(
     validation: &[Validation],
     fitted: &[(Box<dyn WrenchModel>, Dataset)],
     candidates: &[Candidate],
-    adapt: &GpParams,
+    fitter: &Fitter,
 ) -> Option<(usize, String)> {
     let beat: Vec<usize> = (0..candidates.len())
         .filter(|&i| validation[i + 1].score < validation[0].score)
@@ -193,7 +195,7 @@ fn chosen(
             let estimate_us = fitted[i].0.predicted_estimate_us();
             (
                 validation[i + 1].clone(),
-                (estimate_us, candidates[i].form(adapt)),
+                (estimate_us, fitter.form(&candidates[i])),
             )
         })
         .unzip();

@@ -32,13 +32,13 @@ use std::time::Instant;
 
 use ndarray::Axis as NdAxis;
 
+use super::adaptation::spread;
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::families;
 use super::models::gp::fit::FitProgress;
 use super::models::gp::{GpParams, MeanKind, DEFAULT_MAX_TRAIN};
 use super::models::scale::InputScaling;
 use super::models::wrench_gp::{ModelError, TareSpec};
-use super::pooled::spread;
 use crate::biotac::ElectrodeLayout;
 
 use crate::exit::{Classify, ExitClass};

@@ -17,7 +17,9 @@ pub mod data;
 pub mod models;
 
 mod adapt;
+pub mod adaptation;
 pub mod calibration;
+pub mod candidates;
 pub mod choice;
 pub mod chooser;
 pub mod default_model;

@@ -1,176 +1,61 @@
-//! The calibration's candidates besides the current model, and how each is
-//! fitted on a part of the recording.
+//! The calibration's candidates besides the current model
+//! ([`crate::learn::candidates`], named "from scratch" for the new data
+//! alone), what each records, and the chosen one finished.
 
-use crate::learn::chooser::Form;
-use crate::learn::data::Dataset;
-use crate::learn::models::families;
-use crate::learn::models::family::{Fit, ModelFamily};
+use crate::learn::candidates::{Candidate, FROM_SCRATCH};
 use crate::learn::models::gp::GpParams;
 use crate::learn::models::provenance::Choice;
-use crate::learn::models::scale::InputScaling;
 use crate::learn::models::wrench_gp::{
-    AdaptedFrom, CalibrationRecord, DataFile, GpFamily, Making, ModelError, TareSpec, TrainedOn,
-    WarmStart, WrenchGp,
+    CalibrationRecord, DataFile, Making, ModelError, TrainedOn, WrenchGp,
 };
 use crate::learn::models::wrench_model::WrenchModel;
-use crate::learn::pooled::{base_data, lineage, with_network_mean, BaseData, Unavailable};
-use crate::params::Checked;
-use crate::sensor::SensorSpec;
+use crate::learn::pooled::{base_data, lineage, BaseData, Unavailable};
 
-/// The candidates' names in the validation table.
-const ADAPTED: &str = "adapted";
-const SCRATCH: &str = "from scratch";
-const SCRATCH_NETWORK: &str = "from scratch, network mean";
-const POOLED: &str = "pooled";
-
-/// A model the calibration may choose over the current one.
-pub(super) enum Candidate<'a> {
-    /// The current model (a GP) adapted to the recording.
-    Adapted(&'a WrenchGp),
-    /// A GP of the default channels from scratch: its name and options.
-    Scratch(&'static str, Checked<GpParams>),
-    /// A model of another family ([`families::besides_gp`]) of the default
-    /// channels from scratch.
-    Other(&'static dyn ModelFamily),
-    /// The current GP's own training data pooled with the recording.
-    Pooled(&'a WrenchGp, Box<BaseData>, Checked<GpParams>),
+/// Every candidate for `current`: adapted and pooled (when its data are
+/// at hand) when it is a GP; from scratch with `choice`'s options (the GP,
+/// the GP with a network mean, each other family) always. With what
+/// pooling took, or why it was not a candidate.
+pub(super) fn all<'a>(
+    current: &'a dyn WrenchModel,
+    choice: &Choice,
+    base: &GpParams,
+) -> Result<(Vec<Candidate<'a>>, String), ModelError> {
+    let scratch = choice.gp_params(base).validate()?;
+    let Some(gp) = current.as_any().downcast_ref::<WrenchGp>() else {
+        let why = format!(
+            "not considered: the current model is an {} (pooling retrains a GP on its data)",
+            current.family()
+        );
+        return Ok((Candidate::list(None, None, &scratch, &FROM_SCRATCH)?, why));
+    };
+    let pool = base_data(gp, None).map(|b| b.thin(super::POOL_BASE_ROWS));
+    let note = pooling_note(&pool);
+    let pool = match pool {
+        Ok(b) => {
+            let options = pool_params(&b.params, &scratch).validate()?;
+            Some((Box::new(b), options))
+        }
+        Err(_) => None,
+    };
+    Ok((
+        Candidate::list(Some(gp), pool, &scratch, &FROM_SCRATCH)?,
+        note,
+    ))
 }
 
-impl<'a> Candidate<'a> {
-    /// Every candidate for `current`: adapted and pooled (when its data are
-    /// at hand) when it is a GP; from scratch with `choice`'s options (the
-    /// GP, the GP with a network mean, each other family) always. With
-    /// what pooling took, or why it was not a candidate.
-    pub(super) fn all(
-        current: &'a dyn WrenchModel,
-        choice: &Choice,
-        base: &GpParams,
-    ) -> Result<(Vec<Self>, String), ModelError> {
-        let scratch = choice.gp_params(base).validate()?;
-        let network = with_network_mean(&scratch)?;
-        let others = families::besides_gp().into_iter().map(Candidate::Other);
-        let gps = [
-            Candidate::Scratch(SCRATCH, scratch),
-            Candidate::Scratch(SCRATCH_NETWORK, network),
-        ];
-        let from_scratch: Vec<Self> = gps.into_iter().chain(others).collect();
-        let Some(gp) = current.as_any().downcast_ref::<WrenchGp>() else {
-            let why = format!(
-                "not considered: the current model is an {} (pooling retrains a GP on its data)",
-                current.family()
-            );
-            return Ok((from_scratch, why));
-        };
-        let mut out = vec![Candidate::Adapted(gp)];
-        out.extend(from_scratch);
-        let pool = base_data(gp, None).map(|b| b.thin(super::POOL_BASE_ROWS));
-        let note = pooling_note(&pool);
-        if let Ok(b) = pool {
-            let options = pool_params(&b.params, &choice.gp_params(base)).validate()?;
-            out.push(Candidate::Pooled(gp, Box::new(b), options));
+/// The data `candidate` records it was trained on, the recording being
+/// `session` (a GP's reference that pooled retraining follows; none for
+/// another family).
+pub(super) fn trained_on(candidate: &Candidate, session: Option<DataFile>) -> Option<TrainedOn> {
+    match candidate {
+        Candidate::Adapted(gp) | Candidate::Pooled(gp, ..) => {
+            lineage(gp.trained_on(), session.into_iter().collect())
         }
-        Ok((out, note))
-    }
-
-    /// Its name in the validation table.
-    pub(super) fn name(&self) -> String {
-        match self {
-            Candidate::Adapted(_) => ADAPTED.into(),
-            Candidate::Scratch(name, _) => (*name).into(),
-            Candidate::Other(family) => format!("{SCRATCH}, {}", family.name()),
-            Candidate::Pooled(..) => POOLED.into(),
-        }
-    }
-
-    /// Its form, the adapted GPs' options being `adapt`.
-    pub(super) fn form(&self, adapt: &GpParams) -> Form {
-        let gp = GpFamily::form_of_params;
-        match self {
-            Candidate::Adapted(_) => gp(adapt),
-            Candidate::Scratch(_, params) | Candidate::Pooled(_, _, params) => gp(params),
-            Candidate::Other(family) => families::default_form(*family),
-        }
-    }
-
-    /// Whether it takes the current model's features (else the default
-    /// choice's).
-    pub(super) fn takes_current_features(&self) -> bool {
-        matches!(self, Candidate::Adapted(_) | Candidate::Pooled(..))
-    }
-
-    /// The data it records it was trained on, the recording being
-    /// `session` (a GP's reference that pooled retraining follows; none for
-    /// another family).
-    pub(super) fn trained_on(&self, session: Option<DataFile>) -> Option<TrainedOn> {
-        match self {
-            Candidate::Adapted(gp) | Candidate::Pooled(gp, ..) => {
-                lineage(gp.trained_on(), session.into_iter().collect())
-            }
-            Candidate::Scratch(_, params) => session.map(|f| TrainedOn {
-                files: vec![f],
-                params: GpParams::clone(params),
-            }),
-            Candidate::Other(_) => None,
-        }
-    }
-}
-
-/// What every candidate's fit shares.
-pub(super) struct Fitter {
-    /// What an adapted model records it came from.
-    pub(super) from: AdaptedFrom,
-    /// The adaptation GPs' options; another family from scratch takes
-    /// their seed.
-    pub(super) adapt: Checked<GpParams>,
-    /// How a model from scratch takes its inputs.
-    pub(super) input: InputScaling,
-    /// The sensor a model from scratch records.
-    pub(super) sensor: SensorSpec,
-}
-
-impl Fitter {
-    /// `candidate` fitted on `data` (cut to its features, tared as `tare`).
-    pub(super) fn fit(
-        &self,
-        candidate: &Candidate,
-        data: &Dataset,
-        tare: TareSpec,
-    ) -> Result<Box<dyn WrenchModel>, ModelError> {
-        let scratch = |family: &dyn ModelFamily, params| {
-            family.fit(Fit {
-                data,
-                tare: tare.clone(),
-                sensor: self.sensor.clone(),
-                input: self.input,
-                params,
-                warm: WarmStart::default(),
-                progress: &mut |_, _| {},
-            })
-        };
-        Ok(match candidate {
-            Candidate::Adapted(gp) => {
-                let from = self.from.clone();
-                let quiet = &mut |_, _| {};
-                Box::new(gp.adapt(
-                    data,
-                    tare.clone(),
-                    from,
-                    &self.adapt,
-                    WarmStart::default(),
-                    quiet,
-                )?)
-            }
-            Candidate::Scratch(_, params) => scratch(&GpFamily, params)?,
-            Candidate::Other(family) => scratch(*family, &self.adapt)?,
-            Candidate::Pooled(gp, b, options) => Box::new(b.pooled(
-                gp,
-                data,
-                tare.clone(),
-                options,
-                WarmStart::default(),
-                &mut |_, _| {},
-            )?),
-        })
+        Candidate::Alone(_, params) => session.map(|f| TrainedOn {
+            files: vec![f],
+            params: GpParams::clone(params),
+        }),
+        Candidate::Other(..) => None,
     }
 }
 

@@ -1,12 +1,16 @@
-//! Pooled retraining: the choice, the held-out rows, the reference and why
-//! the base's data may not be at hand.
+//! `adapt`: the choice, the folds, and the base's data it pools (the
+//! reference, and why it may not be at hand).
 
 use super::*;
 use crate::biotac::sim::BioTacSimConfig;
 use crate::biotac::ElectrodeLayout;
 use crate::learn::data::{electrode_columns, write_csv, Counts};
+use crate::learn::models::gp::MeanKind;
 use crate::learn::models::wrench_gp::quick_params;
+use crate::learn::models::wrench_gp::{DataFile, GpFamily};
+use crate::learn::pooled::*;
 use crate::sim::collect::{collect, CollectConfig};
+use std::path::{Path, PathBuf};
 
 fn scored(model: &str, trials: &[f64]) -> Validation {
     Validation {
