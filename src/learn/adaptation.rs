@@ -4,7 +4,7 @@
 //! scores both read ([`validate`]).
 
 use super::candidates::{Candidate, Fitter, NEW_DATA};
-use super::chooser::{self, Form, Scored};
+use super::chooser::{self, spread, Form, Scored};
 use super::data::{trialwise_folds, Dataset};
 use super::evaluate::{check_fits, EvalError};
 use super::models::gp::fit::FitProgress;
@@ -18,12 +18,6 @@ use super::models::wrench_model::WrenchModel;
 use super::pooled::{BaseData, Unavailable};
 use crate::params::Checked;
 use crate::wrench::Axis;
-
-/// Per axis, the targets' standard deviation: the scores' units.
-pub fn spread(data: &Dataset) -> Vec<f64> {
-    let sd = |c: ndarray::ArrayView1<f64>| c.std(0.0).max(1e-9);
-    data.y.columns().into_iter().map(sd).collect()
-}
 
 /// Contiguous blocks a held-out part of one trial is scored on, as parts.
 const BLOCKS_OF_ONE_TRIAL: usize = 5;

@@ -14,9 +14,10 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::adaptation::{choose, spread, std_scales, validate};
+use super::adaptation::{choose, std_scales, validate};
 use super::candidates::{Candidate, Fitter};
 use super::choice::Choice;
+use super::chooser::spread;
 use super::chooser::Form;
 use super::data::{channel_columns, Channel, Dataset, DatasetError};
 use super::evaluate::{training_fit, EvalError};

@@ -32,7 +32,7 @@ use std::time::Instant;
 
 use ndarray::Axis as NdAxis;
 
-use super::adaptation::spread;
+use super::chooser::spread;
 use super::data::{channel_columns, layout_of, trialwise_folds, Channel, Dataset};
 use super::models::families;
 use super::models::gp::fit::FitProgress;

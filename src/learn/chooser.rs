@@ -17,6 +17,7 @@
 
 use ndarray::ArrayView2;
 
+use super::data::Dataset;
 pub use super::models::family::Form;
 use super::models::metrics::{mean_and_error, rmse_columns};
 
@@ -97,6 +98,12 @@ pub fn choose(candidates: &[Scored]) -> Option<(usize, String)> {
         )
     };
     Some((chosen, why))
+}
+
+/// Per axis, the targets' standard deviation: the scores' units.
+pub fn spread(data: &Dataset) -> Vec<f64> {
+    let sd = |c: ndarray::ArrayView1<f64>| c.std(0.0).max(1e-9);
+    data.y.columns().into_iter().map(sd).collect()
 }
 
 #[cfg(test)]

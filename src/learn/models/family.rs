@@ -9,10 +9,10 @@ use std::fmt;
 use std::path::Path;
 
 use super::gp::fit::FitProgress;
-use super::gp::GpParams;
+use super::gp::{GpParams, SeHyper};
+use super::nn::Mlp;
 use super::provenance::{Choice, Cost};
 use super::scale::InputScaling;
-use super::wrench_gp::WarmStart;
 use super::wrench_model::{ModelError, WrenchModel};
 use crate::learn::data::{Dataset, TareSpec};
 use crate::params::Checked;
@@ -63,6 +63,18 @@ pub struct Fit<'a> {
     pub warm: WarmStart<'a>,
     /// Told each axis's progress, where the family reports one.
     pub progress: &'a mut (dyn FnMut(Axis, FitProgress) + Send),
+}
+
+/// What a fit may start from (a GP's search, a network mean's network;
+/// default: nothing).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct WarmStart<'a> {
+    /// Each axis's hyperparameters, where its search starts, from a model
+    /// of the same features, axes, scaling and mean on similar data.
+    pub hypers: Option<&'a [SeHyper]>,
+    /// A network mean's network, fitted on the same rows with the same
+    /// scaling: taken as it is.
+    pub network: Option<&'a Mlp>,
 }
 
 /// A candidate's form: what the data must pay for.

@@ -16,7 +16,6 @@ use serde::Serialize;
 use super::estimate_cost::{exact_us, sparse_us, NETWORK_US};
 use super::gp::fit::FitProgress;
 use super::gp::{FitInfo, Gp, GpError, GpParams, GpWorkspace, MeanKind, SeHyper};
-use super::nn::Mlp;
 use super::scale::{InputScaling, Standardizer};
 use crate::learn::data::Dataset;
 use crate::params::Checked;
@@ -26,6 +25,7 @@ use axis_fits::{floors, gp_targets, AxisFits};
 use file::{electrode_mask, AxisModel, ModelFile, Prior};
 use network::network_mean;
 
+pub use super::family::WarmStart;
 use super::provenance::set_scales;
 pub use super::provenance::{
     AdaptChoice, AdaptedFrom, AloneScore, CalibrationRecord, Choice, CvRow, DataFile, GpChoice,
@@ -369,17 +369,6 @@ fn standardised_inputs(
     let input = scaling.fit(represented.view());
     let z = input.transform(represented.view());
     Ok((electrode, input, z.iter().copied().collect()))
-}
-
-/// What a fit may start from ([`WrenchGp::train_from`]; default: nothing).
-#[derive(Debug, Default, Clone, Copy)]
-pub struct WarmStart<'a> {
-    /// Each axis's hyperparameters, where its search starts, from a model
-    /// of the same features, axes, scaling and mean on similar data.
-    pub hypers: Option<&'a [SeHyper]>,
-    /// A network mean's network, fitted on the same rows with the same
-    /// scaling: taken as it is.
-    pub network: Option<&'a Mlp>,
 }
 
 /// [`WrenchGp::predicted_estimate_us`] of a model file.
