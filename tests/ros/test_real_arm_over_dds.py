@@ -33,7 +33,8 @@ controllers do (`command_timeout_s` 0), unless a check says otherwise.
   activate -> readings at 100 Hz; deactivate -> none; cleanup closes the
   link; SIGINT ends it with code 0.
 - Any driver heard: the F/T wrench relayed with SensorDataQoS (best
-  effort) feeds a full calibration (it ends `calibrated`); the estimate
+  effort) feeds a full calibration (it ends `calibrated`, naming any axis
+  where the new model is worse); the estimate
   relayed best effort feeds a guarded hold (overshoot <= 0.1 N,
   steady-state error <= 0.05 N, sd <= 0.02 N); with no estimator, the
   silent `biotac/wrench_estimate` is named on /diagnostics within 5 s, with "no
@@ -537,7 +538,9 @@ def calibrated(arm, frame):
     status, r = got if got else (None, None)
     if frame is None:
         check("QoS: a best-effort F/T relay feeds a full calibration",
-              r is not None and status == GoalStatus.STATUS_SUCCEEDED and r.reason == "calibrated",
+              r is not None and status == GoalStatus.STATUS_SUCCEEDED
+              and (r.reason == "calibrated"
+                   or r.reason.startswith("calibrated; worse than the current model on ")),
               "no result" if r is None else f"status {status}, reason {r.reason!r}, {r.pushes} pushes")
     else:
         said = arm.diagnostic("force_controller", "frame_refused ft_sensor/wrench", timeout=3) or ""
