@@ -18,7 +18,8 @@
 //!
 //! No clock decides anything: each candidate's cost is predicted from its
 //! kind and size before it runs (`cost.rs`). A candidate whose estimate is
-//! predicted slower than `cost::ESTIMATE_LIMIT_US` is not a candidate; one
+//! predicted slower than `cost::ESTIMATE_LIMIT_US` at the 99th percentile
+//! is not a candidate; one
 //! predicted beyond what the budget leaves is not tried; both are listed
 //! with the reason. The defaults are scored whatever the budget: they are
 //! what every other candidate must beat. Among the candidates within noise
@@ -109,13 +110,14 @@ impl Classify for SelectError {
 
 /// Why a candidate of `cost` is not tried with `left_s` predicted seconds
 /// of the budget left: its estimate is predicted slower than
-/// `cost::ESTIMATE_LIMIT_US` (not a candidate), or its cross-validation
-/// longer than what is left; None when it is tried.
+/// `cost::ESTIMATE_LIMIT_US` at the 99th percentile (not a candidate), or
+/// its cross-validation longer than what is left; None when it is tried.
 fn not_tried(cost: &Cost, left_s: f64) -> Option<String> {
-    if cost.estimate_us > cost::ESTIMATE_LIMIT_US {
+    let p99 = cost::p99_us(cost);
+    if p99 > cost::ESTIMATE_LIMIT_US {
         return Some(format!(
-            "its estimate is predicted at {:.0} µs, over the {:.0} µs an estimate may take ({})",
-            cost.estimate_us,
+            "its estimate is predicted at {p99:.0} µs at the 99th percentile, over the {:.0} µs \
+             an estimate may take ({})",
             cost::ESTIMATE_LIMIT_US,
             cost::ESTIMATE_LIMIT_WHY
         ));

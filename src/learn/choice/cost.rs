@@ -11,17 +11,24 @@
 //! machine runs the same table in less time, and the same table.
 
 use super::{Choice, Shape};
+use crate::learn::models::estimate_cost::P99_OVER_P50;
 use crate::learn::models::families;
 use crate::learn::models::provenance::Cost;
 use crate::learn::models::wrench_model::ModelError;
 
 /// The longest an estimate (every axis with its standard deviation) may be
-/// predicted to take, one core (µs).
+/// predicted to take at the 99th percentile, one core (µs): its predicted
+/// median times [`P99_OVER_P50`].
 pub(crate) const ESTIMATE_LIMIT_US: f64 = 1000.0;
 /// Why [`ESTIMATE_LIMIT_US`], in words for the table.
 pub(crate) const ESTIMATE_LIMIT_WHY: &str =
     "a tenth of the BioTac's 10 ms sample period: the estimator keeps up with \
      the sensor on a tenth of a core";
+
+/// The 99th percentile of an estimate's time predicted from its median.
+pub(crate) fn p99_us(cost: &Cost) -> f64 {
+    P99_OVER_P50 * cost.estimate_us
+}
 
 /// `choice`'s cost on data of `shape`, as its family predicts it.
 pub(super) fn predict(choice: &Choice, shape: &Shape) -> Result<Cost, ModelError> {
@@ -61,7 +68,7 @@ mod tests {
         assert!(sparse(200).fit_s < sparse(500).fit_s);
         assert!(sparse(200).estimate_us < sparse(500).estimate_us);
         assert!(exact(2000).estimate_us < exact(4000).estimate_us);
-        // benches/estimate.rs: sparse 500 137 µs, exact 1000 301 µs (p50).
+        // benches/estimate.rs: sparse 500 133 µs, exact 1000 192.5 µs (p50).
         assert!(sparse(500).estimate_us < exact(1000).estimate_us);
         assert_eq!(exact(2000), exact(2000));
         // A network mean adds its network's training and pass.
@@ -91,12 +98,12 @@ mod tests {
         ] {
             for mean in [MeanKind::Zero, MeanKind::Network] {
                 let c = predict(&gp(g, mean), &s).unwrap();
-                assert!(c.estimate_us < ESTIMATE_LIMIT_US, "{g} {mean:?}: {c:?}");
+                assert!(p99_us(&c) < ESTIMATE_LIMIT_US, "{g} {mean:?}: {c:?}");
             }
         }
         let ensemble = Choice::of(Family::named("ensemble"), vec![Channel::Electrodes]);
         let ensemble = predict(&ensemble, &s).unwrap();
-        assert!(ensemble.estimate_us < ESTIMATE_LIMIT_US && ensemble.fit_s > 0.0);
+        assert!(p99_us(&ensemble) < ESTIMATE_LIMIT_US && ensemble.fit_s > 0.0);
         let huge = predict(&gp(GpChoice::Sparse(2000), MeanKind::Zero), &s).unwrap();
         let unknown = Choice::of(Family::named("none such"), vec![Channel::Electrodes]);
         let refused = predict(&unknown, &s).unwrap_err().to_string();
@@ -104,6 +111,6 @@ mod tests {
             refused.contains("\"none such\"") && refused.contains("gp or ensemble"),
             "{refused}"
         );
-        assert!(huge.estimate_us > ESTIMATE_LIMIT_US, "{huge:?}");
+        assert!(p99_us(&huge) > ESTIMATE_LIMIT_US, "{huge:?}");
     }
 }

@@ -348,12 +348,12 @@ pub(super) fn pack_lower(l: MatRef<'_, f64>) -> Vec<f64> {
 }
 
 /// The n x n lower-triangular matrix of [`pack_lower`]'s packing.
-pub(super) fn unpack_lower(cols: &[f64], n: usize) -> Mat<f64> {
+pub(super) fn unpack_lower<T: Copy + Into<f64>>(cols: &[T], n: usize) -> Mat<f64> {
     let mut l = Mat::<f64>::zeros(n, n);
     let mut start = 0;
     for j in 0..n {
         for (i, v) in cols[start..start + n - j].iter().enumerate() {
-            l[(j + i, j)] = *v;
+            l[(j + i, j)] = (*v).into();
         }
         start += n - j;
     }
@@ -366,18 +366,18 @@ pub(super) fn unpack_lower(cols: &[f64], n: usize) -> Mat<f64> {
 /// has (pulp's run-time dispatch, as the kernel's exponentials): with a
 /// factor of 1000 rows in cache, 65 us instead of 100 us in the baseline
 /// build.
-pub(super) fn forward_subst_packed(l_cols: &[f64], k: &mut [f64]) {
+pub(super) fn forward_subst_packed<T: Copy + Into<f64>>(l_cols: &[T], k: &mut [f64]) {
     pulp::Arch::new().dispatch(ForwardSubst { l_cols, k });
 }
 
 /// [`forward_subst_packed`]'s arguments (a type, not a closure, so that
 /// its body is compiled for the dispatched instructions).
-struct ForwardSubst<'a> {
-    l_cols: &'a [f64],
+struct ForwardSubst<'a, T> {
+    l_cols: &'a [T],
     k: &'a mut [f64],
 }
 
-impl pulp::WithSimd for ForwardSubst<'_> {
+impl<T: Copy + Into<f64>> pulp::WithSimd for ForwardSubst<'_, T> {
     type Output = ();
 
     #[inline(always)]
@@ -387,10 +387,10 @@ impl pulp::WithSimd for ForwardSubst<'_> {
         let mut start = 0;
         for j in 0..n {
             let col = &l_cols[start..start + n - j];
-            let vj = k[j] / col[0];
+            let vj = k[j] / col[0].into();
             k[j] = vj;
             for (k, l) in k[j + 1..].iter_mut().zip(&col[1..]) {
-                *k -= vj * l;
+                *k -= vj * (*l).into();
             }
             start += n - j;
         }

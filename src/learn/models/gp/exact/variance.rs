@@ -8,6 +8,12 @@
 //! one cluster is every row and the variance is exact. Per point: O(K d)
 //! to find the cluster and O(m^2) for the variance, against O(n^2).
 //!
+//! The factors are kept in single precision (the substitution runs in
+//! double): an estimate's variance is bound by reading them from memory,
+//! and half the bytes took an exact GP on 4000 rows from p99 1059 µs to
+//! about 500 (docs/results.md, "Estimate time per candidate"). What the
+//! rounding may take from a variance is added back ([`ROUNDING_MARGIN`]).
+//!
 //! One subset for every point is no substitute: the posterior variance at
 //! a point is set by the many rows near it. On another lab's robotic
 //! finger (train on recording 1, test on 2; docs/results.md), conditioning
@@ -31,9 +37,17 @@ use crate::learn::models::gp::GpError;
 /// 2-sigma coverage on the real recordings moved by at most 0.016 from the
 /// exact GP's (docs/results.md, "Estimate time per candidate"), at 850 by
 /// 0.017, at 700 by 0.020; and the exact GP on 1000 rows, a candidate of
-/// `train --select`, stays exact. Three axes' variances read 12 MB of
-/// factors an estimate (benches/estimate.rs: p50 0.45 ms on 4000 rows).
+/// `train --select`, stays exact. Three axes' variances read 6 MB of
+/// factors an estimate.
 pub const VARIANCE_ROWS: usize = 1000;
+
+/// What a variance from a factor in single precision adds, per unit of
+/// signal variance, so that it is never below the variance in double
+/// precision: four unit roundoffs of single precision (4.8e-7). The
+/// rounding moved the variance by at most 1.3 of them (1000 rows, noise
+/// from 0.1 down to the fit's floor of 1e-6; tests); the standard
+/// deviation grows by at most 7e-4 of the signal's.
+const ROUNDING_MARGIN: f64 = 4.0 * f32::EPSILON as f64;
 
 /// Clusters a training row is in, on average: K = ceil(COVER n / m), so
 /// that a point near the edge of one cluster's cell is still well inside
@@ -57,8 +71,9 @@ pub(super) struct LocalVariance {
 struct Cluster {
     /// Its training rows, ascending.
     rows: Vec<usize>,
-    /// The Cholesky factor of its K + (sn2 + jitter) I, packed by columns.
-    l_cols: Vec<f64>,
+    /// The Cholesky factor of its K + (sn2 + jitter) I, packed by columns,
+    /// in single precision.
+    l_cols: Vec<f32>,
 }
 
 impl LocalVariance {
@@ -79,7 +94,7 @@ impl LocalVariance {
                 centres: xs[..d].to_vec(),
                 clusters: vec![Cluster {
                     rows: (0..n).collect(),
-                    l_cols: pack_lower(full),
+                    l_cols: single(pack_lower(full)),
                 }],
             });
         }
@@ -91,7 +106,7 @@ impl LocalVariance {
                 let (llt, _) = cholesky_with_jitter(&k, noise, hyper)?;
                 Ok(Cluster {
                     rows,
-                    l_cols: pack_lower(llt.L()),
+                    l_cols: single(pack_lower(llt.L())),
                 })
             })
             .collect::<Result<_, GpError>>()?;
@@ -114,7 +129,7 @@ impl LocalVariance {
         }
         let v = &mut k[..c.rows.len()];
         forward_subst_packed(&c.l_cols, v);
-        clamp_var(s2 - dot(v, v), s2)
+        with_margin(s2 - dot(v, v), s2)
     }
 
     /// [`LocalVariance::at`] of many scaled points `zs` (row-major, `d` a
@@ -139,12 +154,23 @@ impl LocalVariance {
                 solve_lower_triangular_in_place(l.as_ref(), kt.as_mut(), Par::rayon(0));
                 for (col, &p) in kt.col_iter().zip(block) {
                     let v: f64 = col.iter().map(|v| v * v).sum();
-                    vars[p] = clamp_var(s2 - v, s2);
+                    vars[p] = with_margin(s2 - v, s2);
                 }
             }
         }
         vars
     }
+}
+
+/// The variance `var` from a factor in single precision (non-finite: `s2`,
+/// the signal variance) plus [`ROUNDING_MARGIN`] `s2`, at most `s2`.
+fn with_margin(var: f64, s2: f64) -> f64 {
+    (clamp_var(var, s2) + ROUNDING_MARGIN * s2).min(s2)
+}
+
+/// `v` in single precision.
+fn single(v: Vec<f64>) -> Vec<f32> {
+    v.into_iter().map(|v| v as f32).collect()
 }
 
 /// |a - b|^2.
