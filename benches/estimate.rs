@@ -19,6 +19,7 @@ use tactile_force::learn::models::ensemble::WrenchEnsemble;
 use tactile_force::learn::models::gp::{GpParams, MeanKind};
 use tactile_force::learn::models::wrench_gp::{Estimate, TareSpec, WrenchGp};
 use tactile_force::learn::models::wrench_model::WrenchModel;
+use tactile_force::sensor::SensorSpec;
 use tactile_force::sim::collect::{collect, CollectConfig};
 
 /// Rows every candidate is trained on.
@@ -95,7 +96,8 @@ impl Candidate {
                 ..quick
             },
             Candidate::Ensemble => {
-                let model = WrenchEnsemble::train_default(data, tare.clone(), 0);
+                let model =
+                    WrenchEnsemble::train_default(data, tare.clone(), SensorSpec::default(), 0);
                 return Box::new(model.expect("trained"));
             }
         };

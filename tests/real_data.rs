@@ -12,6 +12,7 @@ use tactile_force::learn::data::{channel_columns, Channel, Counts, Dataset};
 use tactile_force::learn::evaluate::{cross_validate, EvalOptions};
 use tactile_force::learn::models::gp::GpParams;
 use tactile_force::learn::models::wrench_gp::TareSpec;
+use tactile_force::sensor::SensorSpec;
 use tactile_force::wrench::{Axis, AxisSet, FrameTransform, Wrench};
 
 fn recording() -> PathBuf {
@@ -66,7 +67,8 @@ fn leave_one_press_out(choice: &Choice) -> (Vec<(f64, f64)>, (f64, f64)) {
         max_train: 2000,
         gp: choice.gp_params(&GpParams::default()).validate().unwrap(),
         nn: None,
-        ensemble: None,
+        ensemble: false,
+        sensor: SensorSpec::default(),
         cnn: None,
         seed: 0,
         min_peak_n: 1.0,

@@ -137,23 +137,6 @@ pub(crate) fn run_eval(a: EvalArgs) -> Result<()> {
     Ok(())
 }
 
-/// The baseline network for data of `sensor`: the thesis' for the BioTac;
-/// Urban et al. 2013's shape for the nail camera (20 hidden units, early
-/// stopping after 7 epochs without improvement). Their weight penalty,
-/// `(1 - λ) MSE + λ |W|²` with `λ = 0.3`, taken over as `l2 = λ / (1 - λ)`,
-/// drove every weight to zero on our standardised inputs (R2 0.04-0.13 on
-/// every axis), so the network keeps the default penalty.
-fn nn_params(sensor: &SensorSpec) -> NnParams {
-    match sensor {
-        SensorSpec::Biotac { .. } => NnParams::default(),
-        SensorSpec::Nail(_) => NnParams {
-            hidden: 20,
-            patience: 7,
-            ..NnParams::default()
-        },
-    }
-}
-
 /// The evaluation's options for data of `sensor`.
 fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
     Ok(EvalOptions {
@@ -163,12 +146,10 @@ fn options(a: &EvalArgs, sensor: &SensorSpec) -> Result<EvalOptions> {
         nn: if a.no_nn {
             None
         } else {
-            Some(nn_params(sensor).checked("nn")?)
+            Some(NnParams::for_sensor(sensor).checked("nn")?)
         },
-        ensemble: a
-            .ensemble
-            .then(|| nn_params(sensor).checked("nn"))
-            .transpose()?,
+        ensemble: a.ensemble,
+        sensor: sensor.clone(),
         cnn: match sensor {
             SensorSpec::Nail(_) if !a.no_cnn => Some(
                 CnnParams {

@@ -321,6 +321,7 @@ mod tests {
     use crate::learn::data::electrode_columns;
     use crate::learn::models::ensemble::WrenchEnsemble;
     use crate::learn::models::wrench_gp::quick_fit;
+    use crate::sensor::SensorSpec;
     use crate::sim::collect::{collect, CollectConfig};
 
     /// Four pushes of unit 1 (the thesis protocol's trials, every 4th row;
@@ -393,7 +394,7 @@ mod tests {
     #[test]
     fn an_ensemble_is_calibrated_by_the_models_from_scratch_and_the_winner_records_it() {
         let (records, data, tare) = pushes_and_other_unit();
-        let current = WrenchEnsemble::train_default(&data, tare, 0).unwrap();
+        let current = WrenchEnsemble::train_default(&data, tare, SensorSpec::default(), 0).unwrap();
         let (model, record) = fit(&records, &current, recorded(), &quick()).unwrap();
         let names: Vec<&str> = (record.validation.iter())
             .map(|v| v.model.as_str())

@@ -12,18 +12,21 @@ use serde::Serialize;
 
 use super::data::{trialwise_folds, Dataset};
 use super::models::cnn::{CnnLearner, CnnParams};
-use super::models::ensemble::{EnsembleLearner, DEFAULT_MEMBERS};
+use super::models::ensemble::EnsembleFamily;
+use super::models::family::ModelFamily;
+use super::models::family_learner::FamilyLearner;
 use super::models::gp::{FitProgress, GpParams};
 use super::models::metrics::{
     coverage, direction_error_at_peaks, r2_columns, rmse_columns, DirectionError,
 };
 use super::models::nn::{NnLearner, NnParams};
 use super::models::scale::InputScaling;
-use super::models::wrench_gp::{GpLearner, ModelError, TareSpec};
+use super::models::wrench_gp::{GpFamily, ModelError, TareSpec};
 use super::models::wrench_model::WrenchModel;
 use super::models::{Fitted, LearnError, Learner, Prediction};
 use crate::exit::{Classify, ExitClass};
 use crate::params::Checked;
+use crate::sensor::SensorSpec;
 use crate::wrench::{Axis, AxisSet};
 
 mod estimates;
@@ -99,9 +102,11 @@ pub struct EvalOptions {
     pub scaling: InputScaling,
     /// Network options; `None` skips the network.
     pub nn: Option<Checked<NnParams>>,
-    /// Each network's options of an ensemble of
-    /// [`crate::learn::models::ensemble::DEFAULT_MEMBERS`]; `None` skips it.
-    pub ensemble: Option<Checked<NnParams>>,
+    /// Also the ensemble of networks, fitted by its family (with the GP
+    /// options' seed).
+    pub ensemble: bool,
+    /// The sensor the features come from.
+    pub sensor: SensorSpec,
     /// CNN options, for data with images (the nail camera); `None` skips it.
     pub cnn: Option<Checked<CnnParams>>,
     /// Seed of the training subsets.
@@ -111,23 +116,24 @@ pub struct EvalOptions {
 }
 
 impl EvalOptions {
-    /// The models to train: the GP, then the baselines asked for.
+    /// The models to train: the GP, then the baselines asked for; the GP
+    /// and the ensemble through their families.
     fn learners(&self, tare: &TareSpec) -> Vec<Box<dyn Learner>> {
-        let gp = GpLearner {
-            params: self.gp.clone(),
-            scaling: self.scaling,
-            tare: tare.clone(),
+        let family = |family: &'static dyn ModelFamily| -> Box<dyn Learner> {
+            Box::new(FamilyLearner {
+                family,
+                params: self.gp.clone(),
+                input: self.scaling,
+                tare: tare.clone(),
+                sensor: self.sensor.clone(),
+            })
         };
-        let mut learners: Vec<Box<dyn Learner>> = vec![Box::new(gp)];
+        let mut learners = vec![family(&GpFamily)];
         if let Some(p) = &self.nn {
             learners.push(Box::new(NnLearner(p.clone())));
         }
-        if let Some(p) = &self.ensemble {
-            learners.push(Box::new(EnsembleLearner {
-                params: p.clone(),
-                members: DEFAULT_MEMBERS,
-                tare: tare.clone(),
-            }));
+        if self.ensemble {
+            learners.push(family(&EnsembleFamily));
         }
         if let Some(p) = &self.cnn {
             learners.push(Box::new(CnnLearner(p.clone())));

@@ -10,12 +10,14 @@ use serde::Serialize;
 
 use super::data::Dataset;
 use super::evaluate::{scores, EvalError};
+use super::models::family_learner::FamilyLearner;
 use super::models::gp::{GpParams, Subset};
 use super::models::nn::{NnLearner, NnParams};
 use super::models::scale::InputScaling;
-use super::models::wrench_gp::{GpLearner, ModelError, TareSpec};
+use super::models::wrench_gp::{GpFamily, ModelError, TareSpec};
 use super::models::Learner;
 use crate::params::Checked;
+use crate::sensor::SensorSpec;
 use crate::wrench::Axis;
 
 /// The kind of model of a row.
@@ -130,10 +132,13 @@ fn settings(
     opts: &TradeoffOptions,
 ) -> Result<Vec<Setting>, EvalError> {
     let gp = |params: GpParams| -> Result<Box<dyn Learner>, EvalError> {
-        Ok(Box::new(GpLearner {
+        Ok(Box::new(FamilyLearner {
+            family: &GpFamily,
             params: params.validate().map_err(ModelError::from)?,
-            scaling: InputScaling::Standard,
+            input: InputScaling::Standard,
             tare: tare.clone(),
+            // Recorded in the model, which is not saved.
+            sensor: SensorSpec::default(),
         }))
     };
     let mut settings = Vec::new();

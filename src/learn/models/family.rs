@@ -39,6 +39,14 @@ pub trait ModelFamily: Sync {
     /// A model fitted as `fit` says.
     fn fit(&self, fit: Fit) -> Result<Box<dyn WrenchModel>, ModelError>;
 
+    /// True when a fit with `params` takes every row it is given and keeps
+    /// its own subset of them (a GP's prior mean is fitted on every row);
+    /// false when an evaluation hands it the subset all models train on.
+    fn every_row(&self, params: &GpParams) -> bool {
+        let _ = params;
+        false
+    }
+
     /// The form of `choice` (of this family), for the chooser.
     fn form(&self, choice: &Choice) -> Form;
 

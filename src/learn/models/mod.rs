@@ -5,16 +5,20 @@
 //! registry [`families`]) with its model file: a GP per axis
 //! ([`wrench_gp`]) and an ensemble of networks ([`ensemble`]).
 //!
-//! Every model sits behind one interface, as linfa's `Fit` and `Predict`
-//! do: a [`Learner`] (a model kind with its options) fits on a data set and
-//! gives a [`Fitted`] model, which predicts. Evaluation, the speed-accuracy
-//! trade-off and their tables loop over learners without naming them.
+//! Every model an evaluation compares sits behind one interface, as linfa's
+//! `Fit` and `Predict` do: a [`Learner`] (a model kind with its options)
+//! fits on a data set and gives a [`Fitted`] model, which predicts. A model
+//! family is one through [`family_learner`] (fitted as `train` fits it);
+//! the baselines the estimator does not run (the network alone, the CNN)
+//! are learners of their own. Evaluation, the speed-accuracy trade-off and
+//! their tables loop over learners without naming them.
 
 pub mod cnn;
 pub mod ensemble;
 pub mod estimate_cost;
 pub mod families;
 pub mod family;
+pub mod family_learner;
 pub mod gp;
 pub mod metrics;
 pub mod model_file;

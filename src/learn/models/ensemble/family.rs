@@ -34,10 +34,11 @@ impl ModelFamily for EnsembleFamily {
     }
 
     /// Its networks standardise their inputs themselves: the GP's options
-    /// but the seed do not apply.
+    /// but the seed do not apply; the networks' shape is the sensor's
+    /// baseline.
     fn fit(&self, fit: Fit) -> Result<Box<dyn WrenchModel>, ModelError> {
-        let model = WrenchEnsemble::train_default(fit.data, fit.tare, fit.params.seed)?;
-        Ok(Box::new(model.with_sensor(fit.sensor)))
+        let model = WrenchEnsemble::train_default(fit.data, fit.tare, fit.sensor, fit.params.seed)?;
+        Ok(Box::new(model))
     }
 
     fn form(&self, _: &Choice) -> Form {

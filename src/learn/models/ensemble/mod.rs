@@ -12,9 +12,9 @@
 //! the network's epoch, which flatters it a little). Its file (`file.rs`)
 //! has a format of its own.
 
+mod as_wrench_model;
 mod family;
 mod file;
-mod learner;
 #[cfg(test)]
 mod tests;
 
@@ -33,7 +33,6 @@ use file::EnsembleFile;
 
 pub use family::EnsembleFamily;
 pub use file::{ENSEMBLE_FORMAT, ENSEMBLE_VERSION};
-pub use learner::EnsembleLearner;
 
 /// Networks in an ensemble unless asked otherwise (the paper's 5).
 pub const DEFAULT_MEMBERS: usize = 5;
@@ -91,21 +90,23 @@ impl WrenchEnsemble {
         Ok(WrenchEnsemble { file })
     }
 
-    /// [`DEFAULT_MEMBERS`] networks with the default options, the first
-    /// seeded `seed`: what `train --family ensemble`, `--select` and
-    /// `adapt` train.
-    pub fn train_default(data: &Dataset, tare: TareSpec, seed: u64) -> Result<Self, ModelError> {
+    /// [`DEFAULT_MEMBERS`] networks of the baseline for `sensor`
+    /// ([`NnParams::for_sensor`]), the first seeded `seed`, recording that
+    /// its features come from `sensor`: what `train --family ensemble`,
+    /// `--select`, `adapt`, the calibration and `eval --ensemble` train.
+    pub fn train_default(
+        data: &Dataset,
+        tare: TareSpec,
+        sensor: SensorSpec,
+        seed: u64,
+    ) -> Result<Self, ModelError> {
         let params = NnParams {
             seed,
-            ..NnParams::default()
+            ..NnParams::for_sensor(&sensor)
         };
-        Self::train(data, tare, &params.checked("nn")?, DEFAULT_MEMBERS)
-    }
-
-    /// The model, recording that its features come from `sensor`.
-    pub fn with_sensor(mut self, sensor: SensorSpec) -> Self {
-        self.file.sensor = sensor;
-        self
+        let mut model = Self::train(data, tare, &params.checked("nn")?, DEFAULT_MEMBERS)?;
+        model.file.sensor = sensor;
+        Ok(model)
     }
 
     /// Keeps `making` ([`crate::learn::models::wrench_model::WrenchModel::record`]);

@@ -81,6 +81,10 @@ impl ModelFamily for GpFamily {
         Ok(Box::new(model.with_sensor(sensor)))
     }
 
+    fn every_row(&self, params: &GpParams) -> bool {
+        params.mean != MeanKind::Zero
+    }
+
     fn form(&self, choice: &Choice) -> Form {
         let (GpChoice::Exact(points) | GpChoice::Sparse(points)) = choice.gp;
         GpFamily::form_of(choice.mean, points)

@@ -3,10 +3,10 @@
 //! file (its format, saving and loading: `file.rs`), which records what made
 //! the model in types of its own ([`super::provenance`]).
 
+mod as_wrench_model;
 mod axis_fits;
 mod family;
 mod file;
-mod learner;
 mod network;
 mod observed;
 
@@ -34,7 +34,6 @@ pub use super::provenance::{
 pub use super::wrench_model::{Estimate, ModelError, TareSpec};
 pub use family::GpFamily;
 pub use file::{MODEL_FORMAT, MODEL_VERSION};
-pub use learner::GpLearner;
 pub use observed::{std_scale, std_scale_over_folds};
 
 /// A trained wrench estimator.

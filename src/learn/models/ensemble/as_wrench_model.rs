@@ -1,74 +1,16 @@
-//! The ensemble behind the shared interfaces: a [`Learner`] for
-//! evaluations, and a [`WrenchModel`] for the estimator.
+//! The ensemble as a [`WrenchModel`]: what the estimator runs, and what
+//! evaluations fit through its family.
 
 use ndarray::ArrayView2;
 
 use super::WrenchEnsemble;
-use crate::learn::data::Dataset;
 use crate::learn::models::estimate_cost::ENSEMBLE_US;
-use crate::learn::models::gp::FitProgress;
-use crate::learn::models::nn::NnParams;
 use crate::learn::models::provenance::Making;
 use crate::learn::models::wrench_model::ModelError;
-use crate::learn::models::wrench_model::{Estimate, TareSpec, Workspace, WrenchModel};
-use crate::learn::models::{Fitted, LearnError, Learner, Prediction};
-use crate::params::Checked;
+use crate::learn::models::wrench_model::{Estimate, Workspace, WrenchModel};
+use crate::learn::models::Prediction;
 use crate::sensor::ModelInput;
-use crate::wrench::{Axis, AxisSet};
-
-/// An ensemble of `members` networks with these options.
-#[derive(Debug, Clone)]
-pub struct EnsembleLearner {
-    /// Each network's options (its seed: the first network's).
-    pub params: Checked<NnParams>,
-    /// Networks in the ensemble.
-    pub members: usize,
-    /// How the training data were tared (recorded in the model).
-    pub tare: TareSpec,
-}
-
-impl Learner for EnsembleLearner {
-    fn name(&self) -> &'static str {
-        "ensemble"
-    }
-
-    fn fit(
-        &self,
-        train: &Dataset,
-        _: &mut (dyn FnMut(Axis, FitProgress) + Send),
-    ) -> Result<Box<dyn Fitted>, LearnError> {
-        let model = WrenchEnsemble::train(train, self.tare.clone(), &self.params, self.members)
-            .map_err(|e| LearnError::new("ensemble", e))?;
-        let out = vec![Estimate::default(); model.file.axes.len()];
-        let ws = model.workspace();
-        Ok(Box::new(FittedEnsemble { model, ws, out }))
-    }
-}
-
-/// A trained ensemble with scratch for one row.
-struct FittedEnsemble {
-    model: WrenchEnsemble,
-    ws: Workspace,
-    out: Vec<Estimate>,
-}
-
-impl Fitted for FittedEnsemble {
-    fn predict(&self, data: &Dataset, with_std: bool) -> Result<Prediction, LearnError> {
-        (self.model.predict_observed(data.x.view(), with_std))
-            .map_err(|e| LearnError::new("ensemble", e))
-    }
-
-    fn predict_row(&mut self, features: &[f64], with_std: bool) -> Result<(), LearnError> {
-        (self
-            .model
-            .estimate(features, &mut self.ws, with_std, &mut self.out))
-        .map_err(|e| LearnError::new("ensemble", e))
-    }
-
-    fn has_std(&self) -> bool {
-        true
-    }
-}
+use crate::wrench::AxisSet;
 
 impl WrenchModel for WrenchEnsemble {
     fn family(&self) -> &'static str {
