@@ -15,7 +15,7 @@ use super::models::wrench_gp::{
     TrainedOn, Validation, WarmStart, WrenchGp,
 };
 use super::models::wrench_model::WrenchModel;
-use super::pooled::{BaseData, Unavailable};
+use super::pooled::{pooling_note, BaseData, Unavailable};
 use crate::params::Checked;
 use crate::wrench::Axis;
 
@@ -148,10 +148,7 @@ impl Adaptation<'_> {
         base_data: Result<BaseData, Unavailable>,
         progress: &mut (dyn FnMut(Axis, FitProgress) + Send),
     ) -> Result<(Box<dyn WrenchModel>, AdaptChoice), EvalError> {
-        let pooling = match &base_data {
-            Ok(b) => b.describe(),
-            Err(why) => format!("not considered: {why}"),
-        };
+        let pooling = pooling_note(&base_data);
         let pool = match base_data {
             Ok(b) => {
                 let options = b.params.clone().validate().map_err(ModelError::from)?;

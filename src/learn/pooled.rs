@@ -182,6 +182,15 @@ fn read_session(path: &Path, model: &WrenchGp) -> Result<Dataset, String> {
     sessions.sets.into_iter().next().ok_or_else(no_rows)
 }
 
+/// What pooling took of the base's data, or why it is not a candidate:
+/// what `adapt` and the calibration record.
+pub fn pooling_note(base: &Result<BaseData, Unavailable>) -> String {
+    match base {
+        Ok(b) => b.describe(),
+        Err(why) => format!("not considered: {why}"),
+    }
+}
+
 impl BaseData {
     /// At most `max_rows` of its rows, evenly spaced (all when fewer).
     pub fn thin(mut self, max_rows: usize) -> Self {
@@ -230,3 +239,6 @@ impl BaseData {
         )
     }
 }
+
+#[cfg(test)]
+pub(in crate::learn) mod tests;

@@ -9,7 +9,7 @@ use crate::learn::models::wrench_gp::{
     CalibrationRecord, DataFile, Making, ModelError, TrainedOn, WrenchGp,
 };
 use crate::learn::models::wrench_model::WrenchModel;
-use crate::learn::pooled::{base_data, lineage, BaseData, Unavailable};
+use crate::learn::pooled::{base_data, lineage, pooling_note, BaseData, Unavailable};
 
 /// Every candidate for `current`: adapted and pooled (when its data are
 /// at hand) when it is a GP; from scratch with `choice`'s options (the GP,
@@ -29,7 +29,7 @@ pub(super) fn all<'a>(
         return Ok((Candidate::list(None, None, &scratch, &FROM_SCRATCH)?, why));
     };
     let pool = base_data(gp, None).map(|b| b.thin(super::POOL_BASE_ROWS));
-    let note = pooling_note(&pool);
+    let note = calibration_pooling_note(&pool);
     let pool = match pool {
         Ok(b) => {
             let options = pool_params(&b.params, &scratch).validate()?;
@@ -73,16 +73,16 @@ pub(super) fn finish(
     model
 }
 
-/// What pooling took, or why it was not a candidate.
-fn pooling_note(pool: &Result<BaseData, Unavailable>) -> String {
+/// What pooling took ([`pooling_note`]), and for a sparse base that its
+/// GP is the from-scratch candidate's ([`pool_params`]).
+fn calibration_pooling_note(pool: &Result<BaseData, Unavailable>) -> String {
+    let note = pooling_note(pool);
     match pool {
         Ok(b) if b.params.inducing.is_some() => format!(
-            "{}; the exact GP of the from-scratch candidate, not the base's sparse one \
-             (its fit alone takes about 30 s)",
-            b.describe()
+            "{note}; the exact GP of the from-scratch candidate, not the base's sparse one \
+             (its fit alone takes about 30 s)"
         ),
-        Ok(b) => b.describe(),
-        Err(why) => format!("not considered: {why}"),
+        _ => note,
     }
 }
 
