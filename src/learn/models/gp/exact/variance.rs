@@ -5,7 +5,8 @@
 //! cluster whose centre is nearest it (same hyperparameters, noise and
 //! jitter). Conditioning on fewer rows never lowers the variance, so it is
 //! never below the one given every row; with n <= [`VARIANCE_ROWS`] the
-//! one cluster is every row and the variance is exact. Per point: O(K d)
+//! one cluster is every row and the variance is exact (but for the
+//! rounding margin below). Per point: O(K d)
 //! to find the cluster and O(m^2) for the variance, against O(n^2).
 //!
 //! The factors are kept in single precision (the substitution runs in
@@ -37,7 +38,7 @@ use crate::learn::models::gp::GpError;
 /// 2-sigma coverage on the real recordings moved by at most 0.016 from the
 /// exact GP's (docs/results.md, "Estimate time per candidate"), at 850 by
 /// 0.017, at 700 by 0.020; and the exact GP on 1000 rows, a candidate of
-/// `train --select`, stays exact. Three axes' variances read 6 MB of
+/// `train --select`, stays exact (but for [`ROUNDING_MARGIN`]). Three axes' variances read 6 MB of
 /// factors an estimate.
 pub const VARIANCE_ROWS: usize = 1000;
 
