@@ -38,8 +38,8 @@ use crate::learn::models::gp::GpError;
 /// 2-sigma coverage on the real recordings moved by at most 0.016 from the
 /// exact GP's (docs/results.md, "Estimate time per candidate"), at 850 by
 /// 0.017, at 700 by 0.020; and the exact GP on 1000 rows, a candidate of
-/// `train --select`, stays exact (but for [`ROUNDING_MARGIN`]). Three axes' variances read 6 MB of
-/// factors an estimate.
+/// `train --select`, stays exact (but for a rounding margin). Three axes'
+/// variances read 6 MB of factors an estimate.
 pub const VARIANCE_ROWS: usize = 1000;
 
 /// What a variance from a factor in single precision adds, per unit of
